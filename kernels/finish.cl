@@ -1,0 +1,36 @@
+/* finish.cl: a finished path (and all its shadow rays) writes its sample to the batch result
+ * buffer at its own index; k_accumulate then adds a whole batch to the film per pixel in a fixed
+ * order, so the image does not depend on the order in which paths finished (bit-identical
+ * renders for one seed). Non-finite samples are counted and dropped, never hidden. */
+__kernel void k_finish(ST_STAGE_ARGS) {
+  uint gid = get_global_id(0);
+  if (gid >= n) return;
+  uint slot = queue_item(queues, Q, NL, cur, ST_Q_FINISH, gid);
+  st_path p = paths[slot];
+  if (p.pending > 0) {
+    queue_push(queues, counters, Q, NL, cur, ST_Q_FINISH, slot);
+    return;
+  }
+  float4 r = p.L;
+  for (uint l = 0; l < (uint)scene->n_lights; ++l) r += shadows[slot * NL + l].Ls;
+  r.w = 0.0f;
+  if (!(isfinite(r.x) && isfinite(r.y) && isfinite(r.z))) {
+    atomic_inc(&counters[ST_C_NONFINITE]);
+    r = (float4)(0.0f);
+  }
+  results[p.result_index] = r;
+  atomic_inc(&counters[ST_C_BATCH_DONE + p.batch]);
+  queue_push(queues, counters, Q, NL, cur, ST_Q_FREE, slot);
+}
+
+/* Adds the n_samples samples (times channels) of each window pixel of one batch to the film. */
+__kernel void k_accumulate(__global const float4* results, __global float4* film, uint base, uint n_samples,
+                           uint npix, uint nch) {
+  uint pix = get_global_id(0);
+  if (pix >= npix) return;
+  /* one sample at a time, in sample order: the sum does not depend on how samples were batched */
+  float4 f = film[pix];
+  for (uint s = 0; s < n_samples; ++s)
+    for (uint c = 0; c < nch; ++c) f += results[base + (s * npix + pix) * nch + c];
+  film[pix] = f;
+}

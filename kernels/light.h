@@ -1,0 +1,100 @@
+/* light.h: environment (uniform or lat-long map) and directional (delta or disc) lights:
+ * radiance seen along a direction, direction sampling for next-event estimation, and the pdf
+ * of that sampling for MIS against phase sampling (power heuristic, directions only:
+ * ALGORITHMS.md 2.6).
+ * Lat-long convention: v = acos(d.y) / pi (row 0 looks up, +y), u = 0.5 + atan2(d.x, -d.z) / (2 pi)
+ * (the image centre looks along -z). The map is sampled in proportion to max(rgb) * sin(theta). */
+#ifndef SPECTRACK_LIGHT_H
+#define SPECTRACK_LIGHT_H
+
+inline float2 env_dir_to_uv(float3 d) {
+  float v = acos(clamp(d.y, -1.0f, 1.0f)) / ST_PI;
+  float u = 0.5f + atan2(d.x, -d.z) / (2.0f * ST_PI);
+  return (float2)(u - floor(u), v);
+}
+inline float3 env_uv_to_dir(float2 uv) {
+  float theta = uv.y * ST_PI, phi = (uv.x - 0.5f) * 2.0f * ST_PI;
+  float s = sin(theta);
+  return (float3)(s * sin(phi), cos(theta), -s * cos(phi));
+}
+
+inline float4 env_texel(__constant const st_light* l, __global const float* env, float2 uv) {
+  int x = min((int)(uv.x * l->map_width), l->map_width - 1);
+  int y = min((int)(uv.y * l->map_height), l->map_height - 1);
+  __global const float* px = env + l->map_offset + 4u * (uint)(y * l->map_width + x);
+  return (float4)(px[0], px[1], px[2], 0.0f);
+}
+
+/* Index i with cdf[i] <= u < cdf[i+1] in a cdf of n+1 entries (cdf[0] = 0, cdf[n] = 1). */
+inline int cdf_find(__global const float* cdf, int n, float u) {
+  int lo = 0, hi = n;
+  while (hi - lo > 1) {
+    int mid = (lo + hi) / 2;
+    if (cdf[mid] <= u) lo = mid; else hi = mid;
+  }
+  return lo;
+}
+
+inline float env_map_pdf(__constant const st_light* l, __global const float* env, float3 d) {
+  float2 uv = env_dir_to_uv(d);
+  float s = sqrt(fmax(0.0f, 1.0f - d.y * d.y));
+  if (s <= 0.0f || l->map_integral <= 0.0f) return 0.0f;
+  float4 c = env_texel(l, env, uv);
+  float f = max3(c) * s;
+  return f / l->map_integral / (2.0f * ST_PI * ST_PI * s);
+}
+
+/* Radiance arriving along direction d (pointing away from the scene) from light l. */
+inline float4 light_Le(__constant const st_light* l, __global const float* env, float3 d) {
+  if (l->type == ST_LIGHT_ENV_UNIFORM) return l->radiance;
+  if (l->type == ST_LIGHT_ENV_MAP) return l->radiance * env_texel(l, env, env_dir_to_uv(d));
+  if (l->is_delta) return (float4)(0.0f);
+  return dot(d, l->direction.xyz) >= l->cos_max ? l->radiance : (float4)(0.0f);
+}
+
+/* pdf (solid angle) with which light_sample picks d; 0 for delta lights. */
+inline float light_pdf(__constant const st_light* l, __global const float* env, float3 d) {
+  if (l->type == ST_LIGHT_ENV_UNIFORM) return ST_INV_4PI;
+  if (l->type == ST_LIGHT_ENV_MAP) return env_map_pdf(l, env, d);
+  if (l->is_delta) return 0.0f;
+  return dot(d, l->direction.xyz) >= l->cos_max ? l->pdf_cone : 0.0f;
+}
+
+/* Samples a direction towards light l. Returns Le / pdf (or the irradiance for a delta light)
+ * and writes the direction and pdf (0 for delta). */
+inline float4 light_sample(__constant const st_light* l, __global const float* env, float u1, float u2,
+                           float3* wi, float* pdf) {
+  if (l->type == ST_LIGHT_ENV_UNIFORM) {
+    *wi = sample_uniform_sphere(u1, u2);
+    *pdf = ST_INV_4PI;
+    return l->radiance / ST_INV_4PI;
+  }
+  if (l->type == ST_LIGHT_ENV_MAP) {
+    __global const float* marg = env + l->cdf_offset;
+    int H = l->map_height, W = l->map_width;
+    int row = cdf_find(marg, H, u1);
+    float dv = (u1 - marg[row]) / fmax(marg[row + 1] - marg[row], 1e-30f);
+    __global const float* cond = marg + (H + 1) + row * (W + 1);
+    int col = cdf_find(cond, W, u2);
+    float du = (u2 - cond[col]) / fmax(cond[col + 1] - cond[col], 1e-30f);
+    float2 uv = (float2)((col + clamp(du, 0.0f, 1.0f)) / W, (row + clamp(dv, 0.0f, 1.0f)) / H);
+    *wi = env_uv_to_dir(uv);
+    *pdf = env_map_pdf(l, env, *wi);
+    return *pdf > 0.0f ? light_Le(l, env, *wi) / *pdf : (float4)(0.0f);
+  }
+  if (l->is_delta) {
+    *wi = l->direction.xyz;
+    *pdf = 0.0f;
+    return l->radiance;
+  }
+  *wi = sample_cone(l->direction.xyz, l->cos_max, u1, u2);
+  *pdf = l->pdf_cone;
+  return l->radiance / l->pdf_cone;
+}
+
+inline float power_heuristic(float a, float b) {
+  float a2 = a * a, b2 = b * b;
+  return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
+}
+
+#endif

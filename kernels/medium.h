@@ -1,0 +1,95 @@
+/* medium.h: what a point of the scene is made of. A medium offers a density lookup at a world
+ * point (trilinear through PNanoVDB for VDB media, 1 inside the box for homogeneous media) and
+ * its per-unit-density coefficients; overlapping media add their coefficients.
+ *
+ * Index space: a VDB medium's world_to_index maps world points to NanoVDB index coordinates
+ * (values at integer coordinates; trilinear between floor(p) and floor(p)+1, inactive voxels
+ * read 0). A homogeneous medium's world_to_index maps its bounds onto [0,1]^3, its majorant
+ * grid has one cell, and its density is 1 inside. Every medium's extent is its majorant-grid box.
+ */
+#ifndef SPECTRACK_MEDIUM_H
+#define SPECTRACK_MEDIUM_H
+
+inline float3 medium_to_index(__constant const st_medium* m, float3 p) {
+  float4 q = (float4)(p, 1.0f);
+  return (float3)(dot(m->world_to_index[0], q), dot(m->world_to_index[1], q), dot(m->world_to_index[2], q));
+}
+inline float3 medium_dir_to_index(__constant const st_medium* m, float3 d) {
+  float4 q = (float4)(d, 0.0f);
+  return (float3)(dot(m->world_to_index[0], q), dot(m->world_to_index[1], q), dot(m->world_to_index[2], q));
+}
+
+inline int medium_box_contains(__constant const st_medium* m, float3 pi) {
+  float3 lo = m->maj_origin.xyz;
+  float3 hi = lo + m->maj_origin.w * convert_float3((int3)(m->maj_dims[0], m->maj_dims[1], m->maj_dims[2]));
+  return all(pi >= lo) && all(pi < hi);
+}
+
+/* Trilinear value of a NanoVDB float grid at continuous index point pi. */
+inline float grid_trilinear(__global const uint* grids, uint offset, float3 pi) {
+  pnanovdb_buf_t buf;
+  buf.data = grids + offset;
+  pnanovdb_grid_handle_t grid = {pnanovdb_address_null()};
+  pnanovdb_tree_handle_t tree = pnanovdb_grid_get_tree(buf, grid);
+  pnanovdb_root_handle_t root = pnanovdb_tree_get_root(buf, tree);
+  pnanovdb_readaccessor_t acc;
+  pnanovdb_readaccessor_init(&acc, root);
+  float3 fl = floor(pi);
+  float3 f = pi - fl;
+  int3 i0 = convert_int3(fl);
+  float v[8];
+  for (int c = 0; c < 8; ++c) {
+    pnanovdb_coord_t ijk;
+    ijk.x = i0.x + (c & 1);
+    ijk.y = i0.y + ((c >> 1) & 1);
+    ijk.z = i0.z + ((c >> 2) & 1);
+    pnanovdb_address_t a = pnanovdb_readaccessor_get_value_address(PNANOVDB_GRID_TYPE_FLOAT, buf, &acc, &ijk);
+    v[c] = pnanovdb_read_float(buf, a);
+  }
+  float x00 = mix(v[0], v[1], f.x), x10 = mix(v[2], v[3], f.x);
+  float x01 = mix(v[4], v[5], f.x), x11 = mix(v[6], v[7], f.x);
+  return mix(mix(x00, x10, f.y), mix(x01, x11, f.y), f.z);
+}
+
+/* Density of medium m at world point p (0 outside its box). Counts one lookup for VDB media. */
+inline float medium_density(__constant const st_medium* m, __global const uint* grids, float3 p, uint* lookups) {
+  float3 pi = medium_to_index(m, p);
+  if (!medium_box_contains(m, pi)) return 0.0f;
+  if (m->type == ST_MEDIUM_HOMOGENEOUS) return 1.0f;
+  *lookups += 1u;
+  return grid_trilinear(grids, m->density_grid, pi);
+}
+
+/* Emitted radiance Le of medium m at p (radiance * scale * emission grid value, or constant). */
+inline float4 medium_Le(__constant const st_medium* m, __global const uint* grids, float3 p, uint* lookups) {
+  if (!m->emissive) return (float4)(0.0f);
+  if (m->emission_grid == ST_NO_GRID) return m->Le;
+  float3 pi = medium_to_index(m, p);
+  *lookups += 1u;
+  return m->Le * grid_trilinear(grids, m->emission_grid, pi);
+}
+
+/* Coefficients at a point, per channel, summed over media; the per-medium densities are kept
+ * for phase-function choice and emission. */
+typedef struct {
+  float4 sigma_a, sigma_s;
+  float density[ST_KERNEL_MAX_MEDIA];
+} st_coeffs;
+
+inline st_coeffs scene_coeffs(__constant const st_scene* scene, __global const uint* grids, float3 p, uint* lookups) {
+  st_coeffs c;
+  c.sigma_a = (float4)(0.0f);
+  c.sigma_s = (float4)(0.0f);
+  for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
+    c.density[i] = 0.0f;
+    if (i >= scene->n_media) continue;
+    __constant const st_medium* m = &scene->media[i];
+    float d = medium_density(m, grids, p, lookups);
+    c.density[i] = d;
+    c.sigma_a += d * m->sigma_a;
+    c.sigma_s += d * m->sigma_s;
+  }
+  return c;
+}
+
+#endif

@@ -1,0 +1,66 @@
+/* probe.cl: kernels for tests and benchmarks that call the renderer's own device functions in
+ * isolation: density lookups, majorant cells, free-path sampling and transmittance along a
+ * given ray. Each item uses its own random stream (pixel = item index, stream = 7). */
+
+/* Density of medium `medium` at world points (xyz). */
+__kernel void k_probe_density(__constant const st_scene* scene, __global const uint* grids,
+                              __global const float4* points, __global float* out, int medium, uint n) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  uint lookups = 0;
+  out[i] = medium_density(&scene->media[medium], grids, points[i].xyz, &lookups);
+}
+
+/* (dmax, dmin) of the majorant cell of `medium` containing each world point ((-1,-1) outside). */
+__kernel void k_probe_majorant(__constant const st_scene* scene, __global const float2* maj,
+                               __global const float4* points, __global float2* out, int medium, uint n) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  __constant const st_medium* m = &scene->media[medium];
+  float3 pi = medium_to_index(m, points[i].xyz);
+  if (!medium_box_contains(m, pi)) {
+    out[i] = (float2)(-1.0f, -1.0f);
+    return;
+  }
+  int3 c = convert_int3_rtn((pi - m->maj_origin.xyz) / m->maj_origin.w);
+  c = clamp(c, (int3)(0), (int3)(m->maj_dims[0], m->maj_dims[1], m->maj_dims[2]) - 1);
+  out[i] = majorant_cell(m, maj, c);
+}
+
+/* Free-path sampling from (o, d) through the scene: out[i] = (t of the first real collision or
+ * INFINITY on escape, event, beta of the channel(s) after the event (x), lookups). channel < 0:
+ * all channels (mask rgb); else a one-channel path. */
+__kernel void k_probe_track(__constant const st_scene* scene, __global const uint* grids, __global const float2* maj,
+                            float4 o, float4 d, int channel, __global float4* out, __global float4* beta_out, uint n) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  st_rng rng = rng_make(scene->seed, i, 0u, 0u, 7u, 0u);
+  float4 mask = channel < 0 ? (float4)(1.0f, 1.0f, 1.0f, 0.0f)
+                            : (float4)(channel == 0 ? 1.0f : 0.0f, channel == 1 ? 1.0f : 0.0f, channel == 2 ? 1.0f : 0.0f, 0.0f);
+  float4 beta = mask, L = (float4)(0.0f);
+  st_track_stats st;
+  track_stats_clear(&st);
+  float t = 0.0f;
+  int medium = 0, ev;
+  do {
+    ev = track_free_path(scene, grids, maj, o.xyz, normalize(d.xyz), &t, &beta, mask, &L, &medium, &rng,
+                         scene->iteration_budget, &st);
+  } while (ev == ST_EV_BUDGET);
+  out[i] = (float4)(ev == ST_EV_ESCAPE ? INFINITY : t, (float)ev, (float)st.lookups, (float)st.dda_steps);
+  beta_out[i] = beta;
+}
+
+/* Ratio-tracking transmittance from (o, d) to the end of every medium, per channel. */
+__kernel void k_probe_transmittance(__constant const st_scene* scene, __global const uint* grids,
+                                    __global const float2* maj, float4 o, float4 d, __global float4* out, uint n) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  st_rng rng = rng_make(scene->seed, i, 0u, 0u, 7u, 0u);
+  float4 mask = (float4)(1.0f, 1.0f, 1.0f, 0.0f), T = mask;
+  st_track_stats st;
+  track_stats_clear(&st);
+  float t = 0.0f;
+  while (!ratio_track(scene, grids, maj, o.xyz, normalize(d.xyz), &t, &T, mask, &rng, scene->iteration_budget, &st)) {
+  }
+  out[i] = T;
+}

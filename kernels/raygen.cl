@@ -1,0 +1,61 @@
+/* raygen.cl: fills free path slots with camera paths. Path g (a 64-bit index over the whole
+ * render) is (batch, sample, pixel, channel); its random stream depends only on those, so which
+ * slot it lands in never changes the image. Slots beyond n_new go back to the free queue. */
+__kernel void k_raygen(ST_STAGE_ARGS, ulong first, uint n_new, uint batch_paths, uint sample_begin,
+                       uint samples_per_batch) {
+  uint gid = get_global_id(0);
+  if (gid >= n) return;
+  uint slot = queue_item(queues, Q, NL, cur, ST_Q_FREE, gid);
+  if (gid >= n_new) {
+    queue_push(queues, counters, Q, NL, cur, ST_Q_FREE, slot);
+    return;
+  }
+  ulong g = first + gid;
+  uint nch = (uint)scene->n_channels_per_sample;
+  uint npix = (uint)(scene->window_width * scene->window_height);
+  ulong b = g / batch_paths;
+  uint in_batch = (uint)(g - b * batch_paths);
+  uint ch = in_batch % nch;
+  uint wpix = (in_batch / nch) % npix;
+  uint s_local = in_batch / (nch * npix);
+
+  st_path p;
+  p.sample = sample_begin + (uint)b * samples_per_batch + s_local;
+  int x = scene->pixel_x0 + (int)(wpix % (uint)scene->window_width);
+  int y = scene->pixel_y0 + (int)(wpix / (uint)scene->window_width);
+  p.pixel = (uint)(y * scene->camera.width + x);
+  p.channel = nch == 3u ? ch : 0u;
+  p.result_index = (uint)(b & 1ul) * batch_paths + in_batch;
+  p.batch = (uint)(b & 1ul);
+  st_rng rng = path_rng(scene, &p, 0u, 0u);
+  float jx = rng_uniform(&rng), jy = rng_uniform(&rng);
+
+  __constant const st_camera* cam = &scene->camera;
+  float sx = 2.0f * ((float)x + jx) / (float)cam->width - 1.0f;
+  float sy = 1.0f - 2.0f * ((float)y + jy) / (float)cam->height;
+  float3 o, d;
+  if (cam->type == ST_CAMERA_ORTHOGRAPHIC) {
+    o = cam->position.xyz + sx * cam->right.xyz + sy * cam->up.xyz;
+    d = cam->forward.xyz;
+  } else {
+    o = cam->position.xyz;
+    d = normalize(cam->forward.xyz + sx * cam->right.xyz + sy * cam->up.xyz);
+  }
+  p.o = (float4)(o, 0.0f);
+  p.d = (float4)(d, 0.0f);
+  if (nch == 3u) {
+    p.mask = (float4)(ch == 0u ? 1.0f : 0.0f, ch == 1u ? 1.0f : 0.0f, ch == 2u ? 1.0f : 0.0f, 0.0f);
+  } else {
+    p.mask = (float4)(1.0f, 1.0f, 1.0f, 0.0f);
+  }
+  p.beta = p.mask;
+  p.L = (float4)(0.0f);
+  p.rng_draw = rng.ctr.w;
+  p.depth = 0;
+  p.pending = 0;
+  p.medium = 0;
+  p.pad[0] = p.pad[1] = p.pad[2] = 0u;
+  paths[slot] = p;
+  for (uint l = 0; l < (uint)scene->n_lights; ++l) shadows[slot * NL + l].Ls = (float4)(0.0f);
+  queue_push(queues, counters, Q, NL, cur, ST_Q_TRACK, slot);
+}

@@ -1,0 +1,49 @@
+/* sampling.h: small geometric and sampling helpers (float3 math, exponential free flights,
+ * directions on the sphere and in a cone, orthonormal frames). Precise log/exp only: the
+ * native_* functions have implementation-defined accuracy (ALGORITHMS.md 7.4). */
+#ifndef SPECTRACK_SAMPLING_H
+#define SPECTRACK_SAMPLING_H
+
+#define ST_PI 3.14159265358979323846f
+#define ST_INV_4PI 0.07957747154594767f
+
+/* Free flight with rate mu: -ln(1 - u) / mu (u in [0,1), so the log is finite). */
+inline float sample_exponential(float u, float mu) { return -log(1.0f - u) / mu; }
+
+inline float max3(float4 v) { return fmax(v.x, fmax(v.y, v.z)); }
+inline float sum3(float4 v) { return v.x + v.y + v.z; }
+
+/* Reductions over the channels a path carries (mask entries are 0 or 1). */
+inline float masked_max(float4 v, float4 mask) {
+  float4 m = select((float4)(-INFINITY), v, isnotequal(mask, (float4)(0.0f)));
+  return fmax(m.x, fmax(m.y, m.z));
+}
+inline float masked_avg(float4 v, float4 mask) { return sum3(v * mask) / sum3(mask); }
+
+inline void make_frame(float3 n, float3* t, float3* b) {
+  /* Duff et al. 2017, "Building an orthonormal basis, revisited" */
+  float s = n.z >= 0.0f ? 1.0f : -1.0f;
+  float a = -1.0f / (s + n.z);
+  float c = n.x * n.y * a;
+  *t = (float3)(1.0f + s * n.x * n.x * a, s * c, -s * n.x);
+  *b = (float3)(c, s + n.y * n.y * a, -n.y);
+}
+
+inline float3 sample_uniform_sphere(float u1, float u2) {
+  float z = 1.0f - 2.0f * u1;
+  float r = sqrt(fmax(0.0f, 1.0f - z * z));
+  float phi = 2.0f * ST_PI * u2;
+  return (float3)(r * cos(phi), r * sin(phi), z);
+}
+
+/* Uniform direction in the cone of half-angle acos(cos_max) around axis. */
+inline float3 sample_cone(float3 axis, float cos_max, float u1, float u2) {
+  float c = 1.0f - u1 * (1.0f - cos_max);
+  float s = sqrt(fmax(0.0f, 1.0f - c * c));
+  float phi = 2.0f * ST_PI * u2;
+  float3 t, b;
+  make_frame(axis, &t, &b);
+  return normalize(s * cos(phi) * t + s * sin(phi) * b + c * axis);
+}
+
+#endif

@@ -1,0 +1,61 @@
+/* scatter.cl: a real scattering event. Next-event estimation to every light (one shadow ray
+ * each, MIS-weighted against phase sampling for lights that phase sampling can hit), then phase
+ * sampling, then Russian roulette on the throughput. A path whose previous shadow rays are still
+ * running waits here (re-queued) so that each (path, light) accumulator has one writer. */
+__kernel void k_scatter(ST_STAGE_ARGS) {
+  uint gid = get_global_id(0);
+  if (gid >= n) return;
+  uint slot = queue_item(queues, Q, NL, cur, ST_Q_SCATTER, gid);
+  st_path p = paths[slot];
+  if (p.pending > 0) {
+    queue_push(queues, counters, Q, NL, cur, ST_Q_SCATTER, slot);
+    return;
+  }
+  if (scene->max_depth >= 0 && p.depth >= scene->max_depth) {
+    queue_push(queues, counters, Q, NL, cur, ST_Q_FINISH, slot);
+    return;
+  }
+  atomic_inc(&counters[ST_C_SCATTER_EVENTS]);
+  st_rng rng = path_rng(scene, &p, 0u, p.rng_draw);
+  __constant const st_medium* m = &scene->media[p.medium];
+  float3 wo = p.d.xyz;
+  for (int l = 0; l < scene->n_lights; ++l) {
+    float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
+    float3 wi;
+    float pdf_l;
+    float4 Le_over_pdf = light_sample(&scene->lights[l], env, u1, u2, &wi, &pdf_l);
+    float f = phase_eval(m->phase_type, m->g, dot(wo, wi));
+    float w = pdf_l > 0.0f ? power_heuristic(pdf_l, f) : 1.0f;
+    float4 weight = p.beta * p.mask * Le_over_pdf * (f * w);
+    if (!(masked_max(fabs(weight), p.mask) > 0.0f)) continue;
+    uint id = slot * NL + (uint)l;
+    __global st_shadow* sh = &shadows[id];
+    sh->o = (float4)(p.o.xyz, 0.0f);
+    sh->d = (float4)(wi, 0.0f);
+    sh->weight = weight;
+    sh->T = p.mask;
+    sh->rng_draw = 0u;
+    sh->stream = 1u + (uint)p.depth * ST_MAX_LIGHTS + (uint)l;
+    sh->slot = slot;
+    p.pending += 1;
+    queue_push(queues, counters, Q, NL, cur, ST_Q_SHADOW, id);
+  }
+  float pdf;
+  float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
+  float3 wi = phase_sample(m->phase_type, m->g, wo, u1, u2, &pdf);
+  /* exact sampling: f / pdf = 1, beta unchanged */
+  p.d = (float4)(wi, pdf);
+  p.o.w = 0.0f;
+  p.depth += 1;
+  int q = ST_Q_TRACK;
+  if (p.depth > 2) {
+    float survive = fmin(1.0f, masked_max(fabs(p.beta), p.mask));
+    if (survive < 1.0f) {
+      if (rng_uniform(&rng) >= survive) q = ST_Q_FINISH;
+      else p.beta /= survive;
+    }
+  }
+  p.rng_draw = rng.ctr.w;
+  paths[slot] = p;
+  queue_push(queues, counters, Q, NL, cur, q, slot);
+}

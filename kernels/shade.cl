@@ -1,0 +1,22 @@
+/* shade.cl: paths that left every medium see the lights at infinity (environment, sun discs),
+ * weighted by MIS against next-event estimation when the direction came from phase sampling
+ * (d.w holds that pdf; 0 for camera rays, which take the full radiance). */
+__kernel void k_escape(ST_STAGE_ARGS) {
+  uint gid = get_global_id(0);
+  if (gid >= n) return;
+  uint slot = queue_item(queues, Q, NL, cur, ST_Q_ESCAPE, gid);
+  st_path p = paths[slot];
+  float3 d = p.d.xyz;
+  float pdf_phase = p.d.w;
+  float4 L = (float4)(0.0f);
+  for (int l = 0; l < scene->n_lights; ++l) {
+    __constant const st_light* light = &scene->lights[l];
+    float4 Le = light_Le(light, env, d);
+    if (max3(Le) <= 0.0f) continue;
+    float w = pdf_phase > 0.0f ? power_heuristic(pdf_phase, light_pdf(light, env, d)) : 1.0f;
+    L += Le * w;
+  }
+  p.L += p.beta * p.mask * L;
+  paths[slot].L = p.L;
+  queue_push(queues, counters, Q, NL, cur, ST_Q_FINISH, slot);
+}

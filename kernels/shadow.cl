@@ -1,0 +1,30 @@
+/* shadow.cl: transmittance of a next-event-estimation ray by ratio tracking through the
+ * majorant grid, resumable across launches; when done, adds weight * T to its (path, light)
+ * accumulator and releases the path. */
+__kernel void k_shadow(ST_STAGE_ARGS) {
+  uint gid = get_global_id(0);
+  if (gid >= n) return;
+  uint id = queue_item(queues, Q, NL, cur, ST_Q_SHADOW, gid);
+  st_shadow sh = shadows[id];
+  st_path p = paths[sh.slot];
+  st_rng rng = path_rng(scene, &p, sh.stream, sh.rng_draw);
+  st_track_stats st;
+  track_stats_clear(&st);
+  float t = sh.o.w;
+  float4 T = sh.T;
+  int done = ratio_track(scene, grids, maj, sh.o.xyz, sh.d.xyz, &t, &T, p.mask, &rng, scene->iteration_budget, &st);
+  sh.T = T;
+  sh.rng_draw = rng.ctr.w;
+  if (done) {
+    sh.Ls += sh.weight * T;
+    shadows[id] = sh;
+    atomic_dec(&paths[sh.slot].pending);
+  } else {
+    sh.o.w = t;
+    shadows[id] = sh;
+    atomic_inc(&counters[ST_C_REQUEUES]);
+    queue_push(queues, counters, Q, NL, cur, ST_Q_SHADOW, id);
+  }
+  st.nulls = 0u; /* ratio-tracking steps are counted as shadow lookups, not collisions */
+  flush_track_stats(counters, &st, ST_C_LOOKUPS_SHADOW);
+}

@@ -1,0 +1,37 @@
+/* track.cl: one call of the tracking routine per queued path; pushes the path to exactly one of
+ * scatter (real scattering), escape (left every medium), finish (absorbed) or track again
+ * (launch budget spent: it resumes at its saved t). */
+__kernel void k_track(ST_STAGE_ARGS) {
+  uint gid = get_global_id(0);
+  if (gid >= n) return;
+  uint slot = queue_item(queues, Q, NL, cur, ST_Q_TRACK, gid);
+  st_path p = paths[slot];
+  st_rng rng = path_rng(scene, &p, 0u, p.rng_draw);
+  st_track_stats st;
+  track_stats_clear(&st);
+  float t = p.o.w;
+  int medium = 0;
+  float4 beta = p.beta, L = p.L;
+  int ev = track_free_path(scene, grids, maj, p.o.xyz, p.d.xyz, &t, &beta, p.mask, &L, &medium, &rng,
+                           scene->iteration_budget, &st);
+  p.beta = beta;
+  p.L = L;
+  p.rng_draw = rng.ctr.w;
+  int q;
+  if (ev == ST_EV_SCATTER) {
+    p.o = (float4)(p.o.xyz + t * p.d.xyz, 0.0f);
+    p.medium = medium;
+    q = ST_Q_SCATTER;
+  } else if (ev == ST_EV_ESCAPE) {
+    q = ST_Q_ESCAPE;
+  } else if (ev == ST_EV_ABSORB) {
+    q = ST_Q_FINISH;
+  } else {
+    p.o.w = t;
+    q = ST_Q_TRACK;
+    atomic_inc(&counters[ST_C_REQUEUES]);
+  }
+  paths[slot] = p;
+  flush_track_stats(counters, &st, ST_C_LOOKUPS_TRACK);
+  queue_push(queues, counters, Q, NL, cur, q, slot);
+}

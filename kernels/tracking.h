@@ -1,0 +1,188 @@
+/* tracking.h: free-path sampling and transmittance, on the integral formulation of
+ * null-collision algorithms (ALGORITHMS.md 2.2).
+ *
+ * One routine serves every tracker. Per majorant segment a gray free-path coefficient mubar is
+ * used; at each tentative collision the event (absorption, scattering, null) is chosen with
+ * probabilities P* = v* / C from the tracker's scheme, and the path weight beta is multiplied by
+ * mu* / (mubar P*). The trackers are choices of mubar's channel set (the path's mask) and the
+ * scheme:
+ *   delta-per-channel: mask = one channel, beta = e_c      -> analog delta tracking of channel c
+ *   delta:             mask = rgb, achromatic media, max    -> analog delta tracking
+ *   spectral:          mask = rgb, the chosen scheme (max, average, history-max, history-average)
+ * The |.| in the probabilities keeps every tracker unbiased when a majorant does not bound
+ * (negative null coefficient: weighted tracking, ALGORITHMS.md 2.5); with a bounding majorant
+ * the delta trackers' weights are exactly analog.
+ * Emission is scored at absorption events only: beta * mu_a Le / (mubar P_a) (ALGORITHMS.md 2.4).
+ * Every loop has an iteration budget; when it is spent the routine returns ST_EV_BUDGET with t at
+ * a point where no collision is pending, and the caller re-queues the item (never a cap that
+ * biases).
+ */
+#ifndef SPECTRACK_TRACKING_H
+#define SPECTRACK_TRACKING_H
+
+#define ST_EV_ESCAPE 0
+#define ST_EV_SCATTER 1
+#define ST_EV_ABSORB 2
+#define ST_EV_BUDGET 3
+
+typedef struct {
+  uint lookups, emission_lookups, real, nulls, control, residual, dda_steps;
+  float max_beta;
+} st_track_stats;
+
+inline void track_stats_clear(st_track_stats* s) {
+  s->lookups = s->emission_lookups = s->real = s->nulls = s->control = s->residual = s->dda_steps = 0u;
+  s->max_beta = 0.0f;
+}
+
+/* The probability scheme a tracker uses. */
+inline int tracker_scheme(__constant const st_scene* scene) {
+  return scene->tracker == ST_TRACKER_SPECTRAL ? scene->scheme : ST_SCHEME_MAX;
+}
+
+inline float scheme_reduce(int scheme, float4 v, float4 mask) {
+  return (scheme == ST_SCHEME_MAX || scheme == ST_SCHEME_HISTORY_MAX) ? masked_max(v, mask) : masked_avg(v, mask);
+}
+
+/* Un-normalised probabilities (absorption, scattering, null) of the scheme. */
+inline float3 event_values(int scheme, float4 beta, float4 mask, float4 sa, float4 ss, float4 sn) {
+  int history = scheme == ST_SCHEME_HISTORY_MAX || scheme == ST_SCHEME_HISTORY_AVERAGE;
+  float4 w = history ? fabs(beta) * mask : mask;
+  return (float3)(scheme_reduce(scheme, w * fabs(sa), mask), scheme_reduce(scheme, w * fabs(ss), mask),
+                  scheme_reduce(scheme, w * fabs(sn), mask));
+}
+
+/* Samples the next real collision along (o, d) from *t. On ST_EV_SCATTER, *t is the collision,
+ * beta carries the scattering weight and *medium the medium whose phase function applies. On
+ * ST_EV_ABSORB the emission score has been added to *L. On ST_EV_ESCAPE the ray left every
+ * medium. On ST_EV_BUDGET, call again from *t. */
+inline int track_free_path(__constant const st_scene* scene, __global const uint* grids, __global const float2* maj,
+                           float3 o, float3 d, float* t, float4* beta, float4 mask, float4* L, int* medium,
+                           st_rng* rng, int budget, st_track_stats* st) {
+  st_segments seg;
+  segments_init(scene, maj, &seg, o, d, *t);
+  int scheme = tracker_scheme(scene);
+  for (int iter = 0;; ++iter) {
+    if (segments_done(&seg)) {
+      *t = seg.t;
+      return ST_EV_ESCAPE;
+    }
+    if (iter >= budget) {
+      *t = seg.t;
+      return ST_EV_BUDGET;
+    }
+    float mubar = segments_majorant(scene, &seg, mask);
+    float tc = mubar > 0.0f ? seg.t + sample_exponential(rng_uniform(rng), mubar) : INFINITY;
+    if (!(tc < seg.end)) {
+      st->dda_steps += segments_next(scene, maj, &seg);
+      continue;
+    }
+    seg.t = tc;
+    float3 p = o + tc * d;
+    st_coeffs c = scene_coeffs(scene, grids, p, &st->lookups);
+    float4 sn = mubar - c.sigma_a - c.sigma_s;
+    float3 v = event_values(scheme, *beta, mask, c.sigma_a, c.sigma_s, sn);
+    float C = v.x + v.y + v.z;
+    if (!(C > 0.0f)) { /* nothing left to carry on any channel */
+      *t = tc;
+      *beta = (float4)(0.0f);
+      return ST_EV_ABSORB;
+    }
+    float u = rng_uniform(rng) * C;
+    if (u < v.x) {
+      float4 muaLe = (float4)(0.0f);
+      for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
+        if (i >= scene->n_media || c.density[i] == 0.0f) continue;
+        __constant const st_medium* m = &scene->media[i];
+        if (m->emissive) muaLe += c.density[i] * m->sigma_a * medium_Le(m, grids, p, &st->emission_lookups);
+      }
+      *L += *beta * mask * muaLe * (C / (mubar * v.x));
+      st->real += 1u;
+      *t = tc;
+      return ST_EV_ABSORB;
+    }
+    if (u < v.x + v.y) {
+      /* choose the medium whose phase function scatters, in proportion to |beta * sigma_s| */
+      int k = 0;
+      float4 ss_k = c.sigma_s;
+      float qtot = 1.0f;
+      float qk = 1.0f;
+      if (scene->n_media > 1) {
+        float q[ST_KERNEL_MAX_MEDIA];
+        float total = 0.0f;
+        for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
+          q[i] = 0.0f;
+          if (i >= scene->n_media) continue;
+          q[i] = masked_avg(fabs(*beta) * c.density[i] * scene->media[i].sigma_s, mask);
+          total += q[i];
+        }
+        float uq = rng_uniform(rng) * total;
+        k = -1;
+        for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
+          if (i >= scene->n_media || q[i] <= 0.0f) continue;
+          k = i;
+          if (uq < q[i]) break;
+          uq -= q[i];
+        }
+        if (k < 0) { /* no medium scatters any carried channel */
+          *t = tc;
+          *beta = (float4)(0.0f);
+          return ST_EV_ABSORB;
+        }
+        ss_k = c.density[k] * scene->media[k].sigma_s;
+        qk = q[k];
+        qtot = total;
+      }
+      *beta *= ss_k * (qtot / qk) * (C / (mubar * v.y));
+      *medium = k;
+      st->real += 1u;
+      st->max_beta = fmax(st->max_beta, masked_max(fabs(*beta), mask));
+      *t = tc;
+      return ST_EV_SCATTER;
+    }
+    *beta *= sn * (C / (mubar * v.z));
+    st->nulls += 1u;
+    st->max_beta = fmax(st->max_beta, masked_max(fabs(*beta), mask));
+  }
+}
+
+/* Ratio tracking of the transmittance along (o, d) from *t to the end of every medium, per
+ * channel, with Russian roulette on small estimates (unbiased; pbrt's constants). Returns 1 when
+ * finished, 0 when the budget is spent (call again from *t). */
+inline int ratio_track(__constant const st_scene* scene, __global const uint* grids, __global const float2* maj,
+                       float3 o, float3 d, float* t, float4* T, float4 mask, st_rng* rng, int budget,
+                       st_track_stats* st) {
+  st_segments seg;
+  segments_init(scene, maj, &seg, o, d, *t);
+  for (int iter = 0;; ++iter) {
+    if (segments_done(&seg)) {
+      *t = seg.t;
+      return 1;
+    }
+    if (iter >= budget) {
+      *t = seg.t;
+      return 0;
+    }
+    float mubar = segments_majorant(scene, &seg, mask);
+    float tc = mubar > 0.0f ? seg.t + sample_exponential(rng_uniform(rng), mubar) : INFINITY;
+    if (!(tc < seg.end)) {
+      st->dda_steps += segments_next(scene, maj, &seg);
+      continue;
+    }
+    seg.t = tc;
+    st_coeffs c = scene_coeffs(scene, grids, o + tc * d, &st->lookups);
+    *T *= mask * ((mubar - c.sigma_a - c.sigma_s) / mubar);
+    st->nulls += 1u;
+    float m = masked_max(fabs(*T), mask);
+    if (m < 0.05f) {
+      if (m == 0.0f || rng_uniform(rng) < 0.75f) {
+        *T = (float4)(0.0f);
+        *t = tc;
+        return 1;
+      }
+      *T /= 0.25f;
+    }
+  }
+}
+
+#endif

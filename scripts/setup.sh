@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# setup.sh: installs the Debian bookworm packages spectrack needs (when missing) and builds it
+# (Release) into build/. Idempotent; used by render-default.sh, test.sh and .ci/run.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+PKGS=(build-essential cmake pkg-config ocl-icd-opencl-dev opencl-clhpp-headers opencl-c-headers pocl-opencl-icd
+      libopenvdb-dev libnanovdb-dev libopenimageio-dev openimageio-tools libcli11-dev nlohmann-json3-dev
+      libfmt-dev libgtest-dev libbenchmark-dev libtbb-dev libblosc-dev zlib1g-dev clinfo)
+missing=()
+for p in "${PKGS[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing ${missing[*]}"
+  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+BUILD_DIR=${BUILD_DIR:-build}
+cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release ${CMAKE_ARGS:-} >/dev/null
+cmake --build "$BUILD_DIR" -j "${JOBS:-$(nproc)}"

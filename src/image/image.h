@@ -1,0 +1,30 @@
+// image.h: image output and input through OpenImageIO. EXR gets linear float RGB plus the
+// render's metadata as string/int/float attributes; PNG gets an 8-bit sRGB preview (clamped).
+// The format follows the file extension; anything else is refused before rendering.
+#pragma once
+#include <map>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "util/error.h"
+
+namespace spectrack {
+
+using MetaValue = std::variant<std::string, int, float>;
+using Metadata = std::map<std::string, MetaValue>;
+
+// Throws Error unless `path` has a writable extension (.exr, .png) and its folder is writable.
+void check_output_path(const std::string& path);
+// Writes width x height linear RGB floats (row 0 at the top).
+void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb, const Metadata& meta);
+
+struct RgbImage {
+  int width = 0, height = 0;
+  std::vector<float> rgb;  // linear, row 0 at the top
+  Metadata meta;
+};
+// Reads any OIIO-readable image as linear float RGB (grey images are replicated). Throws Error.
+RgbImage read_image(const std::string& path);
+
+}  // namespace spectrack

@@ -1,0 +1,682 @@
+// renderer.cpp: scene upload and the wavefront stage loop (see renderer.h for the design).
+// Set-up order: resolve options, check the tracker against the media, choose the device, load
+// grids and build majorant grids, fill st_scene, build kernels (cached), allocate, upload. Each
+// launch goes through Impl::launch, which names it and records its OpenCL profiling time.
+#include "render/renderer.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <iostream>
+
+#include "cl/opencl.h"
+#include "image/image.h"
+#include "volume/volume.h"
+
+namespace spectrack {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+st_float4 f4(double x, double y, double z, double w = 0) { return st_float4{float(x), float(y), float(z), float(w)}; }
+st_float4 f4(const Vec3& v, double w = 0) { return f4(v[0], v[1], v[2], w); }
+
+// 4x4 affine matrices in double precision, row-major, for the medium transforms.
+struct Mat4 {
+  double m[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
+  Mat4 operator*(const Mat4& b) const {
+    Mat4 r;
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) {
+        r.m[i][j] = 0;
+        for (int k = 0; k < 4; ++k) r.m[i][j] += m[i][k] * b.m[k][j];
+      }
+    return r;
+  }
+};
+
+Mat4 inverse_affine(const Mat4& a, const std::string& what) {
+  // inverse of [A t; 0 1] = [A^-1, -A^-1 t; 0 1]
+  const double(*m)[4] = a.m;
+  double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+               m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+  if (!(std::abs(det) > 1e-300) || !std::isfinite(det)) throw Error(what + ": transform is singular (zero scale?)");
+  Mat4 r;
+  double inv[3][3];
+  inv[0][0] = (m[1][1] * m[2][2] - m[1][2] * m[2][1]) / det;
+  inv[0][1] = (m[0][2] * m[2][1] - m[0][1] * m[2][2]) / det;
+  inv[0][2] = (m[0][1] * m[1][2] - m[0][2] * m[1][1]) / det;
+  inv[1][0] = (m[1][2] * m[2][0] - m[1][0] * m[2][2]) / det;
+  inv[1][1] = (m[0][0] * m[2][2] - m[0][2] * m[2][0]) / det;
+  inv[1][2] = (m[0][2] * m[1][0] - m[0][0] * m[1][2]) / det;
+  inv[2][0] = (m[1][0] * m[2][1] - m[1][1] * m[2][0]) / det;
+  inv[2][1] = (m[0][1] * m[2][0] - m[0][0] * m[2][1]) / det;
+  inv[2][2] = (m[0][0] * m[1][1] - m[0][1] * m[1][0]) / det;
+  for (int i = 0; i < 3; ++i) {
+    double t = 0;
+    for (int j = 0; j < 3; ++j) {
+      r.m[i][j] = inv[i][j];
+      t -= inv[i][j] * m[j][3];
+    }
+    r.m[i][3] = t;
+  }
+  return r;
+}
+
+// scale, then rotations about x, y, z, then translate (SCENE_FORMAT.md)
+Mat4 user_transform(const TransformDesc& t) {
+  Mat4 S, Rx, Ry, Rz, T;
+  for (int i = 0; i < 3; ++i) S.m[i][i] = t.scale[i];
+  const double k = M_PI / 180.0;
+  double cx = std::cos(t.rotate_deg[0] * k), sx = std::sin(t.rotate_deg[0] * k);
+  double cy = std::cos(t.rotate_deg[1] * k), sy = std::sin(t.rotate_deg[1] * k);
+  double cz = std::cos(t.rotate_deg[2] * k), sz = std::sin(t.rotate_deg[2] * k);
+  Rx.m[1][1] = cx; Rx.m[1][2] = -sx; Rx.m[2][1] = sx; Rx.m[2][2] = cx;
+  Ry.m[0][0] = cy; Ry.m[0][2] = sy; Ry.m[2][0] = -sy; Ry.m[2][2] = cy;
+  Rz.m[0][0] = cz; Rz.m[0][1] = -sz; Rz.m[1][0] = sz; Rz.m[1][1] = cz;
+  for (int i = 0; i < 3; ++i) T.m[i][3] = t.translate[i];
+  return T * Rz * Ry * Rx * S;
+}
+
+Vec3 normalize(Vec3 v) {
+  double l = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+  return {v[0] / l, v[1] / l, v[2] / l};
+}
+Vec3 cross(const Vec3& a, const Vec3& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+
+bool achromatic(const Vec3& v) { return v[0] == v[1] && v[1] == v[2]; }
+
+struct LaunchRecord {
+  std::string name;
+  cl::Event event;
+};
+
+}  // namespace
+
+struct Renderer::Impl {
+  SceneDesc scene;
+  RenderOptions opt;
+  DeviceInfo dev;
+  cl::Context ctx;
+  cl::CommandQueue queue;
+  cl::Program program;
+  std::map<std::string, cl::Kernel> kernels;
+  st_scene st{};
+  double seconds_setup = 0, seconds_build = 0;
+  bool from_cache = false;
+  int tracker = 0, scheme = 0, spp = 0;
+  uint32_t seed = 0;
+
+  std::vector<uint32_t> grid_words;
+  std::vector<float> maj_cells;  // (dmax, dmin) pairs
+  std::vector<float> env_data;
+  cl::Buffer b_scene, b_grids, b_maj, b_env;
+  std::vector<LaunchRecord> pending;
+  std::map<std::string, KernelTime> kernel_times;
+
+  cl::Kernel& kernel(const std::string& name) {
+    auto it = kernels.find(name);
+    if (it != kernels.end()) return it->second;
+    cl_int err = CL_SUCCESS;
+    cl::Kernel k(program, name.c_str(), &err);
+    ST_CL_CHECK(err, ("clCreateKernel(" + name + ")").c_str());
+    return kernels[name] = k;
+  }
+
+  cl::Buffer buffer(cl_mem_flags flags, size_t bytes, const void* host, const char* what) {
+    cl_int err = CL_SUCCESS;
+    bytes = std::max<size_t>(bytes, 16);
+    if (bytes > dev.max_alloc)
+      throw Error(fmt::format("{} needs {:.1f} MiB in one buffer but device '{}' allows at most {:.1f} MiB per "
+                              "allocation (global memory {:.1f} MiB); choose another device with --device",
+                              what, bytes / 1048576.0, dev.name, dev.max_alloc / 1048576.0, dev.global_mem / 1048576.0));
+    cl::Buffer b(ctx, flags | (host ? CL_MEM_COPY_HOST_PTR : 0), bytes, const_cast<void*>(host), &err);
+    ST_CL_CHECK(err, (std::string("clCreateBuffer(") + what + ")").c_str());
+    return b;
+  }
+
+  // Enqueues a named 1D launch of n items and keeps its event for profiling.
+  void launch(const std::string& name, size_t n) {
+    if (n == 0) return;
+    // A fixed work-group size: PoCL JIT-compiles a kernel once per work-group size, so letting the
+    // driver choose one per item count would recompile on most launches.
+    const size_t local = 64;
+    size_t global = (n + local - 1) / local * local;
+    cl::Event ev;
+    cl_int err = queue.enqueueNDRangeKernel(kernel(name), cl::NullRange, cl::NDRange(global),
+                                            cl::NDRange(local), nullptr, &ev);
+    ST_CL_CHECK(err, ("clEnqueueNDRangeKernel(" + name + ")").c_str());
+    pending.push_back({name, ev});
+  }
+
+  void collect_profiling() {
+    for (auto& r : pending) {
+      cl_ulong a = 0, b = 0;
+      if (r.event.getProfilingInfo(CL_PROFILING_COMMAND_START, &a) == CL_SUCCESS &&
+          r.event.getProfilingInfo(CL_PROFILING_COMMAND_END, &b) == CL_SUCCESS && b >= a) {
+        kernel_times[r.name].seconds += double(b - a) * 1e-9;
+      }
+      kernel_times[r.name].launches += 1;
+    }
+    pending.clear();
+  }
+
+  void setup();
+  void add_medium(int i, const MediumDesc& m);
+  void add_light(int i, const LightDesc& l);
+  void set_camera();
+  RenderResult render();
+  template <typename T>
+  std::vector<T> run_probe(const std::string& name, size_t n, const std::function<void(cl::Kernel&, cl::Buffer&)>& args);
+};
+
+void Renderer::Impl::add_medium(int i, const MediumDesc& md) {
+  st_medium& m = st.media[i];
+  std::memset(&m, 0, sizeof(m));
+  std::string ctx_name = scene.path + ": " + md.json_path;
+  m.type = md.type;
+  m.phase_type = md.phase.type;
+  m.g = float(md.phase.g);
+  m.majorant_scale = float(md.majorant_scale);
+  m.minorant_scale = float(md.minorant_scale);
+  m.sigma_a = f4(md.sigma_a[0] * md.density_scale, md.sigma_a[1] * md.density_scale, md.sigma_a[2] * md.density_scale);
+  m.sigma_s = f4(md.sigma_s[0] * md.density_scale, md.sigma_s[1] * md.density_scale, md.sigma_s[2] * md.density_scale);
+  m.density_grid = ST_NO_GRID;
+  m.emission_grid = ST_NO_GRID;
+  if (md.emission.present) {
+    Vec3 r = md.emission.radiance;
+    m.Le = f4(r[0] * md.emission.scale, r[1] * md.emission.scale, r[2] * md.emission.scale);
+    m.emissive = (m.Le.x > 0 || m.Le.y > 0 || m.Le.z > 0) ? 1 : 0;
+  }
+  m.maj_offset = uint32_t(maj_cells.size() / 2);
+
+  auto upload_grid = [&](const GridData& g) {
+    uint32_t offset = uint32_t(grid_words.size());
+    size_t bytes = g.handle.size();
+    size_t words = (bytes + 7) / 8 * 2;
+    grid_words.resize(grid_words.size() + words, 0u);
+    std::memcpy(grid_words.data() + offset, g.handle.data(), bytes);
+    if (grid_words.size() > (size_t(1) << 30))
+      throw Error(ctx_name + ": volumes exceed 4 GiB of NanoVDB data, which 32-bit addressing cannot reach");
+    return offset;
+  };
+
+  if (md.type == ST_MEDIUM_HOMOGENEOUS) {
+    const auto& lo = md.bounds[0];
+    const auto& hi = md.bounds[1];
+    for (int r = 0; r < 3; ++r) {
+      double s = 1.0 / (hi[r] - lo[r]);
+      float row[4] = {0, 0, 0, float(-lo[r] * s)};
+      row[r] = float(s);
+      m.world_to_index[r] = st_float4{row[0], row[1], row[2], row[3]};
+    }
+    m.maj_origin = f4(0, 0, 0, 1);
+    m.maj_dims[0] = m.maj_dims[1] = m.maj_dims[2] = 1;
+    maj_cells.push_back(1.0f);
+    maj_cells.push_back(1.0f);
+    return;
+  }
+
+  GridData g = load_float_grid(md.file, md.grid, md.grid_index, ctx_name);
+  Mat4 i2w;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) i2w.m[r][c] = g.index_to_world[r][c];
+  Mat4 w2i = inverse_affine(user_transform(md.transform) * i2w, ctx_name + "/transform");
+  for (int r = 0; r < 3; ++r) m.world_to_index[r] = f4(w2i.m[r][0], w2i.m[r][1], w2i.m[r][2], w2i.m[r][3]);
+  MajorantGrid mg = build_majorant_grid(g, opt.majorant_cell);
+  m.maj_origin = f4(mg.origin[0], mg.origin[1], mg.origin[2], mg.cell);
+  for (int a = 0; a < 3; ++a) m.maj_dims[a] = mg.dims[a];
+  for (size_t c = 0; c < mg.dmax.size(); ++c) {
+    maj_cells.push_back(mg.dmax[c]);
+    maj_cells.push_back(mg.dmin[c]);
+  }
+  m.density_grid = upload_grid(g);
+  if (md.emission.present && !md.emission.grid.empty() && m.emissive) {
+    GridData e = load_float_grid(md.file, md.emission.grid, -1, ctx_name + "/emission");
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 4; ++c)
+        if (std::abs(e.index_to_world[r][c] - g.index_to_world[r][c]) > 1e-6 * (1 + std::abs(g.index_to_world[r][c])))
+          throw Error(fmt::format("{}/emission/grid: grid '{}' has a different index-to-world transform than density "
+                                  "grid '{}'; both grids must share one transform",
+                                  ctx_name, md.emission.grid, md.grid));
+    m.emission_grid = upload_grid(e);
+  }
+}
+
+void Renderer::Impl::add_light(int i, const LightDesc& ld) {
+  st_light& l = st.lights[i];
+  std::memset(&l, 0, sizeof(l));
+  l.type = ld.type;
+  if (ld.type == ST_LIGHT_DIRECTIONAL) {
+    Vec3 d = normalize(ld.to_light);
+    l.direction = f4(d);
+    double half = ld.angle_deg * 0.5 * M_PI / 180.0;
+    if (half <= 0) {
+      l.is_delta = 1;
+      l.radiance = f4(ld.irradiance);
+      l.cos_max = 1.0f;
+    } else {
+      // a uniform disc of angular radius `half` gives irradiance E = L * pi * sin^2(half)
+      double s2 = std::sin(half) * std::sin(half);
+      double L = 1.0 / (M_PI * s2);
+      l.radiance = f4(ld.irradiance[0] * L, ld.irradiance[1] * L, ld.irradiance[2] * L);
+      l.cos_max = float(std::cos(half));
+      l.pdf_cone = float(1.0 / (2.0 * M_PI * (1.0 - std::cos(half))));
+    }
+    return;
+  }
+  if (ld.map.empty()) {
+    l.type = ST_LIGHT_ENV_UNIFORM;
+    l.radiance = f4(ld.radiance);
+    return;
+  }
+  l.type = ST_LIGHT_ENV_MAP;
+  RgbImage img;
+  try {
+    img = read_image(ld.map);
+  } catch (const Error& e) {
+    throw Error(fmt::format("{}: {}/map: {}", scene.path, ld.json_path, e.what()));
+  }
+  for (float v : img.rgb)
+    if (!std::isfinite(v) || v < 0)
+      throw Error(fmt::format("{}: {}/map: {}: negative or non-finite texel", scene.path, ld.json_path, ld.map));
+  l.radiance = f4(ld.scale, ld.scale, ld.scale);
+  l.map_width = img.width;
+  l.map_height = img.height;
+  l.map_offset = uint32_t(env_data.size());
+  for (size_t p = 0; p < size_t(img.width) * img.height; ++p) {
+    for (int c = 0; c < 3; ++c) env_data.push_back(img.rgb[p * 3 + c]);
+    env_data.push_back(0.0f);
+  }
+  // sampling distribution: f(u, v) = max(rgb) * sin(theta), piecewise constant per texel
+  int W = img.width, H = img.height;
+  std::vector<double> row_sum(H, 0.0);
+  std::vector<double> f(size_t(W) * H);
+  for (int y = 0; y < H; ++y) {
+    double s = std::sin(M_PI * (y + 0.5) / H);
+    for (int x = 0; x < W; ++x) {
+      const float* px = &img.rgb[(size_t(y) * W + x) * 3];
+      f[size_t(y) * W + x] = std::max({px[0], px[1], px[2]}) * s;
+      row_sum[y] += f[size_t(y) * W + x];
+    }
+  }
+  double total = 0;
+  for (double r : row_sum) total += r;
+  l.cdf_offset = uint32_t(env_data.size());
+  l.map_integral = float(total / (double(W) * H));
+  double acc = 0;
+  env_data.push_back(0.0f);
+  for (int y = 0; y < H; ++y) {
+    acc += row_sum[y];
+    env_data.push_back(total > 0 ? float(acc / total) : float(y + 1) / H);
+  }
+  env_data[l.cdf_offset + H] = 1.0f;
+  for (int y = 0; y < H; ++y) {
+    double a = 0;
+    size_t base = env_data.size();
+    env_data.push_back(0.0f);
+    for (int x = 0; x < W; ++x) {
+      a += f[size_t(y) * W + x];
+      env_data.push_back(row_sum[y] > 0 ? float(a / row_sum[y]) : float(x + 1) / W);
+    }
+    env_data[base + W] = 1.0f;
+  }
+}
+
+void Renderer::Impl::set_camera() {
+  const CameraDesc& c = scene.camera;
+  st_camera& cam = st.camera;
+  cam.type = c.type;
+  cam.width = scene.film.width;
+  cam.height = scene.film.height;
+  Vec3 fwd = normalize({c.look_at[0] - c.position[0], c.look_at[1] - c.position[1], c.look_at[2] - c.position[2]});
+  Vec3 right = normalize(cross(fwd, c.up));
+  Vec3 up = cross(right, fwd);
+  double shorter = std::min(cam.width, cam.height);
+  double half = c.type == ST_CAMERA_ORTHOGRAPHIC ? 0.5 * c.height : std::tan(0.5 * c.fov_deg * M_PI / 180.0);
+  double sx = half * cam.width / shorter, sy = half * cam.height / shorter;
+  cam.position = f4(c.position);
+  cam.forward = f4(fwd);
+  cam.right = f4(right[0] * sx, right[1] * sx, right[2] * sx);
+  cam.up = f4(up[0] * sy, up[1] * sy, up[2] * sy);
+}
+
+void Renderer::Impl::setup() {
+  auto t0 = Clock::now();
+  tracker = opt.tracker >= 0 ? opt.tracker : scene.render.tracker;
+  scheme = opt.scheme >= 0 ? opt.scheme : scene.render.scheme;
+  spp = opt.spp > 0 ? opt.spp : scene.film.spp;
+  seed = opt.seed >= 0 ? uint32_t(opt.seed) : scene.render.seed;
+  if (tracker == ST_TRACKER_DECOMPOSITION || tracker == ST_TRACKER_SPECTRAL_DECOMPOSITION)
+    throw Error(fmt::format("{}: tracker '{}' is not available yet (decomposition tracking lands with the estimators "
+                            "issue); use delta-per-channel, delta or spectral",
+                            scene.path, tracker_name(tracker)));
+  if (tracker == ST_TRACKER_DELTA) {
+    for (auto& m : scene.media)
+      if (!achromatic(m.sigma_a) || !achromatic(m.sigma_s))
+        throw Error(fmt::format("{}: {}: tracker 'delta' needs achromatic media (equal sigma_a and sigma_s in every "
+                                "channel); medium '{}' is chromatic: use delta-per-channel or spectral",
+                                scene.path, m.json_path, m.name));
+  }
+  if (opt.iteration_budget < 1) throw Error("iteration budget must be at least 1");
+
+  dev = select_device(opt.device);
+  cl_int err = CL_SUCCESS;
+  ctx = cl::Context(dev.device, nullptr, nullptr, nullptr, &err);
+  ST_CL_CHECK(err, "clCreateContext");
+  queue = cl::CommandQueue(ctx, dev.device, CL_QUEUE_PROFILING_ENABLE, &err);
+  ST_CL_CHECK(err, "clCreateCommandQueue");
+
+  std::memset(&st, 0, sizeof(st));
+  st.n_media = int(scene.media.size());
+  st.n_lights = int(scene.lights.size());
+  for (int i = 0; i < st.n_media; ++i) add_medium(i, scene.media[i]);
+  for (int i = 0; i < st.n_lights; ++i) add_light(i, scene.lights[i]);
+  set_camera();
+  st.tracker = tracker;
+  st.scheme = scheme;
+  st.max_depth = scene.render.max_depth;
+  st.seed = seed;
+  st.n_channels_per_sample = tracker == ST_TRACKER_DELTA_PER_CHANNEL ? 3 : 1;
+  st.iteration_budget = opt.iteration_budget;
+  st.pixel_x0 = 0;
+  st.pixel_y0 = 0;
+  st.window_width = scene.film.width;
+  st.window_height = scene.film.height;
+  for (auto& l : scene.lights) st.has_env |= (l.type != ST_LIGHT_DIRECTIONAL);
+  for (auto& m : scene.media) st.chromatic |= !(achromatic(m.sigma_a) && achromatic(m.sigma_s));
+  if (maj_cells.empty()) maj_cells = {0.0f, 0.0f};
+  if (grid_words.empty()) grid_words = {0u, 0u};
+  if (env_data.empty()) env_data = {0.0f};
+
+  auto tb = Clock::now();
+  std::string src = assemble_kernel_source({{"ST_KERNEL_MAX_MEDIA", std::to_string(std::max(1, st.n_media))}});
+  std::string options = "-cl-std=CL1.2";
+  ProgramBuild pb = build_program(ctx, dev, src, options, opt.quiet);
+  program = pb.program;
+  from_cache = pb.from_cache;
+  seconds_build = seconds_since(tb);
+
+  b_scene = buffer(CL_MEM_READ_ONLY, sizeof(st), &st, "scene constants");
+  b_grids = buffer(CL_MEM_READ_ONLY, grid_words.size() * 4, grid_words.data(), "NanoVDB grids");
+  b_maj = buffer(CL_MEM_READ_ONLY, maj_cells.size() * 4, maj_cells.data(), "majorant grids");
+  b_env = buffer(CL_MEM_READ_ONLY, env_data.size() * 4, env_data.data(), "environment maps");
+  if (sizeof(st) > dev.max_constant)
+    throw Error(fmt::format("device '{}' has {} bytes of constant memory; spectrack needs {}", dev.name,
+                            dev.max_constant, sizeof(st)));
+  seconds_setup = seconds_since(t0);
+}
+
+template <typename T>
+std::vector<T> Renderer::Impl::run_probe(const std::string& name, size_t n,
+                                         const std::function<void(cl::Kernel&, cl::Buffer&)>& args) {
+  std::vector<T> out(n);
+  if (n == 0) return out;
+  cl::Buffer b_out = buffer(CL_MEM_WRITE_ONLY, n * sizeof(T), nullptr, "probe output");
+  cl::Kernel& k = kernel(name);
+  args(k, b_out);
+  launch(name, n);
+  ST_CL_CHECK(queue.enqueueReadBuffer(b_out, CL_TRUE, 0, n * sizeof(T), out.data()), ("read " + name).c_str());
+  collect_profiling();
+  return out;
+}
+
+RenderResult Renderer::Impl::render() {
+  auto t_start = Clock::now();
+  RenderResult res;
+  res.width = scene.film.width;
+  res.height = scene.film.height;
+  res.spp_requested = spp;
+  res.tracker = tracker;
+  res.scheme = scheme;
+  res.seed = seed;
+  res.device = dev.name;
+  res.seconds_setup = seconds_setup;
+  res.seconds_build = seconds_build;
+  res.kernels_from_cache = from_cache;
+  kernel_times.clear();
+
+  const uint32_t NL = uint32_t(std::max(1, st.n_lights));
+  const uint64_t npix = uint64_t(st.window_width) * st.window_height;
+  const uint64_t nch = uint64_t(st.n_channels_per_sample);
+  uint64_t Q = opt.path_slots > 0 ? uint64_t(opt.path_slots) : ((dev.type & CL_DEVICE_TYPE_GPU) ? (1u << 20) : (1u << 16));
+  const uint64_t total_paths = uint64_t(spp) * npix * nch;
+  Q = std::max<uint64_t>(1, std::min<uint64_t>(Q, total_paths));
+  uint64_t samples_per_batch = std::max<uint64_t>(1, (2 * Q + npix * nch - 1) / (npix * nch));
+  samples_per_batch = std::min<uint64_t>(samples_per_batch, uint64_t(spp));
+  const uint64_t batch_paths = samples_per_batch * npix * nch;
+  if (batch_paths >= (uint64_t(1) << 32)) throw Error("film too large: one sample of every pixel exceeds 2^32 paths");
+  const uint64_t n_batches = (uint64_t(spp) + samples_per_batch - 1) / samples_per_batch;
+  auto batch_samples = [&](uint64_t b) { return std::min<uint64_t>(samples_per_batch, uint64_t(spp) - b * samples_per_batch); };
+
+  cl::Buffer b_paths = buffer(CL_MEM_READ_WRITE, Q * sizeof(st_path), nullptr, "path states");
+  cl::Buffer b_shadows = buffer(CL_MEM_READ_WRITE, Q * NL * sizeof(st_shadow), nullptr, "shadow rays");
+  const uint64_t per_parity = 5 * Q + Q * NL;
+  std::vector<uint32_t> init_queue(2 * per_parity, 0u);
+  for (uint64_t i = 0; i < Q; ++i) init_queue[i] = uint32_t(i);  // parity 0, FREE
+  cl::Buffer b_queues = buffer(CL_MEM_READ_WRITE, init_queue.size() * 4, init_queue.data(), "queues");
+  std::vector<uint32_t> counters(ST_C_COUNT, 0u);
+  cl::Buffer b_counters = buffer(CL_MEM_READ_WRITE, counters.size() * 4, counters.data(), "counters");
+  cl::Buffer b_results = buffer(CL_MEM_READ_WRITE, 2 * batch_paths * sizeof(st_float4), nullptr, "batch results");
+  std::vector<st_float4> film(npix, st_float4{0, 0, 0, 0});
+  cl::Buffer b_film = buffer(CL_MEM_READ_WRITE, npix * sizeof(st_float4), film.data(), "film");
+
+  // launch order within an iteration, and the queue each stage reads
+  const char* stage_kernels[] = {"k_raygen", "k_track", "k_escape", "k_scatter", "k_shadow", "k_finish"};
+  const int stage_queue[] = {ST_Q_FREE, ST_Q_TRACK, ST_Q_ESCAPE, ST_Q_SCATTER, ST_Q_SHADOW, ST_Q_FINISH};
+  for (const char* name : stage_kernels) {
+    cl::Kernel& k = kernel(name);
+    int a = 0;
+    k.setArg(a++, b_scene);
+    k.setArg(a++, b_grids);
+    k.setArg(a++, b_maj);
+    k.setArg(a++, b_env);
+    k.setArg(a++, b_paths);
+    k.setArg(a++, b_shadows);
+    k.setArg(a++, b_queues);
+    k.setArg(a++, b_counters);
+    k.setArg(a++, b_results);
+    k.setArg(a++, cl_uint(Q));
+    k.setArg(a++, cl_uint(NL));
+  }
+  cl::Kernel& k_acc = kernel("k_accumulate");
+  k_acc.setArg(0, b_results);
+  k_acc.setArg(1, b_film);
+
+  uint64_t n_q[ST_Q_COUNT] = {Q, 0, 0, 0, 0, 0};
+  uint32_t cur = 0;
+  uint64_t issued = 0, accumulated = 0, samples_done = 0;
+  uint64_t batch_done[2] = {0, 0};
+  uint64_t batches_target = n_batches;
+  bool stopping = false;
+  RenderStats& S = res.stats;
+  std::vector<uint32_t> zeros(ST_C_COUNT, 0u);
+  uint32_t max_bits = 0;
+
+  const char* trace_env = std::getenv("SPECTRACK_TRACE_QUEUES");
+  const bool trace_queues = trace_env && std::string(trace_env) != "0";
+  auto t_loop = Clock::now();
+  while (accumulated < batches_target) {
+    if (!stopping && opt.stop && opt.stop->load()) {
+      stopping = true;
+      batches_target = std::max<uint64_t>(accumulated, issued / batch_paths);  // only fully issued batches
+      if (batches_target == accumulated) break;
+    }
+    uint64_t issue_limit = std::min<uint64_t>(total_paths, (accumulated + 2) * batch_paths);
+    issue_limit = std::min<uint64_t>(issue_limit, batches_target * batch_paths);
+    uint64_t n_new = std::min<uint64_t>(n_q[ST_Q_FREE], issue_limit > issued ? issue_limit - issued : 0);
+    uint64_t in_flight = 0;
+    for (int q = ST_Q_TRACK; q < ST_Q_COUNT; ++q) in_flight += n_q[q];
+    if (n_new == 0 && in_flight == 0)
+      throw Error(fmt::format("internal: wavefront stalled with {} of {} batches accumulated", accumulated, batches_target));
+
+    for (int s = 0; s < 6; ++s) {
+      cl::Kernel& k = kernel(stage_kernels[s]);
+      k.setArg(11, cl_uint(cur));
+      k.setArg(12, cl_uint(n_q[stage_queue[s]]));
+    }
+    cl::Kernel& kr = kernel("k_raygen");
+    kr.setArg(13, cl_ulong(issued));
+    kr.setArg(14, cl_uint(n_new));
+    kr.setArg(15, cl_uint(batch_paths));
+    kr.setArg(16, cl_uint(0));
+    kr.setArg(17, cl_uint(samples_per_batch));
+    for (int s = 0; s < 6; ++s) launch(stage_kernels[s], n_q[stage_queue[s]]);
+    issued += n_new;
+    ST_CL_CHECK(queue.enqueueReadBuffer(b_counters, CL_TRUE, 0, counters.size() * 4, counters.data()), "read counters");
+    ST_CL_CHECK(queue.enqueueWriteBuffer(b_counters, CL_FALSE, 0, zeros.size() * 4, zeros.data()), "reset counters");
+    collect_profiling();
+    S.iterations++;
+
+    for (int q = 0; q < ST_Q_COUNT; ++q) n_q[q] = counters[ST_C_QUEUE + q];
+    cur = 1 - cur;
+    if (trace_queues)
+      std::cerr << fmt::format("iteration {}: issued {} free {} track {} escape {} scatter {} finish {} shadow {} "
+                               "done {}+{} accumulated {}\n",
+                               S.iterations, issued, n_q[ST_Q_FREE], n_q[ST_Q_TRACK], n_q[ST_Q_ESCAPE],
+                               n_q[ST_Q_SCATTER], n_q[ST_Q_FINISH], n_q[ST_Q_SHADOW],
+                               batch_done[0] + counters[ST_C_BATCH_DONE], batch_done[1] + counters[ST_C_BATCH_DONE + 1],
+                               accumulated);
+    batch_done[0] += counters[ST_C_BATCH_DONE + 0];
+    batch_done[1] += counters[ST_C_BATCH_DONE + 1];
+    S.lookups_track += counters[ST_C_LOOKUPS_TRACK];
+    S.lookups_shadow += counters[ST_C_LOOKUPS_SHADOW];
+    S.lookups_emission += counters[ST_C_LOOKUPS_EMISSION];
+    S.real_collisions += counters[ST_C_REAL_COLLISIONS];
+    S.null_collisions += counters[ST_C_NULL_COLLISIONS];
+    S.control_collisions += counters[ST_C_CONTROL_COLLISIONS];
+    S.residual_collisions += counters[ST_C_RESIDUAL_COLLISIONS];
+    S.dda_steps += counters[ST_C_DDA_STEPS];
+    S.requeues += counters[ST_C_REQUEUES];
+    S.nonfinite_samples += counters[ST_C_NONFINITE];
+    S.scatter_events += counters[ST_C_SCATTER_EVENTS];
+    max_bits = std::max(max_bits, counters[ST_C_MAX_THROUGHPUT_BITS]);
+
+    // add every completed batch to the film, in batch order
+    while (accumulated < batches_target) {
+      uint64_t b = accumulated;
+      uint64_t expected = batch_samples(b) * npix * nch;
+      if (batch_done[b & 1] < expected) break;
+      k_acc.setArg(2, cl_uint((b & 1) * batch_paths));
+      k_acc.setArg(3, cl_uint(batch_samples(b)));
+      k_acc.setArg(4, cl_uint(npix));
+      k_acc.setArg(5, cl_uint(nch));
+      launch("k_accumulate", npix);
+      batch_done[b & 1] -= expected;
+      samples_done += batch_samples(b);
+      S.paths += expected;
+      ++accumulated;
+    }
+    if (opt.progress) opt.progress(double(samples_done) / double(spp));
+  }
+  ST_CL_CHECK(queue.enqueueReadBuffer(b_film, CL_TRUE, 0, npix * sizeof(st_float4), film.data()), "read film");
+  collect_profiling();
+  res.seconds_render = seconds_since(t_loop);
+  (void)t_start;
+
+  float mt;
+  std::memcpy(&mt, &max_bits, 4);
+  S.max_throughput = mt;
+  S.kernels = kernel_times;
+  res.spp_done = int(samples_done);
+  res.interrupted = samples_done < uint64_t(spp);
+  res.rgb.assign(npix * 3, 0.0f);
+  if (samples_done > 0) {
+    float inv = 1.0f / float(samples_done);
+    for (uint64_t p = 0; p < npix; ++p) {
+      res.rgb[p * 3 + 0] = film[p].x * inv;
+      res.rgb[p * 3 + 1] = film[p].y * inv;
+      res.rgb[p * 3 + 2] = film[p].z * inv;
+    }
+  }
+  return res;
+}
+
+Renderer::Renderer(const SceneDesc& scene, const RenderOptions& options) : impl_(new Impl) {
+  impl_->scene = scene;
+  impl_->opt = options;
+  impl_->setup();
+}
+Renderer::~Renderer() = default;
+
+RenderResult Renderer::render() { return impl_->render(); }
+const std::string& Renderer::device_name() const { return impl_->dev.name; }
+const SceneDesc& Renderer::scene() const { return impl_->scene; }
+
+static std::vector<st_float4> to_points(const std::vector<std::array<float, 3>>& pts) {
+  std::vector<st_float4> v(pts.size());
+  for (size_t i = 0; i < pts.size(); ++i) v[i] = st_float4{pts[i][0], pts[i][1], pts[i][2], 0};
+  return v;
+}
+
+std::vector<float> Renderer::probe_density(int medium, const std::vector<std::array<float, 3>>& world_points) {
+  if (medium < 0 || medium >= impl_->st.n_media) throw Error("probe_density: no such medium");
+  auto pts = to_points(world_points);
+  cl::Buffer b_pts = impl_->buffer(CL_MEM_READ_ONLY, std::max<size_t>(1, pts.size()) * 16, pts.empty() ? nullptr : pts.data(), "probe points");
+  return impl_->run_probe<float>("k_probe_density", pts.size(), [&](cl::Kernel& k, cl::Buffer& out) {
+    k.setArg(0, impl_->b_scene);
+    k.setArg(1, impl_->b_grids);
+    k.setArg(2, b_pts);
+    k.setArg(3, out);
+    k.setArg(4, cl_int(medium));
+    k.setArg(5, cl_uint(pts.size()));
+  });
+}
+
+std::vector<std::array<float, 2>> Renderer::probe_majorant(int medium, const std::vector<std::array<float, 3>>& world_points) {
+  if (medium < 0 || medium >= impl_->st.n_media) throw Error("probe_majorant: no such medium");
+  auto pts = to_points(world_points);
+  cl::Buffer b_pts = impl_->buffer(CL_MEM_READ_ONLY, std::max<size_t>(1, pts.size()) * 16, pts.empty() ? nullptr : pts.data(), "probe points");
+  return impl_->run_probe<std::array<float, 2>>("k_probe_majorant", pts.size(), [&](cl::Kernel& k, cl::Buffer& out) {
+    k.setArg(0, impl_->b_scene);
+    k.setArg(1, impl_->b_maj);
+    k.setArg(2, b_pts);
+    k.setArg(3, out);
+    k.setArg(4, cl_int(medium));
+    k.setArg(5, cl_uint(pts.size()));
+  });
+}
+
+std::vector<std::array<float, 4>> Renderer::probe_track(std::array<float, 3> o, std::array<float, 3> d, int channel, int n,
+                                                        std::vector<std::array<float, 4>>* beta) {
+  cl::Buffer b_beta = impl_->buffer(CL_MEM_READ_WRITE, size_t(std::max(1, n)) * 16, nullptr, "probe beta");
+  auto out = impl_->run_probe<std::array<float, 4>>("k_probe_track", size_t(n), [&](cl::Kernel& k, cl::Buffer& out) {
+    k.setArg(0, impl_->b_scene);
+    k.setArg(1, impl_->b_grids);
+    k.setArg(2, impl_->b_maj);
+    k.setArg(3, cl_float4{{o[0], o[1], o[2], 0}});
+    k.setArg(4, cl_float4{{d[0], d[1], d[2], 0}});
+    k.setArg(5, cl_int(channel));
+    k.setArg(6, out);
+    k.setArg(7, b_beta);
+    k.setArg(8, cl_uint(n));
+  });
+  if (beta) {
+    beta->resize(size_t(n));
+    if (n > 0)
+      ST_CL_CHECK(impl_->queue.enqueueReadBuffer(b_beta, CL_TRUE, 0, size_t(n) * 16, beta->data()), "read probe beta");
+  }
+  return out;
+}
+
+std::vector<std::array<float, 4>> Renderer::probe_transmittance(std::array<float, 3> o, std::array<float, 3> d, int n) {
+  return impl_->run_probe<std::array<float, 4>>("k_probe_transmittance", size_t(n), [&](cl::Kernel& k, cl::Buffer& out) {
+    k.setArg(0, impl_->b_scene);
+    k.setArg(1, impl_->b_grids);
+    k.setArg(2, impl_->b_maj);
+    k.setArg(3, cl_float4{{o[0], o[1], o[2], 0}});
+    k.setArg(4, cl_float4{{d[0], d[1], d[2], 0}});
+    k.setArg(5, out);
+    k.setArg(6, cl_uint(n));
+  });
+}
+
+}  // namespace spectrack

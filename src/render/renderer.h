@@ -1,0 +1,89 @@
+// renderer.h: a scene on one OpenCL device, and the wavefront scheduler that renders it.
+//
+// Construction does all set-up (device choice, VDB loading, majorant grids, kernel build,
+// uploads) so render() only runs the stage loop. The loop keeps Q path slots in flight: each
+// iteration launches raygen (refill free slots), track, escape, scatter, shadow and finish on
+// the queues the previous iteration filled, then reads every queue size and statistic counter in
+// one copy. Samples are organised in batches of whole samples per pixel; a batch's results are
+// added to the film (in a fixed order) once all its paths are done, and at most two batches are
+// in flight. Stopping (Ctrl-C) lets the started batches finish and reports the samples done.
+#pragma once
+#include <array>
+#include <atomic>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "scene/scene.h"
+
+namespace spectrack {
+
+struct RenderOptions {
+  int spp = -1;            // overrides film.spp when > 0
+  int64_t seed = -1;       // overrides render.seed when >= 0
+  int tracker = -1;        // overrides render.tracker when >= 0
+  int scheme = -1;         // overrides render.spectral_scheme when >= 0
+  std::string device;      // "P:D", name substring, or "" (SPECTRACK_DEVICE, then default)
+  int path_slots = 0;      // paths in flight; 0 = by device type
+  int iteration_budget = 256;  // tentative collisions + DDA steps per item and launch
+  int majorant_cell = 8;   // voxels per majorant-grid cell edge
+  bool quiet = false;
+  std::function<void(double)> progress;        // fraction of samples done
+  const std::atomic<bool>* stop = nullptr;     // set asynchronously to stop after started batches
+};
+
+struct KernelTime {
+  double seconds = 0;
+  uint64_t launches = 0;
+};
+
+struct RenderStats {
+  uint64_t paths = 0;
+  uint64_t lookups_track = 0, lookups_shadow = 0, lookups_emission = 0;
+  uint64_t real_collisions = 0, null_collisions = 0, control_collisions = 0, residual_collisions = 0;
+  uint64_t dda_steps = 0, requeues = 0, nonfinite_samples = 0, scatter_events = 0, iterations = 0;
+  double max_throughput = 0;
+  std::map<std::string, KernelTime> kernels;
+};
+
+struct RenderResult {
+  int width = 0, height = 0;
+  std::vector<float> rgb;  // width * height * 3, linear, mean over spp_done samples
+  int spp_requested = 0, spp_done = 0;
+  bool interrupted = false;
+  int tracker = 0, scheme = 0;
+  uint32_t seed = 0;
+  std::string device;
+  double seconds_setup = 0, seconds_build = 0, seconds_render = 0;
+  bool kernels_from_cache = false;
+  RenderStats stats;
+};
+
+class Renderer {
+ public:
+  Renderer(const SceneDesc& scene, const RenderOptions& options);
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
+
+  RenderResult render();
+
+  // Probes for tests and benchmarks: the kernels' own device functions on given inputs.
+  std::vector<float> probe_density(int medium, const std::vector<std::array<float, 3>>& world_points);
+  std::vector<std::array<float, 2>> probe_majorant(int medium, const std::vector<std::array<float, 3>>& world_points);
+  // Per item: (t of first real collision or +inf, event, lookups, dda steps); channel -1 = rgb.
+  std::vector<std::array<float, 4>> probe_track(std::array<float, 3> o, std::array<float, 3> d, int channel, int n,
+                                                std::vector<std::array<float, 4>>* beta = nullptr);
+  std::vector<std::array<float, 4>> probe_transmittance(std::array<float, 3> o, std::array<float, 3> d, int n);
+
+  const std::string& device_name() const;
+  const SceneDesc& scene() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace spectrack

@@ -1,0 +1,114 @@
+// scene.h: the scene description as loaded from a spectrack-scene/1 JSON file
+// (../shared/design/SCENE_FORMAT.md is the contract). load_scene() validates everything it can
+// without touching VDB files: unknown fields, types, ranges, negative or NaN coefficients; every
+// error is a spectrack::Error whose message names the scene file, the JSON path and the reason,
+// e.g. "scene.json: /media/0/sigma_s: value -1 is negative". Relative paths are resolved against
+// the scene file's folder. Enum values are the ones of kernels/types.h.
+#pragma once
+#include <array>
+#include <string>
+#include <vector>
+
+#include "kernels/types.h"
+#include "util/error.h"
+
+namespace spectrack {
+
+using Vec3 = std::array<double, 3>;
+
+struct TransformDesc {
+  Vec3 scale{1, 1, 1};       // "scale": a number or a triple
+  Vec3 rotate_deg{0, 0, 0};  // rotations about x, then y, then z (degrees)
+  Vec3 translate{0, 0, 0};
+};
+
+struct PhaseDesc {
+  int type = ST_PHASE_ISOTROPIC;
+  double g = 0.0;  // (-1, 1) for hg
+};
+
+struct EmissionDesc {
+  bool present = false;
+  std::string grid;  // empty: Le = radiance * scale (constant where the medium is)
+  Vec3 radiance{0, 0, 0};
+  double scale = 1.0;
+};
+
+struct MediumDesc {
+  std::string name;
+  std::string json_path;  // "/media/0", for messages
+  int type = ST_MEDIUM_VDB;
+  std::string file;       // vdb: absolute path (resolved against the scene folder)
+  std::string grid = "density";
+  int grid_index = -1;    // optional "grid_index": pick the n-th grid of that name (files with duplicates)
+  double density_scale = 1.0;
+  Vec3 sigma_s{1, 1, 1};
+  Vec3 sigma_a{0, 0, 0};
+  PhaseDesc phase;
+  EmissionDesc emission;
+  TransformDesc transform;
+  std::array<Vec3, 2> bounds{Vec3{-1, -1, -1}, Vec3{1, 1, 1}};  // homogeneous
+  double majorant_scale = 1.0;  // testing aid: < 1 under-estimates (still unbiased)
+  double minorant_scale = 1.0;  // testing aid: > 1 over-estimates (still unbiased)
+};
+
+struct LightDesc {
+  std::string json_path;
+  int type = ST_LIGHT_ENV_UNIFORM;
+  Vec3 radiance{1, 1, 1};  // environment (uniform)
+  std::string map;         // environment map (absolute path), empty if uniform
+  double scale = 1.0;      // environment map multiplier
+  Vec3 to_light{0, 1, 0};  // directional, as given (not normalised)
+  Vec3 irradiance{1, 1, 1};
+  double angle_deg = 0.0;  // apparent diameter; 0 = delta light
+};
+
+struct CameraDesc {
+  int type = ST_CAMERA_PERSPECTIVE;
+  Vec3 position{0, 0, -4};
+  Vec3 look_at{0, 0, 0};
+  Vec3 up{0, 1, 0};
+  double fov_deg = 40.0;  // perspective: full angle across the shorter image side
+  double height = 2.0;    // orthographic: world units across the shorter image side
+};
+
+struct FilmDesc {
+  int width = 512;
+  int height = 512;
+  int spp = 64;
+  std::string output = "out.exr";  // resolved against the scene folder when relative
+};
+
+struct RenderDesc {
+  int tracker = ST_TRACKER_SPECTRAL_DECOMPOSITION;
+  int scheme = ST_SCHEME_HISTORY_AVERAGE;
+  int max_depth = -1;
+  uint32_t seed = 0;
+};
+
+struct SceneDesc {
+  std::string path;  // the scene file as given
+  std::string dir;   // its folder
+  CameraDesc camera;
+  FilmDesc film;
+  RenderDesc render;
+  std::vector<LightDesc> lights;
+  std::vector<MediumDesc> media;
+};
+
+// Parses and validates a scene file. Throws spectrack::Error.
+SceneDesc load_scene(const std::string& path);
+// Same, from JSON text; `name` stands for the file in messages, `dir` resolves relative paths.
+SceneDesc parse_scene(const std::string& json_text, const std::string& name, const std::string& dir);
+
+// Names of the enums (the one table, used by the scene loader, the CLI and the EXR metadata).
+const char* tracker_name(int tracker);
+const char* scheme_name(int scheme);
+// Return -1 for an unknown name.
+int tracker_from_name(const std::string& name);
+int scheme_from_name(const std::string& name);
+// "a, b, c" lists for messages.
+std::string tracker_names();
+std::string scheme_names();
+
+}  // namespace spectrack

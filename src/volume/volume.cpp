@@ -1,0 +1,720 @@
+// volume.cpp: VDB loading and majorant-grid construction.
+//
+// Design: every grid ends up as a NanoVDB float grid (OpenVDB grids are converted with
+// openToNanoVDB), and all checks that matter for rendering (level set, background, negative or
+// non-finite values, active bbox, value range) run once on that NanoVDB tree, so .vdb and .nvdb
+// files get the same messages. Files are treated as untrusted: OpenVDB exceptions of any kind
+// become spectrack::Error, and .nvdb files are parsed here rather than with nanovdb::io, whose
+// reader trusts every size in the file; each size is checked against the file length before
+// anything is allocated, compressed chunks (BLOSC, ZIP) are decoded through OpenVDB's own codecs
+// after checking their headers, and the decoded grid is validated (checksum, node pointers).
+// The majorant grid follows ALGORITHMS.md 7.2: cell boundaries sit on voxel centres, so a cell
+// of B voxels reads the (B+1)^3 voxels of its trilinear support.
+#include "volume/volume.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <climits>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <limits>
+#include <memory>
+#include <mutex>
+#include <sstream>
+
+#include <openvdb/io/Compression.h>
+#include <openvdb/openvdb.h>
+
+#include <nanovdb/NanoVDB.h>
+#include <nanovdb/util/GridValidator.h>
+#include <nanovdb/util/IO.h>
+#include <nanovdb/util/OpenToNanoVDB.h>
+
+namespace spectrack {
+namespace {
+
+namespace fs = std::filesystem;
+using FloatGrid = nanovdb::NanoGrid<float>;
+using Root = nanovdb::NanoRoot<float>;
+using Upper = nanovdb::NanoUpper<float>;
+using Lower = nanovdb::NanoLower<float>;
+using Leaf = nanovdb::NanoLeaf<float>;
+
+// Formats "<context>: <file>: <reason>" and throws.
+struct Fail {
+  std::string context, file;
+  [[noreturn]] void operator()(const std::string& reason) const {
+    std::string msg = context.empty() ? file : context + ": " + file;
+    throw Error(msg + ": " + reason);
+  }
+};
+
+void init_openvdb() {
+  static std::once_flag once;
+  std::call_once(once, [] { openvdb::initialize(); });
+}
+
+std::string lower_extension(const std::string& file) {
+  std::string ext = fs::path(file).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  return ext;
+}
+
+void check_readable(const std::string& file, const Fail& fail) {
+  std::error_code ec;
+  const fs::file_status st = fs::status(file, ec);
+  if (!fs::exists(st)) fail("no such file");
+  if (fs::is_directory(st)) fail("is a directory, not a VDB file");
+  std::ifstream f(file, std::ios::binary);
+  if (!f) fail(std::string("cannot open for reading: ") + std::strerror(errno));
+}
+
+std::string coord_str(int x, int y, int z) {
+  std::ostringstream s;
+  s << "(" << x << ", " << y << ", " << z << ")";
+  return s.str();
+}
+
+std::string in_quotes(const std::string& s) { return "\"" + s + "\""; }
+
+// One grid of a file, as listed before its tree is read.
+struct Entry {
+  std::string name;   // grid name ("" for unnamed)
+  std::string type;   // value type: float, int32, vec3s / Vec3f, ...
+  std::string cls;    // grid class in OpenVDB's words
+  bool is_float = false;
+  bool level_set = false;
+  std::string vdb_key;          // .vdb: unique name for io::File::readGrid
+  uint64_t nv_offset = 0;       // .nvdb: byte offset of the (possibly compressed) grid data
+  uint64_t nv_grid_size = 0, nv_file_size = 0;
+  uint16_t nv_codec = 0;
+};
+
+std::string describe(const Entry& e) {
+  return (e.name.empty() ? std::string("<unnamed>") : e.name) + " (" + e.type + ", " + e.cls + ")";
+}
+
+// ---- OpenVDB ----------------------------------------------------------------------------------
+
+std::vector<Entry> vdb_entries(openvdb::io::File& f) {
+  std::vector<Entry> out;
+  for (auto it = f.beginName(); it != f.endName(); ++it) out.push_back(Entry{});
+  // Both iterate the file's descriptor map, so they pair up one to one.
+  openvdb::GridPtrVecPtr metas = f.readAllGridMetadata();
+  if (!metas || metas->size() != out.size()) throw std::runtime_error("inconsistent grid descriptors");
+  size_t i = 0;
+  for (auto it = f.beginName(); it != f.endName(); ++it, ++i) {
+    const openvdb::GridBase::Ptr& g = (*metas)[i];
+    Entry& e = out[i];
+    e.vdb_key = it.gridName();
+    e.name = g->getName();
+    e.type = g->valueType();
+    e.cls = openvdb::GridBase::gridClassToString(g->getGridClass());
+    e.is_float = g->isType<openvdb::FloatGrid>();
+    e.level_set = g->getGridClass() == openvdb::GRID_LEVEL_SET;
+  }
+  return out;
+}
+
+std::unique_ptr<openvdb::io::File> vdb_open(const std::string& file) {
+  init_openvdb();
+  auto f = std::make_unique<openvdb::io::File>(file);
+  f->open(/*delayLoad=*/false);
+  return f;
+}
+
+// An empty tree whose file_bbox metadata claims active voxels means the data was lost.
+void check_file_bbox(const openvdb::GridBase& g, const Fail& fail) {
+  using openvdb::GridBase;
+  auto mn = g.getMetadata<openvdb::Vec3IMetadata>(GridBase::META_FILE_BBOX_MIN);
+  auto mx = g.getMetadata<openvdb::Vec3IMetadata>(GridBase::META_FILE_BBOX_MAX);
+  if (!mn || !mx) return;
+  const openvdb::Vec3i a = mn->value(), b = mx->value();
+  const bool meta_empty = a.x() > b.x() || a.y() > b.y() || a.z() > b.z();
+  const openvdb::CoordBBox box = g.evalActiveVoxelBoundingBox();
+  // OpenVDB marks an empty grid with the inverted box CoordBBox(); any other inverted box is damage.
+  const openvdb::CoordBBox marker;
+  if (meta_empty && (openvdb::Coord(a) != marker.min() || openvdb::Coord(b) != marker.max())) {
+    fail("corrupt grid " + in_quotes(g.getName()) + ": its file_bbox metadata " + coord_str(a.x(), a.y(), a.z()) +
+         " .. " + coord_str(b.x(), b.y(), b.z()) + " is inverted");
+  }
+  if (box.empty() && !meta_empty) {
+    fail("corrupt grid " + in_quotes(g.getName()) + ": its file_bbox metadata claims active voxels in " +
+         coord_str(a.x(), a.y(), a.z()) + " .. " + coord_str(b.x(), b.y(), b.z()) +
+         " but its tree is empty");
+  }
+  if (!box.empty() && (meta_empty || !openvdb::CoordBBox(openvdb::Coord(a), openvdb::Coord(b)).isInside(box))) {
+    std::cerr << "warning: " << fail.file << ": grid " << in_quotes(g.getName())
+              << ": file_bbox metadata does not contain the active voxels; using the tree\n";
+  }
+}
+
+// ---- NanoVDB files ----------------------------------------------------------------------------
+
+const char* nano_class_name(uint32_t c) {
+  static const char* names[] = {"unknown",  "level set",  "fog volume", "staggered", "point index",
+                                "point data", "topology", "voxel volume", "index"};
+  return c < sizeof(names) / sizeof(names[0]) ? names[c] : "invalid class";
+}
+
+std::string nano_type_name(uint32_t t) {
+  if (t < uint32_t(nanovdb::GridType::End)) return nanovdb::toStr(nanovdb::GridType(t));
+  return "invalid type " + std::to_string(t);
+}
+
+// Lists the grids of a .nvdb file, checking every size against the file length.
+std::vector<Entry> nvdb_entries(const std::string& file, const Fail& fail) {
+  std::ifstream is(file, std::ios::binary);
+  if (!is) fail(std::string("cannot open for reading: ") + std::strerror(errno));
+  const uint64_t fsize = fs::file_size(file);
+  std::vector<Entry> out;
+  uint64_t pos = 0;
+  while (pos < fsize) {
+    nanovdb::io::Header h;
+    if (fsize - pos < sizeof(h)) fail("truncated NanoVDB file (partial segment header at byte " + std::to_string(pos) + ")");
+    is.seekg(std::streamoff(pos));
+    is.read(reinterpret_cast<char*>(&h), sizeof(h));
+    if (!is) fail("read error in NanoVDB segment header");
+    if (h.magic != NANOVDB_MAGIC_NUMBER) {
+      if (pos == 0) fail("not a NanoVDB file (bad magic number), or written by an incompatible NanoVDB version");
+      fail("corrupt NanoVDB file: bad segment magic number at byte " + std::to_string(pos));
+    }
+    if (h.version.getMajor() != NANOVDB_MAJOR_VERSION_NUMBER) {
+      fail(std::string("written by NanoVDB ") + h.version.c_str() + ", but this build reads major version " +
+           std::to_string(NANOVDB_MAJOR_VERSION_NUMBER) + " only");
+    }
+    if (h.gridCount == 0) fail("corrupt NanoVDB file: segment with no grids at byte " + std::to_string(pos));
+    const uint16_t codec = uint16_t(h.codec);
+    if (codec > uint16_t(nanovdb::io::Codec::BLOSC)) fail("corrupt NanoVDB file: unknown codec " + std::to_string(codec));
+    pos += sizeof(h);
+    std::vector<Entry> seg;
+    for (uint32_t i = 0; i < h.gridCount; ++i) {
+      nanovdb::io::MetaData m;
+      if (fsize - pos < sizeof(m)) fail("truncated NanoVDB file (partial grid header)");
+      is.read(reinterpret_cast<char*>(&m), sizeof(m));
+      pos += sizeof(m);
+      if (!is || m.nameSize == 0 || m.nameSize > fsize - pos || m.nameSize > (1u << 20)) {
+        fail("corrupt NanoVDB file: bad grid header");
+      }
+      std::string name(m.nameSize, '\0');
+      is.read(&name[0], m.nameSize);
+      pos += m.nameSize;
+      if (!is || name.back() != '\0') fail("corrupt NanoVDB file: unterminated grid name");
+      Entry e;
+      e.name = name.c_str();
+      e.type = nano_type_name(uint32_t(m.gridType));
+      e.cls = nano_class_name(uint32_t(m.gridClass));
+      e.is_float = m.gridType == nanovdb::GridType::Float;
+      e.level_set = m.gridClass == nanovdb::GridClass::LevelSet;
+      e.nv_grid_size = m.gridSize;
+      e.nv_file_size = m.fileSize;
+      e.nv_codec = codec;
+      seg.push_back(e);
+    }
+    for (Entry& e : seg) {
+      if (e.nv_file_size > fsize - pos) fail("truncated NanoVDB file (grid " + in_quotes(e.name) + " data runs past the end)");
+      e.nv_offset = pos;
+      pos += e.nv_file_size;
+      out.push_back(e);
+    }
+  }
+  if (out.empty()) fail("empty NanoVDB file (no grids)");
+  return out;
+}
+
+// Checks a blosc chunk header (16 bytes: version, versionlz, flags, typesize, nbytes, blocksize,
+// cbytes) so that blosc never reads past the chunk or writes past the expected size.
+void check_blosc_header(const char* p, uint64_t csize, uint64_t expect, const Fail& fail) {
+  uint32_t nbytes, cbytes;
+  std::memcpy(&nbytes, p + 4, 4);
+  std::memcpy(&cbytes, p + 12, 4);
+  if (csize < 16 || cbytes != csize || nbytes != expect) fail("corrupt NanoVDB file: bad BLOSC chunk header");
+}
+
+// Checks that the tree, the root tile table and the node arrays lie inside the grid buffer
+// before anything (NanoVDB's checksum and validator included) follows offsets from the file.
+void check_layout(const FloatGrid& g, const Fail& fail) {
+  const char* begin = reinterpret_cast<const char*>(&g);
+  const uint64_t size = g.gridSize();
+  auto within = [&](const void* p, uint64_t n) {
+    const char* c = reinterpret_cast<const char*>(p);
+    return c >= begin && uint64_t(c - begin) <= size && n <= size - uint64_t(c - begin);
+  };
+  const auto& tree = g.tree();
+  const auto* td = reinterpret_cast<const nanovdb::TreeData<3>*>(&tree);
+  bool ok = reinterpret_cast<const char*>(&tree) == begin + sizeof(nanovdb::GridData) && within(&tree, sizeof(*td));
+  ok = ok && td->mNodeOffset[3] < size && within(&tree.root(), sizeof(nanovdb::RootData<Upper>));
+  ok = ok && within(&tree.root(), tree.root().memUsage());
+  const uint64_t node_size[3] = {sizeof(Leaf), sizeof(Lower), sizeof(Upper)};
+  for (int level = 0; ok && level < 3; ++level) {
+    const uint64_t n = td->mNodeCount[level];
+    if (n == 0) continue;
+    ok = td->mNodeOffset[level] < size && n <= size / node_size[level] &&
+         within(reinterpret_cast<const char*>(td) + td->mNodeOffset[level], n * node_size[level]);
+  }
+  if (!ok) fail("corrupt NanoVDB grid (tree layout outside the grid buffer)");
+}
+
+nanovdb::GridHandle<nanovdb::HostBuffer> nvdb_read(const std::string& file, const Entry& e, const Fail& fail) {
+  using nanovdb::io::Codec;
+  const uint64_t gsize = e.nv_grid_size, csize = e.nv_file_size;
+  if (gsize < sizeof(nanovdb::GridData) + sizeof(nanovdb::NanoTree<float>) || gsize % NANOVDB_DATA_ALIGNMENT) {
+    fail("corrupt NanoVDB file: implausible grid size " + std::to_string(gsize));
+  }
+  // Neither codec expands data more than ~1000:1 on real grids; this bounds the allocation.
+  const bool plausible = e.nv_codec == uint16_t(Codec::NONE) ? gsize == csize : gsize <= csize * 1024 + (1u << 20);
+  if (!plausible) fail("corrupt NanoVDB file: grid size " + std::to_string(gsize) + " does not match its " +
+                       std::to_string(csize) + " bytes on disk");
+  std::ifstream is(file, std::ios::binary);
+  is.seekg(std::streamoff(e.nv_offset));
+  nanovdb::HostBuffer buf = nanovdb::HostBuffer::create(gsize);
+  char* dst = reinterpret_cast<char*>(buf.data());
+  if (e.nv_codec == uint16_t(Codec::NONE)) {
+    is.read(dst, std::streamsize(gsize));
+    if (!is) fail("read error in NanoVDB grid data");
+  } else {
+    // Each chunk is a uint64 byte count and the payload, as OpenVDB's codecs expect; BLOSC
+    // data comes in chunks of at most nanovdb::io::Internal::MAX_SIZE decoded bytes, ZIP in one.
+    std::vector<char> chunk;
+    uint64_t left = gsize, disk_left = csize;
+    while (left > 0) {
+      const uint64_t expect = e.nv_codec == uint16_t(Codec::BLOSC) ? std::min<uint64_t>(left, nanovdb::io::Internal::MAX_SIZE) : left;
+      uint64_t n = 0;
+      if (disk_left < 8) fail("truncated NanoVDB grid data");
+      is.read(reinterpret_cast<char*>(&n), 8);
+      disk_left -= 8;
+      if (!is || n == 0 || n > disk_left) fail("corrupt NanoVDB file: bad compressed chunk size");
+      chunk.resize(8 + n);
+      std::memcpy(chunk.data(), &n, 8);
+      is.read(chunk.data() + 8, std::streamsize(n));
+      if (!is) fail("read error in NanoVDB grid data");
+      disk_left -= n;
+      std::istringstream cs(std::string(chunk.data(), chunk.size()));
+      try {
+        if (e.nv_codec == uint16_t(Codec::BLOSC)) {
+          check_blosc_header(chunk.data() + 8, n, expect, fail);
+          openvdb::io::bloscFromStream(cs, dst, expect);
+        } else {
+          openvdb::io::unzipFromStream(cs, dst, expect);
+        }
+      } catch (const openvdb::IoError& err) {
+        const char* codec = e.nv_codec == uint16_t(Codec::BLOSC) ? "BLOSC" : "ZIP";
+        fail(std::string(codec) + "-compressed NanoVDB grid, but this build cannot decode " + codec + " (" +
+             err.what() + "); re-save the file uncompressed, e.g. nanovdb_convert without a codec");
+      }
+      dst += expect;
+      left -= expect;
+    }
+  }
+  auto* gd = reinterpret_cast<const nanovdb::GridData*>(buf.data());
+  // GridHandle::grid() walks mGridIndex grids forward, so only index 0 is safe to look up.
+  if (gd->mMagic != NANOVDB_MAGIC_NUMBER || gd->mGridSize != gsize || gd->mGridIndex != 0 || gd->mGridCount < 1) {
+    fail("corrupt NanoVDB grid (bad grid header)");
+  }
+  nanovdb::GridHandle<nanovdb::HostBuffer> handle(std::move(buf));
+  const FloatGrid* g = handle.grid<float>();
+  if (!g) fail("grid " + in_quotes(e.name) + " is not a float grid");
+  check_layout(*g, fail);
+  return handle;
+}
+
+// ---- checks on the NanoVDB tree ---------------------------------------------------------------
+
+// Active bbox, value range and the first bad (negative or non-finite) active value.
+struct Scan {
+  int lo[3] = {INT_MAX, INT_MAX, INT_MAX}, hi[3] = {INT_MIN, INT_MIN, INT_MIN};
+  float vmin = std::numeric_limits<float>::infinity(), vmax = -std::numeric_limits<float>::infinity();
+  uint64_t bad_order = UINT64_MAX;  // smallest wins, so the report does not depend on threads
+  float bad_value = 0;
+  nanovdb::Coord bad_ijk;
+  int bad_width = 0;
+  uint64_t voxels = 0;  // active voxels, tiles counted by volume
+
+  void add(const nanovdb::Coord& ijk, int width, float v, uint64_t order) {
+    voxels += uint64_t(width) * uint64_t(width) * uint64_t(width);
+    if (!(v >= 0.0f) || !std::isfinite(v)) {
+      if (order < bad_order) { bad_order = order; bad_value = v; bad_ijk = ijk; bad_width = width; }
+      return;
+    }
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], ijk[a]);
+      hi[a] = std::max(hi[a], ijk[a] + (width - 1));
+    }
+    vmin = std::min(vmin, v);
+    vmax = std::max(vmax, v);
+  }
+  void merge(const Scan& o) {
+    voxels += o.voxels;
+    for (int a = 0; a < 3; ++a) { lo[a] = std::min(lo[a], o.lo[a]); hi[a] = std::max(hi[a], o.hi[a]); }
+    vmin = std::min(vmin, o.vmin);
+    vmax = std::max(vmax, o.vmax);
+    if (o.bad_order < bad_order) { bad_order = o.bad_order; bad_value = o.bad_value; bad_ijk = o.bad_ijk; bad_width = o.bad_width; }
+  }
+};
+
+// Walks the tree through child pointers, checking that each lies inside the grid buffer.
+Scan scan_tree(const FloatGrid& g, const Fail& fail) {
+  const char* begin = reinterpret_cast<const char*>(&g);
+  const char* end = begin + g.gridSize();
+  auto inside = [&](const void* p, size_t n) {
+    const char* c = reinterpret_cast<const char*>(p);
+    return c >= begin && c + n <= end;
+  };
+  Scan tiles;
+  std::vector<const Leaf*> leaves;
+  const Root& root = g.tree().root();
+  uint64_t order = uint64_t(1) << 62;
+  for (uint32_t i = 0; i < root.tileCount(); ++i) {
+    const auto* t = root.data()->tile(i);
+    if (!t->isChild()) {
+      if (t->isActive()) tiles.add(t->origin(), Upper::DIM, t->value, order++);
+      continue;
+    }
+    const Upper* u = root.data()->getChild(t);
+    if (!inside(u, sizeof(Upper))) fail("corrupt NanoVDB grid (node pointer outside the grid)");
+    for (uint32_t n = 0; n < Upper::SIZE; ++n) {
+      if (!u->data()->isChild(n)) {
+        if (u->data()->isActive(n)) tiles.add(u->offsetToGlobalCoord(n), Lower::DIM, u->data()->getValue(n), order++);
+        continue;
+      }
+      const Lower* l = u->data()->getChild(n);
+      if (!inside(l, sizeof(Lower))) fail("corrupt NanoVDB grid (node pointer outside the grid)");
+      for (uint32_t m = 0; m < Lower::SIZE; ++m) {
+        if (!l->data()->isChild(m)) {
+          if (l->data()->isActive(m)) tiles.add(l->offsetToGlobalCoord(m), Leaf::DIM, l->data()->getValue(m), order++);
+          continue;
+        }
+        const Leaf* leaf = l->data()->getChild(m);
+        if (!inside(leaf, sizeof(Leaf))) fail("corrupt NanoVDB grid (node pointer outside the grid)");
+        leaves.push_back(leaf);
+      }
+    }
+  }
+  Scan s = tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, leaves.size(), 64), Scan{},
+      [&](const tbb::blocked_range<size_t>& r, Scan acc) {
+        for (size_t i = r.begin(); i != r.end(); ++i) {
+          const Leaf& leaf = *leaves[i];
+          for (auto it = leaf.valueMask().beginOn(); it; ++it) {
+            acc.add(leaf.offsetToGlobalCoord(*it), 1, leaf.getValue(*it), uint64_t(i) * Leaf::SIZE + *it);
+          }
+        }
+        return acc;
+      },
+      [](Scan a, const Scan& b) { a.merge(b); return a; });
+  s.merge(tiles);
+  return s;
+}
+
+std::string value_str(float v) {
+  std::ostringstream s;
+  s.precision(9);
+  s << v;
+  return s.str();
+}
+
+// Fills GridData from a validated NanoVDB float grid: refuses level sets, non-zero
+// backgrounds, degenerate maps and negative or non-finite active values.
+void finish(GridData& out, const Fail& fail, bool untrusted) {
+  const FloatGrid* g = out.handle.grid<float>();
+  if (!g) fail("grid " + in_quotes(out.name) + " is not a float grid");
+  const std::string gname = in_quotes(out.name);
+  if (g->gridClass() == nanovdb::GridClass::LevelSet) {
+    fail("grid " + gname + " is a level set (signed distance field), not a fog volume; convert it to a fog "
+         "volume (density) grid first");
+  }
+  const float bg = g->tree().background();
+  if (bg != 0.0f) {
+    fail("grid " + gname + " has background value " + value_str(bg) +
+         "; inactive voxels must read 0 density (background must be 0)");
+  }
+  const nanovdb::Map& map = g->map();
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) out.index_to_world[r][c] = map.mMatD[3 * r + c];
+    out.index_to_world[r][3] = map.mVecD[r];
+  }
+  const double(*m)[4] = out.index_to_world;
+  const double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+                     m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                     m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+  bool finite = std::isfinite(det);
+  for (int r = 0; r < 3; ++r) for (int c = 0; c < 4; ++c) finite = finite && std::isfinite(m[r][c]);
+  if (!finite || std::abs(det) < 1e-300) fail("grid " + gname + " has a singular or non-finite index-to-world transform");
+
+  const Scan s = scan_tree(*g, fail);
+  if (untrusted) {
+    // Checksum (a full one where the writer stored it) and node pointers.
+    const std::string why = nanovdb::GridValidator<float>::check(*g, /*detailed=*/true);
+    if (!why.empty()) fail("corrupt NanoVDB grid " + gname + ": " + why);
+    // Nodes below the root are outside a partial checksum; the writer's voxel count and bbox
+    // catch a flipped mask bit or a moved node, which could otherwise claim a huge bbox.
+    const auto& stored = g->tree().root().bbox();
+    const bool stored_empty = stored[0][0] > stored[1][0];
+    bool same_box = true;
+    for (int a = 0; a < 3 && !stored_empty && s.lo[0] <= s.hi[0]; ++a) {
+      same_box = same_box && stored[0][a] == s.lo[a] && stored[1][a] == s.hi[a];
+    }
+    if (s.bad_order == UINT64_MAX && (g->activeVoxelCount() != s.voxels || !same_box)) {
+      fail("corrupt NanoVDB grid " + gname + ": its active voxels (" + std::to_string(s.voxels) +
+           ") disagree with the count or bounding box stored in the grid (" +
+           std::to_string(g->activeVoxelCount()) + ")");
+    }
+  }
+  if (s.bad_order != UINT64_MAX) {
+    const nanovdb::Coord& p = s.bad_ijk;
+    std::string where = s.bad_width == 1
+                            ? "active voxel " + coord_str(p[0], p[1], p[2])
+                            : "active tile " + coord_str(p[0], p[1], p[2]) + " .. " +
+                                  coord_str(p[0] + s.bad_width - 1, p[1] + s.bad_width - 1, p[2] + s.bad_width - 1);
+    const char* what = std::isfinite(s.bad_value) ? "is negative (densities must be >= 0)" : "is not finite";
+    fail("grid " + gname + ": value " + value_str(s.bad_value) + " at " + where + " " + what);
+  }
+  out.empty = s.lo[0] > s.hi[0];
+  if (out.empty) {
+    out.index_min = {0, 0, 0};
+    out.index_max = {-1, -1, -1};
+    out.value_min = out.value_max = 0;
+  } else {
+    out.index_min = {s.lo[0], s.lo[1], s.lo[2]};
+    out.index_max = {s.hi[0], s.hi[1], s.hi[2]};
+    out.value_min = s.vmin;
+    out.value_max = s.vmax;
+  }
+}
+
+// Picks the grid to load: by name and index, or the single unnamed float grid as a fallback.
+const Entry& select(const std::vector<Entry>& entries, const std::string& grid_name, int grid_index,
+                    const Fail& fail) {
+  std::vector<const Entry*> hits;
+  for (const Entry& e : entries) if (e.name == grid_name) hits.push_back(&e);
+  if (hits.empty()) {
+    std::vector<const Entry*> unnamed;
+    for (const Entry& e : entries) if (e.name.empty() && e.is_float) unnamed.push_back(&e);
+    int floats = 0;
+    for (const Entry& e : entries) floats += e.is_float;
+    if (!grid_name.empty() && unnamed.size() == 1 && floats == 1 && grid_index <= 0) {
+      std::cerr << "warning: " << (fail.context.empty() ? "" : fail.context + ": ") << fail.file << ": no grid named "
+                << in_quotes(grid_name) << "; using the file's only float grid, which has no name\n";
+      return *unnamed[0];
+    }
+    std::string list;
+    for (const Entry& e : entries) list += (list.empty() ? "" : ", ") + describe(e);
+    fail("no grid named " + in_quotes(grid_name) + "; the file has " + (list.empty() ? std::string("no grids") : list));
+  }
+  if (grid_index >= 0) {
+    if (size_t(grid_index) >= hits.size()) {
+      fail("grid_index " + std::to_string(grid_index) + " is out of range: the file has " +
+           std::to_string(hits.size()) + " grid(s) named " + in_quotes(grid_name));
+    }
+    return *hits[size_t(grid_index)];
+  }
+  if (hits.size() > 1) {
+    std::cerr << "warning: " << (fail.context.empty() ? "" : fail.context + ": ") << fail.file << ": "
+              << hits.size() << " grids are named " << in_quotes(grid_name)
+              << "; using the first (set grid_index to select another, 0-based)\n";
+  }
+  return *hits[0];
+}
+
+void check_entry(const Entry& e, const Fail& fail) {
+  if (!e.is_float) {
+    fail("grid " + in_quotes(e.name) + " has value type " + e.type + " (class " + e.cls +
+         "); only scalar float density grids are supported");
+  }
+  if (e.level_set) {
+    fail("grid " + in_quotes(e.name) + " is a level set (signed distance field), not a fog volume; convert it to a "
+         "fog volume (density) grid first");
+  }
+}
+
+GridData load_vdb(const std::string& file, const std::string& grid_name, int grid_index, const Fail& fail) {
+  GridData out;
+  out.file = file;
+  openvdb::FloatGrid::Ptr grid;
+  try {
+    auto f = vdb_open(file);
+    const std::vector<Entry> entries = vdb_entries(*f);
+    const Entry& e = select(entries, grid_name, grid_index, fail);
+    check_entry(e, fail);
+    out.name = e.name;
+    grid = openvdb::gridPtrCast<openvdb::FloatGrid>(f->readGrid(e.vdb_key));
+    f->close();
+    if (!grid) fail("grid " + in_quotes(e.name) + " could not be read as a float grid");
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& ex) {
+    fail(std::string("cannot read OpenVDB file (corrupt or truncated?): ") + ex.what());
+  }
+  const std::string gname = in_quotes(out.name);
+  if (!grid->transform().isLinear()) {
+    fail("grid " + gname + " has a non-affine (" + grid->transform().mapType() +
+         ", e.g. frustum) transform; only affine index-to-world maps are supported");
+  }
+  if (grid->background() != 0.0f) {
+    fail("grid " + gname + " has background value " + value_str(grid->background()) +
+         "; inactive voxels must read 0 density (background must be 0)");
+  }
+  check_file_bbox(*grid, fail);
+  try {
+    out.handle = nanovdb::openToNanoVDB(*grid);
+  } catch (const std::exception& ex) {
+    fail("cannot convert grid " + gname + " to NanoVDB: " + ex.what());
+  }
+  finish(out, fail, false);
+  // The OpenVDB map is the source of truth; NanoVDB's copy is the same affine map.
+  const openvdb::math::Mat4d mat = grid->transform().baseMap()->getAffineMap()->getMat4();
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) out.index_to_world[r][c] = mat(c, r);
+    out.index_to_world[r][3] = mat(3, r);
+  }
+  return out;
+}
+
+GridData load_nvdb(const std::string& file, const std::string& grid_name, int grid_index, const Fail& fail) {
+  GridData out;
+  out.file = file;
+  try {
+    const std::vector<Entry> entries = nvdb_entries(file, fail);
+    const Entry& e = select(entries, grid_name, grid_index, fail);
+    check_entry(e, fail);
+    out.name = e.name;
+    out.handle = nvdb_read(file, e, fail);
+  } catch (const Error&) {
+    throw;
+  } catch (const std::bad_alloc&) {
+    fail("out of memory reading NanoVDB grid");
+  } catch (const std::exception& ex) {
+    fail(std::string("cannot read NanoVDB file (corrupt or truncated?): ") + ex.what());
+  }
+  finish(out, fail, true);
+  return out;
+}
+
+}  // namespace
+
+GridData load_float_grid(const std::string& file, const std::string& grid_name, int grid_index,
+                         const std::string& context) {
+  const Fail fail{context, file};
+  const std::string ext = lower_extension(file);
+  if (ext != ".vdb" && ext != ".nvdb") fail("unknown volume file extension " + in_quotes(ext) + " (expected .vdb or .nvdb)");
+  check_readable(file, fail);
+  return ext == ".vdb" ? load_vdb(file, grid_name, grid_index, fail) : load_nvdb(file, grid_name, grid_index, fail);
+}
+
+std::vector<std::string> list_grids(const std::string& file) {
+  const Fail fail{"", file};
+  const std::string ext = lower_extension(file);
+  if (ext != ".vdb" && ext != ".nvdb") fail("unknown volume file extension " + in_quotes(ext) + " (expected .vdb or .nvdb)");
+  check_readable(file, fail);
+  std::vector<Entry> entries;
+  try {
+    entries = ext == ".vdb" ? vdb_entries(*vdb_open(file)) : nvdb_entries(file, fail);
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& ex) {
+    fail(std::string("cannot read file (corrupt or truncated?): ") + ex.what());
+  }
+  std::vector<std::string> out;
+  for (const Entry& e : entries) out.push_back(describe(e));
+  return out;
+}
+
+// Each cell walks the 8^3 leaf-aligned blocks that meet its support: a leaf contributes the
+// voxels inside the support, a block without a leaf (a tile or background) its one constant
+// value. The cost is thus about (1 + 1/cell)^3 reads per voxel of allocated leaves plus a probe
+// per empty block; the Disney cloud (16x11x20 cells) takes a few ms. A grid with huge active
+// tiles still costs one probe per 8^3 block of its bbox (512^3 cells for a root tile at cell 8),
+// where a two-level grid (ALGORITHMS.md 7.1) would be the fix.
+MajorantGrid build_majorant_grid(const GridData& grid, int cell) {
+  if (cell < 1) throw Error("build_majorant_grid: cell size must be >= 1, got " + std::to_string(cell));
+  MajorantGrid mg;
+  mg.cell = cell;
+  const FloatGrid* g = grid.handle.grid<float>();
+  if (grid.empty || !g) {
+    mg.origin = {grid.index_min[0] - 1, grid.index_min[1] - 1, grid.index_min[2] - 1};
+    mg.dims = {1, 1, 1};
+    mg.dmax.assign(1, 0.0f);
+    mg.dmin.assign(1, 0.0f);
+    return mg;
+  }
+  for (int a = 0; a < 3; ++a) {
+    mg.origin[a] = grid.index_min[a] - 1;
+    const int64_t span = int64_t(grid.index_max[a]) - grid.index_min[a] + 2;
+    mg.dims[a] = int(std::max<int64_t>(1, (span + cell - 1) / cell));
+  }
+  const double cells = double(mg.dims[0]) * mg.dims[1] * mg.dims[2];
+  if (cells > double(1 << 27)) {
+    throw Error(grid.file + ": grid " + in_quotes(grid.name) + ": its active bounding box " +
+                coord_str(grid.index_min[0], grid.index_min[1], grid.index_min[2]) + " .. " +
+                coord_str(grid.index_max[0], grid.index_max[1], grid.index_max[2]) + " needs " +
+                std::to_string(uint64_t(cells)) + " majorant cells of " + std::to_string(cell) +
+                " voxels; use a larger cell size");
+  }
+  const size_t n = size_t(cells);
+  mg.dmax.assign(n, 0.0f);
+  mg.dmin.assign(n, 0.0f);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16), [&](const tbb::blocked_range<size_t>& r) {
+    auto acc = g->getAccessor();
+    for (size_t idx = r.begin(); idx != r.end(); ++idx) {
+      const int cx = int(idx % size_t(mg.dims[0]));
+      const int cy = int((idx / size_t(mg.dims[0])) % size_t(mg.dims[1]));
+      const int cz = int(idx / (size_t(mg.dims[0]) * size_t(mg.dims[1])));
+      const int x0 = mg.origin[0] + cx * cell, y0 = mg.origin[1] + cy * cell, z0 = mg.origin[2] + cz * cell;
+      float hi = -std::numeric_limits<float>::infinity(), lo = std::numeric_limits<float>::infinity();
+      const int x1 = x0 + cell, y1 = y0 + cell, z1 = z0 + cell;
+      for (int bz = z0 & ~7; bz <= z1; bz += 8)
+        for (int by = y0 & ~7; by <= y1; by += 8)
+          for (int bx = x0 & ~7; bx <= x1; bx += 8) {
+            const nanovdb::Coord block(bx, by, bz);
+            const Leaf* leaf = acc.probeLeaf(block);
+            if (!leaf) {
+              const float v = acc.getValue(block);
+              hi = std::max(hi, v);
+              lo = std::min(lo, v);
+              continue;
+            }
+            for (int z = std::max(z0, bz); z <= std::min(z1, bz + 7); ++z)
+              for (int y = std::max(y0, by); y <= std::min(y1, by + 7); ++y)
+                for (int x = std::max(x0, bx); x <= std::min(x1, bx + 7); ++x) {
+                  const float v = leaf->getValue(nanovdb::Coord(x, y, z));
+                  hi = std::max(hi, v);
+                  lo = std::min(lo, v);
+                }
+          }
+      // Float rounding of the interpolation can exceed the corner values by a few ulps.
+      hi = hi * (1.0f + 1e-5f);
+      if (hi > 0.0f) hi += 1e-30f;
+      mg.dmax[idx] = hi;
+      mg.dmin[idx] = lo * (1.0f - 1e-5f);
+    }
+  });
+  return mg;
+}
+
+float sample_index_trilinear(const GridData& grid, double x, double y, double z) {
+  const FloatGrid* g = grid.handle.grid<float>();
+  if (!g) return 0.0f;
+  auto acc = g->getAccessor();
+  const double fx = std::floor(x), fy = std::floor(y), fz = std::floor(z);
+  const double tx = x - fx, ty = y - fy, tz = z - fz;
+  const int ix = int(fx), iy = int(fy), iz = int(fz);
+  double c[2][2][2];
+  for (int k = 0; k < 2; ++k)
+    for (int j = 0; j < 2; ++j)
+      for (int i = 0; i < 2; ++i) c[k][j][i] = acc.getValue(nanovdb::Coord(ix + i, iy + j, iz + k));
+  double e[2][2];
+  for (int k = 0; k < 2; ++k)
+    for (int j = 0; j < 2; ++j) e[k][j] = c[k][j][0] + tx * (c[k][j][1] - c[k][j][0]);
+  const double f0 = e[0][0] + ty * (e[0][1] - e[0][0]);
+  const double f1 = e[1][0] + ty * (e[1][1] - e[1][0]);
+  return float(f0 + tz * (f1 - f0));
+}
+
+}  // namespace spectrack

@@ -1,0 +1,60 @@
+// volume.h: loading density/emission grids from OpenVDB (.vdb) and NanoVDB (.nvdb) files into
+// NanoVDB float grids for the device, and building the sparse majorant/minorant grid.
+//
+// Conventions (shared with kernels/medium.h): values sit at integer index coordinates; the
+// density at a continuous index point p is the trilinear interpolation of the 8 voxels
+// floor(p) .. floor(p)+1 (inactive voxels read the background, which must be 0). So the density
+// can be non-zero only inside (index_min - 1, index_max + 1). The majorant grid covers the box
+// [origin, origin + dims * cell) with origin = index_min - 1; cell (i,j,k) spans
+// [origin + (i,j,k)*cell, origin + (i,j,k)*cell + cell) and stores the max and min over its
+// trilinear support, voxels origin + c*cell ... origin + (c+1)*cell inclusive on each axis
+// (ALGORITHMS.md 7.2), so dmin <= density(p) <= dmax for every p in the cell.
+#pragma once
+#include <array>
+#include <string>
+#include <vector>
+
+#include <nanovdb/util/GridHandle.h>
+
+#include "util/error.h"
+
+namespace spectrack {
+
+struct GridData {
+  std::string file;  // as opened
+  std::string name;  // grid name in the file
+  nanovdb::GridHandle<nanovdb::HostBuffer> handle;  // one float grid
+  std::array<int, 3> index_min{0, 0, 0};  // active-value index bbox, inclusive
+  std::array<int, 3> index_max{-1, -1, -1};
+  bool empty = true;                      // no active values
+  double index_to_world[3][4] = {};       // the file's own affine index->world map
+  float value_min = 0, value_max = 0;     // over active values
+};
+
+// Loads float grid `grid_name` (index `grid_index` among grids of that name, or the first one
+// with a warning on stderr when several share the name and grid_index < 0) from a .vdb or .nvdb
+// file. `context` prefixes messages (e.g. "scene.json: /media/0"). Throws spectrack::Error for a
+// missing/unreadable/corrupt file, a missing grid (listing the grids present), a non-float grid,
+// a level set, a non-affine transform, a non-zero background, and negative or NaN values.
+GridData load_float_grid(const std::string& file, const std::string& grid_name, int grid_index,
+                         const std::string& context);
+
+// Names and types of the grids in a file, "name (type, class)" each, for messages and `info`.
+std::vector<std::string> list_grids(const std::string& file);
+
+struct MajorantGrid {
+  std::array<int, 3> origin{0, 0, 0};  // index-space origin (= index_min - 1)
+  std::array<int, 3> dims{1, 1, 1};    // cells per axis
+  int cell = 8;                        // voxels per cell edge
+  std::vector<float> dmax, dmin;       // x fastest, then y, then z
+};
+
+// Builds the majorant grid of `grid` with `cell` voxels per cell edge. dmax is inflated by a
+// relative 1e-5 (float rounding of the interpolation), dmin deflated likewise. An empty grid
+// gives a single cell with dmax = dmin = 0.
+MajorantGrid build_majorant_grid(const GridData& grid, int cell = 8);
+
+// Host-side trilinear density at a continuous index point (the reference for device lookups).
+float sample_index_trilinear(const GridData& grid, double x, double y, double z);
+
+}  // namespace spectrack

@@ -1,0 +1,564 @@
+// test_cli.cpp: the `spectrack` command line, run as a real process (SPECTRACK_BINARY).
+//
+// Design: every test writes a small scene into its own temporary folder, runs the binary with
+// fork+exec (stdout and stderr merged into one pipe, stdin from /dev/null, a wall-clock limit
+// after which the child is killed) and checks the exit status and the message. Errors must exit
+// with the documented code (1 for user-facing errors, 2 for a bad command line, 130 when
+// interrupted), never die of a signal, and name the scene file, the JSON path and a reason
+// keyword, so each check pins down where the program looked, not just that it failed. Scenes use
+// the `spectral` tracker (the default, spectral-decomposition, is refused until it lands).
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <OpenImageIO/imageio.h>
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "test_util.h"
+
+#ifndef SPECTRACK_BINARY
+#error "SPECTRACK_BINARY must be defined (the path of the spectrack executable)"
+#endif
+#ifndef SHARED_DATA_DIR
+#error "SHARED_DATA_DIR must be defined (../shared/data/vdb)"
+#endif
+
+namespace {
+
+using json = nlohmann::json;
+using testing::HasSubstr;
+using testing::Not;
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+const std::string kBinary = SPECTRACK_BINARY;
+const std::string kShared = SHARED_DATA_DIR;
+
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// ---- running the binary ------------------------------------------------------------------------
+
+struct RunOptions {
+  double timeout_s = 60.0;  // the child is killed (SIGKILL) after this long
+  // Optional: send `signal` `signal_delay_s` seconds after `signal_after_text` first appears in
+  // the output (immediately counted from the start when the text is empty).
+  int signal = 0;
+  std::string signal_after_text;
+  double signal_delay_s = 0.0;
+};
+
+struct Proc {
+  std::vector<std::string> args;
+  std::string out;  // stdout and stderr, interleaved as written
+  bool exited = false, signaled = false, timed_out = false, signal_sent = false;
+  int code = -1, sig = 0;
+  double seconds = 0.0;              // from fork to exit
+  double seconds_after_signal = -1;  // from our signal to exit
+
+  // For failure messages: the command, how it ended and what it printed.
+  std::string describe() const {
+    std::ostringstream s;
+    s << "command:";
+    for (auto& a : args) s << " '" << a << "'";
+    s << "\nended: ";
+    if (timed_out) s << "TIMED OUT (killed) ";
+    if (exited) s << "exit code " << code;
+    if (signaled) s << "killed by signal " << sig << " (" << strsignal(sig) << ")";
+    s << " after " << seconds << " s\noutput:\n" << out;
+    return s.str();
+  }
+};
+
+Proc run(std::vector<std::string> args, const RunOptions& o = {}) {
+  Proc p;
+  args.insert(args.begin(), kBinary);
+  p.args = args;
+  int fd[2];
+  if (::pipe2(fd, O_CLOEXEC) != 0) {
+    ADD_FAILURE() << "pipe2: " << std::strerror(errno);
+    return p;
+  }
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  const auto t0 = Clock::now();
+  pid_t pid = ::fork();
+  if (pid < 0) {
+    ADD_FAILURE() << "fork: " << std::strerror(errno);
+    ::close(fd[0]);
+    ::close(fd[1]);
+    return p;
+  }
+  if (pid == 0) {
+    // Child: a clean signal state (the test runner may ignore or block SIGINT), output to the pipe.
+    ::signal(SIGINT, SIG_DFL);
+    ::signal(SIGTERM, SIG_DFL);
+    ::signal(SIGPIPE, SIG_DFL);
+    sigset_t none;
+    sigemptyset(&none);
+    ::sigprocmask(SIG_SETMASK, &none, nullptr);
+    int devnull = ::open("/dev/null", O_RDONLY);
+    if (devnull >= 0) ::dup2(devnull, 0);
+    ::dup2(fd[1], 1);
+    ::dup2(fd[1], 2);
+    ::execv(argv[0], argv.data());
+    const char msg[] = "test_cli: execv failed\n";
+    (void)!::write(2, msg, sizeof(msg) - 1);
+    ::_exit(127);
+  }
+  ::close(fd[1]);
+  bool eof = false;
+  double text_seen_at = o.signal_after_text.empty() ? 0.0 : -1.0;
+  Clock::time_point signal_time;
+  int status = 0;
+  for (;;) {
+    if (!eof) {
+      pollfd pfd{fd[0], POLLIN, 0};
+      int n = ::poll(&pfd, 1, 20);
+      if (n > 0) {
+        char buf[4096];
+        ssize_t got = ::read(fd[0], buf, sizeof(buf));
+        if (got > 0) p.out.append(buf, size_t(got));
+        else if (got == 0 || (errno != EINTR && errno != EAGAIN)) eof = true;
+      }
+    } else {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    pid_t w = ::waitpid(pid, &status, WNOHANG);
+    if (w == pid) break;
+    const double t = since(t0);
+    if (o.signal && !p.signal_sent) {
+      if (text_seen_at < 0 && p.out.find(o.signal_after_text) != std::string::npos) text_seen_at = t;
+      if (text_seen_at >= 0 && t >= text_seen_at + o.signal_delay_s) {
+        ::kill(pid, o.signal);
+        p.signal_sent = true;
+        signal_time = Clock::now();
+      }
+    }
+    if (t > o.timeout_s) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &status, 0);
+      p.timed_out = true;
+      break;
+    }
+  }
+  p.seconds = since(t0);
+  if (p.signal_sent) p.seconds_after_signal = since(signal_time);
+  // Whatever is still in the pipe (the child has exited, so this ends).
+  for (;;) {
+    char buf[4096];
+    ssize_t got = ::read(fd[0], buf, sizeof(buf));
+    if (got > 0) p.out.append(buf, size_t(got));
+    else if (got < 0 && errno == EINTR) continue;
+    else break;
+  }
+  ::close(fd[0]);
+  p.exited = WIFEXITED(status);
+  p.code = p.exited ? WEXITSTATUS(status) : -1;
+  p.signaled = WIFSIGNALED(status);
+  p.sig = p.signaled ? WTERMSIG(status) : 0;
+  return p;
+}
+
+// ---- scenes ------------------------------------------------------------------------------------
+
+// A box of homogeneous medium lit by a white environment, seen by the default camera.
+json homogeneous_scene(int width, int height, int spp, double sigma_s, double sigma_a, double half = 1.0) {
+  return json{
+      {"format", "spectrack-scene/1"},
+      {"camera", {{"type", "perspective"}, {"position", {0, 0, -4}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}},
+                  {"fov_deg", 40}}},
+      {"film", {{"width", width}, {"height", height}, {"spp", spp}, {"output", "out.exr"}}},
+      {"render", {{"tracker", "spectral"}, {"spectral_scheme", "history-average"}, {"seed", 7}}},
+      {"lights", json::array({{{"type", "environment"}, {"radiance", {1.0, 1.0, 1.0}}}})},
+      {"media", json::array({{{"name", "box"},
+                              {"type", "homogeneous"},
+                              {"bounds", {{-half, -half, -half}, {half, half, half}}},
+                              {"sigma_s", {sigma_s, sigma_s, sigma_s}},
+                              {"sigma_a", {sigma_a, sigma_a, sigma_a}},
+                              {"phase", {{"type", "isotropic"}}}}})}};
+}
+
+// The same frame around one VDB medium (`file` absolute or relative to the scene folder).
+json vdb_scene(const std::string& file, const std::string& grid = "") {
+  json s = homogeneous_scene(8, 8, 1, 1.0, 0.0);
+  json m = {{"name", "cloud"}, {"type", "vdb"}, {"file", file}, {"sigma_s", {1.0, 1.0, 1.0}},
+            {"sigma_a", {0.0, 0.0, 0.0}}, {"phase", {{"type", "hg"}, {"g", 0.3}}}};
+  if (!grid.empty()) m["grid"] = grid;
+  s["media"] = json::array({m});
+  return s;
+}
+
+std::string write_scene(const std::string& dir, const std::string& name, const json& scene) {
+  std::string path = dir + "/" + name;
+  std::ofstream(path) << scene.dump(2);
+  return path;
+}
+
+// A per-test folder (the test's name and the process id keep parallel runs apart).
+std::string test_dir() {
+  const auto* info = testing::UnitTest::GetInstance()->current_test_info();
+  std::string d = st_test::temp_dir(std::string("cli_") + info->name());
+  // Start empty: a left-over image would hide a missing one.
+  for (auto& e : fs::directory_iterator(d)) fs::remove_all(e.path());
+  return d;
+}
+
+// A small valid fog volume ("density" grid) to point scenes at.
+std::string small_vdb(const std::string& dir) {
+  std::string path = dir + "/small.vdb";
+  st_test::write_vdb(path, "density", openvdb::Coord(-4), openvdb::Coord(4), [](int, int, int) { return 0.5f; }, 0.2);
+  return path;
+}
+
+// Checks that `p` failed as a user-facing error: exit code 1, no signal, in time.
+void expect_error_exit(const Proc& p, int code = 1) {
+  EXPECT_FALSE(p.timed_out) << p.describe();
+  EXPECT_FALSE(p.signaled) << p.describe();
+  EXPECT_TRUE(p.exited) << p.describe();
+  EXPECT_EQ(p.code, code) << p.describe();
+}
+
+// Runs `spectrack render <scene> -o <dir>/out.exr --quiet` and expects a scene error naming the
+// scene file and `json_path` with every one of `words`.
+void expect_scene_error(const std::string& dir, const json& scene, const std::string& json_path,
+                        const std::vector<std::string>& words) {
+  std::string path = write_scene(dir, "scene_under_test.json", scene);
+  Proc p = run({"render", path, "-o", dir + "/out.exr", "--quiet"});
+  expect_error_exit(p);
+  EXPECT_THAT(p.out, HasSubstr("error:")) << p.describe();
+  EXPECT_THAT(p.out, HasSubstr("scene_under_test.json")) << p.describe();
+  EXPECT_THAT(p.out, HasSubstr(json_path)) << p.describe();
+  for (auto& w : words) EXPECT_THAT(p.out, HasSubstr(w)) << p.describe();
+  EXPECT_FALSE(fs::exists(dir + "/out.exr")) << "an image was written despite the error\n" << p.describe();
+}
+
+// ---- 1. scene errors ---------------------------------------------------------------------------
+
+TEST(CliSceneErrors, UnknownFieldNamesPathAndField) {
+  std::string dir = test_dir();
+  json s = homogeneous_scene(8, 8, 1, 1.0, 0.0);
+  s["media"][0]["sigma_x"] = {1, 1, 1};
+  expect_scene_error(dir, s, "/media/0/sigma_x", {"unknown field"});
+}
+
+TEST(CliSceneErrors, MissingVdbFile) {
+  std::string dir = test_dir();
+  expect_scene_error(dir, vdb_scene("no_such_volume.vdb"), "/media/0/file", {"no_such_volume.vdb", "no such file"});
+}
+
+TEST(CliSceneErrors, NegativeCoefficient) {
+  std::string dir = test_dir();
+  json s = homogeneous_scene(8, 8, 1, 1.0, 0.0);
+  s["media"][0]["sigma_a"] = {0.1, -0.5, 0.1};
+  expect_scene_error(dir, s, "/media/0/sigma_a", {"negative", "box"});
+}
+
+TEST(CliSceneErrors, MissingGridListsGridsPresent) {
+  std::string dir = test_dir();
+  std::string vdb = small_vdb(dir);
+  expect_scene_error(dir, vdb_scene(vdb, "nope"), "/media/0", {"small.vdb", "\"nope\"", "density"});
+}
+
+TEST(CliSceneErrors, LevelSetIsRefused) {
+  std::string dir = test_dir();
+  std::string file = kShared + "/levelset/sphere.vdb";
+  ASSERT_TRUE(fs::exists(file)) << file;
+  // The file's only grid is the level set "ls_sphere".
+  expect_scene_error(dir, vdb_scene(file, "ls_sphere"), "/media/0", {"sphere.vdb", "level set"});
+}
+
+TEST(CliSceneErrors, IntAndVec3GridsAreRefusedNamingTheirType) {
+  std::string dir = test_dir();
+  std::string file = kShared + "/usd/smoke_000001.vdb";
+  ASSERT_TRUE(fs::exists(file)) << file;
+  expect_scene_error(dir, vdb_scene(file, "obstacles"), "/media/0", {"smoke_000001.vdb", "obstacles", "int32"});
+  expect_scene_error(dir, vdb_scene(file, "velocity"), "/media/0", {"smoke_000001.vdb", "velocity", "vec3s"});
+}
+
+TEST(CliSceneErrors, DamagedVdbFilesFailCleanly) {
+  std::string dir = test_dir();
+  std::string damaged = kShared + "/oiio/openvdb-damaged";
+  ASSERT_TRUE(fs::is_directory(damaged)) << damaged;
+  std::vector<fs::path> files;
+  for (auto& e : fs::directory_iterator(damaged))
+    if (e.path().extension() == ".vdb") files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  ASSERT_GE(files.size(), 7u) << "expected the 6 bad-bbox files and truncated.vdb in " << damaged;
+  for (const auto& f : files) {
+    SCOPED_TRACE(f.string());
+    // bad-bbox-<x>.vdb holds one float grid named <x>: ask for it, so the loader reaches the
+    // damaged tree instead of stopping at "no grid named density".
+    std::string stem = f.stem().string();
+    std::string grid = stem.rfind("bad-bbox-", 0) == 0 ? stem.substr(9) : "";
+    std::string path = write_scene(dir, "damaged.json", vdb_scene(f.string(), grid));
+    Proc p = run({"render", path, "-o", dir + "/out.exr", "--quiet"});
+    EXPECT_FALSE(p.signaled) << "crashed\n" << p.describe();
+    EXPECT_FALSE(p.timed_out) << p.describe();
+    EXPECT_LT(p.seconds, 60.0) << p.describe();
+    EXPECT_TRUE(p.exited && p.code == 1) << p.describe();
+    EXPECT_THAT(p.out, HasSubstr(f.filename().string())) << p.describe();
+    EXPECT_THAT(p.out, HasSubstr("damaged.json")) << p.describe();
+    EXPECT_THAT(p.out, HasSubstr("/media/0")) << p.describe();
+  }
+}
+
+// ---- 2. command-line errors --------------------------------------------------------------------
+
+class CliFlags : public testing::Test {
+ protected:
+  void SetUp() override {
+    dir = test_dir();
+    scene = write_scene(dir, "tiny.json", homogeneous_scene(8, 8, 1, 1.0, 0.0));
+  }
+  std::string dir, scene;
+};
+
+TEST_F(CliFlags, UnknownFlagIsUsageError) {
+  Proc p = run({"render", scene, "--no-such-flag", "--quiet"});
+  expect_error_exit(p, 2);
+  EXPECT_THAT(p.out, HasSubstr("--no-such-flag")) << p.describe();
+}
+
+TEST_F(CliFlags, SppZeroAndNonNumberAreUsageErrors) {
+  for (const char* bad : {"0", "abc", "-3"}) {
+    SCOPED_TRACE(bad);
+    Proc p = run({"render", scene, "-o", dir + "/out.exr", "--spp", bad, "--quiet"});
+    expect_error_exit(p, 2);
+    EXPECT_THAT(p.out, HasSubstr("--spp")) << p.describe();
+  }
+  EXPECT_FALSE(fs::exists(dir + "/out.exr"));
+}
+
+TEST_F(CliFlags, MissingSubcommandAndSceneAreUsageErrors) {
+  expect_error_exit(run({}), 2);
+  expect_error_exit(run({"render"}), 2);
+  expect_error_exit(run({"paint", scene}), 2);
+}
+
+TEST_F(CliFlags, UnknownTrackerListsValidOnes) {
+  Proc p = run({"render", scene, "-o", dir + "/out.exr", "--tracker", "bogus", "--quiet"});
+  expect_error_exit(p, 1);
+  EXPECT_THAT(p.out, HasSubstr("bogus")) << p.describe();
+  for (const char* t : {"delta-per-channel", "delta", "spectral", "decomposition", "spectral-decomposition"})
+    EXPECT_THAT(p.out, HasSubstr(t)) << p.describe();
+  EXPECT_FALSE(fs::exists(dir + "/out.exr"));
+}
+
+TEST_F(CliFlags, UnknownDeviceIndexListsDevices) {
+  Proc p = run({"render", scene, "-o", dir + "/out.exr", "--device", "9:9", "--quiet"});
+  expect_error_exit(p, 1);
+  EXPECT_THAT(p.out, HasSubstr("9:9")) << p.describe();
+  EXPECT_THAT(p.out, HasSubstr("0:0")) << "the message should list the devices present\n" << p.describe();
+  EXPECT_FALSE(fs::exists(dir + "/out.exr"));
+}
+
+TEST_F(CliFlags, UnknownDeviceNameListsDevices) {
+  Proc p = run({"render", scene, "-o", dir + "/out.exr", "--device", "no-such-device-name", "--quiet"});
+  expect_error_exit(p, 1);
+  EXPECT_THAT(p.out, HasSubstr("no-such-device-name")) << p.describe();
+  EXPECT_THAT(p.out, HasSubstr("0:0")) << "the message should list the devices present\n" << p.describe();
+  EXPECT_FALSE(fs::exists(dir + "/out.exr"));
+}
+
+// An output that cannot be written is refused before rendering: the scene below would take
+// minutes, so a quick exit without the render banner shows the check came first.
+TEST_F(CliFlags, UnwritableOutputFailsBeforeRendering) {
+  std::string slow = write_scene(dir, "slow.json", homogeneous_scene(256, 256, 4096, 8.0, 0.0, 1.5));
+  std::vector<std::string> outputs = {"/proc/nope/out.exr", dir + "/no_such_folder/out.exr"};
+  if (::geteuid() != 0) {  // root may write into a mode-0555 folder, so only check it for others
+    std::string ro = dir + "/read_only";
+    fs::create_directories(ro);
+    ::chmod(ro.c_str(), 0555);
+    outputs.push_back(ro + "/out.exr");
+  }
+  for (const auto& out : outputs) {
+    SCOPED_TRACE(out);
+    RunOptions o;
+    o.timeout_s = 30;
+    Proc p = run({"render", slow, "-o", out}, o);
+    expect_error_exit(p, 1);
+    EXPECT_THAT(p.out, HasSubstr(out)) << p.describe();
+    EXPECT_LT(p.seconds, 10.0) << "the output check should come before rendering\n" << p.describe();
+    EXPECT_THAT(p.out, Not(HasSubstr("spectrack: " + slow + " on "))) << "rendering started\n" << p.describe();
+    EXPECT_THAT(p.out, Not(HasSubstr("progress:"))) << p.describe();
+    EXPECT_FALSE(fs::exists(out));
+  }
+  // The same for the --preview and --stats-json side outputs' folder check on the preview.
+  RunOptions o;
+  o.timeout_s = 30;
+  Proc p = run({"render", slow, "-o", dir + "/ok.exr", "--preview", "/proc/nope/preview.png"}, o);
+  expect_error_exit(p, 1);
+  EXPECT_THAT(p.out, HasSubstr("/proc/nope/preview.png")) << p.describe();
+  EXPECT_LT(p.seconds, 10.0) << p.describe();
+  EXPECT_FALSE(fs::exists(dir + "/ok.exr"));
+}
+
+TEST_F(CliFlags, UnsupportedOutputExtension) {
+  for (const char* name : {"out.jpg", "out.JPG", "out"}) {
+    SCOPED_TRACE(name);
+    std::string out = dir + "/" + name;
+    Proc p = run({"render", scene, "-o", out, "--quiet"});
+    expect_error_exit(p, 1);
+    EXPECT_THAT(p.out, HasSubstr(out)) << p.describe();
+    EXPECT_THAT(p.out, HasSubstr(".exr")) << "the message should say what is supported\n" << p.describe();
+    EXPECT_FALSE(fs::exists(out));
+  }
+}
+
+// ---- 3. devices --------------------------------------------------------------------------------
+
+TEST(CliDevices, ListsAtLeastOneDevice) {
+  Proc p = run({"devices"});
+  EXPECT_FALSE(p.signaled) << p.describe();
+  ASSERT_TRUE(p.exited && p.code == 0) << p.describe();
+  // A header, then one line per device starting with "P:D".
+  std::istringstream lines(p.out);
+  std::string line;
+  int devices = 0;
+  bool first = false;
+  while (std::getline(lines, line)) {
+    if (line.rfind("0:0", 0) == 0) first = true;
+    if (line.size() > 3 && std::isdigit(static_cast<unsigned char>(line[0])) && line.find(':') != std::string::npos)
+      ++devices;
+  }
+  EXPECT_GE(devices, 1) << p.describe();
+  EXPECT_TRUE(first) << "no line for device 0:0\n" << p.describe();
+}
+
+// ---- 4. a successful render --------------------------------------------------------------------
+
+TEST(CliRender, TinyRenderWritesExrAndStats) {
+  std::string dir = test_dir();
+  std::string scene = write_scene(dir, "tiny.json", homogeneous_scene(8, 8, 1, 1.0, 0.1));
+  std::string exr = dir + "/x.exr", stats = dir + "/s.json";
+  RunOptions o;
+  o.timeout_s = 180;  // may include a cold kernel build
+  Proc p = run({"render", scene, "--spp", "2", "-o", exr, "--stats-json", stats, "--quiet"}, o);
+  ASSERT_FALSE(p.signaled) << p.describe();
+  ASSERT_TRUE(p.exited && p.code == 0) << p.describe();
+  EXPECT_THAT(p.out, Not(HasSubstr("progress"))) << "--quiet printed progress\n" << p.describe();
+
+  ASSERT_TRUE(fs::exists(exr)) << p.describe();
+  auto in = OIIO::ImageInput::open(exr);
+  ASSERT_TRUE(in) << OIIO::geterror();
+  const OIIO::ImageSpec& spec = in->spec();
+  EXPECT_EQ(spec.width, 8);
+  EXPECT_EQ(spec.height, 8);
+  EXPECT_GE(spec.nchannels, 3);
+  EXPECT_EQ(spec.format, OIIO::TypeDesc::FLOAT);
+  EXPECT_EQ(spec.get_int_attribute("spectrack:spp", -1), 2);
+  EXPECT_EQ(spec.get_int_attribute("spectrack:interrupted", -1), 0);
+  EXPECT_EQ(spec.get_string_attribute("spectrack:tracker"), "spectral");
+  std::vector<float> px(size_t(spec.width) * spec.height * spec.nchannels);
+  ASSERT_TRUE(in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, px.data())) << in->geterror();
+  double sum = 0;
+  for (float v : px) {
+    EXPECT_TRUE(std::isfinite(v));
+    sum += v;
+  }
+  EXPECT_GT(sum, 0.0) << "an environment-lit scene rendered black";
+  in->close();
+
+  ASSERT_TRUE(fs::exists(stats)) << p.describe();
+  json j;
+  {
+    std::ifstream f(stats);
+    ASSERT_NO_THROW(j = json::parse(f)) << "stats file is not JSON";
+  }
+  for (const char* key : {"spp", "seconds_render", "seconds_total", "paths", "density_lookups", "device", "tracker"})
+    EXPECT_TRUE(j.contains(key)) << "missing key " << key << " in\n" << j.dump(2);
+  EXPECT_EQ(j.value("spp", -1), 2);
+  EXPECT_EQ(j.value("tracker", std::string()), "spectral");
+  EXPECT_FALSE(j.value("device", std::string()).empty());
+  EXPECT_GE(j.value("seconds_total", -1.0), j.value("seconds_render", -1.0));
+  EXPECT_GE(j.value("seconds_render", -1.0), 0.0);
+  // one path per pixel and sample for a spectral tracker
+  EXPECT_EQ(j.value("paths", uint64_t(0)), uint64_t(8 * 8 * 2));
+}
+
+TEST(CliRender, PngOutputAndSceneOutputDefault) {
+  std::string dir = test_dir();
+  std::string scene = write_scene(dir, "tiny.json", homogeneous_scene(8, 8, 1, 1.0, 0.1));
+  RunOptions o;
+  o.timeout_s = 180;
+  std::string png = dir + "/x.png";
+  Proc p = run({"render", scene, "--spp", "2", "-o", png, "--quiet"}, o);
+  ASSERT_TRUE(p.exited && p.code == 0) << p.describe();
+  ASSERT_TRUE(fs::exists(png)) << p.describe();
+  auto in = OIIO::ImageInput::open(png);
+  ASSERT_TRUE(in) << OIIO::geterror();
+  EXPECT_EQ(std::string(in->format_name()), "png");
+  EXPECT_EQ(in->spec().width, 8);
+  EXPECT_EQ(in->spec().height, 8);
+  EXPECT_EQ(in->spec().format, OIIO::TypeDesc::UINT8);
+  in->close();
+
+  // Without -o the scene's film.output ("out.exr", relative to the scene's folder) is written.
+  p = run({"render", scene, "--quiet"}, o);
+  ASSERT_TRUE(p.exited && p.code == 0) << p.describe();
+  EXPECT_TRUE(fs::exists(dir + "/out.exr")) << p.describe();
+}
+
+// ---- 5. interruption ---------------------------------------------------------------------------
+
+// Renders a scene that needs minutes, sends `sig` 1.5 s after the render banner (printed once
+// the kernels are built) and expects exit 130 with the finished samples written and marked.
+void check_interrupt(int sig) {
+  std::string dir = test_dir();
+  std::string scene = write_scene(dir, "slow.json", homogeneous_scene(256, 256, 4096, 8.0, 0.0, 1.5));
+  std::string exr = dir + "/x.exr";
+  RunOptions o;
+  o.timeout_s = 240;  // a cold kernel build comes first; the 60 s limit is checked from the signal on
+  o.signal = sig;
+  o.signal_after_text = "spectrack: " + scene + " on ";
+  o.signal_delay_s = 1.5;
+  Proc p = run({"render", scene, "-o", exr, "--stats-json", dir + "/s.json"}, o);
+  ASSERT_TRUE(p.signal_sent) << "the render ended before the signal\n" << p.describe();
+  EXPECT_FALSE(p.signaled) << p.describe();
+  EXPECT_FALSE(p.timed_out) << p.describe();
+  EXPECT_LT(p.seconds_after_signal, 60.0) << p.describe();
+  ASSERT_TRUE(p.exited) << p.describe();
+  EXPECT_EQ(p.code, 130) << p.describe();
+  EXPECT_THAT(p.out, HasSubstr("INTERRUPTED")) << p.describe();
+
+  ASSERT_TRUE(fs::exists(exr)) << "no image written on interrupt\n" << p.describe();
+  auto in = OIIO::ImageInput::open(exr);
+  ASSERT_TRUE(in) << OIIO::geterror();
+  const OIIO::ImageSpec& spec = in->spec();
+  EXPECT_EQ(spec.width, 256);
+  EXPECT_EQ(spec.height, 256);
+  EXPECT_EQ(spec.get_int_attribute("spectrack:interrupted", -1), 1) << p.describe();
+  int spp = spec.get_int_attribute("spectrack:spp", -1);
+  EXPECT_GT(spp, 0) << "no samples finished in 1.5 s of rendering\n" << p.describe();
+  EXPECT_LT(spp, 4096) << p.describe();
+  EXPECT_EQ(spec.get_int_attribute("spectrack:spp_requested", -1), 4096);
+  in->close();
+
+  json j;
+  std::ifstream f(dir + "/s.json");
+  ASSERT_NO_THROW(j = json::parse(f)) << p.describe();
+  EXPECT_EQ(j.value("spp", -1), spp);
+  EXPECT_EQ(j.value("interrupted", false), true);
+}
+
+TEST(CliInterrupt, SigintWritesPartialImageAndExits130) { check_interrupt(SIGINT); }
+
+TEST(CliInterrupt, SigtermWritesPartialImageAndExits130) { check_interrupt(SIGTERM); }
+
+}  // namespace

@@ -1,0 +1,417 @@
+// test_render.cpp: kernel-level tests on the default OpenCL device (PoCL in CI). Each compares
+// the renderer with an analytic answer, with tolerances of 4 standard errors taken from the
+// estimator's own samples, so a biased tracker, a wrong weight or a lost contribution fails.
+//   - free-path distances along a heterogeneous ray: KS test of the probability integral
+//     transform (1 - exp(-tau(t))) / (1 - T(d)) and the escape fraction against T(d);
+//   - absorbing slab, white furnace, emissive furnace;
+//   - device lookups against host OpenVDB, majorant/minorant bounds against device lookups;
+//   - a constant VDB against the homogeneous box it fills;
+//   - bit-identical renders for one seed, whatever the number of paths in flight.
+#include <openvdb/tools/Interpolation.h>
+
+#include <algorithm>
+#include <random>
+
+#include "test_util.h"
+
+using namespace spectrack;
+using namespace st_test;
+using nlohmann::json;
+
+namespace {
+
+json base_scene(int w, int h, int spp, const std::string& tracker) {
+  return json{{"format", "spectrack-scene/1"},
+              {"camera", {{"type", "orthographic"}, {"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"height", 1.0}}},
+              {"film", {{"width", w}, {"height", h}, {"spp", spp}}},
+              {"render", {{"tracker", tracker}, {"seed", 7}}},
+              {"lights", json::array()},
+              {"media", json::array()}};
+}
+
+// density(i) along x of the 1D profile volume (constant in y and z)
+float profile(int i) { return 0.2f + 0.8f * (0.5f + 0.5f * std::sin(0.3f * float(i))); }
+
+// Optical depth from t = 0 to t along the probe ray of ProfileVolume (piecewise linear density
+// between integer index coordinates, 0 outside the active range [0, 63]).
+double profile_tau(double t, double sigma_t) {
+  const double vox = 1.0 / 16.0;
+  auto dens = [&](double x) {
+    double f = std::floor(x);
+    int i = int(f);
+    auto v = [&](int k) { return (k >= 0 && k <= 63) ? double(profile(k)) : 0.0; };
+    return v(i) + (x - f) * (v(i + 1) - v(i));
+  };
+  // index x = (t - 1) / vox; integrate with fine trapezoids (the density is piecewise linear in
+  // x with kinks at integers, so splitting at integers makes the trapezoid rule exact)
+  double x0 = -1.0 / vox, x1 = (t - 1.0) / vox;
+  double tau = 0;
+  double a = x0;
+  while (a < x1) {
+    double b = std::min(x1, std::floor(a) + 1.0);
+    tau += 0.5 * (dens(a) + dens(b - 1e-12)) * (b - a);
+    a = b;
+  }
+  return tau * vox * sigma_t;
+}
+
+class ProfileVolume : public ::testing::Test {
+ protected:
+  std::string dir;
+  void SetUp() override {
+    dir = temp_dir("profile");
+    write_vdb(dir + "/profile.vdb", "density", openvdb::Coord(0, 0, 0), openvdb::Coord(63, 7, 7),
+              [](int i, int, int) { return profile(i); }, 1.0 / 16.0);
+  }
+  json scene(const std::string& tracker, json sigma_a) {
+    json s = base_scene(4, 4, 1, tracker);
+    s["media"].push_back({{"type", "vdb"}, {"file", "profile.vdb"}, {"sigma_a", sigma_a}, {"sigma_s", {0, 0, 0}}});
+    return s;
+  }
+  // Runs the probe and checks the distance distribution of channel `c` (-1: all, achromatic).
+  void check_distances(Renderer& r, int channel, double sigma_t) {
+    const int n = 20000;
+    std::array<float, 3> o{-1.0f, 3.5f / 16.0f, 3.5f / 16.0f}, d{1, 0, 0};
+    auto res = r.probe_track(o, d, channel, n);
+    double d_end = 1.0 + 64.0 / 16.0;  // beyond the last non-zero density
+    double T = std::exp(-profile_tau(d_end, sigma_t));
+    std::vector<double> u;
+    int escapes = 0;
+    for (auto& x : res) {
+      if (std::isinf(x[0])) {
+        ++escapes;
+        continue;
+      }
+      ASSERT_EQ(int(x[1]), 2) << "absorbing-only medium must end in absorption";
+      u.push_back((1.0 - std::exp(-profile_tau(x[0], sigma_t))) / (1.0 - T));
+    }
+    double p_esc = double(escapes) / n;
+    EXPECT_NEAR(p_esc, T, 4.0 * std::sqrt(T * (1 - T) / n)) << "escape probability";
+    std::sort(u.begin(), u.end());
+    double D = 0;
+    for (size_t i = 0; i < u.size(); ++i)
+      D = std::max({D, std::abs(u[i] - double(i) / u.size()), std::abs(u[i] - double(i + 1) / u.size())});
+    double crit = 1.95 / std::sqrt(double(u.size()));  // KS at alpha = 0.001
+    EXPECT_LT(D, crit) << "KS statistic of the free-path distribution (" << u.size() << " collisions)";
+  }
+};
+
+TEST_F(ProfileVolume, DeltaTrackingDistancesFollowOpticalDepth) {
+  Renderer r(scene_from_json(scene("delta", {1.0, 1.0, 1.0}), dir), quiet_options());
+  check_distances(r, -1, 1.0);
+}
+
+TEST_F(ProfileVolume, PerChannelDeltaTrackingDistancesFollowEachChannel) {
+  Renderer r(scene_from_json(scene("delta-per-channel", {0.4, 1.0, 2.5}), dir), quiet_options());
+  check_distances(r, 0, 0.4);
+  check_distances(r, 2, 2.5);
+}
+
+TEST_F(ProfileVolume, WrongOpticalDepthIsDetected) {
+  // the same check must fail when the reference is off by 10%: the test can fail
+  Renderer r(scene_from_json(scene("delta", {1.0, 1.0, 1.0}), dir), quiet_options());
+  const int n = 20000;
+  auto res = r.probe_track({-1.0f, 3.5f / 16.0f, 3.5f / 16.0f}, {1, 0, 0}, -1, n);
+  double T_wrong = std::exp(-profile_tau(5.0, 1.1));
+  int escapes = 0;
+  for (auto& x : res) escapes += std::isinf(x[0]);
+  EXPECT_GT(std::abs(double(escapes) / n - T_wrong), 4.0 * std::sqrt(T_wrong * (1 - T_wrong) / n));
+}
+
+TEST_F(ProfileVolume, RatioTrackingTransmittanceMatchesOpticalDepth) {
+  Renderer r(scene_from_json(scene("delta-per-channel", {0.4, 1.0, 2.5}), dir), quiet_options());
+  auto res = r.probe_transmittance({-1.0f, 3.5f / 16.0f, 3.5f / 16.0f}, {1, 0, 0}, 20000);
+  double sig[3] = {0.4, 1.0, 2.5};
+  for (int c = 0; c < 3; ++c) {
+    std::vector<double> v;
+    for (auto& x : res) v.push_back(x[c]);
+    Stats s = mean_se(v);
+    double T = std::exp(-profile_tau(5.0, sig[c]));
+    EXPECT_NEAR(s.mean, T, 4.0 * s.se + 1e-7) << "channel " << c;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+
+json slab_scene(const std::string& tracker, int spp) {
+  json s = base_scene(16, 16, spp, tracker);
+  s["lights"].push_back({{"type", "environment"}, {"radiance", {1, 1, 1}}});
+  s["media"].push_back({{"type", "homogeneous"}, {"bounds", {{-1, -1, -1}, {1, 1, 1}}}, {"sigma_a", {0.5, 1.0, 2.0}},
+                        {"sigma_s", {0, 0, 0}}});
+  return s;
+}
+
+void expect_channels(const RenderResult& r, const double expected[3], const std::string& what) {
+  for (int c = 0; c < 3; ++c) {
+    Stats s = mean_se(channel(r, c));
+    EXPECT_NEAR(s.mean, expected[c], 4.0 * s.se + 1e-5) << what << ", channel " << c << " (SE " << s.se << ")";
+  }
+}
+
+TEST(Render, AbsorbingSlabOrthographic) {
+  std::string dir = temp_dir("slab");
+  const double expected[3] = {std::exp(-1.0), std::exp(-2.0), std::exp(-4.0)};
+  for (std::string tracker : {"delta-per-channel", "spectral"}) {
+    Renderer r(scene_from_json(slab_scene(tracker, 256), dir), quiet_options());
+    RenderResult res = r.render();
+    EXPECT_EQ(res.spp_done, 256);
+    EXPECT_EQ(res.stats.nonfinite_samples, 0u);
+    expect_channels(res, expected, tracker);
+  }
+}
+
+TEST(Render, AbsorbingSlabWrongAnswerIsDetected) {
+  std::string dir = temp_dir("slab_wrong");
+  Renderer r(scene_from_json(slab_scene("delta-per-channel", 256), dir), quiet_options());
+  RenderResult res = r.render();
+  Stats s = mean_se(channel(res, 1));
+  EXPECT_GT(std::abs(s.mean - std::exp(-2.0) * 1.05), 4.0 * s.se) << "a 5% error must be detectable";
+}
+
+// A chromatic heterogeneous volume with smooth lumps and holes.
+void write_lumpy(const std::string& path) {
+  write_vdb(path, "density", openvdb::Coord(-16, -16, -16), openvdb::Coord(15, 15, 15),
+            [](int i, int j, int k) {
+              double r = std::sqrt(double(i * i + j * j + k * k)) / 16.0;
+              if (r > 1.0) return 0.0f;
+              double v = (1.0 - r) * (0.6 + 0.4 * std::sin(0.5 * i) * std::cos(0.4 * j) * std::sin(0.3 * k + 1.0));
+              return float(std::max(0.0, v));
+            },
+            1.0 / 16.0);
+}
+
+json furnace_scene(const std::string& tracker, const std::string& dir, bool emissive) {
+  write_lumpy(dir + "/lumpy.vdb");
+  json s = base_scene(12, 12, 48, tracker);
+  s["camera"] = {{"type", "perspective"}, {"position", {0.2, 0.1, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 30}};
+  json m = {{"type", "vdb"}, {"file", "lumpy.vdb"}, {"density_scale", 4.0}, {"phase", {{"type", "hg"}, {"g", 0.4}}}};
+  if (emissive) {
+    m["sigma_a"] = {1.0, 2.0, 4.0};
+    m["sigma_s"] = {3.0, 1.0, 0.5};
+    m["emission"] = {{"radiance", {0.3, 0.6, 0.9}}};
+    s["lights"].push_back({{"type", "environment"}, {"radiance", {0.3, 0.6, 0.9}}});
+  } else {
+    m["sigma_a"] = {0, 0, 0};
+    m["sigma_s"] = {1.0, 3.0, 9.0};
+    s["lights"].push_back({{"type", "environment"}, {"radiance", {1, 1, 1}}});
+  }
+  s["media"].push_back(m);
+  return s;
+}
+
+TEST(Render, WhiteFurnaceChromaticHeterogeneous) {
+  std::string dir = temp_dir("furnace");
+  const double one[3] = {1, 1, 1};
+  for (std::string tracker : {"delta-per-channel", "spectral"}) {
+    Renderer r(scene_from_json(furnace_scene(tracker, dir, false), dir), quiet_options());
+    RenderResult res = r.render();
+    EXPECT_EQ(res.stats.nonfinite_samples, 0u);
+    EXPECT_GT(res.stats.scatter_events, 1000u) << "the furnace must scatter";
+    expect_channels(res, one, "white furnace " + tracker);
+  }
+}
+
+TEST(Render, EmissiveFurnace) {
+  std::string dir = temp_dir("efurnace");
+  const double c[3] = {0.3, 0.6, 0.9};
+  for (std::string tracker : {"delta-per-channel", "spectral"}) {
+    Renderer r(scene_from_json(furnace_scene(tracker, dir, true), dir), quiet_options());
+    RenderResult res = r.render();
+    EXPECT_GT(res.stats.real_collisions, 1000u);
+    expect_channels(res, c, "emissive furnace " + tracker);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(Volume, DeviceLookupsMatchHostOpenVDBWithTransform) {
+  std::string dir = temp_dir("lookup");
+  write_lumpy(dir + "/lumpy.vdb");
+  json s = base_scene(4, 4, 1, "delta-per-channel");
+  s["media"].push_back({{"type", "vdb"}, {"file", "lumpy.vdb"},
+                        {"transform", {{"scale", {1.5, 0.7, 1.1}}, {"rotate_deg", {20, -35, 60}}, {"translate", {0.3, -0.2, 0.5}}}}});
+  Renderer r(scene_from_json(s, dir), quiet_options());
+
+  openvdb::io::File f(dir + "/lumpy.vdb");
+  f.open();
+  auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(f.readGrid("density"));
+  openvdb::tools::GridSampler<openvdb::FloatGrid, openvdb::tools::BoxSampler> sampler(*grid);
+  // inverse user transform: S^-1 Rx^-1 Ry^-1 Rz^-1 (p - T)
+  openvdb::math::Mat4d U = openvdb::math::Mat4d::identity();
+  U.preScale(openvdb::Vec3d(1.5, 0.7, 1.1));
+  U.postRotate(openvdb::math::X_AXIS, 20 * M_PI / 180);
+  U.postRotate(openvdb::math::Y_AXIS, -35 * M_PI / 180);
+  U.postRotate(openvdb::math::Z_AXIS, 60 * M_PI / 180);
+  U.postTranslate(openvdb::Vec3d(0.3, -0.2, 0.5));
+  openvdb::math::Mat4d Uinv = U.inverse();
+
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-1.6f, 1.6f);
+  std::vector<std::array<float, 3>> pts(4000);
+  for (auto& p : pts) p = {u(rng), u(rng), u(rng)};
+  auto dev = r.probe_density(0, pts);
+  int nonzero = 0;
+  for (size_t i = 0; i < pts.size(); ++i) {
+    openvdb::Vec3d p(pts[i][0], pts[i][1], pts[i][2]);
+    double host = sampler.wsSample(Uinv.transform(p));
+    ASSERT_NEAR(dev[i], host, 2e-4 + 1e-4 * std::abs(host)) << "point " << i;
+    nonzero += host > 0;
+  }
+  EXPECT_GT(nonzero, 400) << "the points must hit the volume";
+}
+
+TEST(Volume, DeviceLookupsMatchHostOnDisneyCloud) {
+  std::string file = std::string(SHARED_DATA_DIR) + "/wdas_cloud_sixteenth.vdb";
+  if (!std::filesystem::exists(file)) GTEST_SKIP() << file << " not present";
+  std::string dir = temp_dir("disney_lookup");
+  json s = base_scene(4, 4, 1, "delta-per-channel");
+  s["media"].push_back({{"type", "vdb"}, {"file", file}});
+  Renderer r(scene_from_json(s, dir), quiet_options());
+  openvdb::initialize();
+  openvdb::io::File f(file);
+  f.open();
+  auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(f.readGrid("density"));
+  openvdb::tools::GridSampler<openvdb::FloatGrid, openvdb::tools::BoxSampler> sampler(*grid);
+  auto bbox = grid->evalActiveVoxelBoundingBox();
+  auto lo = grid->indexToWorld(bbox.min()), hi = grid->indexToWorld(bbox.max());
+  std::mt19937 rng(5);
+  std::vector<std::array<float, 3>> pts(5000);
+  for (auto& p : pts)
+    for (int a = 0; a < 3; ++a) p[a] = float(std::uniform_real_distribution<double>(lo[a], hi[a])(rng));
+  auto dev = r.probe_density(0, pts);
+  int nonzero = 0;
+  for (size_t i = 0; i < pts.size(); ++i) {
+    double host = sampler.wsSample(openvdb::Vec3d(pts[i][0], pts[i][1], pts[i][2]));
+    ASSERT_NEAR(dev[i], host, 1e-4 + 1e-4 * std::abs(host)) << "point " << i;
+    nonzero += host > 0;
+  }
+  EXPECT_GT(nonzero, 500);
+}
+
+TEST(Volume, MajorantAndMinorantBoundDeviceLookups) {
+  std::string dir = temp_dir("majorant");
+  // a thin shell of high density in empty space plus random speckle: a missing apron fails
+  std::mt19937 gen(11);
+  std::uniform_real_distribution<float> U(0.0f, 1.0f);
+  std::vector<float> speckle(40 * 40 * 40);
+  for (auto& v : speckle) v = U(gen) < 0.05f ? U(gen) * 3.0f : 0.0f;
+  write_vdb(dir + "/shell.vdb", "density", openvdb::Coord(0, 0, 0), openvdb::Coord(39, 39, 39),
+            [&](int i, int j, int k) {
+              double r = std::sqrt(double((i - 20) * (i - 20) + (j - 20) * (j - 20) + (k - 20) * (k - 20)));
+              return std::abs(r - 14.0) < 0.7 ? 5.0f : speckle[size_t(i + 40 * (j + 40 * k))];
+            },
+            0.05);
+  json s = base_scene(4, 4, 1, "delta-per-channel");
+  s["media"].push_back({{"type", "vdb"}, {"file", "shell.vdb"}, {"transform", {{"rotate_deg", {10, 20, 30}}}}});
+  Renderer r(scene_from_json(s, dir), quiet_options());
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<float> u(-0.6f, 2.6f);
+  std::vector<std::array<float, 3>> pts(30000);
+  for (auto& p : pts) p = {u(rng), u(rng), u(rng)};
+  auto dens = r.probe_density(0, pts);
+  auto maj = r.probe_majorant(0, pts);
+  int inside = 0, positive = 0;
+  for (size_t i = 0; i < pts.size(); ++i) {
+    if (maj[i][0] < 0) {
+      EXPECT_EQ(dens[i], 0.0f) << "density outside the majorant box at point " << i;
+      continue;
+    }
+    ++inside;
+    positive += dens[i] > 0;
+    ASSERT_LE(dens[i], maj[i][0]) << "majorant below the density at point " << i;
+    ASSERT_GE(dens[i], maj[i][1]) << "minorant above the density at point " << i;
+  }
+  EXPECT_GT(inside, 5000);
+  EXPECT_GT(positive, 1000);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(Render, ConstantVdbEqualsHomogeneousBox) {
+  // An emissive, absorbing slab: L = Le (1 - T) + T L_env depends only on the optical depth
+  // along each (axis-parallel) ray, and the trilinear ramp at each face of a constant VDB
+  // integrates to half a voxel, so the VDB equals the box of its voxel cells [-0.5, N - 0.5] v.
+  std::string dir = temp_dir("constant");
+  const double v = 1.0 / 32.0;
+  write_vdb(dir + "/const.vdb", "density", openvdb::Coord(-48, -48, -32), openvdb::Coord(47, 47, 31),
+            [](int, int, int) { return 1.0f; }, v);
+  auto scene_with = [&](json medium) {
+    json s = base_scene(10, 10, 96, "delta-per-channel");
+    s["camera"]["height"] = 1.5;  // rays stay inside the constant interior transversally
+    s["lights"].push_back({{"type", "environment"}, {"radiance", {0.2, 0.5, 1.0}}});
+    medium["sigma_a"] = {0.3, 0.8, 1.6};
+    medium["sigma_s"] = {0, 0, 0};
+    medium["emission"] = {{"radiance", {1.0, 0.7, 0.2}}};
+    s["media"].push_back(medium);
+    return s;
+  };
+  double z0 = -32.5 * v, z1 = 31.5 * v, xy = 48 * v;
+  json vdb = {{"type", "vdb"}, {"file", "const.vdb"}};
+  json box = {{"type", "homogeneous"}, {"bounds", {{-xy, -xy, z0}, {xy, xy, z1}}}};
+  RenderResult a = Renderer(scene_from_json(scene_with(vdb), dir), quiet_options()).render();
+  RenderResult b = Renderer(scene_from_json(scene_with(box), dir), quiet_options()).render();
+  double sig[3] = {0.3, 0.8, 1.6}, Le[3] = {1.0, 0.7, 0.2}, env[3] = {0.2, 0.5, 1.0};
+  for (int c = 0; c < 3; ++c) {
+    Stats sa = mean_se(channel(a, c)), sb = mean_se(channel(b, c));
+    EXPECT_NEAR(sa.mean, sb.mean, 4.0 * std::hypot(sa.se, sb.se) + 1e-6) << "channel " << c;
+    double T = std::exp(-sig[c] * (z1 - z0));
+    EXPECT_NEAR(sb.mean, Le[c] * (1 - T) + T * env[c], 4.0 * sb.se + 1e-6) << "analytic, channel " << c;
+  }
+}
+
+TEST(Render, EmissionGridScalesRadiance) {
+  // an emissive absorbing slab whose emission grid holds 0.5 everywhere the density is
+  // non-zero (it is one voxel wider): L = 0.5 Le (1 - T) + T L_env
+  std::string dir = temp_dir("emission_grid");
+  const double v = 1.0 / 32.0;
+  write_vdb_grids(dir + "/fire.vdb", openvdb::Coord(-49, -49, -33), openvdb::Coord(48, 48, 32),
+                  {{"density", [](int i, int j, int k) { return (std::abs(i + 0.5) < 48 && std::abs(j + 0.5) < 48 && std::abs(k + 0.5) < 32) ? 1.0f : 0.0f; }},
+                   {"heat", [](int, int, int) { return 0.5f; }}},
+                  v);
+  json s = base_scene(10, 10, 128, "spectral");
+  s["camera"]["height"] = 1.5;
+  s["lights"].push_back({{"type", "environment"}, {"radiance", {0.2, 0.5, 1.0}}});
+  s["media"].push_back({{"type", "vdb"}, {"file", "fire.vdb"}, {"sigma_a", {0.3, 0.8, 1.6}}, {"sigma_s", {0, 0, 0}},
+                        {"emission", {{"grid", "heat"}, {"radiance", {1.0, 0.7, 0.2}}, {"scale", 2.0}}}});
+  RenderResult r = Renderer(scene_from_json(s, dir), quiet_options()).render();
+  EXPECT_GT(r.stats.lookups_emission, 0u);
+  double sig[3] = {0.3, 0.8, 1.6}, Le[3] = {1.0, 0.7, 0.2}, env[3] = {0.2, 0.5, 1.0};
+  for (int c = 0; c < 3; ++c) {
+    Stats st = mean_se(channel(r, c));
+    double T = std::exp(-sig[c] * 64 * v);
+    EXPECT_NEAR(st.mean, 2.0 * 0.5 * Le[c] * (1 - T) + T * env[c], 4.0 * st.se + 1e-6) << "channel " << c;
+  }
+}
+
+TEST(Render, SameSeedIsBitIdenticalWhateverTheSchedule) {
+  std::string dir = temp_dir("determinism");
+  json s = furnace_scene("spectral", dir, true);
+  s["film"]["spp"] = 8;
+  RenderOptions o1 = quiet_options(), o2 = quiet_options();
+  o2.path_slots = 777;  // a different number of paths in flight changes every launch and batch
+  RenderResult a = Renderer(scene_from_json(s, dir), o1).render();
+  RenderResult b = Renderer(scene_from_json(s, dir), o1).render();
+  RenderResult c = Renderer(scene_from_json(s, dir), o2).render();
+  ASSERT_EQ(a.rgb.size(), b.rgb.size());
+  EXPECT_TRUE(a.rgb == b.rgb) << "two renders with one seed differ";
+  EXPECT_TRUE(a.rgb == c.rgb) << "the image depends on the schedule";
+  RenderOptions o3 = quiet_options();
+  o3.seed = 99;
+  RenderResult d = Renderer(scene_from_json(s, dir), o3).render();
+  EXPECT_FALSE(a.rgb == d.rgb) << "another seed must give another image";
+}
+
+TEST(Render, StatisticsCountPathsAndLookups) {
+  std::string dir = temp_dir("stats");
+  json s = furnace_scene("delta-per-channel", dir, false);
+  s["film"]["spp"] = 4;
+  RenderResult r = Renderer(scene_from_json(s, dir), quiet_options()).render();
+  EXPECT_EQ(r.stats.paths, uint64_t(12 * 12 * 4 * 3));
+  EXPECT_GT(r.stats.lookups_track, 0u);
+  EXPECT_GT(r.stats.lookups_shadow, 0u);
+  EXPECT_GT(r.stats.dda_steps, 0u);
+  EXPECT_GT(r.stats.kernels.count("k_track"), 0u);
+  EXPECT_GT(r.stats.kernels.at("k_track").launches, 0u);
+}
+
+}  // namespace

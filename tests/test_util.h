@@ -1,0 +1,114 @@
+// test_util.h: helpers shared by the kernel and image tests: temporary folders, synthetic VDB
+// files written with OpenVDB, scene JSON around them, and statistics (mean and standard error).
+#pragma once
+#include <gtest/gtest.h>
+#include <openvdb/openvdb.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "render/renderer.h"
+#include "scene/scene.h"
+
+namespace st_test {
+
+inline std::string temp_dir(const std::string& name) {
+  auto d = std::filesystem::temp_directory_path() / ("spectrack_test_" + std::to_string(::getpid()) + "_" + name);
+  std::filesystem::create_directories(d);
+  return d.string();
+}
+
+// Writes a float fog grid named `name` with value f(i,j,k) over the inclusive index box
+// [lo, hi] (zeros are left inactive) and the given voxel size and origin translation.
+inline void write_vdb(const std::string& path, const std::string& name, openvdb::Coord lo, openvdb::Coord hi,
+                      const std::function<float(int, int, int)>& f, double voxel = 1.0,
+                      openvdb::Vec3d translate = openvdb::Vec3d(0.0)) {
+  openvdb::initialize();
+  auto grid = openvdb::FloatGrid::create(0.0f);
+  grid->setName(name);
+  grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+  auto xf = openvdb::math::Transform::createLinearTransform(voxel);
+  xf->postTranslate(translate);
+  grid->setTransform(xf);
+  auto acc = grid->getAccessor();
+  for (int k = lo.z(); k <= hi.z(); ++k)
+    for (int j = lo.y(); j <= hi.y(); ++j)
+      for (int i = lo.x(); i <= hi.x(); ++i) {
+        float v = f(i, j, k);
+        if (v != 0.0f) acc.setValue(openvdb::Coord(i, j, k), v);
+      }
+  openvdb::io::File file(path);
+  file.write({grid});
+  file.close();
+}
+
+// Several float fog grids over one index box in one file.
+inline void write_vdb_grids(const std::string& path, openvdb::Coord lo, openvdb::Coord hi,
+                            const std::vector<std::pair<std::string, std::function<float(int, int, int)>>>& grids,
+                            double voxel = 1.0) {
+  openvdb::initialize();
+  openvdb::GridPtrVec out;
+  for (auto& [name, f] : grids) {
+    auto grid = openvdb::FloatGrid::create(0.0f);
+    grid->setName(name);
+    grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+    grid->setTransform(openvdb::math::Transform::createLinearTransform(voxel));
+    auto acc = grid->getAccessor();
+    for (int k = lo.z(); k <= hi.z(); ++k)
+      for (int j = lo.y(); j <= hi.y(); ++j)
+        for (int i = lo.x(); i <= hi.x(); ++i) {
+          float v = f(i, j, k);
+          if (v != 0.0f) acc.setValue(openvdb::Coord(i, j, k), v);
+        }
+    out.push_back(grid);
+  }
+  openvdb::io::File file(path);
+  file.write(out);
+  file.close();
+}
+
+inline void write_text(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
+
+inline spectrack::SceneDesc scene_from_json(const nlohmann::json& j, const std::string& dir) {
+  return spectrack::parse_scene(j.dump(), dir + "/scene.json", dir);
+}
+
+struct Stats {
+  double mean = 0, se = 0;
+};
+// Mean and standard error of independent values.
+inline Stats mean_se(const std::vector<double>& v) {
+  Stats s;
+  if (v.empty()) return s;
+  double m = 0;
+  for (double x : v) m += x;
+  m /= double(v.size());
+  double var = 0;
+  for (double x : v) var += (x - m) * (x - m);
+  var /= double(std::max<size_t>(1, v.size() - 1));
+  s.mean = m;
+  s.se = std::sqrt(var / double(v.size()));
+  return s;
+}
+
+// Channel c of every pixel of an image (each pixel mean is one independent estimate).
+inline std::vector<double> channel(const spectrack::RenderResult& r, int c) {
+  std::vector<double> v(size_t(r.width) * r.height);
+  for (size_t i = 0; i < v.size(); ++i) v[i] = r.rgb[i * 3 + c];
+  return v;
+}
+
+inline spectrack::RenderOptions quiet_options(int spp = -1) {
+  spectrack::RenderOptions o;
+  o.quiet = true;
+  o.spp = spp;
+  return o;
+}
+
+}  // namespace st_test

@@ -1,0 +1,607 @@
+// test_volume.cpp: tests for src/volume (VDB loading, majorant grid, host trilinear lookups).
+//
+// Real data comes from SHARED_DATA_DIR (third-party VDBs, see its README); a test whose file is
+// absent is skipped. Synthetic grids are written to temporary .vdb/.nvdb files so that they go
+// through the same loader as user files. The majorant tests sample the trilinear field at many
+// random points and check dmin <= density <= dmax per cell; the synthetic grid puts a one-voxel
+// sheet on a cell boundary, where a support without the interpolation apron is too small, and
+// the test checks that such a narrowed bound would indeed be caught.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <functional>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include <openvdb/io/Compression.h>
+#include <openvdb/openvdb.h>
+#include <openvdb/tools/Interpolation.h>
+
+#include <nanovdb/util/IO.h>
+#include <nanovdb/util/OpenToNanoVDB.h>
+
+#include "volume/volume.h"
+
+namespace fs = std::filesystem;
+using spectrack::GridData;
+using spectrack::MajorantGrid;
+
+namespace {
+
+std::string data_path(const std::string& rel) { return std::string(SHARED_DATA_DIR) + "/" + rel; }
+
+#define REQUIRE_FILE(path)                                                   \
+  do {                                                                       \
+    if (!fs::exists(path)) GTEST_SKIP() << "shared test file absent: " << (path); \
+  } while (0)
+
+// A temporary file removed when the test ends.
+struct TempFile {
+  std::string path;
+  explicit TempFile(const std::string& name) {
+    const fs::path dir = fs::temp_directory_path() / ("spectrack_test_volume_" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    path = (dir / name).string();
+  }
+  ~TempFile() {
+    std::error_code ec;
+    fs::remove(path, ec);
+  }
+};
+
+openvdb::FloatGrid::Ptr new_grid(const std::string& name = "density", float background = 0.0f) {
+  openvdb::initialize();
+  auto g = openvdb::FloatGrid::create(background);
+  g->setName(name);
+  g->setGridClass(openvdb::GRID_FOG_VOLUME);
+  return g;
+}
+
+void write_vdb(const std::string& path, const openvdb::GridPtrVec& grids) {
+  openvdb::io::File f(path);
+  f.write(grids);
+  f.close();
+}
+
+openvdb::FloatGrid::Ptr read_vdb(const std::string& path, const std::string& name) {
+  openvdb::initialize();
+  openvdb::io::File f(path);
+  f.open(false);
+  auto g = openvdb::gridPtrCast<openvdb::FloatGrid>(f.readGrid(name));
+  f.close();
+  return g;
+}
+
+// Runs fn and returns the spectrack::Error message; fails the test on success or other throws.
+template <class Fn>
+std::string error_of(Fn fn) {
+  try {
+    fn();
+  } catch (const spectrack::Error& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "expected spectrack::Error, got another exception: " << e.what();
+    return "";
+  }
+  ADD_FAILURE() << "expected spectrack::Error, got success";
+  return "";
+}
+
+bool contains(const std::string& s, const std::string& sub) { return s.find(sub) != std::string::npos; }
+
+std::array<double, 3> apply(const double m[3][4], double x, double y, double z) {
+  std::array<double, 3> w;
+  for (int r = 0; r < 3; ++r) w[r] = m[r][0] * x + m[r][1] * y + m[r][2] * z + m[r][3];
+  return w;
+}
+
+// index_to_world must reproduce OpenVDB's own indexToWorld.
+void expect_same_map(const GridData& g, const openvdb::math::Transform& xf) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-100, 100);
+  for (int i = 0; i < 20; ++i) {
+    const double x = u(rng), y = u(rng), z = u(rng);
+    const auto w = apply(g.index_to_world, x, y, z);
+    const openvdb::Vec3d ref = xf.indexToWorld(openvdb::Vec3d(x, y, z));
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(w[a], ref[a], 1e-9 * (1 + std::abs(ref[a])));
+  }
+}
+
+int cell_index(const MajorantGrid& m, const std::array<int, 3>& c) {
+  return c[0] + m.dims[0] * (c[1] + m.dims[1] * c[2]);
+}
+
+// Samples the trilinear field at n points in the majorant box (half uniform, half near the
+// active voxels listed in `hot`) and checks the per-cell bounds. Returns how many samples
+// exceed a bound built without the interpolation apron (voxels c*B .. c*B+B-1 only).
+int check_majorant(const GridData& g, const openvdb::FloatGrid& ref, int cell, int n,
+                   const std::vector<openvdb::Coord>& hot) {
+  const MajorantGrid m = spectrack::build_majorant_grid(g, cell);
+  EXPECT_EQ(m.cell, cell);
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_EQ(m.origin[a], g.index_min[a] - 1);
+    EXPECT_EQ(m.dims[a], (g.index_max[a] - g.index_min[a] + 2 + cell - 1) / cell);
+  }
+  EXPECT_EQ(m.dmax.size(), size_t(m.dims[0]) * m.dims[1] * m.dims[2]);
+  EXPECT_EQ(m.dmin.size(), m.dmax.size());
+  std::mt19937 rng(12345 + cell);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  std::vector<float> narrow(m.dmax.size(), -1.0f);
+  auto acc = ref.getConstAccessor();
+  int failures = 0, narrow_violations = 0;
+  for (int i = 0; i < n; ++i) {
+    double p[3];
+    if (i % 2 == 0 || hot.empty()) {
+      for (int a = 0; a < 3; ++a) p[a] = m.origin[a] + u01(rng) * (double(m.dims[a]) * cell);
+    } else {
+      const openvdb::Coord& c = hot[size_t(u01(rng) * hot.size()) % hot.size()];
+      for (int a = 0; a < 3; ++a) p[a] = c[a] + (2.0 * u01(rng) - 1.0);
+    }
+    std::array<int, 3> ci;
+    bool inside = true;
+    for (int a = 0; a < 3; ++a) {
+      ci[a] = int(std::floor((p[a] - m.origin[a]) / cell));
+      inside = inside && ci[a] >= 0 && ci[a] < m.dims[a];
+    }
+    if (!inside) continue;
+    const int k = cell_index(m, ci);
+    const float v = spectrack::sample_index_trilinear(g, p[0], p[1], p[2]);
+    if (!(m.dmin[size_t(k)] <= v && v <= m.dmax[size_t(k)])) {
+      if (++failures <= 5) {
+        ADD_FAILURE() << "cell " << cell << ": density " << v << " at (" << p[0] << ", " << p[1] << ", " << p[2]
+                      << ") outside [" << m.dmin[size_t(k)] << ", " << m.dmax[size_t(k)] << "]";
+      }
+    }
+    if (narrow[size_t(k)] < 0) {
+      float hi = 0;
+      for (int z = 0; z < cell; ++z)
+        for (int y = 0; y < cell; ++y)
+          for (int x = 0; x < cell; ++x)
+            hi = std::max(hi, acc.getValue(openvdb::Coord(m.origin[0] + ci[0] * cell + x,
+                                                          m.origin[1] + ci[1] * cell + y,
+                                                          m.origin[2] + ci[2] * cell + z)));
+      narrow[size_t(k)] = hi * (1.0f + 1e-5f);
+    }
+    narrow_violations += v > narrow[size_t(k)];
+  }
+  EXPECT_EQ(failures, 0) << "cell size " << cell;
+  return narrow_violations;
+}
+
+// A fog grid with random values on a spherical shell, a one-voxel sheet on a plane that is a
+// cell boundary for cells 4, 8 and 16, an isolated voxel and an active 8^3 tile; `hot` gets
+// the voxels near which samples concentrate.
+openvdb::FloatGrid::Ptr shell_and_sheet(std::vector<openvdb::Coord>* hot) {
+  auto g = new_grid();
+  auto acc = g->getAccessor();
+  std::mt19937 rng(99);
+  std::uniform_real_distribution<float> val(0.05f, 1.0f);
+  for (int z = -22; z <= 22; ++z)
+    for (int y = -22; y <= 22; ++y)
+      for (int x = -22; x <= 22; ++x) {
+        const double r = std::sqrt(double(x * x + y * y + z * z));
+        if (std::abs(r - 20.0) < 0.8) acc.setValue(openvdb::Coord(x, y, z), val(rng));
+      }
+  const openvdb::CoordBBox box = g->evalActiveVoxelBoundingBox();
+  const int xs = box.min().x() - 1 + 32;
+  for (int z = -6; z <= 6; ++z)
+    for (int y = -6; y <= 6; ++y) {
+      acc.setValue(openvdb::Coord(xs, y, z), 4.0f + val(rng));
+      hot->push_back(openvdb::Coord(xs, y, z));
+    }
+  acc.setValue(openvdb::Coord(3, -7, 5), 2.5f);
+  hot->push_back(openvdb::Coord(3, -7, 5));
+  g->tree().addTile(1, openvdb::Coord(8, 0, 0), 0.7f, true);
+  hot->push_back(openvdb::Coord(8, 0, 0));
+  hot->push_back(openvdb::Coord(15, 7, 7));
+  return g;
+}
+
+}  // namespace
+
+// ---- loading real data ------------------------------------------------------------------------
+
+TEST(VolumeLoad, DisneyCloud) {
+  const std::string path = data_path("wdas_cloud_sixteenth.vdb");
+  REQUIRE_FILE(path);
+  const GridData g = spectrack::load_float_grid(path, "density", -1, "test");
+  EXPECT_EQ(g.name, "density");
+  EXPECT_FALSE(g.empty);
+  EXPECT_EQ(g.index_min, (std::array<int, 3>{-66, -21, -90}));
+  EXPECT_EQ(g.index_max, (std::array<int, 3>{59, 64, 63}));
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) EXPECT_NEAR(g.index_to_world[r][c], r == c ? 3.33 : 0.0, 0.01);
+  EXPECT_GE(g.value_min, 0.0f);
+  EXPECT_LE(g.value_max, 1.0f);
+  EXPECT_GT(g.value_max, 0.5f);
+  ASSERT_NE(g.handle.grid<float>(), nullptr);
+  expect_same_map(g, read_vdb(path, "density")->transform());
+}
+
+TEST(VolumeLoad, NonUniformVoxelSizeAndTranslation) {
+  const std::string path = data_path("usd/densityAndHeat.vdb");
+  REQUIRE_FILE(path);
+  const GridData g = spectrack::load_float_grid(path, "density", -1, "test");
+  expect_same_map(g, read_vdb(path, "density")->transform());
+  EXPECT_NEAR(g.index_to_world[0][0], 0.703, 0.001);
+  EXPECT_NEAR(g.index_to_world[2][2], 0.716, 0.001);
+  EXPECT_NE(g.index_to_world[0][3], 0.0);
+  const GridData heat = spectrack::load_float_grid(path, "heat", -1, "test");
+  EXPECT_EQ(heat.name, "heat");
+}
+
+TEST(VolumeLoad, ListGrids) {
+  const std::string path = data_path("usd/smoke_000001.vdb");
+  REQUIRE_FILE(path);
+  const std::vector<std::string> l = spectrack::list_grids(path);
+  ASSERT_EQ(l.size(), 4u);
+  std::string all;
+  for (const auto& s : l) all += s + ";";
+  EXPECT_TRUE(contains(all, "obstacles (int32")) << all;
+  EXPECT_TRUE(contains(all, "velocity (vec3s")) << all;
+  EXPECT_TRUE(contains(all, "density (float")) << all;
+}
+
+TEST(VolumeLoad, EmptyGridAndNonFloatGrids) {
+  const std::string path = data_path("usd/smoke_000001.vdb");
+  REQUIRE_FILE(path);
+  const GridData g = spectrack::load_float_grid(path, "density", -1, "test");
+  EXPECT_TRUE(g.empty);
+  const MajorantGrid m = spectrack::build_majorant_grid(g, 8);
+  EXPECT_EQ(m.dims, (std::array<int, 3>{1, 1, 1}));
+  ASSERT_EQ(m.dmax.size(), 1u);
+  EXPECT_EQ(m.dmax[0], 0.0f);
+  EXPECT_EQ(m.dmin[0], 0.0f);
+  EXPECT_EQ(spectrack::sample_index_trilinear(g, 0.5, 0.5, 0.5), 0.0f);
+
+  std::string msg = error_of([&] { spectrack::load_float_grid(path, "obstacles", -1, "scene.json: /media/0"); });
+  EXPECT_TRUE(contains(msg, "int32")) << msg;
+  EXPECT_EQ(msg.rfind("scene.json: /media/0: " + path + ": ", 0), 0u) << msg;
+  msg = error_of([&] { spectrack::load_float_grid(path, "velocity", -1, "test"); });
+  EXPECT_TRUE(contains(msg, "vec3s")) << msg;
+}
+
+TEST(VolumeLoad, DuplicateGridNames) {
+  const std::string path = data_path("arnold-usd/grids.vdb");
+  REQUIRE_FILE(path);
+  testing::internal::CaptureStderr();
+  const GridData first = spectrack::load_float_grid(path, "density", -1, "test");
+  const std::string warning = testing::internal::GetCapturedStderr();
+  EXPECT_TRUE(contains(warning, "3 grids")) << warning;
+  EXPECT_TRUE(contains(warning, "grid_index")) << warning;
+
+  const GridData g0 = spectrack::load_float_grid(path, "density", 0, "test");
+  const GridData g1 = spectrack::load_float_grid(path, "density", 1, "test");
+  const GridData g2 = spectrack::load_float_grid(path, "density", 2, "test");
+  EXPECT_EQ(first.index_min, g0.index_min);
+  EXPECT_EQ(first.index_to_world[0][3], g0.index_to_world[0][3]);
+  // The middle grid has its own bbox; the first and third differ in their transforms.
+  EXPECT_EQ(g1.index_min, (std::array<int, 3>{-9, -13, -9}));
+  EXPECT_EQ(g1.index_max, (std::array<int, 3>{9, 5, 12}));
+  EXPECT_EQ(g2.index_min, (std::array<int, 3>{-5, -5, -5}));
+  bool differ = false;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) differ = differ || g0.index_to_world[r][c] != g2.index_to_world[r][c];
+  EXPECT_TRUE(differ);
+  const std::string msg = error_of([&] { spectrack::load_float_grid(path, "density", 3, "test"); });
+  EXPECT_TRUE(contains(msg, "out of range")) << msg;
+}
+
+// ---- errors -----------------------------------------------------------------------------------
+
+TEST(VolumeErrors, DamagedFiles) {
+  const std::string dir = data_path("oiio/openvdb-damaged");
+  REQUIRE_FILE(dir);
+  int n = 0;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    const std::string path = entry.path().string();
+    ++n;
+    const std::string msg = error_of([&] { spectrack::load_float_grid(path, "density", -1, "test"); });
+    EXPECT_TRUE(contains(msg, path)) << msg;
+    // Loading each file's own grid gives an Error too, except the well-formed empty one.
+    const std::string stem = entry.path().stem().string();
+    const std::string own = stem.rfind("bad-bbox-", 0) == 0 ? stem.substr(9) : stem;
+    if (entry.path().stem() == "bad-bbox-empty") {
+      EXPECT_TRUE(spectrack::load_float_grid(path, "empty", -1, "test").empty);
+    } else if (entry.path().stem() != "truncated") {
+      const std::string m2 = error_of([&] { spectrack::load_float_grid(path, own, -1, "test"); });
+      EXPECT_TRUE(contains(m2, "file_bbox")) << m2;
+    }
+  }
+  EXPECT_EQ(n, 7);
+}
+
+TEST(VolumeErrors, LevelSets) {
+  for (const char* f : {"levelset/cube.vdb", "levelset/sphere.vdb"}) {
+    const std::string path = data_path(f);
+    REQUIRE_FILE(path);
+    const std::string name = contains(f, "cube") ? "ls_cube" : "ls_sphere";
+    const std::string msg = error_of([&] { spectrack::load_float_grid(path, name, -1, "test"); });
+    EXPECT_TRUE(contains(msg, "level set")) << msg;
+  }
+}
+
+TEST(VolumeErrors, MissingGridListsGrids) {
+  const std::string path = data_path("usd/densityAndHeat.vdb");
+  REQUIRE_FILE(path);
+  const std::string msg = error_of([&] { spectrack::load_float_grid(path, "smoke", -1, "test"); });
+  EXPECT_TRUE(contains(msg, "\"smoke\"")) << msg;
+  EXPECT_TRUE(contains(msg, "density (float")) << msg;
+  EXPECT_TRUE(contains(msg, "heat (float")) << msg;
+}
+
+TEST(VolumeErrors, MissingAndBadFiles) {
+  std::string msg = error_of([] { spectrack::load_float_grid("/nonexistent/cloud.vdb", "density", -1, "ctx"); });
+  EXPECT_TRUE(contains(msg, "ctx: /nonexistent/cloud.vdb: no such file")) << msg;
+  msg = error_of([] { spectrack::load_float_grid("/nonexistent/cloud.nvdb", "density", -1, "ctx"); });
+  EXPECT_TRUE(contains(msg, "no such file")) << msg;
+  msg = error_of([] { spectrack::load_float_grid("cloud.txt", "density", -1, "ctx"); });
+  EXPECT_TRUE(contains(msg, "extension")) << msg;
+  for (const char* name : {"garbage.vdb", "garbage.nvdb"}) {
+    TempFile t(name);
+    std::ofstream(t.path, std::ios::binary) << std::string(1000, 'x');
+    msg = error_of([&] { spectrack::load_float_grid(t.path, "density", -1, "ctx"); });
+    EXPECT_TRUE(contains(msg, t.path)) << msg;
+  }
+  EXPECT_THROW(spectrack::list_grids("/nonexistent/cloud.vdb"), spectrack::Error);
+}
+
+TEST(VolumeErrors, BadValuesBackgroundAndTransform) {
+  struct Case {
+    const char* what;
+    std::function<openvdb::FloatGrid::Ptr()> make;
+    std::vector<std::string> expect;
+  };
+  const std::vector<Case> cases = {
+      {"negative voxel", [] { auto g = new_grid(); g->tree().setValue({1, 1, 1}, 0.5f); g->tree().setValue({3, 4, 5}, -0.5f); return g; },
+       {"-0.5", "(3, 4, 5)", "negative"}},
+      {"NaN voxel", [] { auto g = new_grid(); g->tree().setValue({-7, 2, 9}, std::nanf("")); return g; },
+       {"nan", "(-7, 2, 9)"}},
+      {"infinite voxel", [] { auto g = new_grid(); g->tree().setValue({0, 0, 0}, INFINITY); return g; },
+       {"inf", "not finite"}},
+      {"negative tile", [] { auto g = new_grid(); g->tree().addTile(1, openvdb::Coord(16, 0, 0), -2.0f, true); return g; },
+       {"-2", "tile", "(16, 0, 0)"}},
+      {"background", [] { auto g = new_grid("density", 0.25f); g->tree().setValue({0, 0, 0}, 1.0f); return g; },
+       {"background", "0.25"}},
+      {"frustum", [] {
+         auto g = new_grid();
+         g->tree().setValue({0, 0, 0}, 1.0f);
+         g->setTransform(openvdb::math::Transform::createFrustumTransform(
+             openvdb::BBoxd(openvdb::Vec3d(0), openvdb::Vec3d(10)), 0.5, 2.0, 1.0));
+         return g;
+       },
+       {"non-affine"}},
+  };
+  for (const Case& c : cases) {
+    TempFile t("bad.vdb");
+    write_vdb(t.path, {c.make()});
+    const std::string msg = error_of([&] { spectrack::load_float_grid(t.path, "density", -1, "test"); });
+    for (const std::string& e : c.expect) EXPECT_TRUE(contains(msg, e)) << c.what << ": " << msg;
+  }
+}
+
+// ---- lookups and majorants --------------------------------------------------------------------
+
+TEST(VolumeSample, TrilinearMatchesOpenVdbBoxSampler) {
+  const std::string path = data_path("wdas_cloud_sixteenth.vdb");
+  REQUIRE_FILE(path);
+  const GridData g = spectrack::load_float_grid(path, "density", -1, "test");
+  const auto ref = read_vdb(path, "density");
+  auto acc = ref->getConstAccessor();
+  std::mt19937 rng(2024);
+  int nonzero = 0;
+  for (int i = 0; i < 1000; ++i) {
+    double p[3];
+    for (int a = 0; a < 3; ++a) {
+      std::uniform_real_distribution<double> u(g.index_min[a] - 3.0, g.index_max[a] + 3.0);
+      p[a] = u(rng);
+    }
+    const float v = spectrack::sample_index_trilinear(g, p[0], p[1], p[2]);
+    const float r = openvdb::tools::BoxSampler::sample(acc, openvdb::Vec3R(p[0], p[1], p[2]));
+    EXPECT_NEAR(v, r, 1e-5 * std::max(std::abs(r), 1e-3f)) << p[0] << " " << p[1] << " " << p[2];
+    nonzero += r > 0;
+  }
+  EXPECT_GT(nonzero, 50);
+}
+
+TEST(VolumeMajorant, BoundsDisneyCloud) {
+  const std::string path = data_path("wdas_cloud_sixteenth.vdb");
+  REQUIRE_FILE(path);
+  const GridData g = spectrack::load_float_grid(path, "density", -1, "test");
+  const auto t0 = std::chrono::steady_clock::now();
+  const MajorantGrid m = spectrack::build_majorant_grid(g, 8);
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  std::cout << "[ info ] majorant build, Disney cloud, cell 8, " << m.dims[0] << "x" << m.dims[1] << "x" << m.dims[2]
+            << " cells: " << ms << " ms\n";
+  EXPECT_EQ(m.dims, (std::array<int, 3>{16, 11, 20}));
+  const auto ref = read_vdb(path, "density");
+  check_majorant(g, *ref, 8, 20000, {});
+}
+
+TEST(VolumeMajorant, BoundsSyntheticShellAndSheet) {
+  std::vector<openvdb::Coord> hot;
+  auto grid = shell_and_sheet(&hot);
+  TempFile t("shell.vdb");
+  write_vdb(t.path, {grid});
+  const GridData g = spectrack::load_float_grid(t.path, "density", -1, "test");
+  for (int cell : {4, 8, 16}) {
+    const int narrow_violations = check_majorant(g, *grid, cell, 20000, hot);
+    EXPECT_GT(narrow_violations, 0) << "a bound without the interpolation apron went undetected, cell " << cell;
+  }
+}
+
+TEST(VolumeMajorant, BoundIsTight) {
+  std::vector<openvdb::Coord> hot;
+  auto grid = shell_and_sheet(&hot);
+  TempFile t("tight.vdb");
+  write_vdb(t.path, {grid});
+  const GridData g = spectrack::load_float_grid(t.path, "density", -1, "test");
+  const MajorantGrid m = spectrack::build_majorant_grid(g, 8);
+  float expect = g.value_max * (1.0f + 1e-5f);
+  expect += 1e-30f;
+  EXPECT_EQ(*std::max_element(m.dmax.begin(), m.dmax.end()), expect);
+  // Every cell's bound is its support maximum, recomputed here through OpenVDB.
+  auto acc = grid->getConstAccessor();
+  std::mt19937 rng(5);
+  EXPECT_FLOAT_EQ(spectrack::sample_index_trilinear(g, 12.5, 4.5, 4.5), 0.7f);  // inside the active tile
+  for (int i = 0; i < 60; ++i) {
+    std::array<int, 3> c{int(rng() % m.dims[0]), int(rng() % m.dims[1]), int(rng() % m.dims[2])};
+    if (i == 0) c = {(12 - m.origin[0]) / 8, (4 - m.origin[1]) / 8, (4 - m.origin[2]) / 8};
+    float hi = 0, lo = INFINITY;
+    for (int z = 0; z <= 8; ++z)
+      for (int y = 0; y <= 8; ++y)
+        for (int x = 0; x <= 8; ++x) {
+          const float v = acc.getValue(openvdb::Coord(m.origin[0] + c[0] * 8 + x, m.origin[1] + c[1] * 8 + y,
+                                                      m.origin[2] + c[2] * 8 + z));
+          hi = std::max(hi, v);
+          lo = std::min(lo, v);
+        }
+    float e = hi * (1.0f + 1e-5f);
+    if (e > 0) e += 1e-30f;
+    EXPECT_EQ(m.dmax[size_t(cell_index(m, c))], e);
+    EXPECT_EQ(m.dmin[size_t(cell_index(m, c))], lo * (1.0f - 1e-5f));
+  }
+}
+
+TEST(VolumeMajorant, DisneyCloudHasPositiveMinorants) {
+  const std::string path = data_path("wdas_cloud_sixteenth.vdb");
+  REQUIRE_FILE(path);
+  const GridData g = spectrack::load_float_grid(path, "density", -1, "test");
+  const MajorantGrid m = spectrack::build_majorant_grid(g, 4);
+  size_t positive = 0;
+  for (float v : m.dmin) positive += v > 0;
+  EXPECT_GT(positive, 0u);
+}
+
+// ---- NanoVDB files ----------------------------------------------------------------------------
+
+namespace {
+
+void expect_same_lookups(const GridData& a, const GridData& b, int n) {
+  std::mt19937 rng(31);
+  for (int i = 0; i < n; ++i) {
+    double p[3];
+    for (int k = 0; k < 3; ++k) {
+      std::uniform_real_distribution<double> u(a.index_min[k] - 2.0, a.index_max[k] + 2.0);
+      p[k] = u(rng);
+    }
+    ASSERT_EQ(spectrack::sample_index_trilinear(a, p[0], p[1], p[2]),
+              spectrack::sample_index_trilinear(b, p[0], p[1], p[2]));
+  }
+}
+
+// Writes a one-grid .nvdb with the given codec, encoding through OpenVDB's codecs (the same
+// byte layout as NanoVDB's writer: a uint64 size, then the compressed bytes).
+void write_nvdb(const std::string& path, const nanovdb::GridHandle<nanovdb::HostBuffer>& h, nanovdb::io::Codec codec) {
+  const auto* grid = h.grid<float>();
+  std::ostringstream payload;
+  const char* bytes = reinterpret_cast<const char*>(h.data());
+  if (codec == nanovdb::io::Codec::ZIP) {
+    openvdb::io::zipToStream(payload, bytes, h.size());
+  } else if (codec == nanovdb::io::Codec::BLOSC) {
+    openvdb::io::bloscToStream(payload, bytes, sizeof(float), h.size() / sizeof(float));
+  } else {
+    payload.write(bytes, std::streamsize(h.size()));
+  }
+  nanovdb::io::Header header(codec);
+  header.gridCount = 1;
+  nanovdb::io::GridMetaData meta(h.size(), codec, *grid);
+  meta.fileSize = payload.str().size();
+  std::ofstream os(path, std::ios::binary);
+  os.write(reinterpret_cast<const char*>(&header), sizeof(header));
+  meta.write(os);
+  os << payload.str();
+}
+
+}  // namespace
+
+TEST(VolumeNanoVdb, DerivedDisneyCloudMatchesVdb) {
+  const std::string vdb = data_path("wdas_cloud_sixteenth.vdb");
+  const std::string nvdb = data_path("derived/wdas_cloud_sixteenth.nvdb");
+  REQUIRE_FILE(vdb);
+  REQUIRE_FILE(nvdb);
+  const GridData a = spectrack::load_float_grid(vdb, "density", -1, "test");
+  const GridData b = spectrack::load_float_grid(nvdb, "density", -1, "test");
+  EXPECT_EQ(a.index_min, b.index_min);
+  EXPECT_EQ(a.index_max, b.index_max);
+  EXPECT_EQ(a.value_max, b.value_max);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) EXPECT_NEAR(a.index_to_world[r][c], b.index_to_world[r][c], 1e-9);
+  expect_same_lookups(a, b, 1000);
+  const std::vector<std::string> l = spectrack::list_grids(nvdb);
+  ASSERT_EQ(l.size(), 1u);
+  EXPECT_TRUE(contains(l[0], "density (float")) << l[0];
+}
+
+TEST(VolumeNanoVdb, BloscUnnamedSmoke) {
+  const std::string path = data_path("smoke1-blosc.nvdb");
+  REQUIRE_FILE(path);
+  try {
+    testing::internal::CaptureStderr();
+    const GridData g = spectrack::load_float_grid(path, "density", -1, "test");
+    const std::string warning = testing::internal::GetCapturedStderr();
+    EXPECT_TRUE(contains(warning, "no name")) << warning;
+    EXPECT_EQ(g.index_min, (std::array<int, 3>{1, 2, 1}));
+    EXPECT_EQ(g.index_max, (std::array<int, 3>{111, 223, 112}));
+    EXPECT_GT(g.value_max, 5.0f);
+    std::cout << "[ info ] smoke1-blosc.nvdb loaded, values up to " << g.value_max << "\n";
+  } catch (const spectrack::Error& e) {
+    testing::internal::GetCapturedStderr();
+    EXPECT_TRUE(contains(e.what(), "BLOSC")) << e.what();
+  }
+}
+
+TEST(VolumeNanoVdb, CodecsRoundTripAndCorruption) {
+  std::vector<openvdb::Coord> hot;
+  auto grid = shell_and_sheet(&hot);
+  const auto handle = nanovdb::openToNanoVDB(*grid, nanovdb::StatsMode::Default, nanovdb::ChecksumMode::Full);
+  TempFile src("src.vdb");
+  write_vdb(src.path, {grid});
+  const GridData ref = spectrack::load_float_grid(src.path, "density", -1, "test");
+  for (auto codec : {nanovdb::io::Codec::NONE, nanovdb::io::Codec::ZIP, nanovdb::io::Codec::BLOSC}) {
+    TempFile t("codec.nvdb");
+    write_nvdb(t.path, handle, codec);
+    const GridData g = spectrack::load_float_grid(t.path, "density", -1, "test");
+    EXPECT_EQ(g.index_min, ref.index_min);
+    EXPECT_EQ(g.index_max, ref.index_max);
+    expect_same_lookups(ref, g, 500);
+  }
+  // Truncated and bit-flipped copies of an uncompressed file are refused cleanly.
+  TempFile plain("plain.nvdb");
+  write_nvdb(plain.path, handle, nanovdb::io::Codec::NONE);
+  std::string bytes;
+  {
+    std::ifstream is(plain.path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(is), {});
+  }
+  for (size_t cut : {size_t(10), size_t(100), bytes.size() / 2, bytes.size() - 1}) {
+    TempFile t("cut.nvdb");
+    std::ofstream(t.path, std::ios::binary) << bytes.substr(0, cut);
+    const std::string msg = error_of([&] { spectrack::load_float_grid(t.path, "density", -1, "test"); });
+    EXPECT_TRUE(contains(msg, t.path)) << msg;
+  }
+  // The grid starts after the 16-byte segment header, a 176-byte grid header and the name.
+  const size_t grid_start = 16 + 176 + 8;
+  for (size_t at : {grid_start + 40, grid_start + 700, bytes.size() / 2, bytes.size() - 100}) {
+    std::string flipped = bytes;
+    for (size_t i = at; i < at + 16; ++i) flipped[i] = char(~flipped[i]);
+    TempFile t("flip.nvdb");
+    std::ofstream(t.path, std::ios::binary) << flipped;
+    const std::string msg = error_of([&] { spectrack::load_float_grid(t.path, "density", -1, "test"); });
+    EXPECT_TRUE(contains(msg, "corrupt")) << "flipped at " << at << ": " << msg;
+  }
+}
+
+TEST(VolumeNanoVdb, ErrorsMatchVdb) {
+  const std::string path = data_path("derived/densityAndHeat.nvdb");
+  REQUIRE_FILE(path);
+  const std::string msg = error_of([&] { spectrack::load_float_grid(path, "smoke", -1, "test"); });
+  EXPECT_TRUE(contains(msg, "density (float")) << msg;
+  const GridData g = spectrack::load_float_grid(path, "heat", -1, "test");
+  EXPECT_FALSE(g.empty);
+}

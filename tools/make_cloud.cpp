@@ -1,0 +1,193 @@
+// make_cloud: writes the procedural cumulus cloud used by the default scene.
+//
+//   make_cloud OUT.vdb [--res N]
+//
+// Design: a handful of overlapping spheres (a flat-bottomed cumulus heap) give a smooth
+// "depth inside the cloud" field; fractal value noise displaces that field, so the surface
+// billows, and modulates the interior. Density = smoothstep of the displaced depth, so the edges
+// are soft and the core approaches 1. Everything derives from integer hashing with a fixed
+// seed (no std random distributions, whose output differs between library versions), so the
+// same --res gives the same file. The cloud spans about [-1,1]^3 in world units: the grid has
+// N voxels across, voxel size 2/N, and voxel centres at -1 + (i + 0.5) * 2/N. The result is a
+// float fog-volume grid named "density" with background 0, written with OpenVDB's default
+// (Blosc) compression.
+#include <openvdb/openvdb.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace {
+
+constexpr uint32_t kSeed = 0x5eed1234u;
+
+uint32_t hash3(int x, int y, int z, uint32_t seed) {
+  uint32_t h = seed ^ (uint32_t(x) * 0x8da6b343u) ^ (uint32_t(y) * 0xd8163841u) ^ (uint32_t(z) * 0xcb1ab31fu);
+  h ^= h >> 16;
+  h *= 0x7feb352du;
+  h ^= h >> 15;
+  h *= 0x846ca68bu;
+  h ^= h >> 16;
+  return h;
+}
+
+double lattice(int x, int y, int z, uint32_t seed) { return hash3(x, y, z, seed) * (1.0 / 4294967296.0); }
+
+double fade(double t) { return t * t * t * (t * (t * 6 - 15) + 10); }
+
+// Value noise in [0,1): quintic interpolation of hashed lattice values.
+double value_noise(double x, double y, double z, uint32_t seed) {
+  const double fx = std::floor(x), fy = std::floor(y), fz = std::floor(z);
+  const int ix = int(fx), iy = int(fy), iz = int(fz);
+  const double u = fade(x - fx), v = fade(y - fy), w = fade(z - fz);
+  double c[2][2];
+  for (int k = 0; k < 2; ++k)
+    for (int j = 0; j < 2; ++j) {
+      const double a = lattice(ix, iy + j, iz + k, seed), b = lattice(ix + 1, iy + j, iz + k, seed);
+      c[k][j] = a + u * (b - a);
+    }
+  const double c0 = c[0][0] + v * (c[0][1] - c[0][0]);
+  const double c1 = c[1][0] + v * (c[1][1] - c[1][0]);
+  return c0 + w * (c1 - c0);
+}
+
+// Fractal sum of octaves, normalised to [0,1).
+double fbm(double x, double y, double z, int octaves, uint32_t seed) {
+  double sum = 0, amp = 0.5, norm = 0;
+  for (int o = 0; o < octaves; ++o) {
+    sum += amp * value_noise(x, y, z, seed + uint32_t(o) * 1013u);
+    norm += amp;
+    amp *= 0.5;
+    x = x * 2.03 + 17.1;
+    y = y * 2.03 - 9.3;
+    z = z * 2.03 + 3.7;
+  }
+  return sum / norm;
+}
+
+double smoothstep(double a, double b, double x) {
+  const double t = std::clamp((x - a) / (b - a), 0.0, 1.0);
+  return t * t * (3 - 2 * t);
+}
+
+struct Sphere {
+  double x, y, z, r;
+};
+
+// The heap: a broad base, a central tower and side lobes, all inside |p| < ~0.8.
+const Sphere kSpheres[] = {
+    {0.00, -0.15, 0.00, 0.50}, {-0.40, -0.25, 0.10, 0.36}, {0.42, -0.22, -0.08, 0.38},
+    {0.08, 0.22, 0.04, 0.40},  {-0.18, 0.12, -0.30, 0.32}, {0.22, -0.28, 0.36, 0.30},
+    {-0.05, 0.48, -0.05, 0.26},
+};
+
+// Density at world point p in [-1,1]^3.
+double cloud_density(double x, double y, double z) {
+  // The heap is modelled in a slightly smaller frame so that it fills about [-0.9, 0.9]^3.
+  x /= 1.08, y /= 1.08, z /= 1.08;
+  // Depth inside the soft union of spheres, in units of each radius (1 at a centre).
+  double depth = -1e9;
+  for (const Sphere& s : kSpheres) {
+    const double d = std::sqrt((x - s.x) * (x - s.x) + (y - s.y) * (y - s.y) + (z - s.z) * (z - s.z));
+    depth = std::max(depth, 1.0 - d / s.r);
+  }
+  if (depth < -0.6) return 0.0;
+  const double billow = fbm(x * 3.1, y * 3.1, z * 3.1, 5, kSeed) - 0.5;
+  // Folded noise gives rounded cauliflower lumps rather than a smooth wobble.
+  const double lumps = 0.5 - std::abs(2.0 * fbm(x * 6.3 + 5.2, y * 6.3, z * 6.3 - 1.3, 3, kSeed + 77u) - 1.0);
+  const double shaped = depth + 0.75 * billow + 0.3 * lumps;
+  // Flat, slightly ragged base.
+  const double base = smoothstep(-0.50, -0.36, y + 0.05 * billow);
+  const double body = smoothstep(0.0, 0.55, shaped);
+  const double texture = 0.75 + 0.5 * (fbm(x * 6.0, y * 6.0, z * 6.0, 4, kSeed + 991u) - 0.5);
+  return std::clamp(body * base * texture, 0.0, 1.0);
+}
+
+int usage(const char* argv0) {
+  std::cerr << "usage: " << argv0 << " OUT.vdb [--res N]   (N voxels across, 16..512, default 96)\n";
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string out;
+  int res = 96;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--res" && i + 1 < argc) {
+      char* end = nullptr;
+      const long v = std::strtol(argv[++i], &end, 10);
+      if (*end != '\0' || v < 16 || v > 512) return usage(argv[0]);
+      res = int(v);
+    } else if (a == "-h" || a == "--help") {
+      return usage(argv[0]);
+    } else if (out.empty() && !a.empty() && a[0] != '-') {
+      out = a;
+    } else {
+      return usage(argv[0]);
+    }
+  }
+  if (out.empty()) return usage(argv[0]);
+
+  // Dense evaluation, one z-slice at a time across threads; then a serial copy into the tree.
+  const double vs = 2.0 / res;
+  std::vector<float> dense(size_t(res) * res * res, 0.0f);
+  std::atomic<int> next{0};
+  auto worker = [&] {
+    for (int k; (k = next.fetch_add(1)) < res;) {
+      const double z = -1.0 + (k + 0.5) * vs;
+      for (int j = 0; j < res; ++j)
+        for (int i = 0; i < res; ++i) {
+          const double x = -1.0 + (i + 0.5) * vs, y = -1.0 + (j + 0.5) * vs;
+          dense[(size_t(k) * res + j) * res + i] = float(cloud_density(x, y, z));
+        }
+    }
+  };
+  std::vector<std::thread> threads;
+  const unsigned n = std::max(1u, std::min(16u, std::thread::hardware_concurrency()));
+  for (unsigned t = 0; t < n; ++t) threads.emplace_back(worker);
+  for (auto& t : threads) t.join();
+
+  try {
+    openvdb::initialize();
+    openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(0.0f);
+    auto acc = grid->getAccessor();
+    for (int k = 0; k < res; ++k)
+      for (int j = 0; j < res; ++j)
+        for (int i = 0; i < res; ++i) {
+          const float v = dense[(size_t(k) * res + j) * res + i];
+          if (v > 1e-3f) acc.setValue(openvdb::Coord(i, j, k), v);
+        }
+    grid->setName("density");
+    grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+    auto xf = openvdb::math::Transform::createLinearTransform(vs);
+    xf->postTranslate(openvdb::Vec3d(-1.0 + 0.5 * vs));
+    grid->setTransform(xf);
+    grid->insertMeta("creator", openvdb::StringMetadata("spectrack make_cloud"));
+    grid->insertMeta("make_cloud_res", openvdb::Int32Metadata(res));
+
+    openvdb::io::File file(out);
+    file.write({grid});
+    file.close();
+
+    const openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
+    const openvdb::BBoxd wbox = grid->transform().indexToWorld(box);
+    float vmin = 1, vmax = 0;
+    for (auto it = grid->cbeginValueOn(); it; ++it) vmin = std::min(vmin, *it), vmax = std::max(vmax, *it);
+    std::cout << out << ": " << grid->activeVoxelCount() << " active voxels, index bbox " << box.min() << " -> "
+              << box.max() << ", world bbox " << wbox.min() << " -> " << wbox.max() << ", voxel size " << vs
+              << ", density " << vmin << " .. " << vmax << ", " << std::filesystem::file_size(out) << " bytes\n";
+  } catch (const std::exception& e) {
+    std::cerr << "make_cloud: " << out << ": " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
