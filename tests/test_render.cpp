@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <random>
 
+#include "image/image.h"
 #include "test_util.h"
 
 using namespace spectrack;
@@ -380,6 +381,78 @@ TEST(Render, EmissionGridScalesRadiance) {
     Stats st = mean_se(channel(r, c));
     double T = std::exp(-sig[c] * 64 * v);
     EXPECT_NEAR(st.mean, 2.0 * 0.5 * Le[c] * (1 - T) + T * env[c], 4.0 * st.se + 1e-6) << "channel " << c;
+  }
+}
+
+TEST(Render, WhiteFurnaceUnderConstantEnvironmentMap) {
+  // the map is sampled by its own distribution and MIS-weighted against phase sampling: any
+  // inconsistency between sampling and pdf breaks L = 1
+  std::string dir = temp_dir("envmap");
+  std::vector<float> px(32 * 16 * 3, 1.0f);
+  write_image(dir + "/white.exr", 32, 16, px, {});
+  json s = furnace_scene("spectral", dir, false);
+  s["lights"] = json::array({{{"type", "environment"}, {"map", "white.exr"}}});
+  RenderResult r = Renderer(scene_from_json(s, dir), quiet_options()).render();
+  const double one[3] = {1, 1, 1};
+  expect_channels(r, one, "white furnace under a map");
+}
+
+TEST(Render, EnvironmentMapSeenDirectly) {
+  // no media: an orthographic camera looking along +z sees the texel of direction +z, which is
+  // u = 0 (wraps to the left/right edge), v = 0.5
+  std::string dir = temp_dir("envmap_direct");
+  std::vector<float> px(8 * 4 * 3, 0.0f);
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 8; ++x)
+      for (int c = 0; c < 3; ++c) px[(y * 8 + x) * 3 + c] = float(x + 10 * y + c);
+  write_image(dir + "/ramp.exr", 8, 4, px, {});
+  json s = base_scene(4, 4, 4, "spectral");
+  s["lights"] = json::array({{{"type", "environment"}, {"map", "ramp.exr"}, {"scale", 2.0}}});
+  RenderResult r = Renderer(scene_from_json(s, dir), quiet_options()).render();
+  // direction (0,0,1): atan2(0, -1) = pi -> u = 1 -> column 0 after wrapping; v = 0.5 -> row 2
+  for (int c = 0; c < 3; ++c) EXPECT_FLOAT_EQ(r.rgb[c], 2.0f * float(0 + 10 * 2 + c)) << "channel " << c;
+}
+
+TEST(Render, OverlappingMediaAddTheirCoefficients) {
+  std::string dir = temp_dir("overlap");
+  // absorbing: two overlapping boxes = one box with summed coefficients where they overlap
+  json s = base_scene(12, 12, 128, "delta-per-channel");
+  s["lights"].push_back({{"type", "environment"}, {"radiance", {1, 1, 1}}});
+  s["media"].push_back({{"type", "homogeneous"}, {"bounds", {{-1, -1, -1}, {1, 1, 1}}}, {"sigma_a", {0.2, 0.4, 0.6}}, {"sigma_s", {0, 0, 0}}});
+  s["media"].push_back({{"type", "homogeneous"}, {"bounds", {{-1, -1, 0}, {1, 1, 2}}}, {"sigma_a", {0.5, 0.3, 0.1}}, {"sigma_s", {0, 0, 0}}});
+  RenderResult r = Renderer(scene_from_json(s, dir), quiet_options()).render();
+  double tau[3] = {0.2 * 2 + 0.5 * 2, 0.4 * 2 + 0.3 * 2, 0.6 * 2 + 0.1 * 2};
+  const double expected[3] = {std::exp(-tau[0]), std::exp(-tau[1]), std::exp(-tau[2])};
+  expect_channels(r, expected, "overlapping absorbers");
+  // scattering: two overlapping chromatic media with different phase functions in a white furnace
+  write_lumpy(dir + "/lumpy.vdb");
+  json f = furnace_scene("spectral", dir, false);
+  f["media"].push_back({{"type", "homogeneous"}, {"bounds", {{-0.5, -0.8, -0.6}, {0.9, 0.4, 0.7}}}, {"sigma_a", {0, 0, 0}},
+                        {"sigma_s", {2.0, 0.5, 1.0}}, {"phase", {{"type", "hg"}, {"g", -0.5}}}});
+  RenderResult w = Renderer(scene_from_json(f, dir), quiet_options()).render();
+  const double one[3] = {1, 1, 1};
+  expect_channels(w, one, "overlapping white furnace");
+}
+
+TEST(Render, DirectionalLightSingleScattering) {
+  // sun behind the camera, a wide slab, single scattering only (max_depth 1), no environment:
+  // L = sigma_s p(180 deg) E (1 - exp(-2 sigma_t d)) / (2 sigma_t)
+  std::string dir = temp_dir("sun");
+  for (std::string tracker : {"delta-per-channel", "spectral"}) {
+    json s = base_scene(8, 8, 256, tracker);
+    s["render"]["max_depth"] = 1;
+    s["lights"].push_back({{"type", "directional"}, {"to_light", {0, 0, -1}}, {"irradiance", {2.0, 3.0, 4.0}}});
+    s["media"].push_back({{"type", "homogeneous"}, {"bounds", {{-20, -20, -1}, {20, 20, 1}}}, {"sigma_a", {0.3, 0.2, 0.1}},
+                          {"sigma_s", {0.5, 1.0, 2.0}}, {"phase", {{"type", "hg"}, {"g", 0.3}}}});
+    RenderResult r = Renderer(scene_from_json(s, dir), quiet_options()).render();
+    double E[3] = {2, 3, 4}, sa[3] = {0.3, 0.2, 0.1}, ss[3] = {0.5, 1.0, 2.0};
+    double g = 0.3, p180 = (1 - g * g) / (4 * M_PI * std::pow(1 + g * g + 2 * g, 1.5));
+    for (int c = 0; c < 3; ++c) {
+      double st = sa[c] + ss[c];
+      double expected = ss[c] * p180 * E[c] * (1 - std::exp(-2 * st * 2.0)) / (2 * st);
+      Stats m = mean_se(channel(r, c));
+      EXPECT_NEAR(m.mean, expected, 4.0 * m.se + 1e-6) << tracker << " channel " << c;
+    }
   }
 }
 
