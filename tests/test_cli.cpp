@@ -60,7 +60,19 @@ struct RunOptions {
   int signal = 0;
   std::string signal_after_text;
   double signal_delay_s = 0.0;
+  // ... and only once this text followed by a digit 1-9 has appeared (e.g. "progress: " for a
+  // progress line of at least 10%).
+  std::string signal_also_needs;
 };
+
+// Whether `text` holds `prefix` followed by a digit 1-9.
+bool has_nonzero_after(const std::string& text, const std::string& prefix) {
+  for (size_t at = text.find(prefix); at != std::string::npos; at = text.find(prefix, at + 1)) {
+    size_t d = at + prefix.size();
+    if (d < text.size() && text[d] >= '1' && text[d] <= '9') return true;
+  }
+  return false;
+}
 
 struct Proc {
   std::vector<std::string> args;
@@ -144,7 +156,8 @@ Proc run(std::vector<std::string> args, const RunOptions& o = {}) {
     const double t = since(t0);
     if (o.signal && !p.signal_sent) {
       if (text_seen_at < 0 && p.out.find(o.signal_after_text) != std::string::npos) text_seen_at = t;
-      if (text_seen_at >= 0 && t >= text_seen_at + o.signal_delay_s) {
+      const bool also = o.signal_also_needs.empty() || has_nonzero_after(p.out, o.signal_also_needs);
+      if (text_seen_at >= 0 && t >= text_seen_at + o.signal_delay_s && also) {
         ::kill(pid, o.signal);
         p.signal_sent = true;
         signal_time = Clock::now();
@@ -210,12 +223,33 @@ std::string write_scene(const std::string& dir, const std::string& name, const j
   return path;
 }
 
+// Removes the folder of a test that passed (a failed test's files stay for a look).
+class RemoveDirOnPass : public testing::EmptyTestEventListener {
+ public:
+  static std::string& current() {
+    static std::string dir;
+    return dir;
+  }
+  void OnTestEnd(const testing::TestInfo& info) override {
+    if (!current().empty() && info.result() && info.result()->Passed()) {
+      std::error_code ec;
+      fs::remove_all(current(), ec);
+    }
+    current().clear();
+  }
+};
+const bool kRemoveDirRegistered = [] {
+  testing::UnitTest::GetInstance()->listeners().Append(new RemoveDirOnPass);
+  return true;
+}();
+
 // A per-test folder (the test's name and the process id keep parallel runs apart).
 std::string test_dir() {
   const auto* info = testing::UnitTest::GetInstance()->current_test_info();
-  std::string d = st_test::temp_dir(std::string("cli_") + info->name());
+  std::string d = st_test::temp_dir(std::string("cli_") + info->test_suite_name() + "_" + info->name());
   // Start empty: a left-over image would hide a missing one.
   for (auto& e : fs::directory_iterator(d)) fs::remove_all(e.path());
+  RemoveDirOnPass::current() = d;
   return d;
 }
 
@@ -291,6 +325,12 @@ TEST(CliSceneErrors, IntAndVec3GridsAreRefusedNamingTheirType) {
   expect_scene_error(dir, vdb_scene(file, "velocity"), "/media/0", {"smoke_000001.vdb", "velocity", "vec3s"});
 }
 
+// Each malformed file of OIIO's openvdb-damaged set, used as a medium: asked for the default
+// grid "density" (none of them has it) and for the grid the file does hold (bad-bbox-<x>.vdb
+// holds one float grid named <x>), so the loader reaches the damaged tree. Every run ends by
+// itself within 60 s without a signal; every damaged one fails with exit 1 naming the file.
+// bad-bbox-empty.vdb is the exception: its grid is a valid empty grid without file_bbox metadata
+// (an all-zero medium), which may be rendered (exit 0) or refused (exit 1).
 TEST(CliSceneErrors, DamagedVdbFilesFailCleanly) {
   std::string dir = test_dir();
   std::string damaged = kShared + "/oiio/openvdb-damaged";
@@ -301,20 +341,30 @@ TEST(CliSceneErrors, DamagedVdbFilesFailCleanly) {
   std::sort(files.begin(), files.end());
   ASSERT_GE(files.size(), 7u) << "expected the 6 bad-bbox files and truncated.vdb in " << damaged;
   for (const auto& f : files) {
-    SCOPED_TRACE(f.string());
-    // bad-bbox-<x>.vdb holds one float grid named <x>: ask for it, so the loader reaches the
-    // damaged tree instead of stopping at "no grid named density".
     std::string stem = f.stem().string();
-    std::string grid = stem.rfind("bad-bbox-", 0) == 0 ? stem.substr(9) : "";
-    std::string path = write_scene(dir, "damaged.json", vdb_scene(f.string(), grid));
-    Proc p = run({"render", path, "-o", dir + "/out.exr", "--quiet"});
-    EXPECT_FALSE(p.signaled) << "crashed\n" << p.describe();
-    EXPECT_FALSE(p.timed_out) << p.describe();
-    EXPECT_LT(p.seconds, 60.0) << p.describe();
-    EXPECT_TRUE(p.exited && p.code == 1) << p.describe();
-    EXPECT_THAT(p.out, HasSubstr(f.filename().string())) << p.describe();
-    EXPECT_THAT(p.out, HasSubstr("damaged.json")) << p.describe();
-    EXPECT_THAT(p.out, HasSubstr("/media/0")) << p.describe();
+    std::string own = stem.rfind("bad-bbox-", 0) == 0 ? stem.substr(9) : "";
+    std::vector<std::string> grids = {""};  // "": the default, "density"
+    if (!own.empty()) grids.push_back(own);
+    for (const std::string& grid : grids) {
+      SCOPED_TRACE(f.string() + " grid \"" + (grid.empty() ? "density" : grid) + "\"");
+      std::string path = write_scene(dir, "damaged.json", vdb_scene(f.string(), grid));
+      fs::remove(dir + "/out.exr");
+      Proc p = run({"render", path, "-o", dir + "/out.exr", "--quiet"});
+      EXPECT_FALSE(p.signaled) << "crashed\n" << p.describe();
+      EXPECT_FALSE(p.timed_out) << p.describe();
+      EXPECT_LT(p.seconds, 60.0) << p.describe();
+      ASSERT_TRUE(p.exited) << p.describe();
+      if (stem == "bad-bbox-empty" && !grid.empty() && p.code == 0) {
+        EXPECT_TRUE(fs::exists(dir + "/out.exr")) << p.describe();
+        continue;
+      }
+      EXPECT_EQ(p.code, 1) << p.describe();
+      EXPECT_THAT(p.out, HasSubstr("error:")) << p.describe();
+      EXPECT_THAT(p.out, HasSubstr(f.filename().string())) << p.describe();
+      EXPECT_THAT(p.out, HasSubstr("damaged.json")) << p.describe();
+      EXPECT_THAT(p.out, HasSubstr("/media/0")) << p.describe();
+      EXPECT_FALSE(fs::exists(dir + "/out.exr")) << p.describe();
+    }
   }
 }
 
@@ -399,7 +449,7 @@ TEST_F(CliFlags, UnwritableOutputFailsBeforeRendering) {
     EXPECT_THAT(p.out, Not(HasSubstr("progress:"))) << p.describe();
     EXPECT_FALSE(fs::exists(out));
   }
-  // The same for the --preview and --stats-json side outputs' folder check on the preview.
+  // The same for the --preview image.
   RunOptions o;
   o.timeout_s = 30;
   Proc p = run({"render", slow, "-o", dir + "/ok.exr", "--preview", "/proc/nope/preview.png"}, o);
@@ -419,6 +469,33 @@ TEST_F(CliFlags, UnsupportedOutputExtension) {
     EXPECT_THAT(p.out, HasSubstr(".exr")) << "the message should say what is supported\n" << p.describe();
     EXPECT_FALSE(fs::exists(out));
   }
+}
+
+// Known bugs (enable once fixed): an output path that is an existing folder, and an unwritable
+// --stats-json path, are only found after the whole render (image.cpp check_output_path does not
+// refuse folders; main.cpp checks -o and --preview but not --stats-json before rendering).
+TEST_F(CliFlags, OutputThatIsAFolderFailsBeforeRendering) {
+  std::string slow = write_scene(dir, "slow.json", homogeneous_scene(256, 256, 4096, 8.0, 0.0, 1.5));
+  std::string out = dir + "/folder.exr";
+  fs::create_directories(out);
+  RunOptions o;
+  o.timeout_s = 30;
+  Proc p = run({"render", slow, "-o", out}, o);
+  expect_error_exit(p, 1);
+  EXPECT_THAT(p.out, HasSubstr(out)) << p.describe();
+  EXPECT_LT(p.seconds, 10.0) << "the output check should come before rendering\n" << p.describe();
+  EXPECT_THAT(p.out, Not(HasSubstr("spectrack: " + slow + " on "))) << "rendering started\n" << p.describe();
+}
+
+TEST_F(CliFlags, UnwritableStatsJsonFailsBeforeRendering) {
+  std::string slow = write_scene(dir, "slow.json", homogeneous_scene(256, 256, 4096, 8.0, 0.0, 1.5));
+  RunOptions o;
+  o.timeout_s = 30;
+  Proc p = run({"render", slow, "-o", dir + "/ok.exr", "--stats-json", "/proc/nope/s.json"}, o);
+  expect_error_exit(p, 1);
+  EXPECT_THAT(p.out, HasSubstr("/proc/nope/s.json")) << p.describe();
+  EXPECT_LT(p.seconds, 10.0) << "the stats path check should come before rendering\n" << p.describe();
+  EXPECT_FALSE(fs::exists(dir + "/ok.exr")) << p.describe();
 }
 
 // ---- 3. devices --------------------------------------------------------------------------------
@@ -517,18 +594,23 @@ TEST(CliRender, PngOutputAndSceneOutputDefault) {
 
 // ---- 5. interruption ---------------------------------------------------------------------------
 
-// Renders a scene that needs minutes, sends `sig` 1.5 s after the render banner (printed once
-// the kernels are built) and expects exit 130 with the finished samples written and marked.
+// Renders a scene that needs many seconds (64x64 at 1024 spp, in batches of 2 samples: 4096 path
+// slots for 4096 pixels), sends `sig` once the render banner has been out for 1.5 s and a progress
+// line of 10% or more shows that samples are finished, and expects exit 130 within 60 s with the
+// finished samples written and marked as interrupted. Waiting for progress instead of a fixed time
+// keeps the test meaningful on a loaded machine, where 1.5 s may not finish one batch.
 void check_interrupt(int sig) {
   std::string dir = test_dir();
-  std::string scene = write_scene(dir, "slow.json", homogeneous_scene(256, 256, 4096, 8.0, 0.0, 1.5));
+  const int spp = 1024;
+  std::string scene = write_scene(dir, "slow.json", homogeneous_scene(64, 64, spp, 2.0, 0.0));
   std::string exr = dir + "/x.exr";
   RunOptions o;
-  o.timeout_s = 240;  // a cold kernel build comes first; the 60 s limit is checked from the signal on
+  o.timeout_s = 300;  // a cold kernel build and the first 10% come first; 60 s is checked from the signal
   o.signal = sig;
   o.signal_after_text = "spectrack: " + scene + " on ";
   o.signal_delay_s = 1.5;
-  Proc p = run({"render", scene, "-o", exr, "--stats-json", dir + "/s.json"}, o);
+  o.signal_also_needs = "progress: ";
+  Proc p = run({"render", scene, "-o", exr, "--stats-json", dir + "/s.json", "--path-slots", "4096"}, o);
   ASSERT_TRUE(p.signal_sent) << "the render ended before the signal\n" << p.describe();
   EXPECT_FALSE(p.signaled) << p.describe();
   EXPECT_FALSE(p.timed_out) << p.describe();
@@ -536,24 +618,32 @@ void check_interrupt(int sig) {
   ASSERT_TRUE(p.exited) << p.describe();
   EXPECT_EQ(p.code, 130) << p.describe();
   EXPECT_THAT(p.out, HasSubstr("INTERRUPTED")) << p.describe();
+  EXPECT_THAT(p.out, Not(HasSubstr("progress: 100%"))) << p.describe();
 
   ASSERT_TRUE(fs::exists(exr)) << "no image written on interrupt\n" << p.describe();
   auto in = OIIO::ImageInput::open(exr);
   ASSERT_TRUE(in) << OIIO::geterror();
   const OIIO::ImageSpec& spec = in->spec();
-  EXPECT_EQ(spec.width, 256);
-  EXPECT_EQ(spec.height, 256);
+  EXPECT_EQ(spec.width, 64);
+  EXPECT_EQ(spec.height, 64);
   EXPECT_EQ(spec.get_int_attribute("spectrack:interrupted", -1), 1) << p.describe();
-  int spp = spec.get_int_attribute("spectrack:spp", -1);
-  EXPECT_GT(spp, 0) << "no samples finished in 1.5 s of rendering\n" << p.describe();
-  EXPECT_LT(spp, 4096) << p.describe();
-  EXPECT_EQ(spec.get_int_attribute("spectrack:spp_requested", -1), 4096);
+  int done = spec.get_int_attribute("spectrack:spp", -1);
+  EXPECT_GT(done, 0) << p.describe();
+  EXPECT_LT(done, spp) << p.describe();
+  EXPECT_EQ(spec.get_int_attribute("spectrack:spp_requested", -1), spp);
+  // The image holds the mean of the finished samples: lit, finite, not black.
+  std::vector<float> px(size_t(spec.width) * spec.height * spec.nchannels);
+  ASSERT_TRUE(in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, px.data())) << in->geterror();
+  double sum = 0;
+  for (float v : px) sum += std::isfinite(v) ? v : 1e30;
+  EXPECT_GT(sum, 0.0);
+  EXPECT_LT(sum, 1e29) << "non-finite pixels";
   in->close();
 
   json j;
   std::ifstream f(dir + "/s.json");
   ASSERT_NO_THROW(j = json::parse(f)) << p.describe();
-  EXPECT_EQ(j.value("spp", -1), spp);
+  EXPECT_EQ(j.value("spp", -1), done);
   EXPECT_EQ(j.value("interrupted", false), true);
 }
 

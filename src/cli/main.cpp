@@ -121,9 +121,10 @@ int cmd_render(const RenderArgs& a) {
   std::string output = a.output.empty() ? scene.film.output : a.output;
   check_output_path(output);
   if (!a.preview.empty()) check_output_path(a.preview);
+  if (!a.stats_json.empty()) check_writable_file(a.stats_json);
 
   bool tty = ::isatty(2);
-  int last_pct = -1;
+  int last_pct = -10;
   opt.progress = [&](double f) {
     if (a.quiet) return;
     int pct = int(f * 100.0);

@@ -23,9 +23,14 @@ void check_output_path(const std::string& path) {
   std::string e = extension(path);
   if (e != ".exr" && e != ".png")
     throw Error(fmt::format("{}: unsupported output format '{}' (use .exr or .png)", path, e));
+  check_writable_file(path);
+}
+
+void check_writable_file(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw Error(fmt::format("{}: is a folder, not a file", path));
   std::filesystem::path dir = std::filesystem::path(path).parent_path();
   if (dir.empty()) dir = ".";
-  std::error_code ec;
   if (!std::filesystem::is_directory(dir, ec))
     throw Error(fmt::format("{}: output folder {} does not exist", path, dir.string()));
   if (::access(dir.c_str(), W_OK) != 0)

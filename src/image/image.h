@@ -16,6 +16,8 @@ using Metadata = std::map<std::string, MetaValue>;
 
 // Throws Error unless `path` has a writable extension (.exr, .png) and its folder is writable.
 void check_output_path(const std::string& path);
+// Throws Error unless `path` can be written as a file (not a folder; its folder exists and is writable).
+void check_writable_file(const std::string& path);
 // Writes width x height linear RGB floats (row 0 at the top).
 void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb, const Metadata& meta);
 
