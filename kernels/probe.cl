@@ -64,3 +64,36 @@ __kernel void k_probe_transmittance(__constant const st_scene* scene, __global c
   }
   out[i] = T;
 }
+
+/* Infinite-medium albedo problem (ALGORITHMS.md 9.1.4): a walk from o in a random direction,
+ * isotropic scattering, until absorption. out_scatter: sum of the path weight after each real
+ * scattering event (exact: albedo / (1 - albedo) per channel for a spatially constant albedo);
+ * out_absorb: the emission score with Le = 1 (exact: 1); out_absorb.w = 1 if the walk escaped. */
+__kernel void k_probe_albedo(__constant const st_scene* scene, __global const uint* grids, __global const float2* maj,
+                             float4 origin, int channel, __global float4* out_scatter, __global float4* out_absorb,
+                             uint n) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  st_rng rng = rng_make(scene->seed, i, 1u, 0u, 7u, 0u);
+  float4 mask = channel < 0 ? (float4)(1.0f, 1.0f, 1.0f, 0.0f)
+                            : (float4)(channel == 0 ? 1.0f : 0.0f, channel == 1 ? 1.0f : 0.0f, channel == 2 ? 1.0f : 0.0f, 0.0f);
+  float4 beta = mask, L = (float4)(0.0f), sum = (float4)(0.0f);
+  st_track_stats st;
+  track_stats_clear(&st);
+  float3 o = origin.xyz;
+  float3 d = sample_uniform_sphere(rng_uniform(&rng), rng_uniform(&rng));
+  float t = 0.0f, escaped = 0.0f;
+  for (int events = 0; events < 1000000; ++events) {
+    int medium = 0;
+    int ev = track_free_path(scene, grids, maj, o, d, &t, &beta, mask, &L, &medium, &rng, scene->iteration_budget, &st);
+    if (ev == ST_EV_BUDGET) continue;
+    if (ev == ST_EV_ESCAPE) { escaped = 1.0f; break; }
+    if (ev == ST_EV_ABSORB) break;
+    sum += beta * mask;
+    o = o + t * d;
+    t = 0.0f;
+    d = sample_uniform_sphere(rng_uniform(&rng), rng_uniform(&rng));
+  }
+  out_scatter[i] = (float4)(sum.xyz, st.max_beta);
+  out_absorb[i] = (float4)(L.xyz, escaped);
+}

@@ -25,6 +25,5 @@ __kernel void k_shadow(ST_STAGE_ARGS) {
     atomic_inc(&counters[ST_C_REQUEUES]);
     queue_push(queues, counters, Q, NL, cur, ST_Q_SHADOW, id);
   }
-  st.nulls = 0u; /* ratio-tracking steps are counted as shadow lookups, not collisions */
   flush_track_stats(counters, &st, ST_C_LOOKUPS_SHADOW);
 }

@@ -355,10 +355,6 @@ void Renderer::Impl::setup() {
   scheme = opt.scheme >= 0 ? opt.scheme : scene.render.scheme;
   spp = opt.spp > 0 ? opt.spp : scene.film.spp;
   seed = opt.seed >= 0 ? uint32_t(opt.seed) : scene.render.seed;
-  if (tracker == ST_TRACKER_DECOMPOSITION || tracker == ST_TRACKER_SPECTRAL_DECOMPOSITION)
-    throw Error(fmt::format("{}: tracker '{}' is not available yet (decomposition tracking lands with the estimators "
-                            "issue); use delta-per-channel, delta or spectral",
-                            scene.path, tracker_name(tracker)));
   if (tracker == ST_TRACKER_DELTA) {
     for (auto& m : scene.media)
       if (!achromatic(m.sigma_a) || !achromatic(m.sigma_s))
@@ -385,7 +381,7 @@ void Renderer::Impl::setup() {
   st.scheme = scheme;
   st.max_depth = scene.render.max_depth;
   st.seed = seed;
-  st.n_channels_per_sample = tracker == ST_TRACKER_DELTA_PER_CHANNEL ? 3 : 1;
+  st.n_channels_per_sample = (tracker == ST_TRACKER_DELTA_PER_CHANNEL || tracker == ST_TRACKER_DECOMPOSITION) ? 3 : 1;
   st.iteration_budget = opt.iteration_budget;
   st.pixel_x0 = 0;
   st.pixel_y0 = 0;
@@ -665,6 +661,23 @@ std::vector<std::array<float, 4>> Renderer::probe_track(std::array<float, 3> o, 
       ST_CL_CHECK(impl_->queue.enqueueReadBuffer(b_beta, CL_TRUE, 0, size_t(n) * 16, beta->data()), "read probe beta");
   }
   return out;
+}
+
+void Renderer::probe_albedo(std::array<float, 3> o, int channel, int n, std::vector<std::array<float, 4>>* scatter,
+                            std::vector<std::array<float, 4>>* absorb) {
+  cl::Buffer b_abs = impl_->buffer(CL_MEM_READ_WRITE, size_t(std::max(1, n)) * 16, nullptr, "probe absorption");
+  *scatter = impl_->run_probe<std::array<float, 4>>("k_probe_albedo", size_t(n), [&](cl::Kernel& k, cl::Buffer& out) {
+    k.setArg(0, impl_->b_scene);
+    k.setArg(1, impl_->b_grids);
+    k.setArg(2, impl_->b_maj);
+    k.setArg(3, cl_float4{{o[0], o[1], o[2], 0}});
+    k.setArg(4, cl_int(channel));
+    k.setArg(5, out);
+    k.setArg(6, b_abs);
+    k.setArg(7, cl_uint(n));
+  });
+  absorb->resize(size_t(n));
+  if (n > 0) ST_CL_CHECK(impl_->queue.enqueueReadBuffer(b_abs, CL_TRUE, 0, size_t(n) * 16, absorb->data()), "read probe absorption");
 }
 
 std::vector<std::array<float, 4>> Renderer::probe_transmittance(std::array<float, 3> o, std::array<float, 3> d, int n) {

@@ -76,6 +76,10 @@ class Renderer {
   // Per item: (t of first real collision or +inf, event, lookups, dda steps); channel -1 = rgb.
   std::vector<std::array<float, 4>> probe_track(std::array<float, 3> o, std::array<float, 3> d, int channel, int n,
                                                 std::vector<std::array<float, 4>>* beta = nullptr);
+  // Infinite-medium albedo walks from o: per item (sum of scattering weights xyz, max weight) and
+  // (absorption score with Le = 1 xyz, escaped flag). channel -1 = rgb.
+  void probe_albedo(std::array<float, 3> o, int channel, int n, std::vector<std::array<float, 4>>* scatter,
+                    std::vector<std::array<float, 4>>* absorb);
   std::vector<std::array<float, 4>> probe_transmittance(std::array<float, 3> o, std::array<float, 3> d, int n);
 
   const std::string& device_name() const;

@@ -1,0 +1,257 @@
+// test_estimators.cpp: the paper's estimators (spectral, decomposition, both) against the
+// per-channel delta-tracking baseline and against closed forms. Comparisons of two renders use
+// the per-pixel difference image: under "same expectation" its pixels are independent zero-mean
+// noise, so its mean must lie within 4 standard errors of 0, for the whole image and for each
+// quadrant. Each test has a twin check that the same statistic detects a deliberate error.
+#include <algorithm>
+
+#include "test_util.h"
+
+using namespace spectrack;
+using namespace st_test;
+using nlohmann::json;
+
+namespace {
+
+void write_mild(const std::string& path, int n, double base, double amp) {
+  write_vdb(path, "density", openvdb::Coord(-n, -n, -n), openvdb::Coord(n - 1, n - 1, n - 1),
+            [=](int i, int j, int k) {
+              return float(base + amp * std::sin(0.45 * i + 0.3) * std::cos(0.35 * j) * std::sin(0.5 * k + 0.7));
+            },
+            1.0 / n);
+}
+
+void write_lumps(const std::string& path) {
+  write_vdb(path, "density", openvdb::Coord(-16, -16, -16), openvdb::Coord(15, 15, 15),
+            [](int i, int j, int k) {
+              double r = std::sqrt(double(i * i + j * j + k * k)) / 16.0;
+              if (r > 1.0) return 0.0f;
+              double v = (1.0 - r) * (0.6 + 0.4 * std::sin(0.5 * i) * std::cos(0.4 * j) * std::sin(0.3 * k + 1.0));
+              return float(std::max(0.0, v));
+            },
+            1.0 / 16.0);
+}
+
+// A chromatic, overlapping, emissive scene: a lumpy VDB cloud and a homogeneous box crossing it.
+json comparison_scene(const std::string& dir, double majorant_scale, double minorant_scale) {
+  write_lumps(dir + "/lumps.vdb");
+  json s = {{"format", "spectrack-scene/1"},
+            {"camera", {{"type", "perspective"}, {"position", {0.3, 0.2, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 32}}},
+            {"film", {{"width", 16}, {"height", 16}, {"spp", 48}}},
+            {"render", {{"seed", 3}}},
+            {"lights", {{{"type", "environment"}, {"radiance", {0.3, 0.4, 0.6}}},
+                        {{"type", "directional"}, {"to_light", {-1, 1, -0.5}}, {"irradiance", {3, 2.5, 2}}, {"angle_deg", 5}}}},
+            {"media", json::array()}};
+  s["media"].push_back({{"type", "vdb"}, {"file", "lumps.vdb"}, {"density_scale", 6.0}, {"sigma_a", {0.2, 0.5, 1.0}},
+                        {"sigma_s", {2.0, 1.0, 0.4}}, {"phase", {{"type", "hg"}, {"g", 0.5}}},
+                        {"emission", {{"radiance", {2.0, 0.8, 0.2}}}}, {"majorant_scale", majorant_scale},
+                        {"minorant_scale", minorant_scale}});
+  s["media"].push_back({{"type", "homogeneous"}, {"bounds", {{-0.8, -0.3, -0.5}, {0.6, 0.2, 0.9}}}, {"sigma_a", {0.5, 0.2, 0.1}},
+                        {"sigma_s", {0.5, 1.5, 2.5}}, {"phase", {{"type", "isotropic"}}}});
+  return s;
+}
+
+RenderResult render_with(const json& s, const std::string& dir, int tracker, int scheme, uint32_t seed) {
+  RenderOptions o = quiet_options();
+  o.tracker = tracker;
+  o.scheme = scheme;
+  o.seed = seed;
+  return Renderer(scene_from_json(s, dir), o).render();
+}
+
+// Largest |mean difference| / SE over channels and regions (whole image and 4 quadrants).
+double max_z(const RenderResult& a, const RenderResult& b, double scale_b = 1.0) {
+  double worst = 0;
+  for (int region = -1; region < 4; ++region)
+    for (int c = 0; c < 3; ++c) {
+      std::vector<double> d;
+      for (int y = 0; y < a.height; ++y)
+        for (int x = 0; x < a.width; ++x) {
+          int q = (y * 2 / a.height) * 2 + (x * 2 / a.width);
+          if (region >= 0 && q != region) continue;
+          size_t i = (size_t(y) * a.width + x) * 3 + c;
+          d.push_back(a.rgb[i] - scale_b * b.rgb[i]);
+        }
+      Stats s = mean_se(d);
+      double z = std::abs(s.mean) / std::max(s.se, 1e-12);
+      worst = std::max(worst, z);
+    }
+  return worst;
+}
+
+struct Variant {
+  int tracker, scheme;
+};
+std::vector<Variant> all_variants() {
+  std::vector<Variant> v;
+  for (int s = 0; s < ST_SCHEME_COUNT; ++s) v.push_back({ST_TRACKER_SPECTRAL, s});
+  v.push_back({ST_TRACKER_DECOMPOSITION, ST_SCHEME_HISTORY_AVERAGE});
+  for (int s = 0; s < ST_SCHEME_COUNT; ++s) v.push_back({ST_TRACKER_SPECTRAL_DECOMPOSITION, s});
+  return v;
+}
+
+void check_all_agree(double majorant_scale, double minorant_scale, const std::string& name) {
+  std::string dir = temp_dir(name);
+  json s = comparison_scene(dir, 1.0, 1.0);
+  RenderResult ref = render_with(s, dir, ST_TRACKER_DELTA_PER_CHANNEL, ST_SCHEME_HISTORY_AVERAGE, 100);
+  json t = comparison_scene(dir, majorant_scale, minorant_scale);
+  for (const Variant& v : all_variants()) {
+    RenderResult r = render_with(t, dir, v.tracker, v.scheme, 200);
+    EXPECT_EQ(r.stats.nonfinite_samples, 0u);
+    EXPECT_LT(max_z(r, ref), 4.0) << tracker_name(v.tracker) << " / " << scheme_name(v.scheme);
+    if (v.tracker == ST_TRACKER_DECOMPOSITION || v.tracker == ST_TRACKER_SPECTRAL_DECOMPOSITION)
+      EXPECT_GT(r.stats.control_collisions, 0u) << "decomposition must use its control component";
+  }
+  // the same statistic sees a 3% change (on the bounding scene, whose variance is lower)
+  RenderResult r = render_with(s, dir, ST_TRACKER_SPECTRAL, ST_SCHEME_HISTORY_AVERAGE, 300);
+  EXPECT_GT(max_z(r, ref, 1.03), 4.0) << "the comparison must detect a 3% error";
+}
+
+TEST(Estimators, EveryTrackerAndSchemeAgreesWithPerChannelDelta) { check_all_agree(1.0, 1.0, "agree"); }
+
+TEST(Estimators, NonBoundingMajorantAndMinorantStayUnbiased) {
+  // majorant at half the density bound, minorant at twice the density floor
+  check_all_agree(0.5, 2.0, "nonbounding");
+}
+
+json chromatic_scene(const std::string& dir) {
+  write_mild(dir + "/mild.vdb", 16, 0.6, 0.3);
+  json s = {{"format", "spectrack-scene/1"},
+            {"camera", {{"type", "orthographic"}, {"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"height", 1.6}}},
+            {"film", {{"width", 12}, {"height", 12}, {"spp", 16}}},
+            {"render", {{"seed", 5}}},
+            {"lights", {{{"type", "environment"}, {"radiance", {1, 1, 1}}}}},
+            {"media", json::array()}};
+  // sigma_t = (100, 1, 0.01) with albedo (0.99, 0.5, 0.1) (ALGORITHMS.md 9.3)
+  s["media"].push_back({{"type", "vdb"}, {"file", "mild.vdb"}, {"sigma_s", {99.0, 0.5, 0.001}}, {"sigma_a", {1.0, 0.5, 0.009}}});
+  return s;
+}
+
+TEST(Estimators, HistoryAverageBoundsThroughputByThree) {
+  std::string dir = temp_dir("throughput");
+  json s = chromatic_scene(dir);
+  RenderResult h = render_with(s, dir, ST_TRACKER_SPECTRAL, ST_SCHEME_HISTORY_AVERAGE, 1);
+  RenderResult hd = render_with(s, dir, ST_TRACKER_SPECTRAL_DECOMPOSITION, ST_SCHEME_HISTORY_AVERAGE, 1);
+  RenderResult m = render_with(s, dir, ST_TRACKER_SPECTRAL, ST_SCHEME_MAX, 1);
+  EXPECT_LE(h.stats.max_throughput, 3.0 * (1 + 1e-5));
+  EXPECT_LE(hd.stats.max_throughput, 3.0 * (1 + 1e-5));
+  EXPECT_GT(h.stats.max_throughput, 1.5) << "the scene must be chromatic enough to test the bound";
+  EXPECT_GT(m.stats.max_throughput, 3.0) << "the max scheme is unbounded here";
+}
+
+TEST(Estimators, DecompositionHalvesDensityLookupsInDenseMildMedia) {
+  std::string dir = temp_dir("lookups");
+  write_mild(dir + "/mild.vdb", 24, 1.0, 0.08);
+  json s = {{"format", "spectrack-scene/1"},
+            // the camera sits inside the medium, as in a subsurface scene: the boundary cells,
+            // whose minorant is 0 where the density ramps to the background, hold few collisions
+            {"camera", {{"type", "perspective"}, {"position", {0, 0, -0.3}}, {"look_at", {0, 0, 1}}, {"up", {0, 1, 0}}, {"fov_deg", 60}}},
+            {"film", {{"width", 8}, {"height", 8}, {"spp", 8}}},
+            {"render", {{"seed", 9}}},
+            {"lights", {{{"type", "environment"}, {"radiance", {1, 1, 1}}}}},
+            {"media", json::array()}};
+  s["media"].push_back({{"type", "vdb"}, {"file", "mild.vdb"}, {"density_scale", 30.0}, {"sigma_s", {0.9, 0.8, 0.7}}, {"sigma_a", {0.1, 0.1, 0.1}}});
+  RenderResult delta = render_with(s, dir, ST_TRACKER_DELTA_PER_CHANNEL, ST_SCHEME_HISTORY_AVERAGE, 1);
+  RenderResult dec = render_with(s, dir, ST_TRACKER_DECOMPOSITION, ST_SCHEME_HISTORY_AVERAGE, 1);
+  RenderResult sdec = render_with(s, dir, ST_TRACKER_SPECTRAL_DECOMPOSITION, ST_SCHEME_HISTORY_AVERAGE, 1);
+  auto lookups = [](const RenderResult& r) { return double(r.stats.lookups_track + r.stats.lookups_shadow); };
+  auto detail = [](const RenderResult& r) {
+    return " (tracking " + std::to_string(r.stats.lookups_track) + ", shadow " + std::to_string(r.stats.lookups_shadow) +
+           ", control collisions " + std::to_string(r.stats.control_collisions) + ", residual " +
+           std::to_string(r.stats.residual_collisions) + ")";
+  };
+  EXPECT_LE(lookups(dec), 0.5 * lookups(delta)) << "decomposition " << lookups(dec) << detail(dec) << " vs delta "
+                                                << lookups(delta) << detail(delta);
+  EXPECT_LE(lookups(sdec), 0.5 * lookups(delta)) << "spectral-decomposition " << lookups(sdec) << " vs delta " << lookups(delta);
+  EXPECT_EQ(delta.stats.paths, dec.stats.paths) << "same samples";
+}
+
+TEST(Estimators, ResidualRatioTrackingMatchesClosedForm) {
+  std::string dir = temp_dir("rrt");
+  // homogeneous box: closed form exp(-sigma_t d)
+  json s = {{"format", "spectrack-scene/1"},
+            {"camera", {{"type", "orthographic"}, {"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"height", 1}}},
+            {"film", {{"width", 4}, {"height", 4}, {"spp", 1}}},
+            {"render", {{"seed", 2}}},
+            {"lights", json::array()},
+            {"media", json::array()}};
+  s["media"].push_back({{"type", "homogeneous"}, {"bounds", {{-1, -1, -0.6}, {1, 1, 0.6}}}, {"sigma_a", {0.3, 0.6, 1.2}}, {"sigma_s", {0.2, 0.4, 0.3}}});
+  double st[3] = {0.5, 1.0, 1.5};
+  for (int tracker : {ST_TRACKER_DELTA_PER_CHANNEL, ST_TRACKER_DECOMPOSITION, ST_TRACKER_SPECTRAL_DECOMPOSITION}) {
+    RenderOptions o = quiet_options();
+    o.tracker = tracker;
+    Renderer r(scene_from_json(s, dir), o);
+    auto T = r.probe_transmittance({0, 0, -2}, {0, 0, 1}, 4000);
+    for (int c = 0; c < 3; ++c) {
+      std::vector<double> v;
+      for (auto& x : T) v.push_back(x[c]);
+      Stats m = mean_se(v);
+      EXPECT_NEAR(m.mean, std::exp(-st[c] * 1.2), 4 * m.se + 1e-6) << tracker_name(tracker) << " channel " << c;
+    }
+  }
+  // heterogeneous: both estimators agree with each other and residual ratio tracking is less noisy
+  write_mild(dir + "/mild.vdb", 16, 0.8, 0.15);
+  s["media"][0] = {{"type", "vdb"}, {"file", "mild.vdb"}, {"density_scale", 2.0}, {"sigma_a", {0.3, 0.6, 1.2}}, {"sigma_s", {0.2, 0.4, 0.3}}};
+  std::vector<Stats> ratio(3), residual(3);
+  for (int tracker : {ST_TRACKER_DELTA_PER_CHANNEL, ST_TRACKER_SPECTRAL_DECOMPOSITION}) {
+    RenderOptions o = quiet_options();
+    o.tracker = tracker;
+    Renderer r(scene_from_json(s, dir), o);
+    auto T = r.probe_transmittance({0.1f, -0.05f, -2}, {0, 0, 1}, 20000);
+    for (int c = 0; c < 3; ++c) {
+      std::vector<double> v;
+      for (auto& x : T) v.push_back(x[c]);
+      (tracker == ST_TRACKER_DELTA_PER_CHANNEL ? ratio : residual)[c] = mean_se(v);
+    }
+  }
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(ratio[c].mean, residual[c].mean, 4 * std::hypot(ratio[c].se, residual[c].se)) << "channel " << c;
+    EXPECT_LT(residual[c].se, ratio[c].se) << "residual ratio tracking should be less noisy, channel " << c;
+  }
+}
+
+TEST(Estimators, InfiniteMediumAlbedoProblem) {
+  // density bounded below and varying, albedo constant in space per channel: the expected sum of
+  // scattering weights is albedo / (1 - albedo) and the expected absorption weight is 1
+  std::string dir = temp_dir("albedo");
+  write_mild(dir + "/big.vdb", 32, 1.0, 0.5);
+  const double alb[3] = {0.9, 0.7, 0.3};
+  json s = {{"format", "spectrack-scene/1"},
+            {"camera", {{"type", "orthographic"}, {"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"height", 1}}},
+            {"film", {{"width", 4}, {"height", 4}, {"spp", 1}}},
+            {"render", {{"seed", 4}}},
+            {"lights", json::array()},
+            {"media", json::array()}};
+  // sigma_t per unit density 60, 30, 90 (chromatic), so the walk stays far from the 1-unit box edge
+  double sig_t[3] = {60, 30, 90};
+  json sa = json::array(), ss = json::array();
+  for (int c = 0; c < 3; ++c) {
+    ss.push_back(sig_t[c] * alb[c]);
+    sa.push_back(sig_t[c] * (1 - alb[c]));
+  }
+  s["media"].push_back({{"type", "vdb"}, {"file", "big.vdb"}, {"sigma_s", ss}, {"sigma_a", sa}, {"emission", {{"radiance", {1, 1, 1}}}}});
+  for (int tracker : {ST_TRACKER_DELTA_PER_CHANNEL, ST_TRACKER_SPECTRAL, ST_TRACKER_DECOMPOSITION, ST_TRACKER_SPECTRAL_DECOMPOSITION}) {
+    RenderOptions o = quiet_options();
+    o.tracker = tracker;
+    Renderer r(scene_from_json(s, dir), o);
+    bool per_channel = tracker == ST_TRACKER_DELTA_PER_CHANNEL || tracker == ST_TRACKER_DECOMPOSITION;
+    for (int c = 0; c < 3; ++c) {
+      std::vector<std::array<float, 4>> sc, ab;
+      r.probe_albedo({0, 0, 0}, per_channel ? c : -1, 50000, &sc, &ab);
+      std::vector<double> vs, va;
+      int escaped = 0;
+      for (size_t i = 0; i < sc.size(); ++i) {
+        vs.push_back(sc[i][c]);
+        va.push_back(ab[i][c]);
+        escaped += ab[i][3] > 0;
+      }
+      Stats ms = mean_se(vs), ma = mean_se(va);
+      EXPECT_LT(escaped, 50) << "the medium must be effectively infinite";
+      EXPECT_NEAR(ms.mean, alb[c] / (1 - alb[c]), 4 * ms.se + 1e-6) << tracker_name(tracker) << " scatter, channel " << c;
+      EXPECT_NEAR(ma.mean, 1.0, 4 * ma.se + 1e-6) << tracker_name(tracker) << " absorption, channel " << c;
+      EXPECT_GT(std::abs(ms.mean - 1.1 * alb[c] / (1 - alb[c])), 4 * ms.se) << "sensitivity to 10%, channel " << c;
+    }
+  }
+}
+
+}  // namespace
