@@ -22,12 +22,8 @@ inline float3 phase_sample(int type, float g, float3 d, float u1, float u2, floa
     float sq = (1.0f - g * g) / (1.0f - g + 2.0f * g * u1);
     cos_theta = clamp((1.0f + g * g - sq * sq) / (2.0f * g), -1.0f, 1.0f);
   }
-  float sin_theta = sqrt(fmax(0.0f, 1.0f - cos_theta * cos_theta));
-  float phi = 2.0f * ST_PI * u2;
-  float3 t, b;
-  make_frame(d, &t, &b);
   *pdf = phase_eval(type, g, cos_theta);
-  return normalize(sin_theta * cos(phi) * t + sin_theta * sin(phi) * b + cos_theta * d);
+  return direction_around(d, cos_theta, u2);
 }
 
 #endif

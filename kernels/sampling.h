@@ -36,14 +36,18 @@ inline float3 sample_uniform_sphere(float u1, float u2) {
   return (float3)(r * cos(phi), r * sin(phi), z);
 }
 
-/* Uniform direction in the cone of half-angle acos(cos_max) around axis. */
-inline float3 sample_cone(float3 axis, float cos_max, float u1, float u2) {
-  float c = 1.0f - u1 * (1.0f - cos_max);
-  float s = sqrt(fmax(0.0f, 1.0f - c * c));
-  float phi = 2.0f * ST_PI * u2;
+/* The direction at polar cosine cos_theta and azimuth 2 pi u around a unit axis. */
+inline float3 direction_around(float3 axis, float cos_theta, float u) {
+  float s = sqrt(fmax(0.0f, 1.0f - cos_theta * cos_theta));
+  float phi = 2.0f * ST_PI * u;
   float3 t, b;
   make_frame(axis, &t, &b);
-  return normalize(s * cos(phi) * t + s * sin(phi) * b + c * axis);
+  return normalize(s * cos(phi) * t + s * sin(phi) * b + cos_theta * axis);
+}
+
+/* Uniform direction in the cone of half-angle acos(cos_max) around axis. */
+inline float3 sample_cone(float3 axis, float cos_max, float u1, float u2) {
+  return direction_around(axis, 1.0f - u1 * (1.0f - cos_max), u2);
 }
 
 #endif

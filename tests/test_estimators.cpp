@@ -21,20 +21,9 @@ void write_mild(const std::string& path, int n, double base, double amp) {
             1.0 / n);
 }
 
-void write_lumps(const std::string& path) {
-  write_vdb(path, "density", openvdb::Coord(-16, -16, -16), openvdb::Coord(15, 15, 15),
-            [](int i, int j, int k) {
-              double r = std::sqrt(double(i * i + j * j + k * k)) / 16.0;
-              if (r > 1.0) return 0.0f;
-              double v = (1.0 - r) * (0.6 + 0.4 * std::sin(0.5 * i) * std::cos(0.4 * j) * std::sin(0.3 * k + 1.0));
-              return float(std::max(0.0, v));
-            },
-            1.0 / 16.0);
-}
-
 // A chromatic, overlapping, emissive scene: a lumpy VDB cloud and a homogeneous box crossing it.
 json comparison_scene(const std::string& dir, double majorant_scale, double minorant_scale) {
-  write_lumps(dir + "/lumps.vdb");
+  write_lumpy(dir + "/lumps.vdb");
   json s = {{"format", "spectrack-scene/1"},
             {"camera", {{"type", "perspective"}, {"position", {0.3, 0.2, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 32}}},
             {"film", {{"width", 16}, {"height", 16}, {"spp", 48}}},

@@ -169,18 +169,6 @@ TEST(Render, AbsorbingSlabWrongAnswerIsDetected) {
   EXPECT_GT(std::abs(s.mean - std::exp(-2.0) * 1.05), 4.0 * s.se) << "a 5% error must be detectable";
 }
 
-// A chromatic heterogeneous volume with smooth lumps and holes.
-void write_lumpy(const std::string& path) {
-  write_vdb(path, "density", openvdb::Coord(-16, -16, -16), openvdb::Coord(15, 15, 15),
-            [](int i, int j, int k) {
-              double r = std::sqrt(double(i * i + j * j + k * k)) / 16.0;
-              if (r > 1.0) return 0.0f;
-              double v = (1.0 - r) * (0.6 + 0.4 * std::sin(0.5 * i) * std::cos(0.4 * j) * std::sin(0.3 * k + 1.0));
-              return float(std::max(0.0, v));
-            },
-            1.0 / 16.0);
-}
-
 json furnace_scene(const std::string& tracker, const std::string& dir, bool emissive) {
   write_lumpy(dir + "/lumpy.vdb");
   json s = base_scene(12, 12, 48, tracker);

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <openvdb/openvdb.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -24,41 +25,20 @@ inline std::string temp_dir(const std::string& name) {
   return d.string();
 }
 
-// Writes a float fog grid named `name` with value f(i,j,k) over the inclusive index box
-// [lo, hi] (zeros are left inactive) and the given voxel size and origin translation.
-inline void write_vdb(const std::string& path, const std::string& name, openvdb::Coord lo, openvdb::Coord hi,
-                      const std::function<float(int, int, int)>& f, double voxel = 1.0,
-                      openvdb::Vec3d translate = openvdb::Vec3d(0.0)) {
-  openvdb::initialize();
-  auto grid = openvdb::FloatGrid::create(0.0f);
-  grid->setName(name);
-  grid->setGridClass(openvdb::GRID_FOG_VOLUME);
-  auto xf = openvdb::math::Transform::createLinearTransform(voxel);
-  xf->postTranslate(translate);
-  grid->setTransform(xf);
-  auto acc = grid->getAccessor();
-  for (int k = lo.z(); k <= hi.z(); ++k)
-    for (int j = lo.y(); j <= hi.y(); ++j)
-      for (int i = lo.x(); i <= hi.x(); ++i) {
-        float v = f(i, j, k);
-        if (v != 0.0f) acc.setValue(openvdb::Coord(i, j, k), v);
-      }
-  openvdb::io::File file(path);
-  file.write({grid});
-  file.close();
-}
-
-// Several float fog grids over one index box in one file.
+// Writes float fog grids over the inclusive index box [lo, hi] into one file, with value f(i,j,k)
+// (zeros are left inactive), the given voxel size and an origin translation.
 inline void write_vdb_grids(const std::string& path, openvdb::Coord lo, openvdb::Coord hi,
                             const std::vector<std::pair<std::string, std::function<float(int, int, int)>>>& grids,
-                            double voxel = 1.0) {
+                            double voxel = 1.0, openvdb::Vec3d translate = openvdb::Vec3d(0.0)) {
   openvdb::initialize();
   openvdb::GridPtrVec out;
   for (auto& [name, f] : grids) {
     auto grid = openvdb::FloatGrid::create(0.0f);
     grid->setName(name);
     grid->setGridClass(openvdb::GRID_FOG_VOLUME);
-    grid->setTransform(openvdb::math::Transform::createLinearTransform(voxel));
+    auto xf = openvdb::math::Transform::createLinearTransform(voxel);
+    xf->postTranslate(translate);
+    grid->setTransform(xf);
     auto acc = grid->getAccessor();
     for (int k = lo.z(); k <= hi.z(); ++k)
       for (int j = lo.y(); j <= hi.y(); ++j)
@@ -71,6 +51,26 @@ inline void write_vdb_grids(const std::string& path, openvdb::Coord lo, openvdb:
   openvdb::io::File file(path);
   file.write(out);
   file.close();
+}
+
+// One grid.
+inline void write_vdb(const std::string& path, const std::string& name, openvdb::Coord lo, openvdb::Coord hi,
+                      const std::function<float(int, int, int)>& f, double voxel = 1.0,
+                      openvdb::Vec3d translate = openvdb::Vec3d(0.0)) {
+  write_vdb_grids(path, lo, hi, {{name, f}}, voxel, translate);
+}
+
+// A chromatic-friendly heterogeneous test volume: smooth lumps and holes inside a ball of
+// radius 1 (32^3 voxels of 1/16).
+inline void write_lumpy(const std::string& path) {
+  write_vdb(path, "density", openvdb::Coord(-16, -16, -16), openvdb::Coord(15, 15, 15),
+            [](int i, int j, int k) {
+              double r = std::sqrt(double(i * i + j * j + k * k)) / 16.0;
+              if (r > 1.0) return 0.0f;
+              double v = (1.0 - r) * (0.6 + 0.4 * std::sin(0.5 * i) * std::cos(0.4 * j) * std::sin(0.3 * k + 1.0));
+              return float(std::max(0.0, v));
+            },
+            1.0 / 16.0);
 }
 
 inline void write_text(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
