@@ -36,9 +36,9 @@ inline float3 sample_uniform_sphere(float u1, float u2) {
   return (float3)(r * cos(phi), r * sin(phi), z);
 }
 
-/* The direction at polar cosine cos_theta and azimuth 2 pi u around a unit axis. */
-inline float3 direction_around(float3 axis, float cos_theta, float u) {
-  float s = sqrt(fmax(0.0f, 1.0f - cos_theta * cos_theta));
+/* The direction at polar angle (cos_theta, sin_theta) and azimuth 2 pi u around a unit axis. */
+inline float3 direction_around(float3 axis, float cos_theta, float sin_theta, float u) {
+  float s = sin_theta;
   float phi = 2.0f * ST_PI * u;
   float3 t, b;
   make_frame(axis, &t, &b);
@@ -47,7 +47,9 @@ inline float3 direction_around(float3 axis, float cos_theta, float u) {
 
 /* Uniform direction in the cone of half-angle acos(cos_max) around axis. */
 inline float3 sample_cone(float3 axis, float cos_max, float u1, float u2) {
-  return direction_around(axis, 1.0f - u1 * (1.0f - cos_max), u2);
+  float one_minus_cos = u1 * (1.0f - cos_max);
+  float c = 1.0f - one_minus_cos;
+  return direction_around(axis, c, sqrt(fmax(0.0f, one_minus_cos * (2.0f - one_minus_cos))), u2);
 }
 
 #endif
