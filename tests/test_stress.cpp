@@ -6,6 +6,7 @@
 // and match the analytic answer within 4 standard errors where one exists.
 #include <chrono>
 
+#include "cl/opencl.h"
 #include "test_util.h"
 
 using namespace spectrack;
@@ -228,6 +229,32 @@ TEST(Stress, DenseScatteringStaysFiniteAndBounded) {
     RenderResult r = render_checked(s, dir, tracker, "dense");
     EXPECT_GT(r.stats.scatter_events, 0u);
   }
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Stress, AbsurdFilmIsRefusedBeforeAllocation) {
+  // 2^28 pixels pass scene validation; with three paths per sample (per-channel tracking) their
+  // batch results and film need about 30 GiB, more than this machine's device has
+  std::string dir = temp_dir("huge_film");
+  json s = ortho_scene(1);
+  s["render"]["tracker"] = "delta-per-channel";
+  if (select_device("").global_mem > (uint64_t(28) << 30)) GTEST_SKIP() << "the device could hold this film";
+  s["film"]["width"] = 16384;
+  s["film"]["height"] = 16384;
+  s["media"].push_back({{"type", "homogeneous"}, {"bounds", {{-1, -1, -1}, {1, 1, 1}}}, {"sigma_a", {1, 1, 1}}});
+  auto t0 = std::chrono::steady_clock::now();
+  try {
+    Renderer(scene_from_json(s, dir), quiet_options()).render();
+    ADD_FAILURE() << "a film of 2^28 pixels must be refused on this device";
+  } catch (const Error& e) {
+    std::string msg = e.what();
+    EXPECT_NE(msg.find("MiB"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("--device"), std::string::npos) << "the message must hint at another device: " << msg;
+  }
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 30.0);
 }
 
 }  // namespace

@@ -453,6 +453,15 @@ RenderResult Renderer::Impl::render() {
   const uint64_t n_batches = (uint64_t(spp) + samples_per_batch - 1) / samples_per_batch;
   auto batch_samples = [&](uint64_t b) { return std::min<uint64_t>(samples_per_batch, uint64_t(spp) - b * samples_per_batch); };
 
+  // refuse what cannot fit before allocating anything
+  const double need = double(Q) * (sizeof(st_path) + NL * sizeof(st_shadow) + 2 * (5 + NL) * 4) +
+                      2.0 * batch_paths * sizeof(st_float4) + double(npix) * sizeof(st_float4) +
+                      grid_words.size() * 4.0 + maj_cells.size() * 4.0 + env_data.size() * 4.0;
+  if (need > double(dev.global_mem))
+    throw Error(fmt::format("this render needs about {:.1f} MiB of device memory ({}x{} film, {} paths in flight) "
+                            "but device '{}' has {:.1f} MiB; use a smaller film, --path-slots, or another device "
+                            "with --device",
+                            need / 1048576.0, st.window_width, st.window_height, Q, dev.name, dev.global_mem / 1048576.0));
   cl::Buffer b_paths = buffer(CL_MEM_READ_WRITE, Q * sizeof(st_path), nullptr, "path states");
   cl::Buffer b_shadows = buffer(CL_MEM_READ_WRITE, Q * NL * sizeof(st_shadow), nullptr, "shadow rays");
   const uint64_t per_parity = 5 * Q + Q * NL;

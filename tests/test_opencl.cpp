@@ -1,0 +1,125 @@
+// test_opencl.cpp: the OpenCL runtime layer on the default device: a kernel that fails to build
+// reports the build log and the file holding the assembled source; the binary cache serves a
+// second build, and a corrupt or truncated entry is rebuilt rather than trusted.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include "cl/opencl.h"
+
+using namespace spectrack;
+
+namespace {
+
+struct CacheDir {
+  std::string dir;
+  CacheDir() {
+    dir = (std::filesystem::temp_directory_path() / ("spectrack_cache_test_" + std::to_string(::getpid()))).string();
+    std::filesystem::remove_all(dir);
+    ::setenv("SPECTRACK_KERNEL_CACHE_DIR", dir.c_str(), 1);
+    ::unsetenv("SPECTRACK_NO_KERNEL_CACHE");
+  }
+  ~CacheDir() {
+    std::filesystem::remove_all(dir);
+    ::unsetenv("SPECTRACK_KERNEL_CACHE_DIR");
+  }
+};
+
+TEST(OpenCL, BuildFailurePrintsLogAndSavesSource) {
+  CacheDir cache;
+  DeviceInfo dev = select_device("");
+  cl::Context ctx(dev.device);
+  std::string src = "__kernel void broken(__global float* x) { x[0] = undefined_symbol_xyz; }\n";
+  try {
+    build_program(ctx, dev, src, "-cl-std=CL1.2", true);
+    FAIL() << "a broken kernel must not build";
+  } catch (const Error& e) {
+    std::string msg = e.what();
+    EXPECT_NE(msg.find("undefined_symbol_xyz"), std::string::npos) << "the build log must be in the message: " << msg;
+    auto pos = msg.find("assembled source written to ");
+    ASSERT_NE(pos, std::string::npos) << msg;
+    std::string path = msg.substr(pos + std::string("assembled source written to ").size());
+    while (!path.empty() && (path.back() == '\n' || path.back() == ' ')) path.pop_back();
+    std::ifstream f(path);
+    ASSERT_TRUE(f.good()) << path;
+    std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(text, src);
+    std::filesystem::remove(path);
+  }
+}
+
+TEST(OpenCL, CacheServesSecondBuildAndRebuildsCorruptEntries) {
+  CacheDir cache;
+  DeviceInfo dev = select_device("");
+  cl::Context ctx(dev.device);
+  std::string src = assemble_kernel_source({{"ST_KERNEL_MAX_MEDIA", "1"}});
+  ProgramBuild a = build_program(ctx, dev, src, "-cl-std=CL1.2", true);
+  EXPECT_FALSE(a.from_cache);
+  ASSERT_FALSE(a.cache_file.empty());
+  ASSERT_TRUE(std::filesystem::exists(a.cache_file));
+  ProgramBuild b = build_program(ctx, dev, src, "-cl-std=CL1.2", true);
+  EXPECT_TRUE(b.from_cache);
+  EXPECT_EQ(a.cache_file, b.cache_file);
+  // another option string is another entry
+  ProgramBuild c = build_program(ctx, dev, src, "-cl-std=CL1.2 -DSPECTRACK_TEST_VARIANT=1", true);
+  EXPECT_FALSE(c.from_cache);
+  EXPECT_NE(c.cache_file, a.cache_file);
+  // flip a byte in the binary: the checksum fails, the entry is rebuilt and rewritten
+  {
+    std::fstream f(a.cache_file, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(-10, std::ios::end);
+    char ch = 0;
+    f.read(&ch, 1);
+    f.seekp(-10, std::ios::end);
+    ch = char(ch ^ 0x5a);
+    f.write(&ch, 1);
+  }
+  ProgramBuild d = build_program(ctx, dev, src, "-cl-std=CL1.2", true);
+  EXPECT_FALSE(d.from_cache) << "a corrupt entry must not be trusted";
+  ProgramBuild e = build_program(ctx, dev, src, "-cl-std=CL1.2", true);
+  EXPECT_TRUE(e.from_cache) << "the rebuilt entry is written back";
+  // truncate it
+  std::filesystem::resize_file(a.cache_file, 30);
+  ProgramBuild f = build_program(ctx, dev, src, "-cl-std=CL1.2", true);
+  EXPECT_FALSE(f.from_cache);
+  // the kernels of a cached program run
+  cl_int err = CL_SUCCESS;
+  cl::Kernel k(e.program, "k_track", &err);
+  EXPECT_EQ(err, CL_SUCCESS);
+}
+
+TEST(OpenCL, DisabledCacheWritesNothing) {
+  CacheDir cache;
+  ::setenv("SPECTRACK_NO_KERNEL_CACHE", "1", 1);
+  EXPECT_EQ(kernel_cache_dir(), "");
+  DeviceInfo dev = select_device("");
+  cl::Context ctx(dev.device);
+  ProgramBuild a = build_program(ctx, dev, "__kernel void k(__global int* x) { x[0] = 1; }", "", true);
+  EXPECT_TRUE(a.cache_file.empty());
+  EXPECT_FALSE(std::filesystem::exists(cache.dir));
+  ::unsetenv("SPECTRACK_NO_KERNEL_CACHE");
+}
+
+TEST(OpenCL, DeviceSelection) {
+  auto devs = enumerate_devices(false);
+  ASSERT_FALSE(devs.empty());
+  DeviceInfo d = select_device("0:0");
+  EXPECT_EQ(d.platform_index, 0);
+  EXPECT_EQ(d.device_index, 0);
+  DeviceInfo byname = select_device(devs[0].name.substr(0, 5));
+  EXPECT_EQ(byname.name, devs[0].name);
+  EXPECT_THROW(select_device("7:7"), Error);
+  EXPECT_THROW(select_device("definitely-not-a-device"), Error);
+  ::setenv("SPECTRACK_DEVICE", "definitely-not-a-device", 1);
+  try {
+    select_device("");
+    ADD_FAILURE() << "SPECTRACK_DEVICE must be honoured";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("SPECTRACK_DEVICE"), std::string::npos) << e.what();
+  }
+  ::unsetenv("SPECTRACK_DEVICE");
+}
+
+}  // namespace
