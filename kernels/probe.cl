@@ -97,3 +97,15 @@ __kernel void k_probe_albedo(__constant const st_scene* scene, __global const ui
   out_scatter[i] = (float4)(sum.xyz, st.max_beta);
   out_absorb[i] = (float4)(L.xyz, escaped);
 }
+
+/* Phase-function sampling around +z: out[i] = (cos theta of the sample, its pdf, phase value of
+ * the direction, |direction| - 1). */
+__kernel void k_probe_phase(__constant const st_scene* scene, int type, float g, __global float4* out, uint n) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  st_rng rng = rng_make(scene->seed, i, 2u, 0u, 7u, 0u);
+  float pdf;
+  float3 d = (float3)(0.0f, 0.0f, 1.0f);
+  float3 wi = phase_sample(type, g, d, rng_uniform(&rng), rng_uniform(&rng), &pdf);
+  out[i] = (float4)(wi.z, pdf, phase_eval(type, g, wi.z), length(wi) - 1.0f);
+}

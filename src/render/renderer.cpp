@@ -689,6 +689,16 @@ void Renderer::probe_albedo(std::array<float, 3> o, int channel, int n, std::vec
   if (n > 0) ST_CL_CHECK(impl_->queue.enqueueReadBuffer(b_abs, CL_TRUE, 0, size_t(n) * 16, absorb->data()), "read probe absorption");
 }
 
+std::vector<std::array<float, 4>> Renderer::probe_phase(int type, float g, int n) {
+  return impl_->run_probe<std::array<float, 4>>("k_probe_phase", size_t(n), [&](cl::Kernel& k, cl::Buffer& out) {
+    k.setArg(0, impl_->b_scene);
+    k.setArg(1, cl_int(type));
+    k.setArg(2, cl_float(g));
+    k.setArg(3, out);
+    k.setArg(4, cl_uint(n));
+  });
+}
+
 std::vector<std::array<float, 4>> Renderer::probe_transmittance(std::array<float, 3> o, std::array<float, 3> d, int n) {
   return impl_->run_probe<std::array<float, 4>>("k_probe_transmittance", size_t(n), [&](cl::Kernel& k, cl::Buffer& out) {
     k.setArg(0, impl_->b_scene);

@@ -80,6 +80,8 @@ class Renderer {
   // (absorption score with Le = 1 xyz, escaped flag). channel -1 = rgb.
   void probe_albedo(std::array<float, 3> o, int channel, int n, std::vector<std::array<float, 4>>* scatter,
                     std::vector<std::array<float, 4>>* absorb);
+  // Phase sampling around +z: per item (cos theta, pdf, phase value, |wi| - 1).
+  std::vector<std::array<float, 4>> probe_phase(int type, float g, int n);
   std::vector<std::array<float, 4>> probe_transmittance(std::array<float, 3> o, std::array<float, 3> d, int n);
 
   const std::string& device_name() const;
