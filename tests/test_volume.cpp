@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstring>
 #include <cmath>
 #include <filesystem>
 #include <functional>
@@ -51,6 +52,7 @@ struct TempFile {
   ~TempFile() {
     std::error_code ec;
     fs::remove(path, ec);
+    fs::remove(fs::path(path).parent_path(), ec);  // only succeeds once the folder is empty
   }
 };
 
@@ -382,6 +384,34 @@ TEST(VolumeErrors, BadValuesBackgroundAndTransform) {
     write_vdb(t.path, {c.make()});
     const std::string msg = error_of([&] { spectrack::load_float_grid(t.path, "density", -1, "test"); });
     for (const std::string& e : c.expect) EXPECT_TRUE(contains(msg, e)) << c.what << ": " << msg;
+  }
+}
+
+TEST(VolumeErrors, HugeLengthPrefixesAreRefusedBeforeAllocation) {
+  auto g = new_grid();
+  g->tree().setValue({0, 0, 0}, 1.0f);
+  g->insertMeta("spectrack_note", openvdb::StringMetadata("hello"));
+  TempFile src("lengths.vdb");
+  write_vdb(src.path, {g});
+  std::string bytes;
+  {
+    std::ifstream is(src.path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(is), {});
+  }
+  // The metadata entry is: name, type name "string", then the value's uint32 byte count.
+  const size_t at = bytes.find("spectrack_note");
+  ASSERT_NE(at, std::string::npos);
+  const size_t value_len = at + std::string("spectrack_note").size() + 4 + std::string("string").size();
+  // And the first grid descriptor starts with the uint32 length of the grid name.
+  const size_t name_len = bytes.find("density") - 4;
+  for (size_t off : {value_len, name_len}) {
+    std::string bad = bytes;
+    const uint32_t huge = 0x7ffffff0u;
+    std::memcpy(&bad[off], &huge, 4);
+    TempFile t("huge_length.vdb");
+    std::ofstream(t.path, std::ios::binary) << bad;
+    const std::string msg = error_of([&] { spectrack::load_float_grid(t.path, "density", -1, "test"); });
+    EXPECT_TRUE(contains(msg, "corrupt")) << msg;
   }
 }
 

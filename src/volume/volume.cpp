@@ -123,14 +123,92 @@ std::vector<Entry> vdb_entries(openvdb::io::File& f) {
   return out;
 }
 
-std::unique_ptr<openvdb::io::File> vdb_open(const std::string& file) {
+// Bounds-checked reads over a file, for the structural pre-scan below.
+struct Reader {
+  std::ifstream is;
+  uint64_t size = 0, pos = 0;
+  const Fail& fail;
+  Reader(const std::string& file, const Fail& f) : is(file, std::ios::binary), size(fs::file_size(file)), fail(f) {}
+  void need(uint64_t n, const char* what) {
+    if (n > size - pos) {
+      fail(std::string("corrupt or truncated OpenVDB file: ") + what + " at byte " + std::to_string(pos) +
+           " runs past the end of the file");
+    }
+  }
+  template <class T>
+  T get(const char* what) {
+    need(sizeof(T), what);
+    T v{};
+    is.read(reinterpret_cast<char*>(&v), sizeof(T));
+    pos += sizeof(T);
+    return v;
+  }
+  void skip(uint64_t n, const char* what) {
+    need(n, what);
+    seek(pos + n);
+  }
+  void skip_string(const char* what) { skip(get<uint32_t>(what), what); }
+  void seek(uint64_t p) {
+    pos = p;
+    is.seekg(std::streamoff(p));
+  }
+};
+
+void skip_metamap(Reader& r) {
+  const uint32_t count = r.get<uint32_t>("metadata count");
+  if (count > (r.size - r.pos) / 12) r.fail("corrupt OpenVDB file: implausible metadata count " + std::to_string(count));
+  for (uint32_t i = 0; i < count; ++i) {
+    r.skip_string("metadata name");
+    r.skip_string("metadata type");
+    r.skip(r.get<uint32_t>("metadata value"), "metadata value");
+  }
+}
+
+// OpenVDB allocates every length-prefixed string and metadata blob before reading it, so a
+// damaged length means gigabytes touched (OIIO saw 12 GB). This walks the header, the file
+// metadata, the grid descriptors and each grid's metadata and transform type, checking every
+// length and offset against the file size before OpenVDB sees the file. Tree data is not
+// covered: its chunks are read into buffers that only grow as far as the file goes.
+void prescan_vdb(const std::string& file, const Fail& fail) {
+  Reader r(file, fail);
+  if (r.get<int64_t>("magic number") != openvdb::OPENVDB_MAGIC) fail("not an OpenVDB file (bad magic number)");
+  const uint32_t version = r.get<uint32_t>("file version");
+  if (version < openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION) return;  // old layout: OpenVDB alone
+  r.skip(8, "library version");
+  const bool has_offsets = r.get<char>("header") != 0;
+  r.skip(36, "file UUID");
+  skip_metamap(r);
+  if (!has_offsets) return;
+  const int32_t count = r.get<int32_t>("grid count");
+  if (count < 0 || uint64_t(count) > (r.size - r.pos) / 36 + 1) fail("corrupt OpenVDB file: implausible grid count " + std::to_string(count));
+  std::vector<int64_t> grid_pos;
+  for (int32_t i = 0; i < count; ++i) {
+    r.skip_string("grid name");
+    r.skip_string("grid type");
+    r.skip_string("instance parent name");
+    const int64_t g = r.get<int64_t>("grid offset"), b = r.get<int64_t>("grid offset"), e = r.get<int64_t>("grid offset");
+    if (g < int64_t(r.pos) || g > b || b > e || uint64_t(e) > r.size) fail("corrupt OpenVDB file: grid offsets outside the file");
+    grid_pos.push_back(g);
+    r.seek(uint64_t(e));  // each descriptor is followed by its grid's data
+  }
+  for (int64_t g : grid_pos) {
+    r.seek(uint64_t(g));
+    r.skip(4, "grid compression flags");
+    skip_metamap(r);
+    r.skip_string("transform type");
+  }
+}
+
+std::unique_ptr<openvdb::io::File> vdb_open(const std::string& file, const Fail& fail) {
+  prescan_vdb(file, fail);
   init_openvdb();
   auto f = std::make_unique<openvdb::io::File>(file);
   f->open(/*delayLoad=*/false);
   return f;
 }
 
-// An empty tree whose file_bbox metadata claims active voxels means the data was lost.
+// Checks the tree against the file_bbox metadata OpenVDB stores with each grid: an empty tree
+// whose metadata claims active voxels means the data was lost.
 void check_file_bbox(const openvdb::GridBase& g, const Fail& fail) {
   using openvdb::GridBase;
   auto mn = g.getMetadata<openvdb::Vec3IMetadata>(GridBase::META_FILE_BBOX_MIN);
@@ -150,9 +228,13 @@ void check_file_bbox(const openvdb::GridBase& g, const Fail& fail) {
          coord_str(a.x(), a.y(), a.z()) + " .. " + coord_str(b.x(), b.y(), b.z()) +
          " but its tree is empty");
   }
+  // OpenVDB writes file_bbox from the tree, so active voxels outside it mean a damaged tree
+  // (typically a flipped node origin, which would also claim a huge majorant grid).
   if (!box.empty() && (meta_empty || !openvdb::CoordBBox(openvdb::Coord(a), openvdb::Coord(b)).isInside(box))) {
-    std::cerr << "warning: " << fail.file << ": grid " << in_quotes(g.getName())
-              << ": file_bbox metadata does not contain the active voxels; using the tree\n";
+    fail("corrupt grid " + in_quotes(g.getName()) + ": active voxels in " +
+         coord_str(box.min().x(), box.min().y(), box.min().z()) + " .. " +
+         coord_str(box.max().x(), box.max().y(), box.max().z()) + " lie outside its file_bbox metadata " +
+         coord_str(a.x(), a.y(), a.z()) + " .. " + coord_str(b.x(), b.y(), b.z()));
   }
 }
 
@@ -539,7 +621,7 @@ GridData load_vdb(const std::string& file, const std::string& grid_name, int gri
   out.file = file;
   openvdb::FloatGrid::Ptr grid;
   try {
-    auto f = vdb_open(file);
+    auto f = vdb_open(file, fail);
     const std::vector<Entry> entries = vdb_entries(*f);
     const Entry& e = select(entries, grid_name, grid_index, fail);
     check_entry(e, fail);
@@ -615,7 +697,7 @@ std::vector<std::string> list_grids(const std::string& file) {
   check_readable(file, fail);
   std::vector<Entry> entries;
   try {
-    entries = ext == ".vdb" ? vdb_entries(*vdb_open(file)) : nvdb_entries(file, fail);
+    entries = ext == ".vdb" ? vdb_entries(*vdb_open(file, fail)) : nvdb_entries(file, fail);
   } catch (const Error&) {
     throw;
   } catch (const std::exception& ex) {
