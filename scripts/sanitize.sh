@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# sanitize.sh: builds spectrack_tests and spectrack with AddressSanitizer + UndefinedBehaviorSanitizer
+# (-DSPECTRACK_SANITIZE=ON, RelWithDebInfo) in build-asan/ and runs, through ctest:
+#   1. the host-side suites (scene loader and volume loader: no OpenCL device), which must be clean
+#      with no suppression at all;
+#   2. the kernel suites on PoCL (Render, ProfileVolume, Estimators, Volume = device lookups, Cli*
+#      = the sanitized CLI binary end to end, OpenCL = program build and kernel cache). PoCL works
+#      under ASan + UBSan with leak detection on, but its kernel compiler (LLVM) never frees its
+#      state: tests/lsan.supp suppresses leaks inside libpocl/libLLVM (see there), and
+#      tests/asan.supp lists the known product bugs that are suppressed until fixed. The Stress
+#      suite is left out: it renders on purpose up to the device memory limit (~10 GB RSS
+#      without ASan), too slow and too big under ASan for CI.
+# Any sanitizer report aborts the test process, so ctest fails and this script exits non-zero.
+# Extra arguments go to both ctest runs.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$PWD
+SETUP_PACKAGES_ONLY=1 bash scripts/setup.sh
+
+start=$(date +%s)
+cmake -S . -B build-asan -DSPECTRACK_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+cmake --build build-asan -j "${JOBS:-$(nproc)}" --target spectrack_tests spectrack
+echo "sanitize: built build-asan/ in $(( $(date +%s) - start )) s"
+
+export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1"
+export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
+HOST='^(SceneTest|SceneNames|VolumeLoad|VolumeErrors|VolumeSample|VolumeMajorant|VolumeNanoVdb)\.'
+DEVICE='^(Render|ProfileVolume|Estimators|Volume|CliSceneErrors|CliFlags|CliDevices|CliRender|CliInterrupt|OpenCL)\.'
+cd build-asan
+status=0
+start=$(date +%s)
+echo "sanitize: host-side suites (no suppressions)"
+ctest --output-on-failure -j "${TEST_JOBS:-2}" -R "$HOST" --no-tests=error "$@" || status=1
+echo "sanitize: host-side suites took $(( $(date +%s) - start )) s"
+start=$(date +%s)
+echo "sanitize: kernel suites on PoCL (suppressions: tests/asan.supp, tests/lsan.supp)"
+ASAN_OPTIONS="$ASAN_OPTIONS:suppressions=$ROOT/tests/asan.supp" LSAN_OPTIONS="suppressions=$ROOT/tests/lsan.supp" \
+  ctest --output-on-failure -j "${TEST_JOBS:-2}" -R "$DEVICE" --no-tests=error "$@" || status=1
+echo "sanitize: kernel suites took $(( $(date +%s) - start )) s"
+[ $status -eq 0 ] && echo "sanitize: clean" || echo "sanitize: FAILED (sanitizer report or test failure above)" >&2
+exit $status
