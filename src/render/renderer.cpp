@@ -133,7 +133,16 @@ struct Renderer::Impl {
 
   cl::Buffer buffer(cl_mem_flags flags, size_t bytes, const void* host, const char* what) {
     cl_int err = CL_SUCCESS;
-    bytes = std::max<size_t>(bytes, 16);
+    // never allocate 0 bytes; a host copy shorter than that is padded, never over-read
+    std::vector<unsigned char> padded;
+    if (bytes < 16) {
+      if (host) {
+        padded.assign(16, 0);
+        std::memcpy(padded.data(), host, bytes);
+        host = padded.data();
+      }
+      bytes = 16;
+    }
     if (bytes > dev.max_alloc)
       throw Error(fmt::format("{} needs {:.1f} MiB in one buffer but device '{}' allows at most {:.1f} MiB per "
                               "allocation (global memory {:.1f} MiB); choose another device with --device",
