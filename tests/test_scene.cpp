@@ -5,6 +5,7 @@
 // name and the JSON path of the offending field, and carry a reason keyword, so each check pins
 // down where the loader looked, not just that it threw. Files named by scenes are empty dummies in
 // a per-test temporary folder: the loader only checks that they exist.
+#include <chrono>
 #include <unistd.h>
 
 #include <algorithm>
@@ -917,3 +918,17 @@ TEST_F(SceneTest, ErrorsInsideAMediumNameIt) {
 
 }  // namespace
 }  // namespace spectrack
+
+TEST(SceneHostile, HugeArraysAreRefusedQuickly) {
+  std::string text = "{\"format\":\"spectrack-scene/1\",\"media\":[";
+  for (int i = 0; i < 200000; ++i) text += (i ? ",{}" : "{}");
+  text += "]}";
+  auto t0 = std::chrono::steady_clock::now();
+  try {
+    spectrack::parse_scene(text, "huge.json", "/tmp");
+    ADD_FAILURE() << "must be refused";
+  } catch (const spectrack::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("huge.json"), std::string::npos) << e.what();
+  }
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 2.0);
+}

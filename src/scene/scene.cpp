@@ -497,6 +497,13 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& name, con
     return true;
   };
 
+  // nlohmann 3.11 with a parse callback rescans a container after each of its elements, which is
+  // quadratic in array length; a scene has a few dozen objects, so absurd counts are refused first
+  const size_t objects = size_t(std::count(json_text.begin(), json_text.end(), '{'));
+  if (objects > 4096)
+    throw Error(name + ": " + std::to_string(objects) + " JSON objects; a scene has at most " +
+                std::to_string(ST_MAX_MEDIA) + " media and " + std::to_string(ST_MAX_LIGHTS) +
+                " lights, refusing to parse");
   json root;
   try {
     root = json::parse(json_text, callback);
