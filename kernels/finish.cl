@@ -23,14 +23,24 @@ __kernel void k_finish(ST_STAGE_ARGS) {
   queue_push(queues, counters, Q, NL, cur, ST_Q_FREE, slot);
 }
 
-/* Adds the n_samples samples (times channels) of each window pixel of one batch to the film. */
+/* Adds the n_samples samples (times channels) of each window pixel of one batch to the film.
+ * film[pix] is the running sum and film[npix + pix] its Kahan compensation, so a pixel's sum is
+ * exact to a few float roundings of its terms whatever the sample count: sample-range shards
+ * merged on the host (in double) then agree with one long render to float precision. */
 __kernel void k_accumulate(__global const float4* results, __global float4* film, uint base, uint n_samples,
                            uint npix, uint nch) {
   uint pix = get_global_id(0);
   if (pix >= npix) return;
   /* one sample at a time, in sample order: the sum does not depend on how samples were batched */
   float4 f = film[pix];
+  float4 c = film[npix + pix];
   for (uint s = 0; s < n_samples; ++s)
-    for (uint c = 0; c < nch; ++c) f += results[base + (s * npix + pix) * nch + c];
+    for (uint k = 0; k < nch; ++k) {
+      float4 y = results[base + (s * npix + pix) * nch + k] - c;
+      float4 t = f + y;
+      c = (t - f) - y;
+      f = t;
+    }
   film[pix] = f;
+  film[npix + pix] = c;
 }

@@ -14,6 +14,8 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <mutex>
+#include <thread>
 #include <sstream>
 #include <cstring>
 #include <unistd.h>
@@ -62,6 +64,10 @@ std::string DeviceInfo::type_name() const {
 }
 
 std::vector<DeviceInfo> enumerate_devices(bool warn) {
+  // The ICD loader's first clGetPlatformIDs is not safe to run from two threads at once (several
+  // devices set up in parallel saw no platform, or crashed): one enumeration at a time.
+  static std::mutex mu;
+  std::lock_guard<std::mutex> lock(mu);
   std::vector<DeviceInfo> out;
   std::vector<cl::Platform> platforms;
   cl_int err = cl::Platform::get(&platforms);
@@ -223,7 +229,9 @@ static bool read_cache(const std::string& path, std::vector<unsigned char>& bin)
 static void write_cache(const std::string& path, const std::vector<unsigned char>& bin) {
   std::error_code ec;
   std::filesystem::create_directories(std::filesystem::path(path).parent_path(), ec);
-  std::string tmp = path + ".tmp" + std::to_string(::getpid());
+  // unique per process and thread: several devices of one process may write entries at once
+  std::string tmp = path + ".tmp" + std::to_string(::getpid()) + "-" +
+                    std::to_string(std::hash<std::thread::id>()(std::this_thread::get_id()));
   {
     std::ofstream f(tmp, std::ios::binary);
     if (!f) return;  // an unwritable cache only costs time

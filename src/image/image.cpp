@@ -45,7 +45,8 @@ static float srgb_encode(float v) {
   return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
 }
 
-void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb, const Metadata& meta) {
+void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb, const Metadata& meta,
+                 const PixelWindow& window) {
   check_output_path(path);
   if (rgb.size() != size_t(width) * size_t(height) * 3) throw Error(fmt::format("{}: internal: image size mismatch", path));
   bool png = extension(path) == ".png";
@@ -58,7 +59,16 @@ void write_image(const std::string& path, int width, int height, const std::vect
     else if (auto i = std::get_if<int>(&v)) spec.attribute(key, *i);
     else if (auto f = std::get_if<float>(&v)) spec.attribute(key, *f);
   }
-  if (!png) spec.attribute("compression", "zip");
+  if (!png) {
+    spec.attribute("compression", "zip");
+    if (window.full_width > 0) {
+      spec.x = window.x0;
+      spec.y = window.y0;
+      spec.full_x = spec.full_y = 0;
+      spec.full_width = window.full_width;
+      spec.full_height = window.full_height;
+    }
+  }
   if (!out->open(path, spec)) throw Error(fmt::format("{}: cannot open for writing: {}", path, out->geterror()));
   bool ok;
   if (png) {
@@ -78,6 +88,11 @@ RgbImage read_image(const std::string& path) {
   RgbImage img;
   img.width = spec.width;
   img.height = spec.height;
+  img.format = in->format_name();
+  img.window.x0 = spec.x - spec.full_x;
+  img.window.y0 = spec.y - spec.full_y;
+  img.window.full_width = spec.full_width > 0 ? spec.full_width : spec.width;
+  img.window.full_height = spec.full_height > 0 ? spec.full_height : spec.height;
   int nc = spec.nchannels;
   if (img.width <= 0 || img.height <= 0 || nc <= 0 || size_t(img.width) * size_t(img.height) > (size_t(1) << 28))
     throw Error(fmt::format("{}: unsupported image size {}x{}x{}", path, img.width, img.height, nc));

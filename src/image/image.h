@@ -18,11 +18,21 @@ using Metadata = std::map<std::string, MetaValue>;
 void check_output_path(const std::string& path);
 // Throws Error unless `path` can be written as a file (not a folder; its folder exists and is writable).
 void check_writable_file(const std::string& path);
-// Writes width x height linear RGB floats (row 0 at the top).
-void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb, const Metadata& meta);
+// Where an image sits in a larger film: an EXR of a pixel window (a tile) keeps the film as its
+// display window and the tile as its data window. full_width == 0: the image is the whole film.
+struct PixelWindow {
+  int full_width = 0, full_height = 0;
+  int x0 = 0, y0 = 0;
+};
+
+// Writes width x height linear RGB floats (row 0 at the top). PNG previews hold the pixels only.
+void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb, const Metadata& meta,
+                 const PixelWindow& window = {});
 
 struct RgbImage {
-  int width = 0, height = 0;
+  int width = 0, height = 0;    // the pixels held (EXR data window)
+  PixelWindow window;           // their place in the display window (full size always set)
+  std::string format;           // OIIO's format name: "openexr", "png", ...
   std::vector<float> rgb;  // linear, row 0 at the top
   Metadata meta;
 };

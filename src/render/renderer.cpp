@@ -182,7 +182,7 @@ struct Renderer::Impl {
   void add_medium(int i, const MediumDesc& m);
   void add_light(int i, const LightDesc& l);
   void set_camera();
-  RenderResult render();
+  RenderResult render(int64_t sample_begin, int spp);
   template <typename T>
   std::vector<T> run_probe(const std::string& name, size_t n, const std::function<void(cl::Kernel&, cl::Buffer&)>& args);
 };
@@ -392,10 +392,17 @@ void Renderer::Impl::setup() {
   st.seed = seed;
   st.n_channels_per_sample = (tracker == ST_TRACKER_DELTA_PER_CHANNEL || tracker == ST_TRACKER_DECOMPOSITION) ? 3 : 1;
   st.iteration_budget = opt.iteration_budget;
-  st.pixel_x0 = 0;
-  st.pixel_y0 = 0;
-  st.window_width = scene.film.width;
-  st.window_height = scene.film.height;
+  {
+    auto [x0, x1, y0, y1] = opt.pixel_bounds;
+    if (x1 < 0) x0 = 0, x1 = scene.film.width, y0 = 0, y1 = scene.film.height;
+    if (!(0 <= x0 && x0 < x1 && x1 <= scene.film.width && 0 <= y0 && y0 < y1 && y1 <= scene.film.height))
+      throw Error(fmt::format("pixel bounds {},{},{},{} (x0,x1,y0,y1) are not a non-empty window of the {}x{} film",
+                              x0, x1, y0, y1, scene.film.width, scene.film.height));
+    st.pixel_x0 = x0;
+    st.pixel_y0 = y0;
+    st.window_width = x1 - x0;
+    st.window_height = y1 - y0;
+  }
   for (auto& l : scene.lights) st.has_env |= (l.type != ST_LIGHT_DIRECTIONAL);
   for (auto& m : scene.media) st.chromatic |= !(achromatic(m.sigma_a) && achromatic(m.sigma_s));
   if (maj_cells.empty()) maj_cells = {0.0f, 0.0f};
@@ -434,11 +441,19 @@ std::vector<T> Renderer::Impl::run_probe(const std::string& name, size_t n,
   return out;
 }
 
-RenderResult Renderer::Impl::render() {
+RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
   auto t_start = Clock::now();
+  if (sample_begin < 0 || spp < 1 || uint64_t(sample_begin) + uint64_t(spp) > (uint64_t(1) << 32))
+    throw Error(fmt::format("sample range {}:{} is not a non-empty range of sample indices 0 .. 2^32",
+                            sample_begin, sample_begin + spp));
   RenderResult res;
-  res.width = scene.film.width;
-  res.height = scene.film.height;
+  res.width = st.window_width;
+  res.height = st.window_height;
+  res.full_width = scene.film.width;
+  res.full_height = scene.film.height;
+  res.x0 = st.pixel_x0;
+  res.y0 = st.pixel_y0;
+  res.sample_begin = sample_begin;
   res.spp_requested = spp;
   res.tracker = tracker;
   res.scheme = scheme;
@@ -464,7 +479,7 @@ RenderResult Renderer::Impl::render() {
 
   // refuse what cannot fit before allocating anything
   const double need = double(Q) * (sizeof(st_path) + NL * sizeof(st_shadow) + 2 * (5 + NL) * 4) +
-                      2.0 * batch_paths * sizeof(st_float4) + double(npix) * sizeof(st_float4) +
+                      2.0 * batch_paths * sizeof(st_float4) + 2.0 * npix * sizeof(st_float4) +
                       grid_words.size() * 4.0 + maj_cells.size() * 4.0 + env_data.size() * 4.0;
   if (need > double(dev.global_mem))
     throw Error(fmt::format("this render needs about {:.1f} MiB of device memory ({}x{} film, {} paths in flight) "
@@ -480,8 +495,9 @@ RenderResult Renderer::Impl::render() {
   std::vector<uint32_t> counters(ST_C_COUNT, 0u);
   cl::Buffer b_counters = buffer(CL_MEM_READ_WRITE, counters.size() * 4, counters.data(), "counters");
   cl::Buffer b_results = buffer(CL_MEM_READ_WRITE, 2 * batch_paths * sizeof(st_float4), nullptr, "batch results");
-  std::vector<st_float4> film(npix, st_float4{0, 0, 0, 0});
-  cl::Buffer b_film = buffer(CL_MEM_READ_WRITE, npix * sizeof(st_float4), film.data(), "film");
+  // film: per pixel the running sum, then (second half) its Kahan compensation term
+  std::vector<st_float4> film(2 * npix, st_float4{0, 0, 0, 0});
+  cl::Buffer b_film = buffer(CL_MEM_READ_WRITE, film.size() * sizeof(st_float4), film.data(), "film");
 
   // launch order within an iteration, and the queue each stage reads
   const char* stage_kernels[] = {"k_raygen", "k_track", "k_escape", "k_scatter", "k_shadow", "k_finish"};
@@ -541,7 +557,7 @@ RenderResult Renderer::Impl::render() {
     kr.setArg(13, cl_ulong(issued));
     kr.setArg(14, cl_uint(n_new));
     kr.setArg(15, cl_uint(batch_paths));
-    kr.setArg(16, cl_uint(0));
+    kr.setArg(16, cl_uint(sample_begin));
     kr.setArg(17, cl_uint(samples_per_batch));
     for (int s = 0; s < 6; ++s) launch(stage_kernels[s], n_q[stage_queue[s]]);
     issued += n_new;
@@ -591,7 +607,7 @@ RenderResult Renderer::Impl::render() {
     }
     if (opt.progress) opt.progress(double(samples_done) / double(spp));
   }
-  ST_CL_CHECK(queue.enqueueReadBuffer(b_film, CL_TRUE, 0, npix * sizeof(st_float4), film.data()), "read film");
+  ST_CL_CHECK(queue.enqueueReadBuffer(b_film, CL_TRUE, 0, film.size() * sizeof(st_float4), film.data()), "read film");
   collect_profiling();
   res.seconds_render = seconds_since(t_loop);
   (void)t_start;
@@ -603,13 +619,15 @@ RenderResult Renderer::Impl::render() {
   res.spp_done = int(samples_done);
   res.interrupted = samples_done < uint64_t(spp);
   res.rgb.assign(npix * 3, 0.0f);
-  if (samples_done > 0) {
-    float inv = 1.0f / float(samples_done);
-    for (uint64_t p = 0; p < npix; ++p) {
-      res.rgb[p * 3 + 0] = film[p].x * inv;
-      res.rgb[p * 3 + 1] = film[p].y * inv;
-      res.rgb[p * 3 + 2] = film[p].z * inv;
-    }
+  res.sum.assign(npix * 3, 0.0);
+  for (uint64_t p = 0; p < npix; ++p) {
+    // Kahan: the exact sum is (to float rounding of the terms) sum - compensation
+    const st_float4& f = film[p];
+    const st_float4& c = film[npix + p];
+    res.sum[p * 3 + 0] = double(f.x) - double(c.x);
+    res.sum[p * 3 + 1] = double(f.y) - double(c.y);
+    res.sum[p * 3 + 2] = double(f.z) - double(c.z);
+    for (int k = 0; k < 3 && samples_done > 0; ++k) res.rgb[p * 3 + k] = float(res.sum[p * 3 + k] / double(samples_done));
   }
   return res;
 }
@@ -621,7 +639,29 @@ Renderer::Renderer(const SceneDesc& scene, const RenderOptions& options) : impl_
 }
 Renderer::~Renderer() = default;
 
-RenderResult Renderer::render() { return impl_->render(); }
+RenderResult Renderer::render() { return impl_->render(impl_->opt.sample_begin, impl_->spp); }
+RenderResult Renderer::render(int64_t sample_begin, int spp) { return impl_->render(sample_begin, spp); }
+
+void RenderStats::add(const RenderStats& o) {
+  paths += o.paths;
+  lookups_track += o.lookups_track;
+  lookups_shadow += o.lookups_shadow;
+  lookups_emission += o.lookups_emission;
+  real_collisions += o.real_collisions;
+  null_collisions += o.null_collisions;
+  control_collisions += o.control_collisions;
+  residual_collisions += o.residual_collisions;
+  dda_steps += o.dda_steps;
+  requeues += o.requeues;
+  nonfinite_samples += o.nonfinite_samples;
+  scatter_events += o.scatter_events;
+  iterations += o.iterations;
+  max_throughput = std::max(max_throughput, o.max_throughput);
+  for (auto& [name, t] : o.kernels) {
+    kernels[name].seconds += t.seconds;
+    kernels[name].launches += t.launches;
+  }
+}
 const std::string& Renderer::device_name() const { return impl_->dev.name; }
 const SceneDesc& Renderer::scene() const { return impl_->scene; }
 

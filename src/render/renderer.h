@@ -21,7 +21,10 @@
 namespace spectrack {
 
 struct RenderOptions {
-  int spp = -1;            // overrides film.spp when > 0
+  int spp = -1;            // overrides film.spp when > 0: the number of samples per pixel
+  int64_t sample_begin = 0;  // first sample index of the full sequence (sample-range shards)
+  // Pixel window x0, x1, y0, y1 (x1, y1 exclusive, pbrt's --pixelbounds); x1 < 0 = the whole film.
+  std::array<int, 4> pixel_bounds{0, -1, 0, -1};
   int64_t seed = -1;       // overrides render.seed when >= 0
   int tracker = -1;        // overrides render.tracker when >= 0
   int scheme = -1;         // overrides render.spectral_scheme when >= 0
@@ -40,6 +43,8 @@ struct KernelTime {
 };
 
 struct RenderStats {
+  // Adds another shard's statistics (counters summed, max_throughput maxed, kernel times summed).
+  void add(const RenderStats& o);
   uint64_t paths = 0;
   uint64_t lookups_track = 0, lookups_shadow = 0, lookups_emission = 0;
   uint64_t real_collisions = 0, null_collisions = 0, control_collisions = 0, residual_collisions = 0;
@@ -49,8 +54,14 @@ struct RenderStats {
 };
 
 struct RenderResult {
-  int width = 0, height = 0;
+  int width = 0, height = 0;           // the pixel window rendered
+  int full_width = 0, full_height = 0; // the film
+  int x0 = 0, y0 = 0;                  // the window's top-left pixel in the film
   std::vector<float> rgb;  // width * height * 3, linear, mean over spp_done samples
+  // width * height * 3: the sum of the spp_done samples of each pixel (compensated float sums on
+  // the device, read back in double) for combining shards without losing precision
+  std::vector<double> sum;
+  int64_t sample_begin = 0;            // samples sample_begin .. sample_begin + spp_done - 1
   int spp_requested = 0, spp_done = 0;
   bool interrupted = false;
   int tracker = 0, scheme = 0;
@@ -69,6 +80,9 @@ class Renderer {
   Renderer& operator=(const Renderer&) = delete;
 
   RenderResult render();
+  // Renders samples [sample_begin, sample_begin + spp) of every window pixel (a shard of the full
+  // sequence); render() is render(options.sample_begin, spp of the options or the scene).
+  RenderResult render(int64_t sample_begin, int spp);
 
   // Probes for tests and benchmarks: the kernels' own device functions on given inputs.
   std::vector<float> probe_density(int medium, const std::vector<std::array<float, 3>>& world_points);

@@ -1,0 +1,303 @@
+// film.cpp: see film.h. merge_pieces cuts the bounding box of the pieces into the rectangles
+// between consecutive window edges; within one rectangle every pixel is covered by the same
+// pieces, so coverage, overlap and sample-set checks are done once per rectangle (a few thousand
+// for hundreds of tiles) and only the sums are added per pixel.
+#include "render/film.h"
+
+#include <OpenImageIO/hash.h>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+
+namespace spectrack {
+
+std::string format_ranges(const std::vector<SampleRange>& ranges) {
+  std::string s;
+  for (auto& r : ranges) s += (s.empty() ? "" : ",") + fmt::format("{}:{}", r.begin, r.end);
+  return s;
+}
+
+std::vector<SampleRange> parse_ranges(const std::string& text, const std::string& what) {
+  std::vector<SampleRange> out;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    SampleRange r;
+    size_t colon = item.find(':');
+    try {
+      size_t a = 0, b = 0;
+      if (colon == std::string::npos) throw std::invalid_argument("no colon");
+      r.begin = std::stoll(item.substr(0, colon), &a);
+      r.end = std::stoll(item.substr(colon + 1), &b);
+      if (a != colon || b != item.size() - colon - 1) throw std::invalid_argument("trailing text");
+    } catch (const std::exception&) {
+      throw Error(fmt::format("{}: '{}' is not a sample range A:B", what, item));
+    }
+    if (r.begin < 0 || r.end <= r.begin)
+      throw Error(fmt::format("{}: sample range '{}' is empty or negative", what, item));
+    out.push_back(r);
+  }
+  if (out.empty()) throw Error(fmt::format("{}: no sample range in '{}'", what, text));
+  return out;
+}
+
+std::vector<SampleRange> join_ranges(std::vector<SampleRange> ranges) {
+  std::sort(ranges.begin(), ranges.end(), [](auto& a, auto& b) { return a.begin < b.begin; });
+  std::vector<SampleRange> out;
+  for (auto& r : ranges) {
+    if (r.end <= r.begin) continue;
+    if (!out.empty() && r.begin <= out.back().end) out.back().end = std::max(out.back().end, r.end);
+    else out.push_back(r);
+  }
+  return out;
+}
+
+int64_t count_samples(const std::vector<SampleRange>& ranges) {
+  int64_t n = 0;
+  for (auto& r : ranges) n += r.end - r.begin;
+  return n;
+}
+
+static void hash_file(OIIO::SHA1& h, const std::string& path, const std::string& what) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw Error(fmt::format("{}: cannot read {} to hash the scene", what, path));
+  std::vector<char> buf(1 << 20);
+  uint64_t total = 0;
+  while (f) {
+    f.read(buf.data(), std::streamsize(buf.size()));
+    std::streamsize n = f.gcount();
+    if (n > 0) h.append(buf.data(), size_t(n));
+    total += uint64_t(std::max<std::streamsize>(n, 0));
+  }
+  h.append(&total, sizeof(total));
+}
+
+std::string scene_hash(const SceneDesc& scene) {
+  std::ifstream f(scene.path, std::ios::binary);
+  if (!f) throw Error(fmt::format("{}: cannot read the scene file to hash it", scene.path));
+  std::stringstream text;
+  text << f.rdbuf();
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(text.str());
+  } catch (const std::exception& e) {
+    throw Error(fmt::format("{}: cannot parse the scene file to hash it: {}", scene.path, e.what()));
+  }
+  if (j.is_object()) {
+    if (j.contains("film") && j["film"].is_object()) {
+      j["film"].erase("output");
+      j["film"].erase("spp");
+    }
+    if (j.contains("render") && j["render"].is_object())
+      for (const char* k : {"seed", "tracker", "spectral_scheme"}) j["render"].erase(k);
+  }
+  OIIO::SHA1 h;
+  h.append(std::string("spectrack-scene-hash/1\n") + j.dump());
+  for (auto& m : scene.media)
+    if (m.type == ST_MEDIUM_VDB) hash_file(h, m.file, scene.path + ": " + m.json_path + "/file");
+  for (auto& l : scene.lights)
+    if (!l.map.empty()) hash_file(h, l.map, scene.path + ": " + l.json_path + "/map");
+  return h.digest();
+}
+
+RenderIdentity render_identity(const SceneDesc& scene, const RenderOptions& opt) {
+  RenderIdentity id;
+  id.scene_hash = scene_hash(scene);
+  id.full_width = scene.film.width;
+  id.full_height = scene.film.height;
+  id.seed = opt.seed >= 0 ? uint32_t(opt.seed) : scene.render.seed;
+  id.tracker = tracker_name(opt.tracker >= 0 ? opt.tracker : scene.render.tracker);
+  id.scheme = scheme_name(opt.scheme >= 0 ? opt.scheme : scene.render.scheme);
+  id.version = SPECTRACK_VERSION;
+  return id;
+}
+
+std::vector<float> FilmPiece::mean() const {
+  std::vector<float> m(sum.size(), 0.0f);
+  int64_t n = samples();
+  if (n > 0)
+    for (size_t i = 0; i < sum.size(); ++i) m[i] = float(sum[i] / double(n));
+  return m;
+}
+
+FilmPiece piece_from_result(const RenderResult& r, const RenderIdentity& id, const std::string& source) {
+  FilmPiece p;
+  p.source = source;
+  p.id = id;
+  p.x0 = r.x0;
+  p.y0 = r.y0;
+  p.width = r.width;
+  p.height = r.height;
+  if (r.spp_done > 0) p.ranges = {{r.sample_begin, r.sample_begin + r.spp_done}};
+  p.sum = r.sum;
+  p.interrupted = r.interrupted;
+  return p;
+}
+
+static std::string window_text(int x0, int x1, int y0, int y1) {
+  return fmt::format("x {}..{}, y {}..{}", x0, x1 - 1, y0, y1 - 1);
+}
+
+FilmPiece merge_pieces(const std::vector<FilmPiece>& pieces) {
+  if (pieces.empty()) throw Error("merge: no input");
+  const FilmPiece& a = pieces[0];
+  for (auto& p : pieces) {
+    auto differ = [&](const std::string& what, const std::string& va, const std::string& vb) {
+      throw Error(fmt::format("merge: {} and {} are not parts of one render: {} differs ({} vs {})", a.source,
+                              p.source, what, va, vb));
+    };
+    if (p.id.scene_hash != a.id.scene_hash) differ("the scene (spectrack:scene_hash)", a.id.scene_hash, p.id.scene_hash);
+    if (p.id.full_width != a.id.full_width || p.id.full_height != a.id.full_height)
+      differ("the resolution", fmt::format("{}x{}", a.id.full_width, a.id.full_height),
+             fmt::format("{}x{}", p.id.full_width, p.id.full_height));
+    if (p.id.seed != a.id.seed) differ("the seed", std::to_string(a.id.seed), std::to_string(p.id.seed));
+    if (p.id.tracker != a.id.tracker) differ("the tracker", a.id.tracker, p.id.tracker);
+    if (p.id.scheme != a.id.scheme) differ("the spectral scheme", a.id.scheme, p.id.scheme);
+    if (p.id.version != a.id.version) differ("the spectrack version", a.id.version, p.id.version);
+    if (p.width <= 0 || p.height <= 0 || p.x0 < 0 || p.y0 < 0 || p.x0 + p.width > p.id.full_width ||
+        p.y0 + p.height > p.id.full_height || p.sum.size() != size_t(p.width) * p.height * 3)
+      throw Error(fmt::format("merge: {}: pixel window {} is not inside the {}x{} film", p.source,
+                              window_text(p.x0, p.x0 + p.width, p.y0, p.y0 + p.height), p.id.full_width,
+                              p.id.full_height));
+    if (p.samples() == 0) throw Error(fmt::format("merge: {}: holds no sample", p.source));
+  }
+  std::vector<int> xs, ys;
+  for (auto& p : pieces) {
+    xs.insert(xs.end(), {p.x0, p.x0 + p.width});
+    ys.insert(ys.end(), {p.y0, p.y0 + p.height});
+  }
+  std::sort(xs.begin(), xs.end());
+  xs.erase(std::unique(xs.begin(), xs.end()), xs.end());
+  std::sort(ys.begin(), ys.end());
+  ys.erase(std::unique(ys.begin(), ys.end()), ys.end());
+
+  FilmPiece out;
+  out.source = "merge";
+  out.id = a.id;
+  out.x0 = xs.front();
+  out.y0 = ys.front();
+  out.width = xs.back() - out.x0;
+  out.height = ys.back() - out.y0;
+  bool first_cell = true;
+  std::string first_cell_text;
+  for (size_t yi = 0; yi + 1 < ys.size(); ++yi)
+    for (size_t xi = 0; xi + 1 < xs.size(); ++xi) {
+      int cx0 = xs[xi], cx1 = xs[xi + 1], cy0 = ys[yi], cy1 = ys[yi + 1];
+      std::string cell = window_text(cx0, cx1, cy0, cy1);
+      std::vector<std::pair<SampleRange, size_t>> held;
+      for (size_t i = 0; i < pieces.size(); ++i) {
+        const FilmPiece& p = pieces[i];
+        if (p.x0 <= cx0 && cx1 <= p.x0 + p.width && p.y0 <= cy0 && cy1 <= p.y0 + p.height)
+          for (auto& r : p.ranges) held.push_back({r, i});
+      }
+      if (held.empty())
+        throw Error(fmt::format("merge: pixels {} lie inside the inputs' bounding box ({}) but in no input: a tile "
+                                "is missing",
+                                cell, window_text(out.x0, out.x0 + out.width, out.y0, out.y0 + out.height)));
+      std::sort(held.begin(), held.end(), [](auto& p, auto& q) { return p.first.begin < q.first.begin; });
+      for (size_t k = 1; k < held.size(); ++k)
+        if (held[k].first.begin < held[k - 1].first.end)
+          throw Error(fmt::format("merge: {} and {} overlap: both hold samples {}:{} of pixels {}",
+                                  pieces[held[k - 1].second].source, pieces[held[k].second].source,
+                                  held[k].first.begin, std::min(held[k].first.end, held[k - 1].first.end), cell));
+      std::vector<SampleRange> rs;
+      for (auto& h : held) rs.push_back(h.first);
+      rs = join_ranges(rs);
+      if (first_cell) {
+        out.ranges = rs;
+        first_cell_text = cell;
+        first_cell = false;
+      } else if (format_ranges(rs) != format_ranges(out.ranges)) {
+        throw Error(fmt::format("merge: pixels {} would hold samples {} but pixels {} hold {}: every pixel needs the "
+                                "same samples (is a shard missing for some tiles?)",
+                                cell, format_ranges(rs), first_cell_text, format_ranges(out.ranges)));
+      }
+    }
+  out.sum.assign(size_t(out.width) * out.height * 3, 0.0);
+  for (auto& p : pieces) {
+    out.interrupted |= p.interrupted;
+    for (int y = 0; y < p.height; ++y) {
+      const double* src = &p.sum[size_t(y) * p.width * 3];
+      double* dst = &out.sum[(size_t(p.y0 - out.y0 + y) * out.width + (p.x0 - out.x0)) * 3];
+      for (int i = 0; i < p.width * 3; ++i) dst[i] += src[i];
+    }
+  }
+  return out;
+}
+
+Metadata piece_metadata(const FilmPiece& p) {
+  Metadata m;
+  m["spp"] = int(p.samples());
+  m["spp_ranges"] = format_ranges(p.ranges);
+  if (p.ranges.size() == 1) {
+    m["spp_begin"] = int(p.ranges[0].begin);
+    m["spp_end"] = int(p.ranges[0].end);
+  }
+  // an int where it fits (every seed below 2^31), else the decimal text
+  if (p.id.seed <= 2147483647) m["seed"] = int(p.id.seed);
+  else m["seed"] = std::to_string(p.id.seed);
+  m["tracker"] = p.id.tracker;
+  m["scheme"] = p.id.scheme;
+  m["version"] = p.id.version;
+  m["scene_hash"] = p.id.scene_hash;
+  m["pixel_bounds"] = fmt::format("{},{},{},{}", p.x0, p.x0 + p.width, p.y0, p.y0 + p.height);
+  m["full_resolution"] = fmt::format("{}x{}", p.id.full_width, p.id.full_height);
+  m["interrupted"] = p.interrupted ? 1 : 0;
+  return m;
+}
+
+void write_piece(const std::string& path, const FilmPiece& p, const Metadata& extra) {
+  Metadata m = extra;
+  for (auto& [k, v] : piece_metadata(p)) m[k] = v;
+  PixelWindow w;
+  w.full_width = p.id.full_width;
+  w.full_height = p.id.full_height;
+  w.x0 = p.x0;
+  w.y0 = p.y0;
+  write_image(path, p.width, p.height, p.mean(), m, w);
+}
+
+FilmPiece read_piece(const std::string& path) {
+  RgbImage img = read_image(path);
+  if (img.format != "openexr")
+    throw Error(fmt::format("{}: a {} image cannot be merged: only spectrack's EXR outputs hold the float pixels and "
+                            "sample ranges a merge needs",
+                            path, img.format));
+  auto str = [&](const char* key) -> std::string {
+    auto it = img.meta.find(key);
+    if (it == img.meta.end())
+      throw Error(fmt::format("{}: not a spectrack render that can be merged: metadata spectrack:{} is missing", path,
+                              key));
+    if (auto s = std::get_if<std::string>(&it->second)) return *s;
+    if (auto i = std::get_if<int>(&it->second)) return std::to_string(*i);
+    return fmt::format("{}", std::get<float>(it->second));
+  };
+  FilmPiece p;
+  p.source = path;
+  p.id.scene_hash = str("scene_hash");
+  p.id.tracker = str("tracker");
+  p.id.scheme = str("scheme");
+  p.id.version = str("version");
+  try {
+    p.id.seed = std::stoll(str("seed"));
+  } catch (const std::invalid_argument&) {
+    throw Error(fmt::format("{}: metadata spectrack:seed '{}' is not a number", path, str("seed")));
+  }
+  p.ranges = join_ranges(parse_ranges(str("spp_ranges"), path + ": metadata spectrack:spp_ranges"));
+  p.interrupted = str("interrupted") != "0";
+  p.id.full_width = img.window.full_width;
+  p.id.full_height = img.window.full_height;
+  p.x0 = img.window.x0;
+  p.y0 = img.window.y0;
+  p.width = img.width;
+  p.height = img.height;
+  double n = double(p.samples());
+  p.sum.resize(img.rgb.size());
+  for (size_t i = 0; i < img.rgb.size(); ++i) p.sum[i] = double(img.rgb[i]) * n;
+  return p;
+}
+
+}  // namespace spectrack

@@ -1,0 +1,74 @@
+// film.h: a render as pieces that combine exactly: sample-range shards, pixel tiles, devices and
+// MPI ranks.
+//
+// Design: a FilmPiece is a pixel window of the full film, the set of sample indices it holds
+// (disjoint half-open ranges of the full per-pixel sequence) and, per pixel, the sum of those
+// samples in double. The counter-based RNG keys every path by (pixel, sample, channel), so pieces
+// with disjoint sample ranges are disjoint parts of the one long render, and adding their sums
+// (merge_pieces) gives that render's image to float rounding. A piece also carries the identity
+// of the render it belongs to (scene hash, film size, seed, tracker, scheme, version); merging
+// refuses pieces of different renders, sample ranges that overlap on any pixel, pixels of the
+// bounding box that no piece covers, and pixels that would end with different sample sets.
+// On disk a piece is an EXR: the mean (sum / samples) as pixels, the tile as the data window of
+// the full film's display window, and the identity and ranges as spectrack:* metadata.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "image/image.h"
+#include "render/renderer.h"
+#include "scene/scene.h"
+
+namespace spectrack {
+
+struct SampleRange {
+  int64_t begin = 0, end = 0;  // samples begin .. end - 1
+};
+// "0:4,8:12"; parse_ranges throws Error naming `what` on malformed text.
+std::string format_ranges(const std::vector<SampleRange>& ranges);
+std::vector<SampleRange> parse_ranges(const std::string& text, const std::string& what);
+// Sorted, with touching ranges joined; empty ranges dropped (overlaps are the caller's check).
+std::vector<SampleRange> join_ranges(std::vector<SampleRange> ranges);
+int64_t count_samples(const std::vector<SampleRange>& ranges);
+
+// What pieces of one render share.
+struct RenderIdentity {
+  std::string scene_hash;
+  int full_width = 0, full_height = 0;
+  int64_t seed = 0;
+  std::string tracker, scheme, version;
+};
+
+// A SHA-1 of the scene as it shapes the image: the scene file's JSON (keys sorted, whitespace
+// dropped; without film.output, film.spp and the render fields that are recorded on their own:
+// seed, tracker, spectral_scheme) and the contents of every file it references (VDB files,
+// environment maps), so a scene moved to another folder or machine keeps its hash.
+std::string scene_hash(const SceneDesc& scene);
+// The identity of a render of `scene` with `opt` (tracker, scheme and seed resolved as Renderer does).
+RenderIdentity render_identity(const SceneDesc& scene, const RenderOptions& opt);
+
+struct FilmPiece {
+  std::string source;  // the file (or device, or rank) it came from, for messages
+  RenderIdentity id;
+  int x0 = 0, y0 = 0, width = 0, height = 0;
+  std::vector<SampleRange> ranges;  // sorted, disjoint, joined
+  std::vector<double> sum;          // width * height * 3
+  bool interrupted = false;
+  int64_t samples() const { return count_samples(ranges); }
+  // Mean per pixel (0 where no sample).
+  std::vector<float> mean() const;
+};
+
+FilmPiece piece_from_result(const RenderResult& r, const RenderIdentity& id, const std::string& source);
+// Combines pieces into one over their bounding box; throws Error (naming the sources) as above.
+FilmPiece merge_pieces(const std::vector<FilmPiece>& pieces);
+
+// spp, spp_ranges (and spp_begin / spp_end when contiguous), seed, tracker, scheme, version,
+// scene_hash, pixel_bounds, full_resolution, interrupted.
+Metadata piece_metadata(const FilmPiece& p);
+void write_piece(const std::string& path, const FilmPiece& p, const Metadata& extra);
+// Reads a piece written by write_piece; throws Error for PNGs and images without the metadata.
+FilmPiece read_piece(const std::string& path);
+
+}  // namespace spectrack
