@@ -93,6 +93,12 @@ std::string scene_hash(const SceneDesc& scene) {
     }
     if (j.contains("render") && j["render"].is_object())
       for (const char* k : {"seed", "tracker", "spectral_scheme"}) j["render"].erase(k);
+    // file names stand for their contents, hashed below: a scene whose assets moved is the same scene
+    for (const char* list : {"media", "lights"})
+      if (j.contains(list) && j[list].is_array())
+        for (auto& item : j[list])
+          for (const char* k : {"file", "map"})
+            if (item.is_object() && item.contains(k)) item[k] = "";
   }
   OIIO::SHA1 h;
   h.append(std::string("spectrack-scene-hash/1\n") + j.dump());
@@ -149,7 +155,6 @@ FilmPiece merge_pieces(const std::vector<FilmPiece>& pieces) {
       throw Error(fmt::format("merge: {} and {} are not parts of one render: {} differs ({} vs {})", a.source,
                               p.source, what, va, vb));
     };
-    if (p.id.scene_hash != a.id.scene_hash) differ("the scene (spectrack:scene_hash)", a.id.scene_hash, p.id.scene_hash);
     if (p.id.full_width != a.id.full_width || p.id.full_height != a.id.full_height)
       differ("the resolution", fmt::format("{}x{}", a.id.full_width, a.id.full_height),
              fmt::format("{}x{}", p.id.full_width, p.id.full_height));
@@ -157,6 +162,7 @@ FilmPiece merge_pieces(const std::vector<FilmPiece>& pieces) {
     if (p.id.tracker != a.id.tracker) differ("the tracker", a.id.tracker, p.id.tracker);
     if (p.id.scheme != a.id.scheme) differ("the spectral scheme", a.id.scheme, p.id.scheme);
     if (p.id.version != a.id.version) differ("the spectrack version", a.id.version, p.id.version);
+    if (p.id.scene_hash != a.id.scene_hash) differ("the scene (spectrack:scene_hash)", a.id.scene_hash, p.id.scene_hash);
     if (p.width <= 0 || p.height <= 0 || p.x0 < 0 || p.y0 < 0 || p.x0 + p.width > p.id.full_width ||
         p.y0 + p.height > p.id.full_height || p.sum.size() != size_t(p.width) * p.height * 3)
       throw Error(fmt::format("merge: {}: pixel window {} is not inside the {}x{} film", p.source,

@@ -41,9 +41,10 @@ struct RenderIdentity {
 };
 
 // A SHA-1 of the scene as it shapes the image: the scene file's JSON (keys sorted, whitespace
-// dropped; without film.output, film.spp and the render fields that are recorded on their own:
-// seed, tracker, spectral_scheme) and the contents of every file it references (VDB files,
-// environment maps), so a scene moved to another folder or machine keeps its hash.
+// dropped; without film.output, film.spp, the render fields that are recorded on their own:
+// seed, tracker, spectral_scheme, and the names of referenced files) and the contents of every
+// file it references (VDB files, environment maps), so a scene moved to another folder or
+// machine keeps its hash.
 std::string scene_hash(const SceneDesc& scene);
 // The identity of a render of `scene` with `opt` (tracker, scheme and seed resolved as Renderer does).
 RenderIdentity render_identity(const SceneDesc& scene, const RenderOptions& opt);
