@@ -367,6 +367,8 @@ void check_interrupt(int sig) {
   EXPECT_GT(done, 0) << p.describe();
   EXPECT_LT(done, spp) << p.describe();
   EXPECT_EQ(spec.get_int_attribute("spectrack:spp_requested", -1), spp);
+  // the finished samples are the first ones, recorded as a shard that a later render can complete
+  EXPECT_EQ(spec.get_string_attribute("spectrack:spp_ranges"), "0:" + std::to_string(done));
   // The image holds the mean of the finished samples: lit, finite, not black.
   std::vector<float> px(size_t(spec.width) * spec.height * spec.nchannels);
   ASSERT_TRUE(in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, px.data())) << in->geterror();
