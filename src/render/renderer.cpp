@@ -642,20 +642,27 @@ Renderer::~Renderer() = default;
 RenderResult Renderer::render() { return impl_->render(impl_->opt.sample_begin, impl_->spp); }
 RenderResult Renderer::render(int64_t sample_begin, int spp) { return impl_->render(sample_begin, spp); }
 
+const std::vector<std::pair<const char*, RenderStats::Counter>>& RenderStats::counters() {
+  static const std::vector<std::pair<const char*, Counter>> list = {
+      {"paths", &RenderStats::paths},
+      {"density_lookups_tracking", &RenderStats::lookups_track},
+      {"density_lookups_shadow", &RenderStats::lookups_shadow},
+      {"emission_lookups", &RenderStats::lookups_emission},
+      {"real_collisions", &RenderStats::real_collisions},
+      {"null_collisions", &RenderStats::null_collisions},
+      {"control_collisions", &RenderStats::control_collisions},
+      {"residual_collisions", &RenderStats::residual_collisions},
+      {"scatter_events", &RenderStats::scatter_events},
+      {"dda_steps", &RenderStats::dda_steps},
+      {"requeues", &RenderStats::requeues},
+      {"iterations", &RenderStats::iterations},
+      {"nonfinite_samples", &RenderStats::nonfinite_samples},
+  };
+  return list;
+}
+
 void RenderStats::add(const RenderStats& o) {
-  paths += o.paths;
-  lookups_track += o.lookups_track;
-  lookups_shadow += o.lookups_shadow;
-  lookups_emission += o.lookups_emission;
-  real_collisions += o.real_collisions;
-  null_collisions += o.null_collisions;
-  control_collisions += o.control_collisions;
-  residual_collisions += o.residual_collisions;
-  dda_steps += o.dda_steps;
-  requeues += o.requeues;
-  nonfinite_samples += o.nonfinite_samples;
-  scatter_events += o.scatter_events;
-  iterations += o.iterations;
+  for (auto& [key, member] : counters()) this->*member += o.*member;
   max_throughput = std::max(max_throughput, o.max_throughput);
   for (auto& [name, t] : o.kernels) {
     kernels[name].seconds += t.seconds;

@@ -14,6 +14,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "scene/scene.h"
@@ -45,6 +46,9 @@ struct KernelTime {
 struct RenderStats {
   // Adds another shard's statistics (counters summed, max_throughput maxed, kernel times summed).
   void add(const RenderStats& o);
+  // Every counter with its --stats-json key: the one list that add() and stats_json.cpp use.
+  using Counter = uint64_t RenderStats::*;
+  static const std::vector<std::pair<const char*, Counter>>& counters();
   uint64_t paths = 0;
   uint64_t lookups_track = 0, lookups_shadow = 0, lookups_emission = 0;
   uint64_t real_collisions = 0, null_collisions = 0, control_collisions = 0, residual_collisions = 0;
