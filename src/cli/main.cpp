@@ -1,6 +1,7 @@
 // main.cpp: the spectrack command line (CLI11), shaped like pbrt's and Mitsuba's:
 //   spectrack render SCENE [-o FILE] [--spp N] [--seed S] [--tracker T] [--scheme S] [--device D]
 //                    [--stats-json FILE] [--preview FILE.png] [--quiet]
+//                    [--majorant-cell N] [--majorant-block N] [--generic-kernels]
 //   spectrack devices
 // Exit codes: 0 success; 1 a user-facing error (message on stderr names file, field and reason);
 // 2 bad command line; 130 interrupted (the image of the finished samples is still written and
@@ -58,6 +59,9 @@ struct RenderArgs {
   int64_t seed = -1;
   int path_slots = 0;
   int budget = 256;
+  int majorant_cell = RenderOptions().majorant_cell;
+  int majorant_block = RenderOptions().majorant_block;
+  bool generic_kernels = false;
   bool quiet = false;
 };
 
@@ -76,6 +80,9 @@ void write_stats_json(const std::string& path, const RenderResult& r, double sec
   j["seconds_setup"] = r.seconds_setup;
   j["seconds_kernel_build"] = r.seconds_build;
   j["kernels_from_cache"] = r.kernels_from_cache;
+  j["seconds_first_pass"] = r.seconds_first_pass;
+  j["features"] = r.features;
+  j["generic_kernels"] = r.features == uint32_t(ST_FEATURES_ALL);
   j["seconds_total"] = seconds_total;
   const RenderStats& s = r.stats;
   j["paths"] = s.paths;
@@ -89,6 +96,10 @@ void write_stats_json(const std::string& path, const RenderResult& r, double sec
   j["residual_collisions"] = s.residual_collisions;
   j["scatter_events"] = s.scatter_events;
   j["dda_steps"] = s.dda_steps;
+  j["dda_steps_nonempty"] = s.dda_nonempty;
+  j["occupancy_mean"] = s.occupancy_mean;
+  j["occupancy_min"] = s.occupancy_min;
+  j["iterations_below_half_occupancy"] = s.iterations_below_half;
   j["requeues"] = s.requeues;
   j["iterations"] = s.iterations;
   j["nonfinite_samples"] = s.nonfinite_samples;
@@ -110,6 +121,9 @@ int cmd_render(const RenderArgs& a) {
   opt.quiet = a.quiet;
   opt.path_slots = a.path_slots;
   opt.iteration_budget = a.budget;
+  opt.majorant_cell = a.majorant_cell;
+  opt.majorant_block = a.majorant_block;
+  opt.generic_kernels = a.generic_kernels;
   if (!a.tracker.empty()) {
     opt.tracker = tracker_from_name(a.tracker);
     if (opt.tracker < 0) throw Error(fmt::format("--tracker {}: unknown tracker (one of: {})", a.tracker, tracker_names()));
@@ -193,6 +207,14 @@ int main(int argc, char** argv) {
   render->add_option("--preview", ra.preview, "also write a PNG preview");
   render->add_option("--path-slots", ra.path_slots, "paths in flight (default: 65536 on CPUs, 1M on GPUs)")->check(CLI::Range(1, 1 << 24));
   render->add_option("--budget", ra.budget, "tracking iterations per path and kernel launch")->check(CLI::Range(1, 1 << 20));
+  render->add_option("--majorant-cell", ra.majorant_cell, "voxels per majorant-grid cell edge")
+      ->check(CLI::Range(1, 1024))
+      ->capture_default_str();
+  render->add_option("--majorant-block", ra.majorant_block,
+                     "cells per coarse-block edge of a two-level majorant grid (0: one level)")
+      ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
+  render->add_flag("--generic-kernels", ra.generic_kernels, "use the generic kernels instead of ones specialised to the scene");
   render->add_flag("-q,--quiet", ra.quiet, "no progress output");
   app.add_subcommand("devices", "list OpenCL platforms and devices");
   try {
