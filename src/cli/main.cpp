@@ -1,7 +1,7 @@
 // main.cpp: the spectrack command line (CLI11), shaped like pbrt's and Mitsuba's:
 //   spectrack render SCENE [-o FILE] [--spp N] [--seed S] [--tracker T] [--scheme S] [--device D]
 //                    [--stats-json FILE] [--preview FILE.png] [--quiet]
-//                    [--majorant-cell N] [--majorant-block N] [--generic-kernels]
+//                    [--majorant-cell N] [--majorant-block N] [--generic-kernels] [--batches-in-flight N]
 //   spectrack devices
 // Exit codes: 0 success; 1 a user-facing error (message on stderr names file, field and reason);
 // 2 bad command line; 130 interrupted (the image of the finished samples is still written and
@@ -61,6 +61,7 @@ struct RenderArgs {
   int budget = 256;
   int majorant_cell = RenderOptions().majorant_cell;
   int majorant_block = RenderOptions().majorant_block;
+  int batches_in_flight = 0;
   bool generic_kernels = false;
   bool quiet = false;
 };
@@ -124,6 +125,7 @@ int cmd_render(const RenderArgs& a) {
   opt.majorant_cell = a.majorant_cell;
   opt.majorant_block = a.majorant_block;
   opt.generic_kernels = a.generic_kernels;
+  opt.batches_in_flight = a.batches_in_flight;
   if (!a.tracker.empty()) {
     opt.tracker = tracker_from_name(a.tracker);
     if (opt.tracker < 0) throw Error(fmt::format("--tracker {}: unknown tracker (one of: {})", a.tracker, tracker_names()));
@@ -214,6 +216,9 @@ int main(int argc, char** argv) {
                      "cells per coarse-block edge of a two-level majorant grid (0: one level)")
       ->check(CLI::Range(0, 1024))
       ->capture_default_str();
+  render->add_option("--batches-in-flight", ra.batches_in_flight,
+                     "batches of samples in flight, 1-" + std::to_string(ST_MAX_BATCHES_IN_FLIGHT) + " (default: the maximum)")
+      ->check(CLI::Range(1, ST_MAX_BATCHES_IN_FLIGHT));
   render->add_flag("--generic-kernels", ra.generic_kernels, "use the generic kernels instead of ones specialised to the scene");
   render->add_flag("-q,--quiet", ra.quiet, "no progress output");
   app.add_subcommand("devices", "list OpenCL platforms and devices");

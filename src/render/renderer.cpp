@@ -191,6 +191,15 @@ struct Renderer::Impl {
   // Batches in flight (a ring of result buffers): more than two keep the slots busy while a
   // batch's longest paths finish; capped by ST_MAX_BATCHES_IN_FLIGHT, the batch count and
   // 32-bit result indices. Written to st.batches_in_flight before the first launch.
+  // Paths per batch (rounded up to whole samples): 2Q with two batches in flight, so one batch
+  // fills the slots while the other finishes; Q with the ring, so the first pass is done sooner.
+  uint64_t batch_target_paths(uint64_t Q) const {
+    return (opt.batches_in_flight > 0 && opt.batches_in_flight <= 2) ? 2 * Q : Q;
+  }
+  // Batches that may be issued beyond the accumulated ones: the first batch alone (its longest
+  // paths finish sooner without later batches sharing the device, so the first pass, a preview,
+  // is on the film early), then the whole ring.
+  static uint64_t batches_ahead(uint64_t accumulated, uint64_t K) { return accumulated == 0 ? 1 : K; }
   uint64_t batches_in_flight(uint64_t batch_paths, uint64_t n_batches) {
     uint64_t k = opt.batches_in_flight > 0 ? uint64_t(opt.batches_in_flight) : uint64_t(ST_MAX_BATCHES_IN_FLIGHT);
     k = std::min<uint64_t>({k, uint64_t(ST_MAX_BATCHES_IN_FLIGHT), std::max<uint64_t>(1, n_batches)});
@@ -536,7 +545,7 @@ RenderResult Renderer::Impl::render() {
   uint64_t Q = opt.path_slots > 0 ? uint64_t(opt.path_slots) : ((dev.type & CL_DEVICE_TYPE_GPU) ? (1u << 20) : (1u << 16));
   const uint64_t total_paths = uint64_t(spp) * npix * nch;
   Q = std::max<uint64_t>(1, std::min<uint64_t>(Q, total_paths));
-  uint64_t samples_per_batch = std::max<uint64_t>(1, (2 * Q + npix * nch - 1) / (npix * nch));
+  uint64_t samples_per_batch = std::max<uint64_t>(1, (batch_target_paths(Q) + npix * nch - 1) / (npix * nch));
   samples_per_batch = std::min<uint64_t>(samples_per_batch, uint64_t(spp));
   const uint64_t batch_paths = samples_per_batch * npix * nch;
   if (batch_paths >= (uint64_t(1) << 32)) throw Error("film too large: one sample of every pixel exceeds 2^32 paths");
@@ -606,7 +615,7 @@ RenderResult Renderer::Impl::render() {
       batches_target = std::max<uint64_t>(accumulated, issued / batch_paths);  // only fully issued batches
       if (batches_target == accumulated) break;
     }
-    uint64_t issue_limit = std::min<uint64_t>(total_paths, (accumulated + K) * batch_paths);
+    uint64_t issue_limit = std::min<uint64_t>(total_paths, (accumulated + batches_ahead(accumulated, K)) * batch_paths);
     issue_limit = std::min<uint64_t>(issue_limit, batches_target * batch_paths);
     uint64_t n_new = std::min<uint64_t>(n_q[ST_Q_FREE], issue_limit > issued ? issue_limit - issued : 0);
     uint64_t in_flight = 0;
