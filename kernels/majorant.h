@@ -65,9 +65,11 @@ inline void dda_skip_block(__constant const st_medium* m, st_dda* s, int3 lo_c, 
   s->t_next = tn;
 }
 
-/* Loads (dmax, dmin) of the DDA's cell, first skipping an empty coarse block if there is one. */
-inline void dda_load_cell(__constant const st_medium* m, __global const float2* maj, st_dda* s) {
-  if (ST_HAS_COARSE_MAJORANT && m->maj_block > 0) {
+/* Loads (dmax, dmin) of the DDA's cell, first skipping an empty coarse block if there is one.
+ * new_block: the cell may lie in another block than the previous one (only then is the coarse
+ * level read). */
+inline void dda_load_cell(__constant const st_medium* m, __global const float2* maj, st_dda* s, int new_block) {
+  if (ST_HAS_COARSE_MAJORANT && m->maj_block > 0 && new_block) {
     int B = m->maj_block;
     int3 dims = (int3)(m->maj_dims[0], m->maj_dims[1], m->maj_dims[2]);
     int3 cdims = (dims + B - 1) / B;
@@ -97,7 +99,7 @@ inline void dda_enter_cell(__constant const st_medium* m, __global const float2*
   s->dt = select(cs / fabs(s->d), (float3)(INFINITY), s->d == 0.0f);
   s->step = select((int3)(-1), (int3)(1), s->d > 0.0f);
   s->state = ST_DDA_INSIDE;
-  dda_load_cell(m, maj, s);
+  dda_load_cell(m, maj, s, 1);
   s->seg_end = fmin(fmin(fmin(s->t_next.x, s->t_next.y), s->t_next.z), s->t_exit);
 }
 
@@ -145,16 +147,19 @@ inline void dda_advance(__constant const st_medium* m, __global const float2* ma
   }
   int axis = dda_min_axis(s->t_next);
   int3 dims = (int3)(m->maj_dims[0], m->maj_dims[1], m->maj_dims[2]);
-  if (axis == 0) { s->cell.x += s->step.x; s->t_next.x += s->dt.x; }
-  else if (axis == 1) { s->cell.y += s->step.y; s->t_next.y += s->dt.y; }
-  else { s->cell.z += s->step.z; s->t_next.z += s->dt.z; }
+  int c_axis, step_axis;
+  if (axis == 0) { s->cell.x += s->step.x; s->t_next.x += s->dt.x; c_axis = s->cell.x; step_axis = s->step.x; }
+  else if (axis == 1) { s->cell.y += s->step.y; s->t_next.y += s->dt.y; c_axis = s->cell.y; step_axis = s->step.y; }
+  else { s->cell.z += s->step.z; s->t_next.z += s->dt.z; c_axis = s->cell.z; step_axis = s->step.z; }
   if (any(s->cell < 0) || any(s->cell >= dims)) {
     s->state = ST_DDA_DONE;
     s->seg_end = INFINITY;
     s->dmax = s->dmin = 0.0f;
     return;
   }
-  dda_load_cell(m, maj, s);
+  /* a step enters another block only across a block face */
+  int B = max(m->maj_block, 1);
+  dda_load_cell(m, maj, s, (step_axis > 0) ? (c_axis % B == 0) : (c_axis % B == B - 1));
   s->seg_end = fmax(s->seg_end, fmin(fmin(fmin(s->t_next.x, s->t_next.y), s->t_next.z), s->t_exit));
 }
 

@@ -66,7 +66,7 @@ struct RenderArgs {
   bool quiet = false;
 };
 
-void write_stats_json(const std::string& path, const RenderResult& r, double seconds_total) {
+void write_stats_json(const std::string& path, const RenderResult& r, double seconds_total, double seconds_to_renderer) {
   nlohmann::json j;
   j["spp"] = r.spp_done;
   j["spp_requested"] = r.spp_requested;
@@ -82,6 +82,7 @@ void write_stats_json(const std::string& path, const RenderResult& r, double sec
   j["seconds_kernel_build"] = r.seconds_build;
   j["kernels_from_cache"] = r.kernels_from_cache;
   j["seconds_first_pass"] = r.seconds_first_pass;
+  j["seconds_first_pass_from_start"] = seconds_to_renderer + r.seconds_first_pass;  // scene loading included
   j["features"] = r.features;
   j["generic_kernels"] = r.features == uint32_t(ST_FEATURES_ALL);
   j["seconds_total"] = seconds_total;
@@ -157,6 +158,7 @@ int cmd_render(const RenderArgs& a) {
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
 
+  const double seconds_to_renderer = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   Renderer renderer(scene, opt);
   if (!a.quiet)
     std::cerr << fmt::format("spectrack: {} on {} ({}x{}, {} spp, tracker {}, scheme {})\n", scene.path,
@@ -180,7 +182,7 @@ int cmd_render(const RenderArgs& a) {
   meta["interrupted"] = r.interrupted ? 1 : 0;
   write_image(output, r.width, r.height, r.rgb, meta);
   if (!a.preview.empty()) write_image(a.preview, r.width, r.height, r.rgb, meta);
-  if (!a.stats_json.empty()) write_stats_json(a.stats_json, r, total);
+  if (!a.stats_json.empty()) write_stats_json(a.stats_json, r, total, seconds_to_renderer);
   if (r.stats.nonfinite_samples > 0)
     std::cerr << fmt::format("warning: {} non-finite samples were dropped (counted in nonfinite_samples)\n",
                              r.stats.nonfinite_samples);
