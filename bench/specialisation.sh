@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # specialisation.sh [REPEATS] [SECTIONS]: the measurements of issue 6 in one run, as markdown.
 #   spec   specialised vs generic kernels (render seconds, interleaved, median of REPEATS) per scene
-#   cache  kernel build cold (empty cache) and warm, and seconds to the first finished pass of the
+#   cache  kernel build cold (empty cache, POCL_KERNEL_CACHE=0) and warm, and seconds to the first finished pass of the
 #          default scene (data/scenes/cloud.json) with a warm cache
 #   maj    majorant study: cell 4/8/16 voxels, one level vs two levels (block 4 cells), per scene:
 #          density lookups, DDA steps, steps into non-empty cells and microseconds per sample
@@ -63,8 +63,13 @@ if "cache" in sections:
     print("|---|---|---|---|---|---|")
     for r in range(repeats):
         cold = os.path.join(tmp, f"cold{r}")
-        e = dict(env, SPECTRACK_KERNEL_CACHE_DIR=cold)
-        for label in ("cold", "warm"):
+        # cold: an empty spectrack cache and PoCL's own kernel cache off (else PoCL serves the build);
+        # warm: spectrack's cache only (PoCL still JIT-compiles each kernel for its work-group size
+        # at the first launch, and caches that in its own kernel cache); warm + PoCL: both caches
+        pocl = os.path.join(tmp, f"pocl{r}")
+        for label, e in (("cold", dict(env, SPECTRACK_KERNEL_CACHE_DIR=cold, POCL_KERNEL_CACHE="0")),
+                         ("warm", dict(env, SPECTRACK_KERNEL_CACHE_DIR=cold, POCL_CACHE_DIR=pocl)),
+                         ("warm + PoCL cache", dict(env, SPECTRACK_KERNEL_CACHE_DIR=cold, POCL_CACHE_DIR=pocl))):
             j = render("data/scenes/cloud.json", spp=2, environ=e)
             print(f"| {label} #{r + 1} | {j['seconds_kernel_build']:.3f} | {j['kernels_from_cache']} | "
                   f"{j['seconds_first_pass']:.3f} | {j['seconds_first_pass_from_start']:.3f} | {j['wall']:.3f} |")
