@@ -6,6 +6,13 @@
  * boundary of any medium, and its majorant is the sum over media of dmax * (gray coefficient).
  * Cells with dmax = 0 give segments with zero majorant, which tracking crosses with no lookup.
  *
+ * Two-level grids (sparse volumes): with maj_block = B > 0 a coarse grid of B^3-cell blocks
+ * holds the max dmax (min dmin) of each block. When the DDA enters a cell whose block is empty it
+ * jumps to the block's exit face in one step: the segment up to the exit has zero majorant and
+ * the fine DDA resumes in the exit cell, with its face crossings recomputed from the ray (not
+ * accumulated). Non-empty blocks are walked cell by cell as before. Zero-majorant segments draw
+ * no random numbers, so the skip changes no estimate, only the step count.
+ *
  * The DDA holds no state between launches: a path that stops (budget, scatter) restarts it at
  * its current t. That is exact because free flights restart at any point where no collision is
  * pending (memoryless property, ALGORITHMS.md 7.5). Compiled without fast/finite math, so
@@ -32,6 +39,53 @@ inline float2 majorant_cell(__constant const st_medium* m, __global const float2
   return maj[m->maj_offset + (uint)(c.x + m->maj_dims[0] * (c.y + m->maj_dims[1] * c.z))];
 }
 
+/* Index 0, 1, 2 of the smallest component (ties to the lower axis, as the DDA steps). */
+inline int dda_min_axis(float3 t) {
+  return (t.x <= t.y) ? ((t.x <= t.z) ? 0 : 2) : ((t.y <= t.z) ? 1 : 2);
+}
+
+/* The current cell lies in an empty coarse block [lo_c, hi_c] (fine cells): move the DDA to the
+ * block's exit cell, with t_next of the exit axis at the block's exit face. */
+inline void dda_skip_block(__constant const st_medium* m, st_dda* s, int3 lo_c, int3 hi_c) {
+  float cs = m->maj_origin.w;
+  float3 org = m->maj_origin.xyz;
+  float3 face = org + convert_float3(select(lo_c, hi_c + 1, s->step > 0)) * cs;
+  float3 tf = select((face - s->o) / s->d, (float3)(INFINITY), s->d == 0.0f);
+  int axis = dda_min_axis(tf);
+  float t_out = axis == 0 ? tf.x : (axis == 1 ? tf.y : tf.z);
+  float3 p = s->o + t_out * s->d;
+  int3 c = clamp(convert_int3_rtn((p - org) / cs), lo_c, hi_c);
+  int3 edge = select(lo_c, hi_c, s->step > 0);
+  if (axis == 0) c.x = edge.x; else if (axis == 1) c.y = edge.y; else c.z = edge.z;
+  s->cell = c;
+  float3 lo = org + convert_float3(c) * cs;
+  float3 bound = select(lo, lo + cs, s->d > 0.0f);
+  float3 tn = select((bound - s->o) / s->d, (float3)(INFINITY), s->d == 0.0f);
+  if (axis == 0) tn.x = t_out; else if (axis == 1) tn.y = t_out; else tn.z = t_out;
+  s->t_next = tn;
+}
+
+/* Loads (dmax, dmin) of the DDA's cell, first skipping an empty coarse block if there is one.
+ * new_block: the cell may lie in another block than the previous one (only then is the coarse
+ * level read). */
+inline void dda_load_cell(__constant const st_medium* m, __global const float2* maj, st_dda* s, int new_block) {
+  if (ST_HAS_COARSE_MAJORANT && m->maj_block > 0 && new_block) {
+    int B = m->maj_block;
+    int3 dims = (int3)(m->maj_dims[0], m->maj_dims[1], m->maj_dims[2]);
+    int3 cdims = (dims + B - 1) / B;
+    int3 blk = s->cell / B;
+    float2 cv = maj[m->maj_coarse_offset + (uint)(blk.x + cdims.x * (blk.y + cdims.y * blk.z))];
+    if (cv.x == 0.0f) {
+      dda_skip_block(m, s, blk * B, min(blk * B + B, dims) - 1);
+      s->dmax = s->dmin = 0.0f;
+      return;
+    }
+  }
+  float2 v = majorant_cell(m, maj, s->cell);
+  s->dmax = v.x;
+  s->dmin = v.y;
+}
+
 inline void dda_enter_cell(__constant const st_medium* m, __global const float2* maj, st_dda* s, float t) {
   float cs = m->maj_origin.w;
   int3 dims = (int3)(m->maj_dims[0], m->maj_dims[1], m->maj_dims[2]);
@@ -45,9 +99,7 @@ inline void dda_enter_cell(__constant const st_medium* m, __global const float2*
   s->dt = select(cs / fabs(s->d), (float3)(INFINITY), s->d == 0.0f);
   s->step = select((int3)(-1), (int3)(1), s->d > 0.0f);
   s->state = ST_DDA_INSIDE;
-  float2 v = majorant_cell(m, maj, s->cell);
-  s->dmax = v.x;
-  s->dmin = v.y;
+  dda_load_cell(m, maj, s, 1);
   s->seg_end = fmin(fmin(fmin(s->t_next.x, s->t_next.y), s->t_next.z), s->t_exit);
 }
 
@@ -93,20 +145,21 @@ inline void dda_advance(__constant const st_medium* m, __global const float2* ma
     s->dmax = s->dmin = 0.0f;
     return;
   }
-  int axis = (s->t_next.x <= s->t_next.y) ? ((s->t_next.x <= s->t_next.z) ? 0 : 2) : ((s->t_next.y <= s->t_next.z) ? 1 : 2);
+  int axis = dda_min_axis(s->t_next);
   int3 dims = (int3)(m->maj_dims[0], m->maj_dims[1], m->maj_dims[2]);
-  if (axis == 0) { s->cell.x += s->step.x; s->t_next.x += s->dt.x; }
-  else if (axis == 1) { s->cell.y += s->step.y; s->t_next.y += s->dt.y; }
-  else { s->cell.z += s->step.z; s->t_next.z += s->dt.z; }
+  int c_axis, step_axis;
+  if (axis == 0) { s->cell.x += s->step.x; s->t_next.x += s->dt.x; c_axis = s->cell.x; step_axis = s->step.x; }
+  else if (axis == 1) { s->cell.y += s->step.y; s->t_next.y += s->dt.y; c_axis = s->cell.y; step_axis = s->step.y; }
+  else { s->cell.z += s->step.z; s->t_next.z += s->dt.z; c_axis = s->cell.z; step_axis = s->step.z; }
   if (any(s->cell < 0) || any(s->cell >= dims)) {
     s->state = ST_DDA_DONE;
     s->seg_end = INFINITY;
     s->dmax = s->dmin = 0.0f;
     return;
   }
-  float2 v = majorant_cell(m, maj, s->cell);
-  s->dmax = v.x;
-  s->dmin = v.y;
+  /* a step enters another block only across a block face */
+  int B = max(m->maj_block, 1);
+  dda_load_cell(m, maj, s, (step_axis > 0) ? (c_axis % B == 0) : (c_axis % B == B - 1));
   s->seg_end = fmax(s->seg_end, fmin(fmin(fmin(s->t_next.x, s->t_next.y), s->t_next.z), s->t_exit));
 }
 
@@ -131,8 +184,10 @@ inline void segments_init(__constant const st_scene* scene, __global const float
   segments_update_end(scene, s);
 }
 
-/* Moves to the next segment; returns the number of DDA steps taken. */
-inline uint segments_next(__constant const st_scene* scene, __global const float2* maj, st_segments* s) {
+/* Moves to the next segment; returns the number of DDA steps taken and adds to *nonempty those
+ * that entered a cell with a non-zero majorant. */
+inline uint segments_next(__constant const st_scene* scene, __global const float2* maj, st_segments* s,
+                          uint* nonempty) {
   uint steps = 0;
   float e = s->end;
   s->t = fmax(s->t, e);
@@ -142,6 +197,7 @@ inline uint segments_next(__constant const st_scene* scene, __global const float
     for (int k = 0; k < 4 && s->m[i].seg_end <= e; ++k) {
       dda_advance(&scene->media[i], maj, &s->m[i]);
       ++steps;
+      if (s->m[i].dmax != 0.0f) *nonempty += 1u;
     }
   }
   segments_update_end(scene, s);
@@ -150,7 +206,8 @@ inline uint segments_next(__constant const st_scene* scene, __global const float
 
 /* Gray majorant (and minorant) coefficient of medium i over the channels in mask. */
 inline float medium_gray_sigma_t(__constant const st_medium* m, float4 mask) {
-  return masked_max(m->sigma_a + m->sigma_s, mask);
+  /* achromatic media: every channel holds the same sum, which is the max over any mask */
+  return ST_HAS_CHROMATIC ? masked_max(m->sigma_a + m->sigma_s, mask) : m->sigma_a.x + m->sigma_s.x;
 }
 
 /* Majorant of the current segment: sum over media of dmax * majorant_scale * gray sigma_t. */

@@ -55,14 +55,15 @@ inline float grid_trilinear(__global const uint* grids, uint offset, float3 pi) 
 inline float medium_density(__constant const st_medium* m, __global const uint* grids, float3 p, uint* lookups) {
   float3 pi = medium_to_index(m, p);
   if (!medium_box_contains(m, pi)) return 0.0f;
-  if (m->type == ST_MEDIUM_HOMOGENEOUS) return 1.0f;
+  if (!ST_HAS_VDB) return 1.0f; /* homogeneous media only */
+  if (ST_HAS_HOMOGENEOUS && m->type == ST_MEDIUM_HOMOGENEOUS) return 1.0f;
   *lookups += 1u;
   return grid_trilinear(grids, m->density_grid, pi);
 }
 
 /* Emitted radiance Le of medium m at p (radiance * scale * emission grid value, or constant). */
 inline float4 medium_Le(__constant const st_medium* m, __global const uint* grids, float3 p, uint* lookups) {
-  if (!m->emissive) return (float4)(0.0f);
+  if (!ST_HAS_EMISSION || !m->emissive) return (float4)(0.0f);
   if (m->emission_grid == ST_NO_GRID) return m->Le;
   float3 pi = medium_to_index(m, p);
   *lookups += 1u;

@@ -15,12 +15,17 @@ inline float phase_hg(float g, float cos_theta) {
   return ST_INV_4PI * (1.0f - g * g) / (denom * sqrt(fmax(denom, 1e-30f)));
 }
 
-inline float phase_eval(int type, float g, float cos_theta) {
+/* The *_any forms serve every phase type (the probes call them); the renderer's forms drop HG
+ * when the scene has none (features.h). */
+inline float phase_eval_any(int type, float g, float cos_theta) {
   return type == ST_PHASE_HG ? phase_hg(g, cos_theta) : ST_INV_4PI;
+}
+inline float phase_eval(int type, float g, float cos_theta) {
+  return phase_eval_any(ST_HAS_HG ? type : ST_PHASE_ISOTROPIC, g, cos_theta);
 }
 
 /* Samples a new direction around d; returns it and writes its pdf (= the phase value). */
-inline float3 phase_sample(int type, float g, float3 d, float u1, float u2, float* pdf) {
+inline float3 phase_sample_any(int type, float g, float3 d, float u1, float u2, float* pdf) {
   float cos_theta, sin_theta;
   if (type != ST_PHASE_HG || fabs(g) < 1e-3f) {
     cos_theta = 1.0f - 2.0f * u1;
@@ -39,8 +44,11 @@ inline float3 phase_sample(int type, float g, float3 d, float u1, float u2, floa
     sin_theta = sqrt(one_minus * one_plus);
   }
   float3 wi = direction_around(d, cos_theta, sin_theta, u2);
-  *pdf = phase_eval(type, g, dot(d, wi));
+  *pdf = phase_eval_any(type, g, dot(d, wi));
   return wi;
+}
+inline float3 phase_sample(int type, float g, float3 d, float u1, float u2, float* pdf) {
+  return phase_sample_any(ST_HAS_HG ? type : ST_PHASE_ISOTROPIC, g, d, u1, u2, pdf);
 }
 
 #endif

@@ -106,6 +106,6 @@ __kernel void k_probe_phase(__constant const st_scene* scene, int type, float g,
   st_rng rng = rng_make(scene->seed, i, 2u, 0u, 7u, 0u);
   float pdf;
   float3 d = (float3)(0.0f, 0.0f, 1.0f);
-  float3 wi = phase_sample(type, g, d, rng_uniform(&rng), rng_uniform(&rng), &pdf);
-  out[i] = (float4)(wi.z, pdf, phase_eval(type, g, wi.z), length(wi) - 1.0f);
+  float3 wi = phase_sample_any(type, g, d, rng_uniform(&rng), rng_uniform(&rng), &pdf);
+  out[i] = (float4)(wi.z, pdf, phase_eval_any(type, g, wi.z), length(wi) - 1.0f);
 }

@@ -37,6 +37,7 @@ inline void flush_track_stats(__global uint* counters, const st_track_stats* st,
   counter_add(counters, ST_C_CONTROL_COLLISIONS, st->control);
   counter_add(counters, ST_C_RESIDUAL_COLLISIONS, st->residual);
   counter_add(counters, ST_C_DDA_STEPS, st->dda_steps);
+  counter_add(counters, ST_C_DDA_NONEMPTY, st->dda_nonempty);
   if (st->max_beta > 0.0f) atomic_max(&counters[ST_C_MAX_THROUGHPUT_BITS], as_uint(st->max_beta));
 }
 

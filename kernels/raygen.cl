@@ -1,13 +1,16 @@
 /* raygen.cl: fills free path slots with camera paths. Path g (a 64-bit index over the whole
  * render) is (batch, sample, pixel, channel); its random stream depends only on those, so which
- * slot it lands in never changes the image. Slots beyond n_new go back to the free queue. */
+ * slot it lands in never changes the image. Slots beyond n_new go back to the free queue: raygen
+ * is the iteration's first launch, so they take the first n - n_new places of the next free queue
+ * (one atomic per launch, not one per slot; later stages append after them). */
 __kernel void k_raygen(ST_STAGE_ARGS, ulong first, uint n_new, uint batch_paths, uint sample_begin,
                        uint samples_per_batch) {
   uint gid = get_global_id(0);
   if (gid >= n) return;
   uint slot = queue_item(queues, Q, NL, cur, ST_Q_FREE, gid);
   if (gid >= n_new) {
-    queue_push(queues, counters, Q, NL, cur, ST_Q_FREE, slot);
+    queues[queue_offset(Q, NL, 1u - cur, ST_Q_FREE) + (gid - n_new)] = slot;
+    if (gid == n_new) atomic_add(&counters[ST_C_QUEUE + ST_Q_FREE], n - n_new);
     return;
   }
   ulong g = first + gid;
@@ -25,8 +28,8 @@ __kernel void k_raygen(ST_STAGE_ARGS, ulong first, uint n_new, uint batch_paths,
   int y = scene->pixel_y0 + (int)(wpix / (uint)scene->window_width);
   p.pixel = (uint)(y * scene->camera.width + x);
   p.channel = nch == 3u ? ch : 0u;
-  p.result_index = (uint)(b & 1ul) * batch_paths + in_batch;
-  p.batch = (uint)(b & 1ul);
+  p.batch = (uint)(b % (ulong)scene->batches_in_flight);
+  p.result_index = p.batch * batch_paths + in_batch;
   st_rng rng = path_rng(scene, &p, 0u, 0u);
   float jx = rng_uniform(&rng), jy = rng_uniform(&rng);
 

@@ -23,7 +23,8 @@ __kernel void k_track(ST_STAGE_ARGS) {
     p.medium = medium;
     q = ST_Q_SCATTER;
   } else if (ev == ST_EV_ESCAPE) {
-    q = ST_Q_ESCAPE;
+    /* no light is visible to an escaping ray: the escape stage would add exactly nothing */
+    q = ST_HAS_ESCAPE ? ST_Q_ESCAPE : ST_Q_FINISH;
   } else if (ev == ST_EV_ABSORB) {
     q = ST_Q_FINISH;
   } else {

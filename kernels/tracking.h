@@ -26,12 +26,12 @@
 #define ST_EV_BUDGET 3
 
 typedef struct {
-  uint lookups, emission_lookups, real, nulls, control, residual, dda_steps;
+  uint lookups, emission_lookups, real, nulls, control, residual, dda_steps, dda_nonempty;
   float max_beta;
 } st_track_stats;
 
 inline void track_stats_clear(st_track_stats* s) {
-  s->lookups = s->emission_lookups = s->real = s->nulls = s->control = s->residual = s->dda_steps = 0u;
+  s->lookups = s->emission_lookups = s->real = s->nulls = s->control = s->residual = s->dda_steps = s->dda_nonempty = 0u;
   s->max_beta = 0.0f;
 }
 
@@ -43,7 +43,7 @@ inline int tracker_scheme(__constant const st_scene* scene) {
 }
 
 inline int tracker_decomposes(__constant const st_scene* scene) {
-  return scene->tracker == ST_TRACKER_DECOMPOSITION || scene->tracker == ST_TRACKER_SPECTRAL_DECOMPOSITION;
+  return ST_HAS_DECOMPOSITION && (scene->tracker == ST_TRACKER_DECOMPOSITION || scene->tracker == ST_TRACKER_SPECTRAL_DECOMPOSITION);
 }
 
 inline float scheme_reduce(int scheme, float4 v, float4 mask) {
@@ -125,7 +125,7 @@ inline int track_free_path(__constant const st_scene* scene, __global const uint
     float bar = comp.bar_c + comp.bar_r;
     float tc = bar > 0.0f ? seg.t + sample_exponential(rng_uniform(rng), bar) : INFINITY;
     if (!(tc < seg.end)) {
-      st->dda_steps += segments_next(scene, maj, &seg);
+      st->dda_steps += segments_next(scene, maj, &seg, &st->dda_nonempty);
       comp = segment_components(scene, &seg, mask, decompose);
       continue;
     }
@@ -158,13 +158,15 @@ inline int track_free_path(__constant const st_scene* scene, __global const uint
     }
     float u = rng_uniform(rng) * C;
     if (u < v.x) {
-      float4 muaLe = (float4)(0.0f);
-      for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
-        if (i >= scene->n_media || dens[i] == 0.0f) continue;
-        __constant const st_medium* m = &scene->media[i];
-        if (m->emissive) muaLe += dens[i] * m->sigma_a * medium_Le(m, grids, p, &st->emission_lookups);
+      if (ST_HAS_EMISSION) {
+        float4 muaLe = (float4)(0.0f);
+        for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
+          if (i >= scene->n_media || dens[i] == 0.0f) continue;
+          __constant const st_medium* m = &scene->media[i];
+          if (m->emissive) muaLe += dens[i] * m->sigma_a * medium_Le(m, grids, p, &st->emission_lookups);
+        }
+        *L += *beta * mask * muaLe * (C / (mb * v.x));
       }
-      *L += *beta * mask * muaLe * (C / (mb * v.x));
       st->real += 1u;
       *t = tc;
       return ST_EV_ABSORB;
@@ -174,7 +176,7 @@ inline int track_free_path(__constant const st_scene* scene, __global const uint
       int k = 0;
       float4 ss_k = ss;
       float qtot = 1.0f, qk = 1.0f;
-      if (scene->n_media > 1) {
+      if (ST_HAS_MULTI_MEDIUM && scene->n_media > 1) {
         float q[ST_KERNEL_MAX_MEDIA];
         float total = 0.0f;
         for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
@@ -239,7 +241,7 @@ inline int ratio_track(__constant const st_scene* scene, __global const uint* gr
     if (decompose) *T *= exp(-(comp.ca + comp.cs) * (t_to - seg.t)) * mask;
     int segment_end = !(tc < seg.end);
     if (segment_end) {
-      st->dda_steps += segments_next(scene, maj, &seg);
+      st->dda_steps += segments_next(scene, maj, &seg, &st->dda_nonempty);
       comp = segment_components(scene, &seg, mask, decompose);
     } else {
       seg.t = tc;

@@ -32,6 +32,7 @@ typedef uint64_t st_ulong;
 #define ST_MAX_MEDIA 8
 #define ST_MAX_LIGHTS 8
 #define ST_NO_GRID 0xffffffffu
+#define ST_MAX_BATCHES_IN_FLIGHT 8 /* ring of batch result buffers (work distribution) */
 
 /* ---- enums: one definition; names for the CLI/scene live in src/scene/names.cpp ---- */
 enum st_tracker {
@@ -54,6 +55,29 @@ enum st_light_type { ST_LIGHT_ENV_UNIFORM = 0, ST_LIGHT_ENV_MAP = 1, ST_LIGHT_DI
 enum st_medium_type { ST_MEDIUM_VDB = 0, ST_MEDIUM_HOMOGENEOUS = 1 };
 enum st_phase_type { ST_PHASE_ISOTROPIC = 0, ST_PHASE_HG = 1 };
 
+/* Scene features, as one mask: the kernels are compiled with ST_FEATURES = the scene's mask
+ * (specialised) or ST_FEATURES_ALL (the generic kernel, which renders any scene). A feature the
+ * mask lacks is code the compiler removes (kernels/features.h maps each bit to one macro); the
+ * runtime checks that remain are those of the generic kernel, so both render the same image.
+ * Coarse on purpose: every distinct mask is one more compile (seconds on PoCL), so the spectral
+ * scheme stays a runtime (uniform) branch; only the tracker's decomposition, which brings whole
+ * code paths, is a feature. */
+enum st_feature {
+  ST_FEATURE_EMISSION = 1 << 0,      /* some medium emits */
+  ST_FEATURE_CHROMATIC = 1 << 1,     /* some medium has channel-dependent coefficients */
+  ST_FEATURE_ENV_UNIFORM = 1 << 2,   /* a uniform environment light */
+  ST_FEATURE_ENV_MAP = 1 << 3,       /* a lat-long environment map */
+  ST_FEATURE_DIRECTIONAL = 1 << 4,   /* a directional light (delta or disc) */
+  ST_FEATURE_ESCAPE = 1 << 5,        /* escaping rays can see a light (environment or disc): escape stage */
+  ST_FEATURE_HG = 1 << 6,            /* some medium has a Henyey-Greenstein phase function */
+  ST_FEATURE_VDB = 1 << 7,           /* some medium is a NanoVDB grid */
+  ST_FEATURE_HOMOGENEOUS = 1 << 8,   /* some medium is a homogeneous box */
+  ST_FEATURE_MULTI_MEDIUM = 1 << 9,  /* more than one medium (overlaps possible) */
+  ST_FEATURE_DECOMPOSITION = 1 << 10, /* tracker decomposes (control + residual) */
+  ST_FEATURE_COARSE_MAJORANT = 1 << 11, /* two-level majorant grid (empty blocks skipped) */
+  ST_FEATURES_ALL = (1 << 12) - 1
+};
+
 /* Queues of the wavefront. Each stage reads the current buffer of its queue and pushes into the
  * next buffers; the host swaps them once per iteration. */
 enum st_queue {
@@ -70,8 +94,8 @@ enum st_queue {
  * into 64-bit totals. */
 enum st_counter {
   ST_C_QUEUE = 0,                        /* ST_Q_COUNT entries: sizes of the next queues */
-  ST_C_BATCH_DONE = ST_C_QUEUE + ST_Q_COUNT, /* 2 entries: finished paths per batch parity */
-  ST_C_LOOKUPS_TRACK = ST_C_BATCH_DONE + 2,  /* density lookups by tracking */
+  ST_C_BATCH_DONE = ST_C_QUEUE + ST_Q_COUNT, /* ST_MAX_BATCHES_IN_FLIGHT entries: finished paths per ring slot */
+  ST_C_LOOKUPS_TRACK = ST_C_BATCH_DONE + ST_MAX_BATCHES_IN_FLIGHT, /* density lookups by tracking */
   ST_C_LOOKUPS_SHADOW,                   /* density lookups by shadow rays */
   ST_C_LOOKUPS_EMISSION,                 /* emission-grid lookups */
   ST_C_REAL_COLLISIONS,                  /* absorption + scattering events */
@@ -83,6 +107,7 @@ enum st_counter {
   ST_C_NONFINITE,                        /* samples dropped because they were NaN or Inf */
   ST_C_MAX_THROUGHPUT_BITS,              /* float bits of the largest beta component (atomic_max) */
   ST_C_SCATTER_EVENTS,
+  ST_C_DDA_NONEMPTY,                     /* DDA steps that entered a cell with a non-zero majorant */
   ST_C_COUNT
 };
 
@@ -106,7 +131,9 @@ typedef struct {
   float majorant_scale;        /* testing: < 1 under-estimates the majorant (weighted tracking stays exact) */
   float minorant_scale;        /* testing: > 1 over-estimates the minorant */
   st_int emissive;             /* 1 if Le != 0 */
-  st_int pad[3];
+  st_int maj_block;            /* fine cells per coarse-block edge of the two-level grid; 0: one level */
+  st_uint maj_coarse_offset;   /* first coarse block in the majorant buffer (float2: dmax, dmin over the block) */
+  st_int pad;                  /* coarse blocks per axis: ceil(maj_dims / maj_block) */
 } st_medium;
 
 typedef struct {
@@ -151,7 +178,8 @@ typedef struct {
   st_int window_width, window_height;
   st_int has_env;               /* any environment light */
   st_int chromatic;             /* any medium with channel-dependent coefficients */
-  st_int pad[2];
+  st_int batches_in_flight;     /* ring size: batch b uses ring slot b % batches_in_flight */
+  st_int pad;
 } st_scene;
 
 /* Path state, one slot per path in flight. */
@@ -169,7 +197,7 @@ typedef struct {
   st_int depth;       /* real scattering events so far */
   st_int pending;     /* shadow rays of this path not finished yet */
   st_int medium;      /* medium whose phase function applies at the scatter point */
-  st_uint batch;      /* batch parity of this path */
+  st_uint batch;      /* ring slot of this path's batch */
   st_uint pad[3];
 } st_path;
 

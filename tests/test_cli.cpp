@@ -131,6 +131,19 @@ TEST_F(CliFlags, SppZeroAndNonNumberAreUsageErrors) {
   EXPECT_FALSE(fs::exists(dir + "/out.exr"));
 }
 
+TEST_F(CliFlags, BadMajorantAndBatchFlagsAreUsageErrors) {
+  const std::vector<std::pair<const char*, const char*>> bad = {
+      {"--majorant-cell", "0"}, {"--majorant-cell", "x"}, {"--majorant-block", "-1"},
+      {"--batches-in-flight", "0"}, {"--batches-in-flight", "9"}};
+  for (auto& [flag, value] : bad) {
+    SCOPED_TRACE(std::string(flag) + " " + value);
+    Proc p = run({"render", scene, "-o", dir + "/out.exr", flag, value, "--quiet"});
+    expect_error_exit(p, 2);
+    EXPECT_THAT(p.out, HasSubstr(flag)) << p.describe();
+  }
+  EXPECT_FALSE(fs::exists(dir + "/out.exr"));
+}
+
 TEST_F(CliFlags, MissingSubcommandAndSceneAreUsageErrors) {
   expect_error_exit(run({}), 2);
   expect_error_exit(run({"render"}), 2);

@@ -66,6 +66,12 @@ TEST(OpenCL, CacheServesSecondBuildAndRebuildsCorruptEntries) {
   ProgramBuild c = build_program(ctx, dev, src, "-cl-std=CL1.2 -DSPECTRACK_TEST_VARIANT=1", true);
   EXPECT_FALSE(c.from_cache);
   EXPECT_NE(c.cache_file, a.cache_file);
+  // the scene-feature mask is in the source, so specialised kernels get their own entries
+  std::string spec = assemble_kernel_source({{"ST_KERNEL_MAX_MEDIA", "1"}, {"ST_FEATURES", "0x80u"}});
+  EXPECT_NE(spec, src);
+  ProgramBuild sb = build_program(ctx, dev, spec, "-cl-std=CL1.2", true);
+  EXPECT_FALSE(sb.from_cache);
+  EXPECT_NE(sb.cache_file, a.cache_file);
   // flip a byte in the binary: the checksum fails, the entry is rebuilt and rewritten
   {
     std::fstream f(a.cache_file, std::ios::in | std::ios::out | std::ios::binary);

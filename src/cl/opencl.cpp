@@ -174,7 +174,7 @@ static std::string rewrite_pnanovdb(std::string s) {
 }
 
 std::string assemble_kernel_source(const std::vector<std::pair<std::string, std::string>>& defines) {
-  static const char* order[] = {"types.h",   "rng.h",     "sampling.h", "phase.h",    "pnanovdb_cl.h",
+  static const char* order[] = {"types.h",   "features.h", "rng.h",     "sampling.h", "phase.h",    "pnanovdb_cl.h",
                                 "PNanoVDB.h", "medium.h",  "majorant.h", "tracking.h", "light.h",
                                 "queues.h",  "raygen.cl", "track.cl",   "shade.cl",   "scatter.cl",
                                 "shadow.cl", "finish.cl", "probe.cl"};

@@ -3,6 +3,7 @@
 //                    [--seed S] [--tracker T] [--scheme S] [--device D|all|D1,D2] [--mpi]
 //                    [--stats-json FILE] [--preview FILE.png] [--quiet]
 //   spectrack merge OUT.exr IN.exr... [--preview FILE.png]
+//   (tuning: [--majorant-cell N] [--majorant-block N] [--generic-kernels] [--batches-in-flight N])
 //   spectrack devices
 // A render is a FilmPiece (render/film.h): the window and sample range it holds, with exact
 // per-pixel sums; shards, tiles, devices and MPI ranks all combine through merge_pieces.
@@ -72,6 +73,10 @@ struct RenderArgs {
   int path_slots = 0;
   int budget = 256;
   int chunk_spp = 0;
+  int majorant_cell = RenderOptions().majorant_cell;
+  int majorant_block = RenderOptions().majorant_block;
+  int batches_in_flight = 0;
+  bool generic_kernels = false;
   bool quiet = false;
   bool mpi = false;
 };
@@ -110,8 +115,8 @@ std::string join(const std::vector<std::string>& v, const char* sep) {
   return s;
 }
 
-void write_stats_json(const std::string& path, const MultiDeviceResult& r, const RenderOptions& opt,
-                      double seconds_total, int mpi_ranks) {
+void write_stats_json(const std::string& path, const MultiDeviceResult& r, double seconds_total,
+                      double seconds_to_renderer, int mpi_ranks) {
   nlohmann::json j = stats_to_json(r.stats);
   const FilmPiece& p = r.piece;
   j["spp"] = p.samples();
@@ -135,6 +140,10 @@ void write_stats_json(const std::string& path, const MultiDeviceResult& r, const
   j["seconds_setup"] = r.seconds_setup;
   j["seconds_kernel_build"] = r.seconds_build;
   j["kernels_from_cache"] = r.kernels_from_cache;
+  j["seconds_first_pass"] = r.seconds_first_pass;
+  j["seconds_first_pass_from_start"] = seconds_to_renderer + r.seconds_first_pass;  // scene loading included
+  j["features"] = r.features;
+  j["generic_kernels"] = r.features == uint32_t(ST_FEATURES_ALL);
   j["seconds_total"] = seconds_total;
   j["paths_per_second"] = r.seconds_render > 0 ? double(r.stats.paths) / r.seconds_render : 0.0;
   std::ofstream f(path);
@@ -160,6 +169,10 @@ int cmd_render(const RenderArgs& a, MpiArg& mpi) {
   opt.quiet = quiet;
   opt.path_slots = a.path_slots;
   opt.iteration_budget = a.budget;
+  opt.majorant_cell = a.majorant_cell;
+  opt.majorant_block = a.majorant_block;
+  opt.generic_kernels = a.generic_kernels;
+  opt.batches_in_flight = a.batches_in_flight;
   if (!a.tracker.empty()) {
     opt.tracker = tracker_from_name(a.tracker);
     if (opt.tracker < 0) throw Error(fmt::format("--tracker {}: unknown tracker (one of: {})", a.tracker, tracker_names()));
@@ -227,6 +240,7 @@ int cmd_render(const RenderArgs& a, MpiArg& mpi) {
                              scene.film.width, scene.film.height,
                              a.pixel_bounds.empty() ? "" : ", pixels " + a.pixel_bounds, begin, begin + spp,
                              id.tracker, id.scheme, mpi.on ? fmt::format(", {} MPI ranks", mpi.size) : "");
+  const double seconds_to_renderer = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   MultiDeviceResult r;
   if (my_end > my_begin) {
     r = render_multi_device(scene, opt, devices, id, my_begin, int(my_end - my_begin), a.chunk_spp);
@@ -258,7 +272,7 @@ int cmd_render(const RenderArgs& a, MpiArg& mpi) {
   if (mpi.on) meta["mpi_ranks"] = mpi.size;
   write_piece(output, r.piece, meta);
   if (!a.preview.empty()) write_piece(a.preview, r.piece, meta);
-  if (!a.stats_json.empty()) write_stats_json(a.stats_json, r, opt, total, mpi.size);
+  if (!a.stats_json.empty()) write_stats_json(a.stats_json, r, total, seconds_to_renderer, mpi.size);
   if (r.stats.nonfinite_samples > 0)
     std::cerr << fmt::format("warning: {} non-finite samples were dropped (counted in nonfinite_samples)\n",
                              r.stats.nonfinite_samples);
@@ -353,6 +367,17 @@ int main(int argc, char** argv) {
   render->add_option("--preview", ra.preview, "also write a PNG preview");
   render->add_option("--path-slots", ra.path_slots, "paths in flight (default: 65536 on CPUs, 1M on GPUs)")->check(CLI::Range(1, 1 << 24));
   render->add_option("--budget", ra.budget, "tracking iterations per path and kernel launch")->check(CLI::Range(1, 1 << 20));
+  render->add_option("--majorant-cell", ra.majorant_cell, "voxels per majorant-grid cell edge")
+      ->check(CLI::Range(1, 1024))
+      ->capture_default_str();
+  render->add_option("--majorant-block", ra.majorant_block,
+                     "cells per coarse-block edge of a two-level majorant grid (0: one level)")
+      ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
+  render->add_option("--batches-in-flight", ra.batches_in_flight,
+                     "batches of samples in flight, 1-" + std::to_string(ST_MAX_BATCHES_IN_FLIGHT) + " (default: the maximum)")
+      ->check(CLI::Range(1, ST_MAX_BATCHES_IN_FLIGHT));
+  render->add_flag("--generic-kernels", ra.generic_kernels, "use the generic kernels instead of ones specialised to the scene");
   render->add_flag("-q,--quiet", ra.quiet, "no progress output");
   MergeArgs ma;
   auto* merge = app.add_subcommand("merge", "combine sample-range shards and tiles (EXR) into one EXR");

@@ -56,6 +56,8 @@ MultiDeviceResult render_multi_device(const SceneDesc& scene, const RenderOption
   std::vector<RenderStats> stats(n_dev);
   std::vector<double> setup_s(n_dev, 0), build_s(n_dev, 0);
   std::vector<char> from_cache(n_dev, 1);
+  std::vector<double> first_pass(n_dev, -1.0);
+  std::vector<uint32_t> features(n_dev, 0);
 
   std::mutex mu;
   int64_t next = sample_begin;
@@ -107,6 +109,8 @@ MultiDeviceResult render_multi_device(const SceneDesc& scene, const RenderOption
           setup_s[i] = res.seconds_setup;
           build_s[i] = res.seconds_build;
           from_cache[i] = res.kernels_from_cache;
+          first_pass[i] = res.seconds_first_pass;
+          features[i] = res.features;
         }
         for (size_t k = 0; k < res.sum.size(); ++k) p.sum[k] += res.sum[k];
         if (res.spp_done > 0) p.ranges.push_back({begin, begin + res.spp_done});
@@ -156,6 +160,10 @@ MultiDeviceResult render_multi_device(const SceneDesc& scene, const RenderOption
     out.seconds_setup = std::max(out.seconds_setup, setup_s[i]);
     out.seconds_build = std::max(out.seconds_build, build_s[i]);
     out.kernels_from_cache = out.kernels_from_cache && from_cache[i];
+    if (first_pass[i] >= 0) {
+      out.seconds_first_pass = out.seconds_first_pass > 0 ? std::min(out.seconds_first_pass, first_pass[i]) : first_pass[i];
+      out.features = features[i];
+    }
   }
   out.tracker = base.tracker >= 0 ? base.tracker : scene.render.tracker;
   out.scheme = base.scheme >= 0 ? base.scheme : scene.render.scheme;

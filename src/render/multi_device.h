@@ -28,6 +28,8 @@ struct MultiDeviceResult {
   double seconds_setup = 0, seconds_build = 0;  // the slowest device's
   double seconds_render = 0;                    // wall time of the chunk loop
   bool kernels_from_cache = true;
+  double seconds_first_pass = 0;  // the first device to put a batch on its film: construction to then
+  uint32_t features = 0;          // the kernels' feature mask (the same on every device)
   int tracker = 0, scheme = 0;
   uint32_t seed = 0;
   int spp_requested = 0;

@@ -2,6 +2,10 @@
 // Set-up order: resolve options, check the tracker against the media, choose the device, load
 // grids and build majorant grids, fill st_scene, build kernels (cached), allocate, upload. Each
 // launch goes through Impl::launch, which names it and records its OpenCL profiling time.
+// What a scene lacks costs nothing: the kernels are compiled for the scene's st_feature mask
+// (scene_features(); --generic-kernels compiles every feature and ST_MAX_MEDIA media), a scene
+// without lights gets no shadow-ray buffer or queue, and one whose escaping rays see no light gets
+// no escape launch (track sends them straight to finish).
 #include "render/renderer.h"
 
 #include <fmt/format.h>
@@ -110,6 +114,8 @@ struct Renderer::Impl {
   cl::Program program;
   std::map<std::string, cl::Kernel> kernels;
   st_scene st{};
+  uint32_t features = ST_FEATURES_ALL;
+  Clock::time_point t_created = Clock::now();
   double seconds_setup = 0, seconds_build = 0;
   bool from_cache = false;
   int tracker = 0, scheme = 0, spp = 0;
@@ -179,6 +185,37 @@ struct Renderer::Impl {
   }
 
   void setup();
+  uint32_t scene_features() const;
+  // Shadow-ray slots per path: one per light, none (no buffer, no queue) without lights.
+  uint32_t shadow_lights() const { return uint32_t(st.n_lights); }
+  // Batches in flight (a ring of result buffers): more than two keep the slots busy while a
+  // batch's longest paths finish; capped by ST_MAX_BATCHES_IN_FLIGHT, the batch count and
+  // 32-bit result indices. Written to st.batches_in_flight before the first launch.
+  // Paths per batch (rounded up to whole samples): 2Q with two batches in flight, so one batch
+  // fills the slots while the other finishes; Q with the ring, so the first pass is done sooner.
+  uint64_t batch_target_paths(uint64_t Q) const {
+    return (opt.batches_in_flight > 0 && opt.batches_in_flight <= 2) ? 2 * Q : Q;
+  }
+  // Batches that may be issued beyond the accumulated ones: the first batch alone (its longest
+  // paths finish sooner without later batches sharing the device, so the first pass, a preview,
+  // is on the film early), then the whole ring.
+  static uint64_t batches_ahead(uint64_t accumulated, uint64_t K) { return accumulated == 0 ? 1 : K; }
+  uint64_t batches_in_flight(uint64_t batch_paths, uint64_t n_batches) {
+    uint64_t k = opt.batches_in_flight > 0 ? uint64_t(opt.batches_in_flight) : uint64_t(ST_MAX_BATCHES_IN_FLIGHT);
+    k = std::min<uint64_t>({k, uint64_t(ST_MAX_BATCHES_IN_FLIGHT), std::max<uint64_t>(1, n_batches)});
+    while (k > 1 && k * batch_paths >= (uint64_t(1) << 32)) --k;
+    if (st.batches_in_flight != int(k)) {
+      st.batches_in_flight = int(k);
+      ST_CL_CHECK(queue.enqueueWriteBuffer(b_scene, CL_TRUE, 0, sizeof(st), &st), "write scene constants");
+    }
+    return k;
+  }
+  void record_occupancy(RenderStats& S, const uint64_t* n_q, uint64_t Q) const;
+  // Construction to the first batch on the film (waits for the accumulation launch).
+  double first_pass_seconds() {
+    ST_CL_CHECK(queue.finish(), "finish first pass");
+    return seconds_since(t_created);
+  }
   void add_medium(int i, const MediumDesc& m);
   void add_light(int i, const LightDesc& l);
   void set_camera();
@@ -246,6 +283,17 @@ void Renderer::Impl::add_medium(int i, const MediumDesc& md) {
   for (size_t c = 0; c < mg.dmax.size(); ++c) {
     maj_cells.push_back(mg.dmax[c]);
     maj_cells.push_back(mg.dmin[c]);
+  }
+  // a coarse level only pays when the grid spans more than one block
+  const int B = opt.majorant_block;
+  if (B > 1 && std::max({mg.dims[0], mg.dims[1], mg.dims[2]}) > B) {
+    MajorantGrid coarse = coarsen_majorant_grid(mg, B);
+    m.maj_block = B;
+    m.maj_coarse_offset = uint32_t(maj_cells.size() / 2);
+    for (size_t c = 0; c < coarse.dmax.size(); ++c) {
+      maj_cells.push_back(coarse.dmax[c]);
+      maj_cells.push_back(coarse.dmin[c]);
+    }
   }
   m.density_grid = upload_grid(g);
   if (md.emission.present && !md.emission.grid.empty() && m.emissive) {
@@ -372,6 +420,8 @@ void Renderer::Impl::setup() {
                                 scene.path, m.json_path, m.name));
   }
   if (opt.iteration_budget < 1) throw Error("iteration budget must be at least 1");
+  if (opt.majorant_cell < 1) throw Error("majorant cell must be at least 1 voxel");
+  if (opt.majorant_block < 0) throw Error("majorant block must be 0 (one level) or at least 1 cell");
 
   dev = select_device(opt.device);
   cl_int err = CL_SUCCESS;
@@ -392,6 +442,7 @@ void Renderer::Impl::setup() {
   st.seed = seed;
   st.n_channels_per_sample = (tracker == ST_TRACKER_DELTA_PER_CHANNEL || tracker == ST_TRACKER_DECOMPOSITION) ? 3 : 1;
   st.iteration_budget = opt.iteration_budget;
+  st.batches_in_flight = 2;  // set per render (batches_in_flight())
   {
     auto [x0, x1, y0, y1] = opt.pixel_bounds;
     if (x1 < 0) x0 = 0, x1 = scene.film.width, y0 = 0, y1 = scene.film.height;
@@ -410,7 +461,11 @@ void Renderer::Impl::setup() {
   if (env_data.empty()) env_data = {0.0f};
 
   auto tb = Clock::now();
-  std::string src = assemble_kernel_source({{"ST_KERNEL_MAX_MEDIA", std::to_string(std::max(1, st.n_media))}});
+  // the feature mask is in the source, hence in the kernel-cache key
+  features = opt.generic_kernels ? uint32_t(ST_FEATURES_ALL) : scene_features();
+  const int max_media = opt.generic_kernels ? ST_MAX_MEDIA : std::max(1, st.n_media);
+  std::string src = assemble_kernel_source({{"ST_KERNEL_MAX_MEDIA", std::to_string(max_media)},
+                                            {"ST_FEATURES", fmt::format("0x{:x}u", features)}});
   std::string options = "-cl-std=CL1.2";
   ProgramBuild pb = build_program(ctx, dev, src, options, opt.quiet);
   program = pb.program;
@@ -425,6 +480,40 @@ void Renderer::Impl::setup() {
     throw Error(fmt::format("device '{}' has {} bytes of constant memory; spectrack needs {}", dev.name,
                             dev.max_constant, sizeof(st)));
   seconds_setup = seconds_since(t0);
+}
+
+uint32_t Renderer::Impl::scene_features() const {
+  uint32_t f = 0;
+  if (st.n_media > 1) f |= ST_FEATURE_MULTI_MEDIUM;
+  for (int i = 0; i < st.n_media; ++i) {
+    const st_medium& m = st.media[i];
+    if (m.emissive) f |= ST_FEATURE_EMISSION;
+    // exactly what the kernels see: the float coefficients
+    bool gray = m.sigma_a.x == m.sigma_a.y && m.sigma_a.y == m.sigma_a.z && m.sigma_s.x == m.sigma_s.y &&
+                m.sigma_s.y == m.sigma_s.z;
+    if (!gray) f |= ST_FEATURE_CHROMATIC;
+    if (m.phase_type == ST_PHASE_HG) f |= ST_FEATURE_HG;
+    f |= m.type == ST_MEDIUM_HOMOGENEOUS ? ST_FEATURE_HOMOGENEOUS : ST_FEATURE_VDB;
+    if (m.maj_block > 0) f |= ST_FEATURE_COARSE_MAJORANT;
+  }
+  for (int i = 0; i < st.n_lights; ++i) {
+    const st_light& l = st.lights[i];
+    if (l.type == ST_LIGHT_ENV_UNIFORM) f |= ST_FEATURE_ENV_UNIFORM | ST_FEATURE_ESCAPE;
+    if (l.type == ST_LIGHT_ENV_MAP) f |= ST_FEATURE_ENV_MAP | ST_FEATURE_ESCAPE;
+    if (l.type == ST_LIGHT_DIRECTIONAL) f |= ST_FEATURE_DIRECTIONAL | (l.is_delta ? 0 : ST_FEATURE_ESCAPE);
+  }
+  if (tracker == ST_TRACKER_DECOMPOSITION || tracker == ST_TRACKER_SPECTRAL_DECOMPOSITION) f |= ST_FEATURE_DECOMPOSITION;
+  return f;
+}
+
+void Renderer::Impl::record_occupancy(RenderStats& S, const uint64_t* n_q, uint64_t Q) const {
+  uint64_t busy = 0;
+  for (int q = ST_Q_TRACK; q < ST_Q_SHADOW; ++q) busy += n_q[q];  // path slots (shadow rays are per light)
+  double occ = double(busy) / double(Q);
+  // running mean over the iterations recorded so far (S.iterations counts this one)
+  S.occupancy_mean += (occ - S.occupancy_mean) / double(S.iterations);
+  S.occupancy_min = S.iterations == 1 ? occ : std::min(S.occupancy_min, occ);
+  if (occ < 0.5) S.iterations_below_half++;
 }
 
 template <typename T>
@@ -462,15 +551,16 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
   res.seconds_setup = seconds_setup;
   res.seconds_build = seconds_build;
   res.kernels_from_cache = from_cache;
+  res.features = features;
   kernel_times.clear();
 
-  const uint32_t NL = uint32_t(std::max(1, st.n_lights));
+  const uint32_t NL = shadow_lights();
   const uint64_t npix = uint64_t(st.window_width) * st.window_height;
   const uint64_t nch = uint64_t(st.n_channels_per_sample);
   uint64_t Q = opt.path_slots > 0 ? uint64_t(opt.path_slots) : ((dev.type & CL_DEVICE_TYPE_GPU) ? (1u << 20) : (1u << 16));
   const uint64_t total_paths = uint64_t(spp) * npix * nch;
   Q = std::max<uint64_t>(1, std::min<uint64_t>(Q, total_paths));
-  uint64_t samples_per_batch = std::max<uint64_t>(1, (2 * Q + npix * nch - 1) / (npix * nch));
+  uint64_t samples_per_batch = std::max<uint64_t>(1, (batch_target_paths(Q) + npix * nch - 1) / (npix * nch));
   samples_per_batch = std::min<uint64_t>(samples_per_batch, uint64_t(spp));
   const uint64_t batch_paths = samples_per_batch * npix * nch;
   if (batch_paths >= (uint64_t(1) << 32)) throw Error("film too large: one sample of every pixel exceeds 2^32 paths");
@@ -479,7 +569,7 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
 
   // refuse what cannot fit before allocating anything
   const double need = double(Q) * (sizeof(st_path) + NL * sizeof(st_shadow) + 2 * (5 + NL) * 4) +
-                      2.0 * batch_paths * sizeof(st_float4) + 2.0 * npix * sizeof(st_float4) +
+                      double(batches_in_flight(batch_paths, n_batches)) * batch_paths * sizeof(st_float4) + 2.0 * npix * sizeof(st_float4) +
                       grid_words.size() * 4.0 + maj_cells.size() * 4.0 + env_data.size() * 4.0;
   if (need > double(dev.global_mem))
     throw Error(fmt::format("this render needs about {:.1f} MiB of device memory ({}x{} film, {} paths in flight) "
@@ -494,7 +584,8 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
   cl::Buffer b_queues = buffer(CL_MEM_READ_WRITE, init_queue.size() * 4, init_queue.data(), "queues");
   std::vector<uint32_t> counters(ST_C_COUNT, 0u);
   cl::Buffer b_counters = buffer(CL_MEM_READ_WRITE, counters.size() * 4, counters.data(), "counters");
-  cl::Buffer b_results = buffer(CL_MEM_READ_WRITE, 2 * batch_paths * sizeof(st_float4), nullptr, "batch results");
+  const uint64_t K = batches_in_flight(batch_paths, n_batches);
+  cl::Buffer b_results = buffer(CL_MEM_READ_WRITE, K * batch_paths * sizeof(st_float4), nullptr, "batch results");
   // film: per pixel the running sum, then (second half) its Kahan compensation term
   std::vector<st_float4> film(2 * npix, st_float4{0, 0, 0, 0});
   cl::Buffer b_film = buffer(CL_MEM_READ_WRITE, film.size() * sizeof(st_float4), film.data(), "film");
@@ -524,7 +615,7 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
   uint64_t n_q[ST_Q_COUNT] = {Q, 0, 0, 0, 0, 0};
   uint32_t cur = 0;
   uint64_t issued = 0, accumulated = 0, samples_done = 0;
-  uint64_t batch_done[2] = {0, 0};
+  std::vector<uint64_t> batch_done(K, 0);
   uint64_t batches_target = n_batches;
   bool stopping = false;
   RenderStats& S = res.stats;
@@ -540,7 +631,7 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
       batches_target = std::max<uint64_t>(accumulated, issued / batch_paths);  // only fully issued batches
       if (batches_target == accumulated) break;
     }
-    uint64_t issue_limit = std::min<uint64_t>(total_paths, (accumulated + 2) * batch_paths);
+    uint64_t issue_limit = std::min<uint64_t>(total_paths, (accumulated + batches_ahead(accumulated, K)) * batch_paths);
     issue_limit = std::min<uint64_t>(issue_limit, batches_target * batch_paths);
     uint64_t n_new = std::min<uint64_t>(n_q[ST_Q_FREE], issue_limit > issued ? issue_limit - issued : 0);
     uint64_t in_flight = 0;
@@ -567,16 +658,16 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
     S.iterations++;
 
     for (int q = 0; q < ST_Q_COUNT; ++q) n_q[q] = counters[ST_C_QUEUE + q];
+    record_occupancy(S, n_q, Q);
     cur = 1 - cur;
     if (trace_queues)
       std::cerr << fmt::format("iteration {}: issued {} free {} track {} escape {} scatter {} finish {} shadow {} "
                                "done {}+{} accumulated {}\n",
                                S.iterations, issued, n_q[ST_Q_FREE], n_q[ST_Q_TRACK], n_q[ST_Q_ESCAPE],
                                n_q[ST_Q_SCATTER], n_q[ST_Q_FINISH], n_q[ST_Q_SHADOW],
-                               batch_done[0] + counters[ST_C_BATCH_DONE], batch_done[1] + counters[ST_C_BATCH_DONE + 1],
+                               batch_done[0] + counters[ST_C_BATCH_DONE], K > 1 ? batch_done[1] + counters[ST_C_BATCH_DONE + 1] : 0,
                                accumulated);
-    batch_done[0] += counters[ST_C_BATCH_DONE + 0];
-    batch_done[1] += counters[ST_C_BATCH_DONE + 1];
+    for (uint64_t r = 0; r < K; ++r) batch_done[r] += counters[ST_C_BATCH_DONE + r];
     S.lookups_track += counters[ST_C_LOOKUPS_TRACK];
     S.lookups_shadow += counters[ST_C_LOOKUPS_SHADOW];
     S.lookups_emission += counters[ST_C_LOOKUPS_EMISSION];
@@ -585,6 +676,7 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
     S.control_collisions += counters[ST_C_CONTROL_COLLISIONS];
     S.residual_collisions += counters[ST_C_RESIDUAL_COLLISIONS];
     S.dda_steps += counters[ST_C_DDA_STEPS];
+    S.dda_nonempty += counters[ST_C_DDA_NONEMPTY];
     S.requeues += counters[ST_C_REQUEUES];
     S.nonfinite_samples += counters[ST_C_NONFINITE];
     S.scatter_events += counters[ST_C_SCATTER_EVENTS];
@@ -594,15 +686,16 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
     while (accumulated < batches_target) {
       uint64_t b = accumulated;
       uint64_t expected = batch_samples(b) * npix * nch;
-      if (batch_done[b & 1] < expected) break;
-      k_acc.setArg(2, cl_uint((b & 1) * batch_paths));
+      if (batch_done[b % K] < expected) break;
+      k_acc.setArg(2, cl_uint((b % K) * batch_paths));
       k_acc.setArg(3, cl_uint(batch_samples(b)));
       k_acc.setArg(4, cl_uint(npix));
       k_acc.setArg(5, cl_uint(nch));
       launch("k_accumulate", npix);
-      batch_done[b & 1] -= expected;
+      batch_done[b % K] -= expected;
       samples_done += batch_samples(b);
       S.paths += expected;
+      if (accumulated == 0) res.seconds_first_pass = first_pass_seconds();
       ++accumulated;
     }
     if (opt.progress) opt.progress(double(samples_done) / double(spp));
@@ -654,6 +747,8 @@ const std::vector<std::pair<const char*, RenderStats::Counter>>& RenderStats::co
       {"residual_collisions", &RenderStats::residual_collisions},
       {"scatter_events", &RenderStats::scatter_events},
       {"dda_steps", &RenderStats::dda_steps},
+      {"dda_steps_nonempty", &RenderStats::dda_nonempty},
+      {"iterations_below_half_occupancy", &RenderStats::iterations_below_half},
       {"requeues", &RenderStats::requeues},
       {"iterations", &RenderStats::iterations},
       {"nonfinite_samples", &RenderStats::nonfinite_samples},
@@ -662,6 +757,12 @@ const std::vector<std::pair<const char*, RenderStats::Counter>>& RenderStats::co
 }
 
 void RenderStats::add(const RenderStats& o) {
+  // occupancy: the mean over all iterations of both, the minimum of both
+  if (o.iterations > 0) {
+    occupancy_min = iterations > 0 ? std::min(occupancy_min, o.occupancy_min) : o.occupancy_min;
+    occupancy_mean = (occupancy_mean * double(iterations) + o.occupancy_mean * double(o.iterations)) /
+                     double(iterations + o.iterations);
+  }
   for (auto& [key, member] : counters()) this->*member += o.*member;
   max_throughput = std::max(max_throughput, o.max_throughput);
   for (auto& [name, t] : o.kernels) {
@@ -670,6 +771,7 @@ void RenderStats::add(const RenderStats& o) {
   }
 }
 const std::string& Renderer::device_name() const { return impl_->dev.name; }
+uint32_t Renderer::features() const { return impl_->features; }
 const SceneDesc& Renderer::scene() const { return impl_->scene; }
 
 static std::vector<st_float4> to_points(const std::vector<std::array<float, 3>>& pts) {

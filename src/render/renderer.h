@@ -5,8 +5,9 @@
 // iteration launches raygen (refill free slots), track, escape, scatter, shadow and finish on
 // the queues the previous iteration filled, then reads every queue size and statistic counter in
 // one copy. Samples are organised in batches of whole samples per pixel; a batch's results are
-// added to the film (in a fixed order) once all its paths are done, and at most two batches are
-// in flight. Stopping (Ctrl-C) lets the started batches finish and reports the samples done.
+// added to the film (in a fixed order) once all its paths are done, and up to
+// ST_MAX_BATCHES_IN_FLIGHT batches are in flight (a ring of result buffers) so that a batch's
+// longest paths do not leave the slots idle. Stopping (Ctrl-C) lets the started batches finish and reports the samples done.
 #pragma once
 #include <array>
 #include <atomic>
@@ -33,6 +34,9 @@ struct RenderOptions {
   int path_slots = 0;      // paths in flight; 0 = by device type
   int iteration_budget = 256;  // tentative collisions + DDA steps per item and launch
   int majorant_cell = 8;   // voxels per majorant-grid cell edge
+  int majorant_block = 4;  // fine cells per coarse-block edge of a two-level majorant grid; 0 = one level
+  bool generic_kernels = false;
+  int batches_in_flight = 0;     // batch result buffers in the ring (0: ST_MAX_BATCHES_IN_FLIGHT); 2 = the old scheme  // the generic kernel (every feature) instead of one specialised to the scene
   bool quiet = false;
   std::function<void(double)> progress;        // fraction of samples done
   const std::atomic<bool>* stop = nullptr;     // set asynchronously to stop after started batches
@@ -52,8 +56,11 @@ struct RenderStats {
   uint64_t paths = 0;
   uint64_t lookups_track = 0, lookups_shadow = 0, lookups_emission = 0;
   uint64_t real_collisions = 0, null_collisions = 0, control_collisions = 0, residual_collisions = 0;
-  uint64_t dda_steps = 0, requeues = 0, nonfinite_samples = 0, scatter_events = 0, iterations = 0;
+  uint64_t dda_steps = 0, dda_nonempty = 0, requeues = 0, nonfinite_samples = 0, scatter_events = 0, iterations = 0;
   double max_throughput = 0;
+  // work distribution: paths in flight (all queues but FREE) over the slots, per iteration
+  double occupancy_mean = 0, occupancy_min = 0;
+  uint64_t iterations_below_half = 0;  // iterations with fewer than half the slots busy
   std::map<std::string, KernelTime> kernels;
 };
 
@@ -72,7 +79,9 @@ struct RenderResult {
   uint32_t seed = 0;
   std::string device;
   double seconds_setup = 0, seconds_build = 0, seconds_render = 0;
+  double seconds_first_pass = 0;  // Renderer construction to the first batch added to the film
   bool kernels_from_cache = false;
+  uint32_t features = 0;          // st_feature mask the kernels were compiled for (ST_FEATURES_ALL: generic)
   RenderStats stats;
 };
 
@@ -103,6 +112,7 @@ class Renderer {
   std::vector<std::array<float, 4>> probe_transmittance(std::array<float, 3> o, std::array<float, 3> d, int n);
 
   const std::string& device_name() const;
+  uint32_t features() const;  // the kernels' st_feature mask
   const SceneDesc& scene() const;
 
  private:

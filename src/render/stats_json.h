@@ -8,7 +8,8 @@
 namespace spectrack {
 
 // paths, density_lookups (+ _tracking, _shadow), emission_lookups, collision counts, dda_steps,
-// requeues, iterations, nonfinite_samples, scatter_events, max_throughput, kernels{name: {seconds, launches}}
+// requeues, iterations, nonfinite_samples, scatter_events, max_throughput, occupancy_mean / _min,
+// iterations_below_half_occupancy, kernels{name: {seconds, launches}}
 nlohmann::json stats_to_json(const RenderStats& s);
 RenderStats stats_from_json(const nlohmann::json& j);
 

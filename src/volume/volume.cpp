@@ -799,4 +799,24 @@ float sample_index_trilinear(const GridData& grid, double x, double y, double z)
   return float(f0 + tz * (f1 - f0));
 }
 
+MajorantGrid coarsen_majorant_grid(const MajorantGrid& fine, int block) {
+  if (block < 1) throw Error("majorant block must be at least 1 cell");
+  MajorantGrid c;
+  c.origin = fine.origin;
+  c.cell = fine.cell * block;
+  for (int a = 0; a < 3; ++a) c.dims[a] = (fine.dims[a] + block - 1) / block;
+  size_t n = size_t(c.dims[0]) * c.dims[1] * c.dims[2];
+  c.dmax.assign(n, 0.0f);
+  c.dmin.assign(n, std::numeric_limits<float>::infinity());
+  for (int k = 0; k < fine.dims[2]; ++k)
+    for (int j = 0; j < fine.dims[1]; ++j)
+      for (int i = 0; i < fine.dims[0]; ++i) {
+        size_t f = size_t(i) + size_t(fine.dims[0]) * (size_t(j) + size_t(fine.dims[1]) * k);
+        size_t b = size_t(i / block) + size_t(c.dims[0]) * (size_t(j / block) + size_t(c.dims[1]) * (k / block));
+        c.dmax[b] = std::max(c.dmax[b], fine.dmax[f]);
+        c.dmin[b] = std::min(c.dmin[b], fine.dmin[f]);
+      }
+  return c;
+}
+
 }  // namespace spectrack

@@ -54,6 +54,11 @@ struct MajorantGrid {
 // gives a single cell with dmax = dmin = 0.
 MajorantGrid build_majorant_grid(const GridData& grid, int cell = 8);
 
+// The coarse level of a two-level majorant grid: blocks of `block`^3 cells of `fine` (partial
+// blocks at the far faces), each with the max dmax and min dmin of its cells, so a block with
+// dmax = 0 has only empty cells and the DDA can cross it in one step.
+MajorantGrid coarsen_majorant_grid(const MajorantGrid& fine, int block);
+
 // Host-side trilinear density at a continuous index point (the reference for device lookups).
 float sample_index_trilinear(const GridData& grid, double x, double y, double z);
 
