@@ -43,12 +43,12 @@ SCENES = [
     dict(key="a", name="cloud_chromatic", title="(a) Disney cloud, chromatic, sun + sky",
          configs=[("delta-per-channel", None)] + [("spectral", s) for s in SCHEMES] +
                  [("decomposition", None), ("spectral-decomposition", "history-average")],
-         ladder=[1, 2, 4, 8, 16], quick=[1, 2, 4], ref=(512, 32), ref_tracker=("spectral", "history-average"),
+         ladder=[1, 2, 4, 8, 16, 32], quick=[1, 2, 4], ref=(1024, 32), ref_tracker=("spectral", "history-average"),
          mitsuba=True),
     dict(key="b", name="dense_subsurface", title="(b) dense, mildly heterogeneous, chromatic (subsurface-like)",
          configs=[("delta-per-channel", None), ("spectral", "history-average"), ("decomposition", None),
                   ("spectral-decomposition", "history-average")],
-         ladder=[1, 2, 4, 8], quick=[1, 2], ref=(128, 16), ref_tracker=("spectral-decomposition", "history-average"),
+         ladder=[1, 2, 4, 8, 16], quick=[1, 2], ref=(256, 16), ref_tracker=("spectral-decomposition", "history-average"),
          mitsuba=True),
     dict(key="c", name="smoke_thin", title="(c) OpenVDB smoke, thin, achromatic",
          configs=[("delta-per-channel", None), ("delta", None), ("spectral", "history-average"),
@@ -229,14 +229,46 @@ def run_mitsuba(sc, scene_path, ref, var_ref, ref_halves, ladder, seeds, args, c
     bexp = (blocks(var_px) + blocks(var_px_ref)) / 64.0
     agree["block_mse"] = float(np.mean(bd ** 2))
     agree["block_expected"] = float(np.mean(bexp))
-    agree["block_max_z"] = float(np.max(np.abs(bd) / np.sqrt(np.maximum(bexp, 1e-30))))
     agree["max_mi"] = float(mi_mean.max())
     agree["rel_mean_diff"] = (diff.mean(axis=(0, 1)) / np.maximum(ref.mean(axis=(0, 1)), 1e-12)).tolist()
     agree["flip_h_mse"] = float(np.mean((mi_mean[:, ::-1] - ref) ** 2))
     np.save(os.path.join(out, "mi_high.npy"), mi_mean)
+    furnace = run_furnace(sc, scene, scene_path, prefix, args, work)
     log(f"mitsuba {sc['name']}: done in {time.time() - t0:.0f} s")
     return dict(rows=rows, agree=agree, variant=args.mitsuba_variant, hi_dir=out, var_px_mean=float(var_px.mean()),
-                mi_high=mi_mean)
+                mi_high=mi_mean, furnace=furnace)
+
+
+def run_furnace(sc, scene, scene_path, prefix, args, work):
+    """White furnace on the scene's own grid: sigma_a = 0 (sigma_s = the scene's sigma_t, so the
+    extinction keeps its chroma), a uniform environment of radiance 1 and nothing else: every pixel
+    is exactly 1. Ours (two trackers) and Mitsuba, 16 spp x 4 seeds each."""
+    f = json.loads(json.dumps(scene))
+    m = f["media"][0]
+    m["sigma_s"] = [a + b for a, b in zip(m["sigma_s"], m["sigma_a"])]
+    m["sigma_a"] = [0.0, 0.0, 0.0]
+    f["lights"] = [{"type": "environment", "radiance": [1.0, 1.0, 1.0]}]
+    m["file"] = os.path.normpath(os.path.join(os.path.dirname(scene_path), m["file"]))
+    fpath = os.path.join(work, sc["name"] + "_furnace.json")
+    json.dump(f, open(fpath, "w"))
+    res = {}
+    seeds = [1, 2, 3, 4]
+    for tr, sch in [("delta-per-channel", None), ("spectral-decomposition", "history-average")]:
+        imgs = [render(fpath, tr, sch, 16, s, work, f"furnace_{tr}_{s}", args.device)[0] for s in seeds]
+        res[label(tr, sch)] = imgs
+    out = os.path.join(work, "furnace_mitsuba_" + sc["name"])
+    p = subprocess.run([args.mitsuba_python, os.path.join(ROOT, "bench", "mitsuba_side.py"), fpath, prefix,
+                        args.mitsuba_variant, out] + [f"16:{s}" for s in seeds], capture_output=True, text=True)
+    if p.returncode == 0:
+        res[f"Mitsuba 3 ({args.mitsuba_variant})"] = [np.load(os.path.join(out, f"mi_16_{s}.npy")).astype(np.float64)
+                                                      for s in seeds]
+    summary = {}
+    for k, imgs in res.items():
+        means = np.array([im.mean(axis=(0, 1)) for im in imgs])
+        summary[k] = dict(mean=means.mean(axis=0).tolist(), seed_min=means.min(axis=0).tolist(),
+                          seed_max=means.max(axis=0).tolist(), pixel_max=float(max(im.max() for im in imgs)),
+                          pixel_min=float(min(im.min() for im in imgs)))
+    return summary
 
 
 def summarise(rows, ladder):
@@ -367,10 +399,18 @@ def tables(results, tp, meta):
                   f"(relative difference {', '.join(f'{100 * v:+.2f}%' for v in a['rel_mean_diff'])}, "
                   f"z = {', '.join(f'{v:+.1f}' for v in a['mean_z'])} standard errors); 8x8-pixel block means: MSE "
                   f"{fmt_e(a['block_mse'])} vs {fmt_e(a['block_expected'])} expected from noise (ratio "
-                  f"{a['block_mse'] / max(a['block_expected'], 1e-30):.2f}), largest block |z| {a['block_max_z']:.1f}; "
+                  f"{a['block_mse'] / max(a['block_expected'], 1e-30):.2f}); "
                   f"brightest Mitsuba pixel {a['max_mi']:.3g}; mirrored "
                   f"Mitsuba image MSE {fmt_e(a['flip_h_mse'])} (orientation check). Images: "
                   f"`bench/results/{sc['name']}_ours.png`, `bench/results/{sc['name']}_mitsuba.png`."]
+            if mres.get("furnace"):
+                L += ["", "White furnace on this grid (sigma_a = 0, sigma_s = the scene's sigma_t, environment 1, "
+                          "no sun: every pixel is exactly 1), 16 spp x 4 seeds:", "",
+                      "| renderer | mean RGB (4 seeds) | lowest / highest seed mean (R) | pixel min / max |",
+                      "|---|---|---|---|"]
+                for k, v in mres["furnace"].items():
+                    L.append(f"| {k} | {', '.join(f'{x:.4f}' for x in v['mean'])} | {v['seed_min'][0]:.4f} / "
+                             f"{v['seed_max'][0]:.4f} | {v['pixel_min']:.3g} / {v['pixel_max']:.3g} |")
         L.append("")
     if tp:
         L += ["### Kernel throughput (`build/kernel_throughput bench/scenes/cloud_chromatic.json`)", ""]
@@ -390,6 +430,53 @@ def tables(results, tp, meta):
                      f"{t['lookups_per_second']:.3g} |")
         L.append("")
     return L, head
+
+
+def headline(results):
+    """The README's table and the targets, from the same numbers as the tables."""
+    by = {r["scene"]["key"]: r for r in results}
+    L = ["| scene | tracker | efficiency vs delta-per-channel | density lookups vs delta-per-channel | "
+         "Mitsuba 3 RMSE / ours at equal time |", "|---|---|---|---|---|"]
+    targets = []
+    picks = {"a": ["spectral (history-average)", "spectral-decomposition", "decomposition"],
+             "b": ["spectral (history-average)", "spectral-decomposition", "decomposition"],
+             "c": ["delta", "spectral (history-average)", "spectral-decomposition"],
+             "d": ["delta", "spectral (history-average)", "spectral-decomposition"]}
+    for key, r in by.items():
+        lad = r["ladder"]
+        sums = {lab: summarise(rows, lad) for lab, rows in r["rows"].items()}
+        base = efficiency(sums["delta-per-channel"], lad)
+        st = r["stats"]
+        lk = lambda lab: st[lab]["density_lookups_tracking"] + st[lab]["density_lookups_shadow"]
+        mi_ratio = {}
+        if r.get("mitsuba"):
+            ms = summarise(r["mitsuba"]["rows"], lad)
+            for lab in picks[key]:
+                mo, to = sums[lab][lad[-1]]
+                mm, tm = ms[lad[-1]]
+                mi_ratio[lab] = math.sqrt(max(mm * tm / to, 0)) / math.sqrt(max(mo, 1e-30))
+        for lab in picks[key]:
+            e = efficiency(sums[lab], lad) / base
+            L.append(f"| {r['scene']['title'].split(' ')[0]} {r['scene']['name']} | {lab} | {e:.2f}x | "
+                     f"{lk(lab) / lk('delta-per-channel'):.2f} | {f'{mi_ratio[lab]:.2f}' if lab in mi_ratio else '-'} |")
+        if key == "a":
+            e = efficiency(sums["spectral (history-average)"], lad) / base
+            targets.append(f"(a) spectral (history-average) efficiency vs delta-per-channel >= 2.7x: {e:.2f}x, "
+                           f"{'met' if e >= 2.7 else f'missed by {2.7 / e:.2f}x'}")
+        if key == "b":
+            e = efficiency(sums["spectral-decomposition"], lad) / base
+            targets.append(f"(b) spectral-decomposition efficiency vs delta-per-channel >= 4x: {e:.2f}x, "
+                           f"{'met' if e >= 4 else f'missed by {4 / e:.2f}x'}")
+            q = lk("decomposition") / lk("delta-per-channel")
+            qt = st["decomposition"]["density_lookups_tracking"] / st["delta-per-channel"]["density_lookups_tracking"]
+            targets.append(f"(b) decomposition density lookups <= 1/3 of delta tracking's (per channel, the same "
+                           f"paths): {q:.2f} of them (tracking only: {qt:.2f}), "
+                           f"{'met' if q <= 1 / 3 else f'missed by {q * 3:.2f}x'}")
+        if key in ("a", "b") and mi_ratio:
+            lab = "spectral (history-average)" if key == "a" else "spectral-decomposition"
+            targets.append(f"({key}) lower RMSE than Mitsuba 3 at equal time ({lab}): Mitsuba's RMSE is "
+                           f"{mi_ratio[lab]:.2f}x ours, {'met' if mi_ratio[lab] > 1 else 'missed'}")
+    return L, targets
 
 
 def splice(path, begin, end_marker, text):
@@ -474,17 +561,31 @@ def main():
                 load_end=subprocess.run(["uptime"], capture_output=True, text=True).stdout.split("load average:")[-1].strip(),
                 seeds=args.seeds)
     L, head = tables(results, tp, meta)
+    H, targets = headline(results)
+    L[8:8] = ["Headline (the README's table):", ""] + H + ["", "Targets:", ""] + [f"- {t}" for t in targets] + [""]
+    notes = os.path.join(ROOT, "bench", "results", "issue4_notes.md")
+    if os.path.exists(notes) and not args.quick:
+        L += [open(notes).read().rstrip("\n"), ""]
     text = "\n".join(L) + "\n"
     open(os.path.join(results_dir, "issue4_results.md"), "w").write(text)
     raw = [dict(scene=r["scene"]["name"], ladder=r["ladder"], var_ref=r["var_ref"],
                 ref={k: v for k, v in r["ref"].items() if k != "halves"},
                 rows={k: {str(s): v for s, v in rows.items()} for k, rows in r["rows"].items()},
                 mitsuba=None if not r.get("mitsuba") else dict(rows={str(s): v for s, v in r["mitsuba"]["rows"].items()},
-                                                                agree=r["mitsuba"]["agree"]),
+                                                                agree=r["mitsuba"]["agree"],
+                                                                furnace=r["mitsuba"].get("furnace")),
                 stats=r["stats"]) for r in results]
     json.dump(dict(meta=meta, scenes=raw), open(os.path.join(results_dir, "issue4_raw.json"), "w"), indent=1)
-    if not args.no_results_md:
+    if not args.no_results_md and not args.quick:
         splice(os.path.join(ROOT, "bench", "RESULTS.md"), SECTION, "## ", text)
+        readme = os.path.join(ROOT, "README.md")
+        body = open(readme).read()
+        b, e = "<!-- bench-headline:begin -->", "<!-- bench-headline:end -->"
+        if b in body and e in body:
+            block = "\n".join([b, f"Measured by `bench/run` on {meta['date']} ({meta['device']}, commit {meta['commit']}; "
+                               "details in bench/RESULTS.md):", ""] + H + [""] + [f"- {t}" for t in targets] + [e])
+            body = body[:body.index(b)] + block + body[body.index(e) + len(e):]
+            open(readme, "w").write(body)
     print(text)
     log(f"done in {(time.time() - t_start) / 60:.1f} min")
 
