@@ -92,16 +92,22 @@ const Sphere kSpheres[] = {
     {-0.05, 0.48, -0.05, 0.26},
 };
 
-// Density at world point p in [-1,1]^3.
-double cloud_density(double x, double y, double z) {
-  // The heap is modelled in a slightly smaller frame so that it fills about [-0.9, 0.9]^3.
-  x /= 1.08, y /= 1.08, z /= 1.08;
-  // Depth inside the soft union of spheres, in units of each radius (1 at a centre).
+// Depth inside the soft union of spheres, in units of each radius (1 at a centre), at a point of
+// the heap's frame.
+double heap_depth(double x, double y, double z) {
   double depth = -1e9;
   for (const Sphere& s : kSpheres) {
     const double d = std::sqrt((x - s.x) * (x - s.x) + (y - s.y) * (y - s.y) + (z - s.z) * (z - s.z));
     depth = std::max(depth, 1.0 - d / s.r);
   }
+  return depth;
+}
+
+// Density at world point p in [-1,1]^3.
+double cloud_density(double x, double y, double z) {
+  // The heap is modelled in a slightly smaller frame so that it fills about [-0.9, 0.9]^3.
+  x /= 1.08, y /= 1.08, z /= 1.08;
+  const double depth = heap_depth(x, y, z);
   if (depth < -0.6) return 0.0;
   const double billow = fbm(x * 3.1, y * 3.1, z * 3.1, 5, kSeed) - 0.5;
   // Folded noise gives rounded cauliflower lumps rather than a smooth wobble.
@@ -117,11 +123,7 @@ double cloud_density(double x, double y, double z) {
 // The dense style: the same heap, a sharp edge and a mildly varying interior.
 double dense_density(double x, double y, double z) {
   x /= 1.08, y /= 1.08, z /= 1.08;
-  double depth = -1e9;
-  for (const Sphere& s : kSpheres) {
-    const double d = std::sqrt((x - s.x) * (x - s.x) + (y - s.y) * (y - s.y) + (z - s.z) * (z - s.z));
-    depth = std::max(depth, 1.0 - d / s.r);
-  }
+  const double depth = heap_depth(x, y, z);
   if (depth < -0.3) return 0.0;
   const double billow = fbm(x * 3.1, y * 3.1, z * 3.1, 4, kSeed) - 0.5;
   const double body = smoothstep(0.0, 0.06, depth + 0.25 * billow);
