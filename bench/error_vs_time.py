@@ -511,7 +511,8 @@ def main():
     work = os.path.join(args.cache, "work")
     shutil.rmtree(work, ignore_errors=True)
     os.makedirs(work)
-    results_dir = os.path.join(ROOT, "bench", "results")
+    # --quick never overwrites the committed results: its plots and tables go to the cache.
+    results_dir = os.path.join(args.cache, "quick-results") if args.quick else os.path.join(ROOT, "bench", "results")
     os.makedirs(results_dir, exist_ok=True)
     codeh = code_digest()
     if not args.mitsuba_python:
