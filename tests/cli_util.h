@@ -50,6 +50,7 @@ inline double since(Clock::time_point t) { return std::chrono::duration<double>(
 
 struct RunOptions {
   double timeout_s = 60.0;  // the child is killed (SIGKILL) after this long
+  std::string binary;       // the executable run() starts; empty = SPECTRACK_BINARY
   // Optional: send `signal` `signal_delay_s` seconds after `signal_after_text` first appears in
   // the output (immediately counted from the start when the text is empty).
   int signal = 0;
@@ -185,7 +186,7 @@ inline Proc run_command(std::vector<std::string> args, const RunOptions& o = {})
 
 // Runs the spectrack binary with `args`.
 inline Proc run(std::vector<std::string> args, const RunOptions& o = {}) {
-  args.insert(args.begin(), kBinary);
+  args.insert(args.begin(), o.binary.empty() ? kBinary : o.binary);
   return run_command(args, o);
 }
 

@@ -398,6 +398,47 @@ void check_interrupt(int sig) {
   EXPECT_EQ(j.value("interrupted", false), true);
 }
 
+// ---- the kernel throughput benchmark (bench/kernel_throughput.cpp), at small sizes ------------
+
+#ifdef KERNEL_THROUGHPUT_BINARY
+TEST(BenchKernelThroughput, SmallRunWritesEveryFigure) {
+  std::string dir = test_dir();
+  json s = json::parse(R"({"format": "spectrack-scene/1",
+    "camera": {"type": "perspective", "position": [0, 60, -700], "look_at": [0, 40, 0], "up": [0, 1, 0], "fov_deg": 40},
+    "film": {"width": 8, "height": 8, "spp": 1, "output": "x.exr"},
+    "render": {"tracker": "spectral", "spectral_scheme": "history-average", "max_depth": -1, "seed": 0},
+    "lights": [{"type": "environment", "radiance": [1, 1, 1]}],
+    "media": [{"name": "c", "type": "vdb", "file": "", "grid": "density", "density_scale": 1.0,
+               "sigma_s": [0.12, 0.08, 0.04], "sigma_a": [0.001, 0.005, 0.02], "phase": {"type": "isotropic"}}]})");
+  s["media"][0]["file"] = kShared + "/wdas_cloud_sixteenth.vdb";
+  std::string scene = write_scene(dir, "tp.json", s);
+  RunOptions o;
+  o.binary = KERNEL_THROUGHPUT_BINARY;
+  o.timeout_s = 300;
+  Proc p = run({scene, "--points", "4096", "--paths", "256", "--json", dir + "/tp.json"}, o);
+  ASSERT_TRUE(p.exited && p.code == 0) << p.describe();
+  json j = json::parse(std::ifstream(dir + "/tp.json"));
+  EXPECT_GT(j["density"]["lookups_per_second"].get<double>(), 0.0);
+  EXPECT_GT(j["density"]["mean_density"].get<double>(), 0.0);
+  EXPECT_GT(j["dda"]["dda_steps_per_path"].get<double>(), 1.0);
+  EXPECT_LT(j["dda"]["lookups_per_path"].get<double>(), 0.01) << "the empty walk did density lookups";
+  for (const char* t : {"delta-per-channel", "spectral", "decomposition", "spectral-decomposition"})
+    EXPECT_GT(j["track"][t]["paths_per_second"].get<double>(), 0.0) << t;
+  EXPECT_FALSE(j["device"].get<std::string>().empty());
+}
+
+TEST(BenchKernelThroughput, BadFlagsAreUsageErrors) {
+  RunOptions o;
+  o.binary = KERNEL_THROUGHPUT_BINARY;
+  for (std::vector<std::string> args : {std::vector<std::string>{}, {"s.json", "--points", "0"},
+                                        {"s.json", "--paths", "x"}, {"s.json", "--bogus"}}) {
+    Proc p = run(args, o);
+    EXPECT_TRUE(p.exited && p.code == 2) << p.describe();
+    EXPECT_THAT(p.out, HasSubstr("usage:")) << p.describe();
+  }
+}
+#endif
+
 TEST(CliInterrupt, SigintWritesPartialImageAndExits130) { check_interrupt(SIGINT); }
 
 TEST(CliInterrupt, SigtermWritesPartialImageAndExits130) { check_interrupt(SIGTERM); }

@@ -1,0 +1,133 @@
+"""mitsuba_side.py: renders a spectrack benchmark scene with Mitsuba 3 (volpath) from exactly the
+same grid, for the side-by-side in bench/error_vs_time.py. Run with a Python that has `mitsuba`
+(bench/run makes a venv for it); the renderer itself never needs Python.
+
+  python mitsuba_side.py SCENE.json GRID_PREFIX VARIANT OUT_DIR SPP:SEED [SPP:SEED ...]
+
+Design: the scene JSON is translated field by field, and the heterogeneous medium is built from
+grid_export's dense dump of the grid as spectrack loads it:
+- values sit at voxel centres (integer index coordinates); the dump spans index_min - 1 ..
+  index_max + 1, so Mitsuba's cell-centred gridvolume (N cells over [0,1]^3, trilinear, clamp) is
+  mapped by to_world = scene transform * index_to_world * translate(origin - 0.5) * scale(dims);
+  its box (the null-BSDF cube holding the medium) is the same box;
+- sigma_t = density * density_scale * (sigma_s + sigma_a) per channel: a 3-channel grid of
+  density * (sigma_s + sigma_a) with `scale` = density_scale; albedo = sigma_s / sigma_t (constant);
+- HG g as is (both: g > 0 forward); the sun is a `directional` emitter with direction = -to_light
+  and the same irradiance (benchmark scenes use angle_deg 0, a delta light); the sky is a
+  `constant` emitter; the camera is `perspective` with fov across the smaller side
+  (fov_axis 'smaller', our convention) and look_at; the pixel filter is a box (ours: uniform
+  jitter in the pixel); max_depth -1 (Russian roulette only), as ours.
+Each SPP:SEED render writes OUT_DIR/mi_<spp>_<seed>.npy (H x W x 3 float32, row 0 at the top) and
+the render seconds (wall clock around mi.render and the read-back) into OUT_DIR/timings.json.
+"""
+import json
+import math
+import os
+import sys
+import time
+
+import numpy as np
+import mitsuba as mi
+
+
+def matmul(a, b):
+    return [[sum(a[i][k] * b[k][j] for k in range(4)) for j in range(4)] for i in range(4)]
+
+
+def scene_transform(t):
+    """scale, then rotations about x, y, z, then translate (SCENE_FORMAT.md), as a 4x4."""
+    s = t.get("scale", 1.0)
+    s = [s, s, s] if isinstance(s, (int, float)) else s
+    m = [[s[0], 0, 0, 0], [0, s[1], 0, 0], [0, 0, s[2], 0], [0, 0, 0, 1]]
+    for axis, deg in enumerate(t.get("rotate_deg", [0, 0, 0])):
+        r = math.radians(deg)
+        c, sn = math.cos(r), math.sin(r)
+        i, j = (axis + 1) % 3, (axis + 2) % 3
+        rot = [[1.0 if a == b else 0.0 for b in range(4)] for a in range(4)]
+        rot[i][i], rot[i][j], rot[j][i], rot[j][j] = c, -sn, sn, c
+        m = matmul(rot, m)
+    tr = t.get("translate", [0, 0, 0])
+    tm = [[1, 0, 0, tr[0]], [0, 1, 0, tr[1]], [0, 0, 1, tr[2]], [0, 0, 0, 1]]
+    return matmul(tm, m)
+
+
+def build_scene(scene, grid_prefix, spp):
+    meta = json.load(open(grid_prefix + ".json"))
+    nx, ny, nz = meta["dims"]
+    density = np.fromfile(grid_prefix + ".f32", dtype=np.float32).reshape(nz, ny, nx)
+    med = scene["media"][0]
+    sigma_s = np.array(med["sigma_s"], dtype=np.float64)
+    sigma_a = np.array(med["sigma_a"], dtype=np.float64)
+    sigma_t = sigma_s + sigma_a
+    albedo = np.where(sigma_t > 0, sigma_s / np.maximum(sigma_t, 1e-30), 0.0)
+    grid = (density[..., None] * sigma_t[None, None, None, :].astype(np.float32)).astype(np.float32)
+    i2w = meta["index_to_world"] + [[0, 0, 0, 1]]
+    o = meta["index_origin"]
+    unit_to_index = [[nx, 0, 0, o[0] - 0.5], [0, ny, 0, o[1] - 0.5], [0, 0, nz, o[2] - 0.5], [0, 0, 0, 1]]
+    to_world = matmul(scene_transform(med.get("transform", {})), matmul(i2w, unit_to_index))
+    cube_from_unit = [[0.5, 0, 0, 0.5], [0, 0.5, 0, 0.5], [0, 0, 0.5, 0.5], [0, 0, 0, 1]]
+    phase = med.get("phase", {"type": "isotropic"})
+    mi_phase = {"type": "hg", "g": phase["g"]} if phase["type"] == "hg" else {"type": "isotropic"}
+    cam = scene["camera"]
+    film = scene["film"]
+    d = {
+        "type": "scene",
+        "integrator": {"type": "volpath", "max_depth": -1},
+        "sensor": {
+            "type": "perspective",
+            "fov": cam["fov_deg"],
+            "fov_axis": "smaller",
+            "to_world": mi.ScalarTransform4f().look_at(origin=cam["position"], target=cam["look_at"], up=cam["up"]),
+            "film": {"type": "hdrfilm", "width": film["width"], "height": film["height"],
+                     "rfilter": {"type": "box"}, "pixel_format": "rgb"},
+            "sampler": {"type": "independent", "sample_count": spp},
+        },
+        "medium_box": {
+            "type": "cube",
+            "to_world": mi.ScalarTransform4f(matmul(to_world, cube_from_unit)),
+            "bsdf": {"type": "null"},
+            "interior": {
+                "type": "heterogeneous",
+                "albedo": {"type": "rgb", "value": albedo.tolist()},
+                "sigma_t": {"type": "gridvolume", "grid": mi.VolumeGrid(grid), "filter_type": "trilinear",
+                            "wrap_mode": "clamp", "to_world": mi.ScalarTransform4f(to_world)},
+                "scale": med.get("density_scale", 1.0),
+                "phase": mi_phase,
+            },
+        },
+    }
+    for k, light in enumerate(scene["lights"]):
+        if light["type"] == "environment":
+            d[f"light{k}"] = {"type": "constant", "radiance": {"type": "rgb", "value": light["radiance"]}}
+        elif light["type"] == "directional":
+            if light.get("angle_deg", 0) != 0:
+                raise SystemExit("mitsuba_side: directional lights must have angle_deg 0 in benchmark scenes")
+            tl = np.array(light["to_light"], dtype=np.float64)
+            d[f"light{k}"] = {"type": "directional", "direction": (-tl / np.linalg.norm(tl)).tolist(),
+                              "irradiance": {"type": "rgb", "value": light["irradiance"]}}
+    return mi.load_dict(d)
+
+
+def main():
+    scene_path, grid_prefix, variant, out_dir = sys.argv[1:5]
+    jobs = [tuple(int(x) for x in a.split(":")) for a in sys.argv[5:]]
+    mi.set_variant(variant)
+    scene = json.load(open(scene_path))
+    os.makedirs(out_dir, exist_ok=True)
+    tpath = os.path.join(out_dir, "timings.json")
+    timings = json.load(open(tpath)) if os.path.exists(tpath) else {}
+    loaded = {}
+    for spp, seed in jobs:
+        if spp not in loaded:
+            loaded[spp] = build_scene(scene, grid_prefix, spp)
+        t0 = time.perf_counter()
+        img = np.array(mi.render(loaded[spp], spp=spp, seed=seed), dtype=np.float32)
+        secs = time.perf_counter() - t0
+        np.save(os.path.join(out_dir, f"mi_{spp}_{seed}.npy"), img[..., :3])
+        timings[f"{spp}:{seed}"] = secs
+        json.dump(timings, open(tpath, "w"), indent=1)
+        print(f"mitsuba {variant} {spp} spp seed {seed}: {secs:.2f} s", flush=True)
+
+
+if __name__ == "__main__":
+    main()
