@@ -46,7 +46,7 @@ inline float env_map_pdf(__constant const st_light* l, __global const float* env
 
 /* Radiance arriving along direction d (pointing away from the scene) from light l. */
 inline float4 light_Le(__constant const st_light* l, __global const float* env, float3 d) {
-  if (ST_HAS_ENV_UNIFORM && l->type == ST_LIGHT_ENV_UNIFORM) return l->radiance;
+  if (l->type == ST_LIGHT_ENV_UNIFORM) return l->radiance;
   if (ST_HAS_ENV_MAP && l->type == ST_LIGHT_ENV_MAP) return l->radiance * env_texel(l, env, env_dir_to_uv(d));
   if (l->is_delta) return (float4)(0.0f);
   return dot(d, l->direction.xyz) >= l->cos_max ? l->radiance : (float4)(0.0f);
@@ -54,7 +54,7 @@ inline float4 light_Le(__constant const st_light* l, __global const float* env, 
 
 /* pdf (solid angle) with which light_sample picks d; 0 for delta lights. */
 inline float light_pdf(__constant const st_light* l, __global const float* env, float3 d) {
-  if (ST_HAS_ENV_UNIFORM && l->type == ST_LIGHT_ENV_UNIFORM) return ST_INV_4PI;
+  if (l->type == ST_LIGHT_ENV_UNIFORM) return ST_INV_4PI;
   if (ST_HAS_ENV_MAP && l->type == ST_LIGHT_ENV_MAP) return env_map_pdf(l, env, d);
   if (l->is_delta) return 0.0f;
   return dot(d, l->direction.xyz) >= l->cos_max ? l->pdf_cone : 0.0f;
@@ -64,7 +64,7 @@ inline float light_pdf(__constant const st_light* l, __global const float* env, 
  * and writes the direction and pdf (0 for delta). */
 inline float4 light_sample(__constant const st_light* l, __global const float* env, float u1, float u2,
                            float3* wi, float* pdf) {
-  if (ST_HAS_ENV_UNIFORM && l->type == ST_LIGHT_ENV_UNIFORM) {
+  if (l->type == ST_LIGHT_ENV_UNIFORM) {
     *wi = sample_uniform_sphere(u1, u2);
     *pdf = ST_INV_4PI;
     return l->radiance / ST_INV_4PI;

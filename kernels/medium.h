@@ -56,7 +56,7 @@ inline float medium_density(__constant const st_medium* m, __global const uint* 
   float3 pi = medium_to_index(m, p);
   if (!medium_box_contains(m, pi)) return 0.0f;
   if (!ST_HAS_VDB) return 1.0f; /* homogeneous media only */
-  if (ST_HAS_HOMOGENEOUS && m->type == ST_MEDIUM_HOMOGENEOUS) return 1.0f;
+  if (m->type == ST_MEDIUM_HOMOGENEOUS) return 1.0f;
   *lookups += 1u;
   return grid_trilinear(grids, m->density_grid, pi);
 }

@@ -60,22 +60,19 @@ enum st_phase_type { ST_PHASE_ISOTROPIC = 0, ST_PHASE_HG = 1 };
  * mask lacks is code the compiler removes (kernels/features.h maps each bit to one macro); the
  * runtime checks that remain are those of the generic kernel, so both render the same image.
  * Coarse on purpose: every distinct mask is one more compile (seconds on PoCL), so the spectral
- * scheme stays a runtime (uniform) branch; only the tracker's decomposition, which brings whole
- * code paths, is a feature. */
+ * scheme, uniform environments, directional lights and homogeneous media stay runtime (uniform)
+ * branches; the tracker's decomposition, which brings whole code paths, is a feature. */
 enum st_feature {
-  ST_FEATURE_EMISSION = 1 << 0,      /* some medium emits */
-  ST_FEATURE_CHROMATIC = 1 << 1,     /* some medium has channel-dependent coefficients */
-  ST_FEATURE_ENV_UNIFORM = 1 << 2,   /* a uniform environment light */
-  ST_FEATURE_ENV_MAP = 1 << 3,       /* a lat-long environment map */
-  ST_FEATURE_DIRECTIONAL = 1 << 4,   /* a directional light (delta or disc) */
-  ST_FEATURE_ESCAPE = 1 << 5,        /* escaping rays can see a light (environment or disc): escape stage */
-  ST_FEATURE_HG = 1 << 6,            /* some medium has a Henyey-Greenstein phase function */
-  ST_FEATURE_VDB = 1 << 7,           /* some medium is a NanoVDB grid */
-  ST_FEATURE_HOMOGENEOUS = 1 << 8,   /* some medium is a homogeneous box */
-  ST_FEATURE_MULTI_MEDIUM = 1 << 9,  /* more than one medium (overlaps possible) */
-  ST_FEATURE_DECOMPOSITION = 1 << 10, /* tracker decomposes (control + residual) */
-  ST_FEATURE_COARSE_MAJORANT = 1 << 11, /* two-level majorant grid (empty blocks skipped) */
-  ST_FEATURES_ALL = (1 << 12) - 1
+  ST_FEATURE_EMISSION = 1 << 0,       /* some medium emits */
+  ST_FEATURE_CHROMATIC = 1 << 1,      /* some medium has channel-dependent coefficients */
+  ST_FEATURE_ENV_MAP = 1 << 2,        /* a lat-long environment map */
+  ST_FEATURE_ESCAPE = 1 << 3,         /* escaping rays can see a light (environment or disc): escape stage */
+  ST_FEATURE_HG = 1 << 4,             /* some medium has a Henyey-Greenstein phase function */
+  ST_FEATURE_VDB = 1 << 5,            /* some medium is a NanoVDB grid (else homogeneous boxes only) */
+  ST_FEATURE_MULTI_MEDIUM = 1 << 6,   /* more than one medium (overlaps possible) */
+  ST_FEATURE_DECOMPOSITION = 1 << 7,  /* tracker decomposes (control + residual) */
+  ST_FEATURE_COARSE_MAJORANT = 1 << 8, /* two-level majorant grid (empty blocks skipped) */
+  ST_FEATURES_ALL = (1 << 9) - 1
 };
 
 /* Queues of the wavefront. Each stage reads the current buffer of its queue and pushes into the

@@ -81,7 +81,7 @@ TEST(Specialisation, FeatureMaskFollowsTheSceneAndUnusedStagesAreNotLaunched) {
   // emissive gray homogeneous box, isotropic, no lights: no shadow rays, no escape stage, no grid
   json s = box_scene("spectral");
   RenderResult r = Renderer(scene_from_json(s, dir), quiet_options()).render();
-  EXPECT_EQ(r.features, uint32_t(ST_FEATURE_EMISSION | ST_FEATURE_HOMOGENEOUS));
+  EXPECT_EQ(r.features, uint32_t(ST_FEATURE_EMISSION));
   EXPECT_EQ(r.stats.kernels.count("k_shadow"), 0u) << "no lights: no shadow launch";
   EXPECT_EQ(r.stats.kernels.count("k_escape"), 0u) << "no light at infinity: no escape launch";
   EXPECT_GT(r.stats.kernels.count("k_track"), 0u);
@@ -97,8 +97,7 @@ TEST(Specialisation, FeatureMaskFollowsTheSceneAndUnusedStagesAreNotLaunched) {
   s["media"][0]["sigma_s"] = {0.5, 0.4, 0.3};
   s["media"][0]["phase"] = {{"type", "hg"}, {"g", 0.5}};
   Renderer r2(scene_from_json(s, dir), quiet_options());
-  EXPECT_EQ(r2.features(), uint32_t(ST_FEATURE_EMISSION | ST_FEATURE_HOMOGENEOUS | ST_FEATURE_DIRECTIONAL |
-                                    ST_FEATURE_CHROMATIC | ST_FEATURE_HG));
+  EXPECT_EQ(r2.features(), uint32_t(ST_FEATURE_EMISSION | ST_FEATURE_CHROMATIC | ST_FEATURE_HG));
   RenderResult rr2 = r2.render();
   EXPECT_GT(rr2.stats.kernels.count("k_shadow"), 0u) << "a light needs next-event estimation";
   EXPECT_EQ(rr2.stats.kernels.count("k_escape"), 0u) << "a delta sun is never seen by escaping rays";

@@ -371,7 +371,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 1024))
       ->capture_default_str();
   render->add_option("--majorant-block", ra.majorant_block,
-                     "cells per coarse-block edge of a two-level majorant grid (0: one level)")
+                     "cells per coarse-block edge of a two-level majorant grid (0 or 1: one level)")
       ->check(CLI::Range(0, 1024))
       ->capture_default_str();
   render->add_option("--batches-in-flight", ra.batches_in_flight,

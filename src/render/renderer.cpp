@@ -493,14 +493,13 @@ uint32_t Renderer::Impl::scene_features() const {
                 m.sigma_s.y == m.sigma_s.z;
     if (!gray) f |= ST_FEATURE_CHROMATIC;
     if (m.phase_type == ST_PHASE_HG) f |= ST_FEATURE_HG;
-    f |= m.type == ST_MEDIUM_HOMOGENEOUS ? ST_FEATURE_HOMOGENEOUS : ST_FEATURE_VDB;
+    if (m.type == ST_MEDIUM_VDB) f |= ST_FEATURE_VDB;
     if (m.maj_block > 0) f |= ST_FEATURE_COARSE_MAJORANT;
   }
   for (int i = 0; i < st.n_lights; ++i) {
     const st_light& l = st.lights[i];
-    if (l.type == ST_LIGHT_ENV_UNIFORM) f |= ST_FEATURE_ENV_UNIFORM | ST_FEATURE_ESCAPE;
-    if (l.type == ST_LIGHT_ENV_MAP) f |= ST_FEATURE_ENV_MAP | ST_FEATURE_ESCAPE;
-    if (l.type == ST_LIGHT_DIRECTIONAL) f |= ST_FEATURE_DIRECTIONAL | (l.is_delta ? 0 : ST_FEATURE_ESCAPE);
+    if (l.type == ST_LIGHT_ENV_MAP) f |= ST_FEATURE_ENV_MAP;
+    if (l.type != ST_LIGHT_DIRECTIONAL || !l.is_delta) f |= ST_FEATURE_ESCAPE;
   }
   if (tracker == ST_TRACKER_DECOMPOSITION || tracker == ST_TRACKER_SPECTRAL_DECOMPOSITION) f |= ST_FEATURE_DECOMPOSITION;
   return f;

@@ -34,7 +34,7 @@ struct RenderOptions {
   int path_slots = 0;      // paths in flight; 0 = by device type
   int iteration_budget = 256;  // tentative collisions + DDA steps per item and launch
   int majorant_cell = 8;   // voxels per majorant-grid cell edge
-  int majorant_block = 4;  // fine cells per coarse-block edge of a two-level majorant grid; 0 = one level
+  int majorant_block = 4;  // fine cells per coarse-block edge of a two-level majorant grid; 0 or 1 = one level
   bool generic_kernels = false;
   int batches_in_flight = 0;     // batch result buffers in the ring (0: ST_MAX_BATCHES_IN_FLIGHT); 2 = the old scheme  // the generic kernel (every feature) instead of one specialised to the scene
   bool quiet = false;
