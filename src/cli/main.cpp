@@ -21,6 +21,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <future>
 #include <tuple>
 #include <iostream>
 #include <unistd.h>
@@ -209,6 +210,9 @@ int cmd_render(const RenderArgs& a, MpiArg& mpi) {
   if (mpi.on && devices.size() == 1 && devices[0].empty()) devices[0] = mpi_default_device(mpi.world);
 #endif
   RenderIdentity id = render_identity(scene, opt);
+  // The scene hash reads every VDB and map once more: on the writing rank only, beside the render.
+  std::future<std::string> hash;
+  if (root) hash = std::async(std::launch::async, [&scene] { return scene_hash(scene); });
 
   bool tty = ::isatty(2);
   int last_pct = -10;
@@ -262,6 +266,7 @@ int cmd_render(const RenderArgs& a, MpiArg& mpi) {
   if (root) r.piece.interrupted = r.piece.interrupted || r.piece.samples() < spp;
   if (tty && !quiet) std::fprintf(stderr, "\n");
   if (!root) return r.piece.interrupted ? 130 : 0;
+  r.piece.id.scene_hash = hash.get();
   double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
   Metadata meta;
@@ -296,14 +301,14 @@ int cmd_merge(const MergeArgs& a) {
   for (auto& in : a.inputs) {
     if (std::filesystem::exists(a.output, ec) && std::filesystem::equivalent(in, a.output, ec))
       throw Error(fmt::format("{}: is both an input and the output of the merge", in));
-    pieces.push_back(read_piece(in));
-    RgbImage head = read_image(in);  // the other metadata, for the record
-    if (auto f = head.meta.find("render_seconds"); f != head.meta.end() && std::holds_alternative<float>(f->second))
+    Metadata head;  // the other metadata, for the record
+    pieces.push_back(read_piece(in, &head));
+    if (auto f = head.find("render_seconds"); f != head.end() && std::holds_alternative<float>(f->second))
       seconds += std::get<float>(f->second);
-    if (auto d = head.meta.find("device"); d != head.meta.end() && std::holds_alternative<std::string>(d->second))
+    if (auto d = head.find("device"); d != head.end() && std::holds_alternative<std::string>(d->second))
       if (std::find(devices.begin(), devices.end(), std::get<std::string>(d->second)) == devices.end())
         devices.push_back(std::get<std::string>(d->second));
-    if (auto s = head.meta.find("scene"); s != head.meta.end() && std::holds_alternative<std::string>(s->second))
+    if (auto s = head.find("scene"); s != head.end() && std::holds_alternative<std::string>(s->second))
       scene = std::get<std::string>(s->second);
     if (pieces.back().interrupted && !a.quiet)
       std::cerr << fmt::format("warning: {} is an interrupted render: it holds samples {} only\n", in,

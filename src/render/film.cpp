@@ -111,7 +111,6 @@ std::string scene_hash(const SceneDesc& scene) {
 
 RenderIdentity render_identity(const SceneDesc& scene, const RenderOptions& opt) {
   RenderIdentity id;
-  id.scene_hash = scene_hash(scene);
   id.full_width = scene.film.width;
   id.full_height = scene.film.height;
   id.seed = opt.seed >= 0 ? uint32_t(opt.seed) : scene.render.seed;
@@ -266,8 +265,9 @@ void write_piece(const std::string& path, const FilmPiece& p, const Metadata& ex
   write_image(path, p.width, p.height, p.mean(), m, w);
 }
 
-FilmPiece read_piece(const std::string& path) {
+FilmPiece read_piece(const std::string& path, Metadata* meta) {
   RgbImage img = read_image(path);
+  if (meta) *meta = img.meta;
   if (img.format != "openexr")
     throw Error(fmt::format("{}: a {} image cannot be merged: only spectrack's EXR outputs hold the float pixels and "
                             "sample ranges a merge needs",

@@ -46,7 +46,9 @@ struct RenderIdentity {
 // file it references (VDB files, environment maps), so a scene moved to another folder or
 // machine keeps its hash.
 std::string scene_hash(const SceneDesc& scene);
-// The identity of a render of `scene` with `opt` (tracker, scheme and seed resolved as Renderer does).
+// The identity of a render of `scene` with `opt` (tracker, scheme and seed resolved as Renderer
+// does), without scene_hash: hashing reads every referenced file, so the caller computes it where
+// it does not delay the render (the CLI overlaps it with rendering, on the rank that writes).
 RenderIdentity render_identity(const SceneDesc& scene, const RenderOptions& opt);
 
 struct FilmPiece {
@@ -70,6 +72,7 @@ FilmPiece merge_pieces(const std::vector<FilmPiece>& pieces);
 Metadata piece_metadata(const FilmPiece& p);
 void write_piece(const std::string& path, const FilmPiece& p, const Metadata& extra);
 // Reads a piece written by write_piece; throws Error for PNGs and images without the metadata.
-FilmPiece read_piece(const std::string& path);
+// `meta`, when given, gets the file's other spectrack:* metadata (device, render_seconds, ...).
+FilmPiece read_piece(const std::string& path, Metadata* meta = nullptr);
 
 }  // namespace spectrack
