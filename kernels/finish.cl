@@ -3,6 +3,7 @@
  * order, so the image does not depend on the order in which paths finished (bit-identical
  * renders for one seed). Non-finite samples are counted and dropped, never hidden. */
 __kernel void k_finish(ST_STAGE_ARGS) {
+  const uint cur = it.cur, n = it.n_queue[ST_Q_FINISH];
   uint gid = get_global_id(0);
   if (gid >= n) return;
   uint slot = queue_item(queues, Q, NL, cur, ST_Q_FINISH, gid);
@@ -20,7 +21,7 @@ __kernel void k_finish(ST_STAGE_ARGS) {
   }
   results[p.result_index] = r;
   atomic_inc(&counters[ST_C_BATCH_DONE + p.batch]);
-  queue_push(queues, counters, Q, NL, cur, ST_Q_FREE, slot);
+  free_push(queues, counters, Q, free_base(it.n_queue[ST_Q_FREE], it.n_new), slot);
 }
 
 /* Adds the n_samples samples (times channels) of each window pixel of one batch to the film.

@@ -92,6 +92,16 @@ inline float4 light_sample(__constant const st_light* l, __global const float* e
   return l->radiance / l->pdf_cone;
 }
 
+/* One-light sampling (uniform, power): the light l with select_cdf[l-1] <= u < select_cdf[l] (scene_pack.cpp:
+ * lights without power have select_pmf 0 and are never returned). */
+inline int light_select(__constant const st_scene* scene, float u) {
+  for (int l = 0; l < scene->n_lights - 1; ++l)
+    if (u < scene->lights[l].select_cdf && scene->lights[l].select_pmf > 0.0f) return l;
+  int last = scene->n_lights - 1;
+  while (last > 0 && !(scene->lights[last].select_pmf > 0.0f)) --last;
+  return last;
+}
+
 inline float power_heuristic(float a, float b) {
   float a2 = a * a, b2 = b * b;
   return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;

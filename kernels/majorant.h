@@ -1,10 +1,12 @@
-/* majorant.h: majorant segments along a ray, through every medium at once.
+/* majorant.h: majorant segments along a ray, through every medium at once, and the walker that
+ * steps the exponential flights of every tracker through them.
  *
  * Each medium has a sparse grid of (dmax, dmin) cells in its index space, walked by a 3D DDA
- * (after pbrt-v4's DDAMajorantIterator, ALGORITHMS.md 7.4). The segment iterator merges the
- * DDAs of all media: the current segment [t, end) ends at the first cell boundary or medium
- * boundary of any medium, and its majorant is the sum over media of dmax * (gray coefficient).
- * Cells with dmax = 0 give segments with zero majorant, which tracking crosses with no lookup.
+ * (after pbrt-v4's DDAMajorantIterator, ALGORITHMS.md 7.4). The merged DDA (st_segments) ends
+ * its current segment at the first cell boundary or medium boundary of any medium; the plain
+ * segment the trackers see (st_segment) holds [t0, t1) and its free-path components: the
+ * control coefficients and the residual bound (segments_current). Cells with dmax = 0 give
+ * segments with zero majorant, which tracking crosses with no lookup.
  *
  * Two-level grids (sparse volumes): with maj_block = B > 0 a coarse grid of B^3-cell blocks
  * holds the max dmax (min dmin) of each block. When the DDA enters a cell whose block is empty it
@@ -12,6 +14,9 @@
  * the fine DDA resumes in the exit cell, with its face crossings recomputed from the ray (not
  * accumulated). Non-empty blocks are walked cell by cell as before. Zero-majorant segments draw
  * no random numbers, so the skip changes no estimate, only the step count.
+ *
+ * The walker (st_walker, walker_step) owns the merged DDA, the exponential flights and the
+ * iteration budget; tracking.h keeps only the bodies run at each tentative collision.
  *
  * The DDA holds no state between launches: a path that stops (budget, scatter) restarts it at
  * its current t. That is exact because free flights restart at any point where no collision is
@@ -163,11 +168,11 @@ inline void dda_advance(__constant const st_medium* m, __global const float2* ma
   s->seg_end = fmax(s->seg_end, fmin(fmin(fmin(s->t_next.x, s->t_next.y), s->t_next.z), s->t_exit));
 }
 
-/* The merged iterator over all media. */
+/* The merged DDA over all media: the current segment ends at `end`, the first segment end of
+ * any medium (INFINITY: no medium ahead). Only the walker below uses it. */
 typedef struct {
   st_dda m[ST_KERNEL_MAX_MEDIA];
-  float t;   /* start of the current segment */
-  float end; /* end of the current segment (INFINITY: no medium ahead) */
+  float end;
 } st_segments;
 
 inline void segments_update_end(__constant const st_scene* scene, st_segments* s) {
@@ -180,7 +185,6 @@ inline void segments_update_end(__constant const st_scene* scene, st_segments* s
 inline void segments_init(__constant const st_scene* scene, __global const float2* maj, st_segments* s, float3 o, float3 d, float t) {
   for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i)
     if (i < scene->n_media) dda_init(&scene->media[i], maj, &s->m[i], o, d, t);
-  s->t = t;
   segments_update_end(scene, s);
 }
 
@@ -190,7 +194,6 @@ inline uint segments_next(__constant const st_scene* scene, __global const float
                           uint* nonempty) {
   uint steps = 0;
   float e = s->end;
-  s->t = fmax(s->t, e);
   for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
     if (i >= scene->n_media) continue;
     /* a medium may have several zero-length segments at e (corner crossings) */
@@ -210,18 +213,187 @@ inline float medium_gray_sigma_t(__constant const st_medium* m, float4 mask) {
   return ST_HAS_CHROMATIC ? masked_max(m->sigma_a + m->sigma_s, mask) : m->sigma_a.x + m->sigma_s.x;
 }
 
-/* Majorant of the current segment: sum over media of dmax * majorant_scale * gray sigma_t. */
-inline float segments_majorant(__constant const st_scene* scene, const st_segments* s, float4 mask) {
-  float mu = 0.0f;
+/* A majorant segment [t0, t1) as the trackers see it, with its free-path components
+ * (ALGORITHMS.md 3, 5). Control: the homogeneous part dmin * minorant_scale of every medium,
+ * with per-channel coefficients sigma_a_c, sigma_s_c and a gray coefficient mu_bar_c = max over
+ * the path's channels of their sum (control collisions can be null for thin channels; no lookup
+ * is needed to classify them). Residual: everything else, tracked with the gray coefficient
+ * mu_bar_r, which bounds |residual| when the grid's bounds hold; otherwise the |.| probabilities
+ * keep it exact. Without decomposition the control is empty and mu_bar_r is the ordinary
+ * majorant, the sum over media of dmax * majorant_scale * gray sigma_t. t1 = INFINITY: no
+ * medium ahead. */
+typedef struct {
+  float t0, t1;
+  float mu_bar_c, mu_bar_r;
+  float4 sigma_a_c, sigma_s_c;
+  float density_c[ST_KERNEL_MAX_MEDIA]; /* control density of each medium */
+} st_segment;
+
+/* The current segment of the merged DDA, entered at t0, for a path carrying the channels in mask. */
+inline st_segment segments_current(__constant const st_scene* scene, const st_segments* s, float t0, float4 mask,
+                                   int decompose) {
+  st_segment g;
+  g.t0 = t0;
+  g.t1 = s->end;
+  g.mu_bar_r = 0.0f;
+  g.sigma_a_c = g.sigma_s_c = (float4)(0.0f);
   for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
-    if (i >= scene->n_media) continue;
-    if (s->m[i].state != ST_DDA_INSIDE) continue;
+    g.density_c[i] = 0.0f;
+    if (i >= scene->n_media || s->m[i].state != ST_DDA_INSIDE) continue;
     __constant const st_medium* m = &scene->media[i];
-    mu += s->m[i].dmax * m->majorant_scale * medium_gray_sigma_t(m, mask);
+    float gray = medium_gray_sigma_t(m, mask);
+    float dmax = s->m[i].dmax, dmin = s->m[i].dmin;
+    float dmax_s = dmax * m->majorant_scale;
+    if (decompose) {
+      float dc = dmin * m->minorant_scale;
+      g.density_c[i] = dc;
+      g.sigma_a_c += dc * m->sigma_a;
+      g.sigma_s_c += dc * m->sigma_s;
+      /* > 0 whenever the residual can be non-zero, even with scaled (non-bounding) bounds */
+      float r = fmax(fmax(dmax_s - dc, m->majorant_scale * (dmax - dmin)), dc - dmin);
+      g.mu_bar_r += fmax(r, 0.0f) * gray;
+    } else {
+      g.mu_bar_r += dmax_s * gray;
+    }
   }
-  return mu;
+  g.mu_bar_c = decompose ? fmax(masked_max(g.sigma_a_c + g.sigma_s_c, mask), 0.0f) : 0.0f;
+  return g;
 }
 
-inline int segments_done(const st_segments* s) { return isinf(s->end); }
+/* ---- the segment walker: the one loop skeleton of free-path sampling and transmittance ----
+ *
+ * Owns the merged DDA, the exponential flights and the iteration budget (after pbrt-v4's
+ * SampleT_maj; OpenCL C has no callbacks, so the caller loops on walker_step and runs its own
+ * per-collision body). Each step is one iteration of the budget: a flight of rate mu_bar from
+ * w->t that ends either at a tentative collision inside the current segment or past its end,
+ * where the walk restarts at the next segment (memoryless restart, ALGORITHMS.md 7.5; segments
+ * with mu_bar = 0 are crossed without drawing). Two modes:
+ *   ST_WALK_SAMPLE_CONTROL: flights of rate mu_bar_c + mu_bar_r, so tentative collisions of both
+ *     components (free-path sampling; the body tells control from residual collisions).
+ *   ST_WALK_CONTROL_CLOSED_FORM: flights of rate mu_bar_r (residual ratio tracking); when the
+ *     tracker decomposes, w->T_control is the control transmittance exp(-(sigma_a_c + sigma_s_c) dt)
+ *     (masked) of each flight, collision or not. */
+#define ST_WALK_COLLISION 0 /* a tentative collision at w->t, in segment w->seg */
+#define ST_WALK_CROSSED 1   /* the flight passed the segment's end: w->seg is the next segment, w->t its start */
+#define ST_WALK_DONE 2      /* no medium ahead: the walk is over at w->t */
+#define ST_WALK_BUDGET 3    /* the iteration budget is spent; w->t has no collision pending (resume there) */
+
+#define ST_WALK_SAMPLE_CONTROL 0
+#define ST_WALK_CONTROL_CLOSED_FORM 1
+
+typedef struct {
+  st_segments dda;  /* the merged DDA (the walker's own) */
+  st_segment seg;   /* the current segment */
+  float t;          /* where the walk is (the float nearest to it: see walker_flight_end) */
+  float carry;      /* flight length that t does not hold yet */
+  float mu_bar;     /* rate of the flights in seg */
+  float4 T_control; /* ST_WALK_CONTROL_CLOSED_FORM with decomposition: the last flight's control transmittance */
+  float4 mask;      /* channels of the path */
+  int decompose, mode, iter, budget;
+  int exact;        /* flights below the float spacing of t were met: positions are summed exactly */
+} st_walker;
+
+inline void walker_load_segment(__constant const st_scene* scene, st_walker* w) {
+  w->seg = segments_current(scene, &w->dda, w->t, w->mask, w->decompose);
+  w->mu_bar = w->mode == ST_WALK_CONTROL_CLOSED_FORM ? w->seg.mu_bar_r : w->seg.mu_bar_c + w->seg.mu_bar_r;
+}
+
+/* Starts a walk along the world ray (o, d) from parameter t with at most `budget` steps. */
+inline void walker_begin(__constant const st_scene* scene, __global const float2* maj, st_walker* w, float3 o,
+                         float3 d, float t, float4 mask, int decompose, int mode, int budget) {
+  segments_init(scene, maj, &w->dda, o, d, t);
+  w->t = t;
+  w->mask = mask;
+  w->decompose = decompose;
+  w->mode = mode;
+  w->iter = 0;
+  w->budget = budget;
+  w->T_control = mask;
+  w->carry = 0.0f;
+  w->exact = 0;
+  walker_load_segment(scene, w);
+}
+
+/* Where a flight of length `flight` from w->t ends. Far from the ray origin a flight can be
+ * shorter than half the float spacing of t (densities of 1e6 per unit at t ~ 200), so
+ * t + flight == t: the flight cannot move t, and without care a walk would repeat the same null
+ * collision forever. The walker keeps such a flight's length in w->carry; at the second one in
+ * a row it switches the walk to exact summation (two-sum): t is the float nearest to the exact
+ * position, w->carry the remainder, and every flight advances the exact position by its full
+ * length (to 2^-24 of the flight), so a run of short flights moves t by their total and the
+ * walk always progresses. Until then (every flight that moves t on its own, and a single one
+ * that does not) the arithmetic is the plain float sum t + flight, so walks whose flights the
+ * floats resolve are computed exactly as without the carry. */
+inline float walker_flight_end(st_walker* w, float flight) {
+  float tc = w->t + flight;
+  if (!w->exact) {
+    if (tc != w->t || !(flight > 0.0f)) {
+      w->carry = 0.0f;
+      return tc;
+    }
+    if (w->carry == 0.0f) { /* a first flight that cannot move t: keep its length */
+      w->carry = flight;
+      return tc;
+    }
+    w->exact = 1; /* the second in a row: the flights are below the float spacing of t */
+  }
+  float s = w->carry + flight;
+  tc = w->t + s;
+  float moved = tc - w->t;
+  w->carry = (w->t - (tc - moved)) + (s - moved); /* t + s == tc + carry exactly */
+  return tc;
+}
+
+/* A flight passed the current segment's end: the walk restarts exactly there, in the next segment. */
+inline int walker_cross(__constant const st_scene* scene, __global const float2* maj, st_walker* w, uint* dda_steps,
+                        uint* dda_nonempty) {
+  w->t = fmax(w->t, w->seg.t1);
+  w->carry = 0.0f;
+  *dda_steps += segments_next(scene, maj, &w->dda, dda_nonempty);
+  walker_load_segment(scene, w);
+  return ST_WALK_CROSSED;
+}
+
+/* One step of the walk: returns ST_WALK_* (above). DDA steps are added to *dda_steps, those
+ * entering a non-empty cell also to *dda_nonempty. */
+inline int walker_step(__constant const st_scene* scene, __global const float2* maj, st_walker* w, st_rng* rng,
+                       uint* dda_steps, uint* dda_nonempty) {
+  if (isinf(w->seg.t1)) return ST_WALK_DONE;
+  if (w->iter >= w->budget) return ST_WALK_BUDGET;
+  w->iter += 1;
+  float tc = w->mu_bar > 0.0f ? walker_flight_end(w, sample_exponential(rng_uniform(rng), w->mu_bar)) : INFINITY;
+  if (w->decompose && w->mode == ST_WALK_CONTROL_CLOSED_FORM)
+    w->T_control = exp(-(w->seg.sigma_a_c + w->seg.sigma_s_c) * (fmin(tc, w->seg.t1) - w->t)) * w->mask;
+  if (tc < w->seg.t1) {
+    w->t = tc;
+    return ST_WALK_COLLISION;
+  }
+  return walker_cross(scene, maj, w, dda_steps, dda_nonempty);
+}
+
+/* One step of a ray march (docs/transmittance.md) in ST_WALK_CONTROL_CLOSED_FORM mode: the same
+ * walk as walker_step with the exponential flight replaced by a deterministic one of `s` units of
+ * the residual majorant's optical depth (mu_bar_r), so samples can be placed at fixed spacings in
+ * majorant optical depth and segments with mu_bar = 0 get none. Returns ST_WALK_COLLISION when
+ * the flight ends inside the segment (at w->t; *walked = s), ST_WALK_CROSSED (*walked: the
+ * majorant optical depth to the segment's end), ST_WALK_DONE or ST_WALK_BUDGET as walker_step;
+ * *tau_control gains the control's optical depth over the step (masked; an optical depth, not its
+ * exponential, so that callers can combine it with others before one exp). */
+inline int walker_march(__constant const st_scene* scene, __global const float2* maj, st_walker* w, float s,
+                        float* walked, float4* tau_control, uint* dda_steps, uint* dda_nonempty) {
+  *walked = 0.0f;
+  if (isinf(w->seg.t1)) return ST_WALK_DONE;
+  if (w->iter >= w->budget) return ST_WALK_BUDGET;
+  w->iter += 1;
+  float tc = w->mu_bar > 0.0f ? walker_flight_end(w, s / w->mu_bar) : INFINITY;
+  if (w->decompose) *tau_control += (w->seg.sigma_a_c + w->seg.sigma_s_c) * (fmin(tc, w->seg.t1) - w->t) * w->mask;
+  if (tc < w->seg.t1) {
+    *walked = s;
+    w->t = tc;
+    return ST_WALK_COLLISION;
+  }
+  if (w->mu_bar > 0.0f) *walked = fmax(w->seg.t1 - w->t, 0.0f) * w->mu_bar;
+  return walker_cross(scene, maj, w, dda_steps, dda_nonempty);
+}
 
 #endif

@@ -25,7 +25,13 @@ inline int medium_box_contains(__constant const st_medium* m, float3 pi) {
   return all(pi >= lo) && all(pi < hi);
 }
 
-/* Trilinear value of a NanoVDB float grid at continuous index point pi. */
+/* Trilinear value of a NanoVDB float grid at continuous index point pi.
+ * Fast path (7 in 8 points per axis, 67% of all): when the lower corner lies in a leaf node and
+ * the 2x2x2 block does not cross that leaf's faces, the eight values are read at fixed offsets
+ * from the first one (a float leaf stores all 512 values densely, voxel (x, y, z) & 7 at index
+ * x * 64 + y * 8 + z, 4 bytes each: PNanoVDB's pnanovdb_leaf_coord_to_offset and
+ * leaf_get_table_address), instead of seven more accessor walks. The same values, so the same
+ * image, either way. */
 inline float grid_trilinear(__global const uint* grids, uint offset, float3 pi) {
   pnanovdb_buf_t buf;
   buf.data = grids + offset;
@@ -38,13 +44,27 @@ inline float grid_trilinear(__global const uint* grids, uint offset, float3 pi) 
   float3 f = pi - fl;
   int3 i0 = convert_int3(fl);
   float v[8];
-  for (int c = 0; c < 8; ++c) {
-    pnanovdb_coord_t ijk;
-    ijk.x = i0.x + (c & 1);
-    ijk.y = i0.y + ((c >> 1) & 1);
-    ijk.z = i0.z + ((c >> 2) & 1);
-    pnanovdb_address_t a = pnanovdb_readaccessor_get_value_address(PNANOVDB_GRID_TYPE_FLOAT, buf, &acc, &ijk);
-    v[c] = pnanovdb_read_float(buf, a);
+  pnanovdb_coord_t ijk0;
+  ijk0.x = i0.x;
+  ijk0.y = i0.y;
+  ijk0.z = i0.z;
+  pnanovdb_uint32_t level;
+  pnanovdb_address_t a0 = pnanovdb_readaccessor_get_value_address_and_level(PNANOVDB_GRID_TYPE_FLOAT, buf, &acc, &ijk0, &level);
+  if (level == 0u && (i0.x & 7) != 7 && (i0.y & 7) != 7 && (i0.z & 7) != 7) {
+    for (int c = 0; c < 8; ++c) {
+      uint n = (uint)(c & 1) * 64u + (uint)((c >> 1) & 1) * 8u + (uint)((c >> 2) & 1);
+      v[c] = pnanovdb_read_float(buf, pnanovdb_address_offset(a0, 4u * n));
+    }
+  } else {
+    v[0] = pnanovdb_read_float(buf, a0);
+    for (int c = 1; c < 8; ++c) {
+      pnanovdb_coord_t ijk;
+      ijk.x = i0.x + (c & 1);
+      ijk.y = i0.y + ((c >> 1) & 1);
+      ijk.z = i0.z + ((c >> 2) & 1);
+      pnanovdb_address_t a = pnanovdb_readaccessor_get_value_address(PNANOVDB_GRID_TYPE_FLOAT, buf, &acc, &ijk);
+      v[c] = pnanovdb_read_float(buf, a);
+    }
   }
   float x00 = mix(v[0], v[1], f.x), x10 = mix(v[2], v[3], f.x);
   float x01 = mix(v[4], v[5], f.x), x11 = mix(v[6], v[7], f.x);

@@ -1,8 +1,10 @@
-/* pnanovdb_cl.h: the settings that let Debian's PNanoVDB.h (NanoVDB 32.4, C path) compile as
- * OpenCL C and read the NanoVDB grids in the device buffer (ARCHITECTURE.md, "Known facts").
- * The assembler (src/cl/kernel_source.cpp) includes a copy of PNanoVDB.h right after this file,
- * with its <stdint.h>/<string.h> includes removed and its program-scope tables moved to
- * __constant memory (OpenCL 1.2 drivers reject program-scope `static const`).
+/* pnanovdb_cl.h: the settings that let Debian's PNanoVDB.h (nanovdb/PNanoVDB.h of libnanovdb-dev,
+ * NanoVDB 32.4, C path) compile as OpenCL C and read the NanoVDB grids in the device buffer
+ * (../shared/design/ARCHITECTURE.md, "Known facts about the dependencies").
+ * The kernel assembler (assemble_kernel_source and rewrite_pnanovdb in src/cl/opencl.cpp)
+ * includes a copy of PNanoVDB.h right after this file, with its <stdint.h>/<string.h> includes
+ * replaced by comments and its program-scope tables moved to __constant memory (OpenCL 1.2
+ * drivers reject program-scope `static const`).
  * A buffer is the word array of one grid: grids of all media share one device buffer and each
  * medium's buffer starts at its grid's word offset. */
 #ifndef SPECTRACK_PNANOVDB_CL_H

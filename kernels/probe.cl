@@ -50,25 +50,32 @@ __kernel void k_probe_track(__constant const st_scene* scene, __global const uin
   beta_out[i] = beta;
 }
 
-/* Ratio-tracking transmittance from (o, d) to the end of every medium, per channel. */
+/* Transmittance from (o, d) to the end of every medium, per channel, by the scene's estimator
+ * (ratio tracking or ray marching); out_stats[i] = (density lookups, DDA steps, 0, 0). */
 __kernel void k_probe_transmittance(__constant const st_scene* scene, __global const uint* grids,
-                                    __global const float2* maj, float4 o, float4 d, __global float4* out, uint n) {
+                                    __global const float2* maj, float4 o, float4 d, __global float4* out,
+                                    __global float4* out_stats, uint n) {
   uint i = get_global_id(0);
   if (i >= n) return;
   st_rng rng = rng_make(scene->seed, i, 0u, 0u, 7u, 0u);
-  float4 mask = (float4)(1.0f, 1.0f, 1.0f, 0.0f), T = mask;
+  float4 mask = (float4)(1.0f, 1.0f, 1.0f, 0.0f);
+  st_trans tr;
+  transmittance_begin(&tr, mask);
   st_track_stats st;
   track_stats_clear(&st);
   float t = 0.0f;
-  while (!ratio_track(scene, grids, maj, o.xyz, normalize(d.xyz), &t, &T, mask, &rng, scene->iteration_budget, &st)) {
+  while (!transmittance_estimate(scene, grids, maj, o.xyz, normalize(d.xyz), &t, &tr, mask, &rng,
+                                 scene->iteration_budget, &st)) {
   }
-  out[i] = T;
+  out[i] = tr.T;
+  out_stats[i] = (float4)((float)st.lookups, (float)st.dda_steps, 0.0f, 0.0f);
 }
 
 /* Infinite-medium albedo problem (ALGORITHMS.md 9.1.4): a walk from o in a random direction,
  * isotropic scattering, until absorption. out_scatter: sum of the path weight after each real
  * scattering event (exact: albedo / (1 - albedo) per channel for a spatially constant albedo);
- * out_absorb: the emission score with Le = 1 (exact: 1); out_absorb.w = 1 if the walk escaped. */
+ * out_absorb: the emission score with Le = 1 (exact: 1); out_absorb.w = 1 if the walk escaped.
+ * With absorption=weight the walk ends by the renderer's Russian roulette (scatter.cl). */
 __kernel void k_probe_albedo(__constant const st_scene* scene, __global const uint* grids, __global const float2* maj,
                              float4 origin, int channel, __global float4* out_scatter, __global float4* out_absorb,
                              uint n) {
@@ -90,6 +97,13 @@ __kernel void k_probe_albedo(__constant const st_scene* scene, __global const ui
     if (ev == ST_EV_ESCAPE) { escaped = 1.0f; break; }
     if (ev == ST_EV_ABSORB) break;
     sum += beta * mask;
+    if (absorption_as_weight(scene) && events >= 2) { /* scatter.cl's roulette, from depth 3 on */
+      float survive = fmin(1.0f, masked_max(fabs(beta), mask));
+      if (survive < 1.0f) {
+        if (rng_uniform(&rng) >= survive) break;
+        beta /= survive;
+      }
+    }
     o = o + t * d;
     t = 0.0f;
     d = sample_uniform_sphere(rng_uniform(&rng), rng_uniform(&rng));
@@ -108,4 +122,34 @@ __kernel void k_probe_phase(__constant const st_scene* scene, int type, float g,
   float3 d = (float3)(0.0f, 0.0f, 1.0f);
   float3 wi = phase_sample_any(type, g, d, rng_uniform(&rng), rng_uniform(&rng), &pdf);
   out[i] = (float4)(wi.z, pdf, phase_eval_any(type, g, wi.z), length(wi) - 1.0f);
+}
+
+/* Raw uniforms of the renderer's generator (kernels/rng.h): item i draws n_draws uniforms from
+ * draw first_draw of the stream (pixel, sample, channel, stream) = base, with component `axis`
+ * (0 pixel, 1 sample, 2 channel, 3 stream) increased by i, so neighbouring items are neighbouring
+ * streams. resume_every > 0 rebuilds the generator from its saved draw index every resume_every
+ * draws, as a path re-queued between launches does: the values must not change.
+ * out[i * n_draws + k] = draw first_draw + k of item i's stream. */
+__kernel void k_probe_uniforms(__constant const st_scene* scene, uint4 base, int axis, uint first_draw, uint n_draws,
+                               uint resume_every, __global float* out, uint n) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  uint4 c = base;
+  if (axis == 0) c.x += i;
+  else if (axis == 1) c.y += i;
+  else if (axis == 2) c.z += i;
+  else c.w += i;
+  st_rng rng = rng_make(scene->seed, c.x, c.y, c.z, c.w, first_draw);
+  for (uint k = 0; k < n_draws; ++k) {
+    if (resume_every > 0u && k > 0u && k % resume_every == 0u)
+      rng = rng_make(scene->seed, c.x, c.y, c.z, c.w, rng_draw_index(&rng));
+    out[(ulong)i * n_draws + k] = rng_uniform(&rng);
+  }
+}
+
+/* The bare Philox4x32-10 block function: io[2i] = counter, io[2i+1].xy = key in; io[2i] = output. */
+__kernel void k_probe_philox(__global uint4* io, uint n) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  io[2 * i] = st_philox4x32_10(io[2 * i], io[2 * i + 1].xy);
 }

@@ -1,8 +1,13 @@
-/* queues.h: the wavefront's device queues and counters.
+/* queues.h: the wavefront's device queues and counters, the stage kernels' argument list
+ * (ST_STAGE_ARGS), the flush of a work item's tracking statistics into the counters, and the
+ * random stream of a path.
  * Every queue has two buffers (parity cur / 1 - cur); a stage reads n items of its queue in the
  * current buffer and pushes into the next buffers with atomic_inc on the next-size counters,
  * which the host reads once per iteration. Queues FREE..FINISH hold path slots (capacity Q);
- * SHADOW holds shadow-ray ids slot * NL + light (capacity Q * NL). */
+ * FREE is the exception to the two buffers: one stack of free slots (free_push below).
+ * SHADOW holds shadow-ray ids slot * NL + light (capacity Q * NL). ST_STAGE_ARGS is the argument
+ * list of every stage kernel, in the order of enum st_stage_arg (types.h), by which the host binds
+ * them; `it` (st_iteration) holds the queue parity and sizes of the current iteration. */
 #ifndef SPECTRACK_QUEUES_H
 #define SPECTRACK_QUEUES_H
 
@@ -10,10 +15,10 @@
   __constant const st_scene *scene, __global const uint *grids, __global const float2 *maj,       \
       __global const float *env, __global st_path *paths, __global st_shadow *shadows,            \
       __global uint *queues, __global uint *counters, __global float4 *results, uint Q, uint NL,   \
-      uint cur, uint n
+      st_iteration it
 
 inline uint queue_offset(uint Q, uint NL, uint parity, int k) {
-  return parity * (5u * Q + Q * NL) + (uint)k * Q;
+  return parity * ((uint)ST_Q_PATH_QUEUES * Q + Q * NL) + (uint)k * Q;
 }
 
 inline void queue_push(__global uint* queues, __global uint* counters, uint Q, uint NL, uint cur, int k, uint item) {
@@ -23,6 +28,19 @@ inline void queue_push(__global uint* queues, __global uint* counters, uint Q, u
 
 inline uint queue_item(__global const uint* queues, uint Q, uint NL, uint cur, int k, uint i) {
   return queues[queue_offset(Q, NL, cur, k) + i];
+}
+
+/* The free slots: one buffer (parity 0 of FREE), a stack whose size n_free the host tracks.
+ * Places 0 .. n_free - 1 hold the free slots when an iteration starts; raygen, the iteration's
+ * first launch, takes the top n_new (places free_base .. n_free - 1, free_base = n_free - n_new),
+ * and slots freed later in the iteration (finish, on the same in-order queue, so after raygen has
+ * read its places) are pushed from free_base on. The free slots after the iteration are places
+ * 0 .. free_base + (pushes) - 1, which the host reads back as the FREE counter. */
+inline uint free_offset(uint Q) { return (uint)ST_Q_FREE * Q; /* parity 0 */ }
+inline uint free_base(uint n_free, uint n_new) { return n_free - n_new; }
+inline void free_push(__global uint* queues, __global uint* counters, uint Q, uint base, uint slot) {
+  uint i = atomic_inc(&counters[ST_C_QUEUE + ST_Q_FREE]);
+  queues[free_offset(Q) + base + i] = slot;
 }
 
 inline void counter_add(__global uint* counters, int c, uint v) {

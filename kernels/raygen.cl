@@ -1,21 +1,17 @@
 /* raygen.cl: fills free path slots with camera paths. Path g (a 64-bit index over the whole
  * render) is (batch, sample, pixel, channel); its random stream depends only on those, so which
- * slot it lands in never changes the image. Slots beyond n_new go back to the free queue: raygen
- * is the iteration's first launch, so they take the first n - n_new places of the next free queue
- * (one atomic per launch, not one per slot; later stages append after them). */
-__kernel void k_raygen(ST_STAGE_ARGS, ulong first, uint n_new, uint batch_paths, uint sample_begin,
-                       uint samples_per_batch) {
+ * slot it lands in never changes the image. The launch covers the n_new slots it fills, the top
+ * of the free stack (queues.h: places n_free - n_new .. n_free - 1); the free slots below them are
+ * not touched and stay free. */
+__kernel void k_raygen(ST_STAGE_ARGS) {
+  const uint cur = it.cur, n_new = it.n_new;
   uint gid = get_global_id(0);
-  if (gid >= n) return;
-  uint slot = queue_item(queues, Q, NL, cur, ST_Q_FREE, gid);
-  if (gid >= n_new) {
-    queues[queue_offset(Q, NL, 1u - cur, ST_Q_FREE) + (gid - n_new)] = slot;
-    if (gid == n_new) atomic_add(&counters[ST_C_QUEUE + ST_Q_FREE], n - n_new);
-    return;
-  }
-  ulong g = first + gid;
+  if (gid >= n_new) return;
+  uint slot = queues[free_offset(Q) + free_base(it.n_queue[ST_Q_FREE], n_new) + gid];
+  ulong g = it.first + gid;
   uint nch = (uint)scene->n_channels_per_sample;
   uint npix = (uint)(scene->window_width * scene->window_height);
+  const uint batch_paths = it.batch_paths;
   ulong b = g / batch_paths;
   uint in_batch = (uint)(g - b * batch_paths);
   uint ch = in_batch % nch;
@@ -23,7 +19,7 @@ __kernel void k_raygen(ST_STAGE_ARGS, ulong first, uint n_new, uint batch_paths,
   uint s_local = in_batch / (nch * npix);
 
   st_path p;
-  p.sample = sample_begin + (uint)b * samples_per_batch + s_local;
+  p.sample = it.sample_begin + (uint)b * it.samples_per_batch + s_local;
   int x = scene->pixel_x0 + (int)(wpix % (uint)scene->window_width);
   int y = scene->pixel_y0 + (int)(wpix / (uint)scene->window_width);
   p.pixel = (uint)(y * scene->camera.width + x);
@@ -53,7 +49,7 @@ __kernel void k_raygen(ST_STAGE_ARGS, ulong first, uint n_new, uint batch_paths,
   }
   p.beta = p.mask;
   p.L = (float4)(0.0f);
-  p.rng_draw = rng.ctr.w;
+  p.rng_draw = rng_draw_index(&rng);
   p.depth = 0;
   p.pending = 0;
   p.medium = 0;

@@ -1,8 +1,13 @@
-/* scatter.cl: a real scattering event. Next-event estimation to every light (one shadow ray
- * each, MIS-weighted against phase sampling for lights that phase sampling can hit), then phase
- * sampling, then Russian roulette on the throughput. A path whose previous shadow rays are still
- * running waits here (re-queued) so that each (path, light) accumulator has one writer. */
+/* scatter.cl: a real scattering event. Next-event estimation: one shadow ray to every light, or
+ * with light sampling "uniform" or "power" to one light, weighted by 1 / its probability; MIS
+ * against phase sampling for lights that phase sampling can hit, the light's pdf taken times the
+ * probability of picking it, as k_escape does. Then phase sampling, then Russian roulette on the
+ * throughput (from depth 3 on, survival probability min(1, max |beta| over the path's channels),
+ * beta divided by it: unbiased; with absorption=weight beta decays by the albedo and this is how
+ * paths end). A path whose previous shadow rays are still running waits here (re-queued) so that
+ * each (path, light) accumulator has one writer. */
 __kernel void k_scatter(ST_STAGE_ARGS) {
+  const uint cur = it.cur, n = it.n_queue[ST_Q_SCATTER];
   uint gid = get_global_id(0);
   if (gid >= n) return;
   uint slot = queue_item(queues, Q, NL, cur, ST_Q_SCATTER, gid);
@@ -19,21 +24,29 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
   st_rng rng = path_rng(scene, &p, 0u, p.rng_draw);
   __constant const st_medium* m = &scene->media[p.medium];
   float3 wo = p.d.xyz;
-  for (int l = 0; l < scene->n_lights; ++l) {
+  int l_begin = 0, l_end = scene->n_lights;
+  if (scene->light_sampling != ST_LIGHT_SAMPLING_ALL && scene->n_lights > 1) {
+    l_begin = light_select(scene, rng_uniform(&rng));
+    l_end = l_begin + 1;
+  }
+  for (int l = l_begin; l < l_end; ++l) {
+    __constant const st_light* light = &scene->lights[l];
     float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
     float3 wi;
     float pdf_l;
-    float4 Le_over_pdf = light_sample(&scene->lights[l], env, u1, u2, &wi, &pdf_l);
+    float4 Le_over_pdf = light_sample(light, env, u1, u2, &wi, &pdf_l);
     float f = phase_eval(m->phase_type, m->g, dot(wo, wi));
-    float w = pdf_l > 0.0f ? power_heuristic(pdf_l, f) : 1.0f;
-    float4 weight = p.beta * p.mask * Le_over_pdf * (f * w);
+    float w = pdf_l > 0.0f ? power_heuristic(light->select_pmf * pdf_l, f) : 1.0f;
+    float4 weight = p.beta * p.mask * Le_over_pdf * (f * w / light->select_pmf);
     if (!(masked_max(fabs(weight), p.mask) > 0.0f)) continue;
     uint id = slot * NL + (uint)l;
     __global st_shadow* sh = &shadows[id];
     sh->o = (float4)(p.o.xyz, 0.0f);
     sh->d = (float4)(wi, 0.0f);
     sh->weight = weight;
-    sh->T = p.mask;
+    st_trans tr;
+    transmittance_begin(&tr, p.mask);
+    sh->tr = tr;
     sh->rng_draw = 0u;
     sh->stream = 1u + (uint)p.depth * ST_MAX_LIGHTS + (uint)l;
     sh->slot = slot;
@@ -55,7 +68,7 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
       else p.beta /= survive;
     }
   }
-  p.rng_draw = rng.ctr.w;
+  p.rng_draw = rng_draw_index(&rng);
   paths[slot] = p;
   queue_push(queues, counters, Q, NL, cur, q, slot);
 }

@@ -1,7 +1,9 @@
 /* shade.cl: paths that left every medium see the lights at infinity (environment, sun discs),
  * weighted by MIS against next-event estimation when the direction came from phase sampling
- * (d.w holds that pdf; 0 for camera rays, which take the full radiance). */
+ * (d.w holds that pdf; 0 for camera rays, which take the full radiance). Next-event estimation
+ * reaches a light with its pdf times select_pmf (1 when every light gets a shadow ray). */
 __kernel void k_escape(ST_STAGE_ARGS) {
+  const uint cur = it.cur, n = it.n_queue[ST_Q_ESCAPE];
   uint gid = get_global_id(0);
   if (gid >= n) return;
   uint slot = queue_item(queues, Q, NL, cur, ST_Q_ESCAPE, gid);
@@ -13,7 +15,7 @@ __kernel void k_escape(ST_STAGE_ARGS) {
     __constant const st_light* light = &scene->lights[l];
     float4 Le = light_Le(light, env, d);
     if (max3(Le) <= 0.0f) continue;
-    float w = pdf_phase > 0.0f ? power_heuristic(pdf_phase, light_pdf(light, env, d)) : 1.0f;
+    float w = pdf_phase > 0.0f ? power_heuristic(pdf_phase, light->select_pmf * light_pdf(light, env, d)) : 1.0f;
     L += Le * w;
   }
   p.L += p.beta * p.mask * L;

@@ -1,7 +1,8 @@
-/* shadow.cl: transmittance of a next-event-estimation ray by ratio tracking through the
- * majorant grid, resumable across launches; when done, adds weight * T to its (path, light)
- * accumulator and releases the path. */
+/* shadow.cl: transmittance of a next-event-estimation ray through the majorant grid by the
+ * scene's estimator (ratio tracking or ray marching, tracking.h), resumable across launches; when
+ * done, adds weight * T to its (path, light) accumulator and releases the path. */
 __kernel void k_shadow(ST_STAGE_ARGS) {
+  const uint cur = it.cur, n = it.n_queue[ST_Q_SHADOW];
   uint gid = get_global_id(0);
   if (gid >= n) return;
   uint id = queue_item(queues, Q, NL, cur, ST_Q_SHADOW, gid);
@@ -11,12 +12,11 @@ __kernel void k_shadow(ST_STAGE_ARGS) {
   st_track_stats st;
   track_stats_clear(&st);
   float t = sh.o.w;
-  float4 T = sh.T;
-  int done = ratio_track(scene, grids, maj, sh.o.xyz, sh.d.xyz, &t, &T, p.mask, &rng, scene->iteration_budget, &st);
-  sh.T = T;
-  sh.rng_draw = rng.ctr.w;
+  int done = transmittance_estimate(scene, grids, maj, sh.o.xyz, sh.d.xyz, &t, &sh.tr, p.mask, &rng,
+                                    scene->iteration_budget, &st);
+  sh.rng_draw = rng_draw_index(&rng);
   if (done) {
-    sh.Ls += sh.weight * T;
+    sh.Ls += sh.weight * sh.tr.T;
     shadows[id] = sh;
     atomic_dec(&paths[sh.slot].pending);
   } else {

@@ -2,6 +2,7 @@
  * scatter (real scattering), escape (left every medium), finish (absorbed) or track again
  * (launch budget spent: it resumes at its saved t). */
 __kernel void k_track(ST_STAGE_ARGS) {
+  const uint cur = it.cur, n = it.n_queue[ST_Q_TRACK];
   uint gid = get_global_id(0);
   if (gid >= n) return;
   uint slot = queue_item(queues, Q, NL, cur, ST_Q_TRACK, gid);
@@ -16,7 +17,7 @@ __kernel void k_track(ST_STAGE_ARGS) {
                            scene->iteration_budget, &st);
   p.beta = beta;
   p.L = L;
-  p.rng_draw = rng.ctr.w;
+  p.rng_draw = rng_draw_index(&rng);
   int q;
   if (ev == ST_EV_SCATTER) {
     p.o = (float4)(p.o.xyz + t * p.d.xyz, 0.0f);

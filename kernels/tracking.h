@@ -1,21 +1,26 @@
-/* tracking.h: free-path sampling and transmittance, on the integral formulation of
- * null-collision algorithms (ALGORITHMS.md 2.2).
+/* tracking.h: the per-collision bodies of free-path sampling and transmittance, on the integral
+ * formulation of null-collision algorithms (ALGORITHMS.md 2.2); the loop around them (segments,
+ * exponential flights, iteration budget) is the walker of majorant.h.
  *
- * One routine serves every tracker. Per majorant segment a gray free-path coefficient mubar is
+ * One routine serves every tracker. Per majorant segment a gray free-path coefficient mu_bar is
  * used; at each tentative collision the event (absorption, scattering, null) is chosen with
- * probabilities P* = v* / C from the tracker's scheme, and the path weight beta is multiplied by
- * mu* / (mubar P*). The trackers are choices of mubar's channel set (the path's mask) and the
- * scheme:
+ * probabilities P / p_sum, P = (P_a, P_s, P_n) from the tracker's scheme and p_sum their sum,
+ * and the path weight beta is multiplied by mu / (mu_bar P / p_sum) of the event. The trackers
+ * are choices of mu_bar's channel set (the path's mask), of the scheme and of the decomposition:
  *   delta-per-channel: mask = one channel, beta = e_c      -> analog delta tracking of channel c
  *   delta:             mask = rgb, achromatic media, max    -> analog delta tracking
  *   spectral:          mask = rgb, the chosen scheme (max, average, history-max, history-average)
+ *   decomposition, spectral-decomposition: the same with control and residual components
+ *                      (ALGORITHMS.md 3, 5)
  * The |.| in the probabilities keeps every tracker unbiased when a majorant does not bound
  * (negative null coefficient: weighted tracking, ALGORITHMS.md 2.5); with a bounding majorant
  * the delta trackers' weights are exactly analog.
- * Emission is scored at absorption events only: beta * mu_a Le / (mubar P_a) (ALGORITHMS.md 2.4).
- * Every loop has an iteration budget; when it is spent the routine returns ST_EV_BUDGET with t at
- * a point where no collision is pending, and the caller re-queues the item (never a cap that
- * biases).
+ * Emission is scored at absorption events only: beta * mu_a Le / (mu_bar P_a / p_sum)
+ * (ALGORITHMS.md 2.4), in the absorption=event mode; in the absorption=weight mode (paper 5.1.3)
+ * there are no absorption events and emission is a collision estimator at every real collision
+ * (see "absorption as a weight" below). Every walk has an iteration budget; when it is spent the routine returns
+ * ST_EV_BUDGET (ratio_track: 0) with t at a point where no collision is pending, and the caller
+ * re-queues the item (never a cap that biases).
  */
 #ifndef SPECTRACK_TRACKING_H
 #define SPECTRACK_TRACKING_H
@@ -38,229 +43,435 @@ inline void track_stats_clear(st_track_stats* s) {
 /* The probability scheme a tracker uses: the chosen one for the spectral trackers, analog
  * (channel max, which is exact for one channel or achromatic media) for the others. */
 inline int tracker_scheme(__constant const st_scene* scene) {
-  return (scene->tracker == ST_TRACKER_SPECTRAL || scene->tracker == ST_TRACKER_SPECTRAL_DECOMPOSITION)
-             ? scene->scheme : ST_SCHEME_MAX;
+  return st_tracker_uses_scheme(scene->tracker) ? scene->scheme : ST_SCHEME_MAX;
 }
 
 inline int tracker_decomposes(__constant const st_scene* scene) {
-  return ST_HAS_DECOMPOSITION && (scene->tracker == ST_TRACKER_DECOMPOSITION || scene->tracker == ST_TRACKER_SPECTRAL_DECOMPOSITION);
+  return ST_HAS_DECOMPOSITION && st_tracker_decomposes(scene->tracker);
 }
 
 inline float scheme_reduce(int scheme, float4 v, float4 mask) {
   return (scheme == ST_SCHEME_MAX || scheme == ST_SCHEME_HISTORY_MAX) ? masked_max(v, mask) : masked_avg(v, mask);
 }
 
-/* Un-normalised probabilities (absorption, scattering, null) of the scheme. */
-inline float3 event_values(int scheme, float4 beta, float4 mask, float4 sa, float4 ss, float4 sn) {
+/* The scheme's un-normalised event probabilities P = (P_a, P_s, P_n) for the coefficients of
+ * absorption, scattering and null collisions: a reduction over the carried channels of
+ * |sigma| weighted by 1 or, for the history-aware schemes, by |beta|. */
+inline float3 event_values(int scheme, float4 beta, float4 mask, float4 sigma_a, float4 sigma_s, float4 sigma_n) {
   int history = scheme == ST_SCHEME_HISTORY_MAX || scheme == ST_SCHEME_HISTORY_AVERAGE;
-  float4 w = history ? fabs(beta) * mask : mask;
-  return (float3)(scheme_reduce(scheme, w * fabs(sa), mask), scheme_reduce(scheme, w * fabs(ss), mask),
-                  scheme_reduce(scheme, w * fabs(sn), mask));
+  float4 weight = history ? fabs(beta) * mask : mask;
+  return (float3)(scheme_reduce(scheme, weight * fabs(sigma_a), mask), scheme_reduce(scheme, weight * fabs(sigma_s), mask),
+                  scheme_reduce(scheme, weight * fabs(sigma_n), mask));
 }
 
-/* The free-path-sampling components of one majorant segment (ALGORITHMS.md 3, 5).
- * Control: the homogeneous part dmin * minorant_scale of every medium, with per-channel
- * coefficients ca, cs and a gray coefficient bar_c = max over the path's channels of ca + cs
- * (control collisions can be null for thin channels; no lookup is needed to classify them).
- * Residual: everything else, tracked with the gray coefficient bar_r, which bounds |residual|
- * when the grid's bounds hold; otherwise the |.| probabilities keep it exact. Without
- * decomposition the control is empty and bar_r is the ordinary majorant. */
-typedef struct {
-  float bar_c, bar_r;
-  float4 ca, cs;
-  float cd[ST_KERNEL_MAX_MEDIA]; /* control density of each medium */
-} st_components;
+/* ---- absorption as a weight (scene->absorption == ST_ABSORPTION_WEIGHT; paper 5.1.3) ----
+ *
+ * Event probabilities: P = (0, P_r, P_n) with P_r = reduce(w |sigma_a| + w |sigma_s|) (= the
+ * scheme's reduction of w sigma_t for a physical component, whose coefficients are >= 0; the sum
+ * of the two magnitudes keeps P_r > 0 wherever a residual component has sigma_a != 0 or
+ * sigma_s != 0 even if they cancel), P_n = reduce(w |sigma_n|), w = 1 or |beta| (history schemes).
+ *
+ * Unbiasedness. The integral formulation (ALGORITHMS.md 2.2) at a tentative collision x with the
+ * component's gray mu_bar is
+ *   L(x) = [sigma_a Le + sigma_s (f_p * L_s) + sigma_n L(x')] / mu_bar   (per channel, then * beta).
+ * We sample "real" with probability P_r / p_sum and "null" with P_n / p_sum. On "real" the path
+ * scores beta sigma_a Le * p_sum / (mu_bar P_r) (the emission term, below) and continues with
+ * beta' = beta sigma_s_k (1 / p_k) p_sum / (mu_bar P_r) (p_k: the choice of the scattering medium
+ * k in proportion to |beta sigma_s,k|, whose expectation over k gives sigma_s); on "null",
+ * beta' = beta sigma_n p_sum / (mu_bar P_n). Each term's expectation is its term of L(x), so the
+ * estimator is unbiased whenever P_r > 0 where sigma_a or sigma_s != 0 and P_n > 0 where
+ * sigma_n != 0, which the magnitudes above guarantee, bounding majorant or not (a negative sigma_n
+ * only flips the sign of beta). The absorption term sigma_a L = 0 that the event mode samples is
+ * simply not sampled: the path carries the albedo sigma_s / sigma_t instead of ending.
+ *
+ * Emission as a collision estimator. The score at a real collision is
+ *   beta sigma_a Le / (mu_bar P_r / p_sum)   (before beta is updated),
+ * the same formula as the event mode's absorption score with P_a replaced by P_r: it uses the
+ * real collision's probability, so the absorption part of every real collision contributes,
+ * not only the fraction sigma_a / sigma_t of them that the event mode turns into absorptions.
+ * With decomposition the component's own coefficients (option A, ALGORITHMS.md 3.3) and density
+ * parts are used, so a control collision scores the control's sigma_a Le with the control's
+ * density parts, and needs no density lookup (Le of a gridded emission still reads its grid).
+ *
+ * The throughput bound with history-average (w = |beta|, reduce = average over the n carried
+ * channels, a bounding majorant so sigma_n >= 0 and sigma_t + sigma_n = mu_bar per channel):
+ *   p_sum = avg(|beta| sigma_t) + avg(|beta| sigma_n) = mu_bar avg|beta|.
+ *   real:  sum_c |beta'_c| = sum_c |beta_c| sigma_s,k,c (1/p_k) avg|beta| / avg(|beta| sigma_t);
+ *          with 1/p_k = sum_j q_j / q_k, q_j = avg(|beta| sigma_s,j) this is
+ *          n avg(|beta| sigma_s) avg|beta| / avg(|beta| sigma_t) <= n avg|beta| = sum_c |beta_c|
+ *          (sigma_s <= sigma_t per channel);
+ *   null:  sum_c |beta'_c| = n avg(|beta| sigma_n) avg|beta| / avg(|beta| sigma_n) = sum_c |beta_c|.
+ * So the sum of the channel weights never grows along a path; it starts at 3 for rgb (and
+ * Russian roulette in scatter.cl divides by min(1, max_c |beta_c|), which leaves max_c |beta_c|
+ * <= 1 when it applies), so every component of beta stays <= 3: max_throughput <= 3 holds in
+ * both modes (tests/test_estimators.cpp HistoryAverageBoundsThroughputByThree*).
+ *
+ * Paths end by Russian roulette (scatter.cl): after the phase sample from depth 3 on, the path
+ * survives with probability q = min(1, max_c |beta_c|) over its carried channels and beta /= q
+ * (unbiased). In the event mode the analog trackers' beta stays 1, so their roulette never fires. */
 
-inline st_components segment_components(__constant const st_scene* scene, const st_segments* seg, float4 mask,
-                                        int decompose) {
-  st_components c;
-  c.bar_r = 0.0f;
-  c.ca = c.cs = (float4)(0.0f);
-  for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
-    c.cd[i] = 0.0f;
-    if (i >= scene->n_media || seg->m[i].state != ST_DDA_INSIDE) continue;
-    __constant const st_medium* m = &scene->media[i];
-    float gray = medium_gray_sigma_t(m, mask);
-    float dmax = seg->m[i].dmax, dmin = seg->m[i].dmin;
-    float dmax_s = dmax * m->majorant_scale;
-    if (decompose) {
-      float dc = dmin * m->minorant_scale;
-      c.cd[i] = dc;
-      c.ca += dc * m->sigma_a;
-      c.cs += dc * m->sigma_s;
-      /* > 0 whenever the residual can be non-zero, even with scaled (non-bounding) bounds */
-      float r = fmax(fmax(dmax_s - dc, m->majorant_scale * (dmax - dmin)), dc - dmin);
-      c.bar_r += fmax(r, 0.0f) * gray;
-    } else {
-      c.bar_r += dmax_s * gray;
-    }
+inline int absorption_as_weight(__constant const st_scene* scene) { return scene->absorption == ST_ABSORPTION_WEIGHT; }
+
+/* ---- free-path sampling ---- */
+
+/* The component a tentative collision belongs to, with its coefficients at the collision:
+ * sigma_a, sigma_s, the null coefficient sigma_n = mu_bar - sigma_a - sigma_s per channel, the
+ * component's gray coefficient mu_bar and each medium's part of the component's density. */
+typedef struct {
+  float4 sigma_a, sigma_s, sigma_n;
+  float mu_bar;
+  float density[ST_KERNEL_MAX_MEDIA];
+} st_collision;
+
+/* A tentative collision at p belongs to the control component with probability
+ * mu_bar_c / (mu_bar_c + mu_bar_r) (the race of two exponential flights) and is classified with
+ * that component's own coefficients (option A of ALGORITHMS.md 3.3): a control collision needs
+ * no lookup, a residual one looks the density up and subtracts the control. */
+inline st_collision collision_component(__constant const st_scene* scene, __global const uint* grids,
+                                        const st_walker* w, float3 p, st_rng* rng, st_track_stats* st) {
+  const st_segment* seg = &w->seg;
+  st_collision c;
+  if (seg->mu_bar_c > 0.0f && rng_uniform(rng) * w->mu_bar < seg->mu_bar_c) {
+    c.sigma_a = seg->sigma_a_c; /* control collision: constants, no density lookup */
+    c.sigma_s = seg->sigma_s_c;
+    c.mu_bar = seg->mu_bar_c;
+    for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) c.density[i] = seg->density_c[i];
+    st->control += 1u;
+  } else {
+    st_coeffs k = scene_coeffs(scene, grids, p, &st->lookups);
+    c.sigma_a = k.sigma_a - seg->sigma_a_c;
+    c.sigma_s = k.sigma_s - seg->sigma_s_c;
+    c.mu_bar = seg->mu_bar_r;
+    for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) c.density[i] = k.density[i] - seg->density_c[i];
+    if (w->decompose) st->residual += 1u;
   }
-  c.bar_c = decompose ? fmax(masked_max(c.ca + c.cs, mask), 0.0f) : 0.0f;
+  c.sigma_n = c.mu_bar - c.sigma_a - c.sigma_s;
   return c;
+}
+
+/* sigma_a Le at p, summed over the emissive media that have a part of the collision's density. */
+inline float4 absorbed_emission(__constant const st_scene* scene, __global const uint* grids, const st_collision* c,
+                                float3 p, uint* lookups) {
+  float4 mua_Le = (float4)(0.0f);
+  for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
+    if (i >= scene->n_media || c->density[i] == 0.0f) continue;
+    __constant const st_medium* m = &scene->media[i];
+    if (m->emissive) mua_Le += c->density[i] * m->sigma_a * medium_Le(m, grids, p, lookups);
+  }
+  return mua_Le;
+}
+
+/* The medium whose phase function applies at a scattering collision, chosen in proportion to
+ * |beta * sigma_s| of each medium's part of the collision (averaged over the carried channels);
+ * with one medium, medium 0. Sets *sigma_s_k to that part's scattering coefficient and *inv_p to
+ * the reciprocal of the choice's probability; returns -1 when no medium scatters any carried
+ * channel. */
+inline int choose_scattering_medium(__constant const st_scene* scene, const st_collision* c, float4 beta,
+                                    float4 mask, st_rng* rng, float4* sigma_s_k, float* inv_p) {
+  *sigma_s_k = c->sigma_s;
+  *inv_p = 1.0f;
+  if (!(ST_HAS_MULTI_MEDIUM && scene->n_media > 1)) return 0;
+  float q[ST_KERNEL_MAX_MEDIA];
+  float q_sum = 0.0f;
+  for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
+    q[i] = 0.0f;
+    if (i >= scene->n_media) continue;
+    q[i] = masked_avg(fabs(beta * c->density[i] * scene->media[i].sigma_s), mask);
+    q_sum += q[i];
+  }
+  float xi = rng_uniform(rng) * q_sum;
+  int k = -1;
+  for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
+    if (i >= scene->n_media || q[i] <= 0.0f) continue;
+    k = i;
+    if (xi < q[i]) break;
+    xi -= q[i];
+  }
+  if (k < 0) return -1;
+  *sigma_s_k = c->density[k] * scene->media[k].sigma_s;
+  *inv_p = q_sum / q[k];
+  return k;
+}
+
+#define ST_EV_NULL 4 /* internal to track_free_path: a null collision, the walk goes on */
+
+/* The body of free-path sampling at a tentative collision at p: the event (absorption,
+ * scattering, null) is chosen with probabilities P / p_sum, P = (P_a, P_s, P_n) the scheme's
+ * un-normalised event probabilities, and beta is multiplied by mu / (mu_bar P / p_sum) of the
+ * event (absorption=weight: P_a = 0 and emission scored at the real collision, see above).
+ * Returns ST_EV_ABSORB (emission scored into *L; beta = 0 when nothing is left to carry),
+ * ST_EV_SCATTER (*medium: the medium whose phase function applies) or ST_EV_NULL. */
+inline int free_path_collision(__constant const st_scene* scene, __global const uint* grids, const st_walker* w,
+                               float3 p, int scheme, float4* beta, float4 mask, float4* L, int* medium, st_rng* rng,
+                               st_track_stats* st) {
+  st_collision c = collision_component(scene, grids, w, p, rng, st);
+  int weighted = absorption_as_weight(scene);
+  float3 P = weighted ? event_values(scheme, *beta, mask, (float4)(0.0f), fabs(c.sigma_a) + fabs(c.sigma_s), c.sigma_n)
+                      : event_values(scheme, *beta, mask, c.sigma_a, c.sigma_s, c.sigma_n);
+  float p_sum = P.x + P.y + P.z;
+  if (!(p_sum > 0.0f)) { /* nothing left to carry on any channel */
+    *beta = (float4)(0.0f);
+    return ST_EV_ABSORB;
+  }
+  float xi = rng_uniform(rng) * p_sum;
+  if (xi < P.x) {
+    if (ST_HAS_EMISSION) {
+      float4 mua_Le = absorbed_emission(scene, grids, &c, p, &st->emission_lookups);
+      *L += *beta * mask * mua_Le * (p_sum / (c.mu_bar * P.x));
+    }
+    st->real += 1u;
+    return ST_EV_ABSORB;
+  }
+  if (xi < P.x + P.y) {
+    if (ST_HAS_EMISSION && weighted) { /* emission as a collision estimator at the real collision */
+      float4 mua_Le = absorbed_emission(scene, grids, &c, p, &st->emission_lookups);
+      *L += *beta * mask * mua_Le * (p_sum / (c.mu_bar * P.y));
+    }
+    float4 sigma_s_k;
+    float inv_p;
+    int k = choose_scattering_medium(scene, &c, *beta, mask, rng, &sigma_s_k, &inv_p);
+    if (k < 0) {
+      *beta = (float4)(0.0f);
+      st->real += weighted ? 1u : 0u;
+      return ST_EV_ABSORB;
+    }
+    *beta *= sigma_s_k * inv_p * (p_sum / (c.mu_bar * P.y));
+    *medium = k;
+    st->real += 1u;
+    if (weighted && !(masked_max(fabs(*beta), mask) > 0.0f)) { /* nothing scatters: the path ends here */
+      *beta = (float4)(0.0f);
+      return ST_EV_ABSORB;
+    }
+    st->max_beta = fmax(st->max_beta, masked_max(fabs(*beta), mask));
+    return ST_EV_SCATTER;
+  }
+  *beta *= c.sigma_n * (p_sum / (c.mu_bar * P.z));
+  st->nulls += 1u;
+  st->max_beta = fmax(st->max_beta, masked_max(fabs(*beta), mask));
+  return ST_EV_NULL;
 }
 
 /* Samples the next real collision along (o, d) from *t. On ST_EV_SCATTER, *t is the collision,
  * beta carries the scattering weight and *medium the medium whose phase function applies. On
  * ST_EV_ABSORB the emission score has been added to *L. On ST_EV_ESCAPE the ray left every
- * medium. On ST_EV_BUDGET, call again from *t. Each tentative collision belongs to the control
- * component with probability bar_c / (bar_c + bar_r) (the race of two exponential flights) and
- * is classified with that component's own coefficients (option A of ALGORITHMS.md 3.3). */
+ * medium. On ST_EV_BUDGET, call again from *t. */
 inline int track_free_path(__constant const st_scene* scene, __global const uint* grids, __global const float2* maj,
                            float3 o, float3 d, float* t, float4* beta, float4 mask, float4* L, int* medium,
                            st_rng* rng, int budget, st_track_stats* st) {
-  st_segments seg;
-  segments_init(scene, maj, &seg, o, d, *t);
+  st_walker w;
+  walker_begin(scene, maj, &w, o, d, *t, mask, tracker_decomposes(scene), ST_WALK_SAMPLE_CONTROL, budget);
   int scheme = tracker_scheme(scene);
-  int decompose = tracker_decomposes(scene);
-  st_components comp = segment_components(scene, &seg, mask, decompose);
-  for (int iter = 0;; ++iter) {
-    if (segments_done(&seg)) {
-      *t = seg.t;
-      return ST_EV_ESCAPE;
-    }
-    if (iter >= budget) {
-      *t = seg.t;
-      return ST_EV_BUDGET;
-    }
-    float bar = comp.bar_c + comp.bar_r;
-    float tc = bar > 0.0f ? seg.t + sample_exponential(rng_uniform(rng), bar) : INFINITY;
-    if (!(tc < seg.end)) {
-      st->dda_steps += segments_next(scene, maj, &seg, &st->dda_nonempty);
-      comp = segment_components(scene, &seg, mask, decompose);
-      continue;
-    }
-    seg.t = tc;
-    float3 p = o + tc * d;
-    float4 sa, ss;
-    float mb;
-    float dens[ST_KERNEL_MAX_MEDIA]; /* each medium's part of this component's density */
-    if (comp.bar_c > 0.0f && rng_uniform(rng) * bar < comp.bar_c) {
-      sa = comp.ca;  /* control collision: constants, no density lookup */
-      ss = comp.cs;
-      mb = comp.bar_c;
-      for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) dens[i] = comp.cd[i];
-      st->control += 1u;
-    } else {
-      st_coeffs c = scene_coeffs(scene, grids, p, &st->lookups);
-      sa = c.sigma_a - comp.ca;
-      ss = c.sigma_s - comp.cs;
-      mb = comp.bar_r;
-      for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) dens[i] = c.density[i] - comp.cd[i];
-      if (decompose) st->residual += 1u;
-    }
-    float4 sn = mb - sa - ss;
-    float3 v = event_values(scheme, *beta, mask, sa, ss, sn);
-    float C = v.x + v.y + v.z;
-    if (!(C > 0.0f)) { /* nothing left to carry on any channel */
-      *t = tc;
-      *beta = (float4)(0.0f);
-      return ST_EV_ABSORB;
-    }
-    float u = rng_uniform(rng) * C;
-    if (u < v.x) {
-      if (ST_HAS_EMISSION) {
-        float4 muaLe = (float4)(0.0f);
-        for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
-          if (i >= scene->n_media || dens[i] == 0.0f) continue;
-          __constant const st_medium* m = &scene->media[i];
-          if (m->emissive) muaLe += dens[i] * m->sigma_a * medium_Le(m, grids, p, &st->emission_lookups);
-        }
-        *L += *beta * mask * muaLe * (C / (mb * v.x));
-      }
-      st->real += 1u;
-      *t = tc;
-      return ST_EV_ABSORB;
-    }
-    if (u < v.x + v.y) {
-      /* choose the medium whose phase function scatters, in proportion to |beta * sigma_s| */
-      int k = 0;
-      float4 ss_k = ss;
-      float qtot = 1.0f, qk = 1.0f;
-      if (ST_HAS_MULTI_MEDIUM && scene->n_media > 1) {
-        float q[ST_KERNEL_MAX_MEDIA];
-        float total = 0.0f;
-        for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
-          q[i] = 0.0f;
-          if (i >= scene->n_media) continue;
-          q[i] = masked_avg(fabs(*beta * dens[i] * scene->media[i].sigma_s), mask);
-          total += q[i];
-        }
-        float uq = rng_uniform(rng) * total;
-        k = -1;
-        for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
-          if (i >= scene->n_media || q[i] <= 0.0f) continue;
-          k = i;
-          if (uq < q[i]) break;
-          uq -= q[i];
-        }
-        if (k < 0) { /* no medium scatters any carried channel */
-          *t = tc;
-          *beta = (float4)(0.0f);
-          return ST_EV_ABSORB;
-        }
-        ss_k = dens[k] * scene->media[k].sigma_s;
-        qk = q[k];
-        qtot = total;
-      }
-      *beta *= ss_k * (qtot / qk) * (C / (mb * v.y));
-      *medium = k;
-      st->real += 1u;
-      st->max_beta = fmax(st->max_beta, masked_max(fabs(*beta), mask));
-      *t = tc;
-      return ST_EV_SCATTER;
-    }
-    *beta *= sn * (C / (mb * v.z));
-    st->nulls += 1u;
-    st->max_beta = fmax(st->max_beta, masked_max(fabs(*beta), mask));
+  for (;;) {
+    int step = walker_step(scene, maj, &w, rng, &st->dda_steps, &st->dda_nonempty);
+    if (step == ST_WALK_CROSSED) continue;
+    *t = w.t;
+    if (step == ST_WALK_DONE) return ST_EV_ESCAPE;
+    if (step == ST_WALK_BUDGET) return ST_EV_BUDGET;
+    int ev = free_path_collision(scene, grids, &w, o + w.t * d, scheme, beta, mask, L, medium, rng, st);
+    if (ev != ST_EV_NULL) return ev;
   }
+}
+
+/* ---- transmittance ---- */
+
+/* Ratio tracking's factor at a tentative collision at p: the residual's null fraction
+ * (mu_bar_r - residual sigma_t) / mu_bar_r per carried channel. */
+/* The residual component's sigma_t at p: every medium's sigma_a + sigma_s less the segment's control. */
+inline float4 residual_sigma_t(__constant const st_scene* scene, __global const uint* grids, const st_segment* seg,
+                               float3 p, uint* lookups) {
+  st_coeffs c = scene_coeffs(scene, grids, p, lookups);
+  return c.sigma_a + c.sigma_s - seg->sigma_a_c - seg->sigma_s_c;
+}
+
+inline float4 ratio_collision_factor(__constant const st_scene* scene, __global const uint* grids,
+                                     const st_segment* seg, float3 p, float4 mask, uint* lookups) {
+  float4 residual = residual_sigma_t(scene, grids, seg, p, lookups);
+  return mask * ((seg->mu_bar_r - residual) / seg->mu_bar_r);
+}
+
+/* Russian roulette on a small estimate (unbiased; pbrt's constants). Returns 0 when the estimate
+ * ends (then *T = 0). */
+inline int transmittance_roulette(float4* T, float4 mask, st_rng* rng) {
+  float m = masked_max(fabs(*T), mask);
+  if (m < 0.05f) {
+    if (m == 0.0f || rng_uniform(rng) < 0.75f) {
+      *T = (float4)(0.0f);
+      return 0;
+    }
+    *T /= 0.25f;
+  }
+  return 1;
 }
 
 /* Transmittance along (o, d) from *t to the end of every medium, per channel: ratio tracking,
  * or residual ratio tracking for the decomposition trackers (the control part exp(-mu_c dt) in
- * closed form, ratio tracking of the residual with bar_r). Russian roulette on small estimates
- * (unbiased; pbrt's constants). Returns 1 when finished, 0 when the budget is spent (call again
- * from *t). */
+ * closed form, ratio tracking of the residual with mu_bar_r). Russian roulette after every
+ * update of the estimate (also after the closed-form control factor, which can make T tiny
+ * without any lookup). Returns 1 when finished, 0 when the budget is spent (call again from *t). */
 inline int ratio_track(__constant const st_scene* scene, __global const uint* grids, __global const float2* maj,
                        float3 o, float3 d, float* t, float4* T, float4 mask, st_rng* rng, int budget,
                        st_track_stats* st) {
-  st_segments seg;
-  segments_init(scene, maj, &seg, o, d, *t);
-  int decompose = tracker_decomposes(scene);
-  st_components comp = segment_components(scene, &seg, mask, decompose);
-  for (int iter = 0;; ++iter) {
-    if (segments_done(&seg)) {
-      *t = seg.t;
+  st_walker w;
+  walker_begin(scene, maj, &w, o, d, *t, mask, tracker_decomposes(scene), ST_WALK_CONTROL_CLOSED_FORM, budget);
+  for (;;) {
+    int step = walker_step(scene, maj, &w, rng, &st->dda_steps, &st->dda_nonempty);
+    *t = w.t;
+    if (step == ST_WALK_DONE) return 1;
+    if (step == ST_WALK_BUDGET) return 0;
+    if (w.decompose) *T *= w.T_control;
+    if (step == ST_WALK_COLLISION) *T *= ratio_collision_factor(scene, grids, &w.seg, o + w.t * d, mask, &st->lookups);
+    if (!transmittance_roulette(T, mask, rng)) return 1;
+  }
+}
+
+/* ---- ray-marching transmittance (Kettunen et al. 2021; docs/transmittance.md) ----
+ *
+ * T = exp(-tau_ctrl) exp(-tau_r): the control part (decomposition trackers) in closed form, the
+ * residual optical depth tau_r = integral of the residual sigma_t, whose majorant is mu_bar_r
+ * (the ordinary majorant and all of sigma_t without decomposition). In majorant optical depth s,
+ * tau_r = integral over [0, tau_maj] of f = residual sigma_t / mu_bar_r. With an expansion point
+ * tau_c, exp(-tau_r) = exp(-tau_c) sum_k (tau_c - tau_r)^k / k!; term k is estimated without bias
+ * by exp(-tau_c) X_1 ... X_k / k! with independent X_j of mean tau_c - tau_r, and the series is
+ * truncated by Russian roulette (each term divided by the probability of reaching it).
+ *   pass 0, one walk: the pilot, samples every pilot_spacing of s from a random offset (its
+ *     first one always inside the first non-empty segment), gives tau_maj, the control's optical
+ *     depth tau_ctrl, fbar = mean f and tau_c = max(tau_maj fbar, -tau_ctrl); at the same time an
+ *     independent comb (spacing h = march_spacing, its own offset: E[h sum g(s_i)] = integral g ds
+ *     for any g) gives X_1 = (tau_c - tau_maj fbar) + h sum_i (fbar - f(s_i)), whose mean given
+ *     the pilot is tau_c - tau_r. Where f is constant X_1 = 0 (up to rounding): no variance.
+ *     Russian roulette on the running estimate keeps dense rays cheap (ratio tracking's constants).
+ *   pass k >= 2 (reached with probability q = min(1, max_c |P_c| / P_0,c), P the last term; q = 0
+ *     only when every later term is 0): one walk with N = max(ST_MARCH_MIN_SAMPLES,
+ *     ceil(tau_maj / h)) samples spaced tau_maj / N (stratified), X_k = tau_c - (tau_maj / N) sum f.
+ * Unbiased: given the pilot the X_j are independent with mean tau_c - tau_r, and every roulette
+ * depends on the past only. The estimate is a weighted sum: it can leave [0, 1]. */
+#define ST_MARCH_MIN_SAMPLES 2.0f
+
+/* Starts a transmittance estimate carrying the channels in mask. */
+inline void transmittance_begin(st_trans* tr, float4 mask) {
+  tr->T = mask;
+  tr->tau_c = tr->P = tr->S = tr->acc = tr->acc1 = (float4)(0.0f);
+  tr->s_left = tr->s_left1 = -1.0f;
+  tr->tau_maj = 0.0f;
+  tr->count = tr->count1 = 0u;
+  tr->pass = 0;
+  tr->pad[0] = tr->pad[1] = 0; /* pad[0]: the pilot's first non-empty segment was met */
+}
+
+/* f = residual sigma_t / mu_bar_r at p, per carried channel. */
+inline float4 march_sample(__constant const st_scene* scene, __global const uint* grids, const st_segment* seg, float3 p,
+                           float4 mask, uint* lookups) {
+  return mask * (residual_sigma_t(scene, grids, seg, p, lookups) / seg->mu_bar_r);
+}
+
+/* Runs the estimate of tr along (o, d) (every walk starts at t = 0) for at most `budget` steps
+ * in all. Returns 1 when it is finished (the estimate in tr->T), 0 when the budget is spent (call
+ * again: *t and tr hold where it is). */
+inline int ray_march_transmittance(__constant const st_scene* scene, __global const uint* grids,
+                                   __global const float2* maj, float3 o, float3 d, float* t, st_trans* tr,
+                                   float4 mask, st_rng* rng, int budget, st_track_stats* st) {
+  int left = budget;
+  const float h = scene->march_spacing;
+  for (;;) {
+    const int first = tr->pass == 0;
+    float spacing = first ? scene->pilot_spacing
+                          : tr->tau_maj / fmax(ST_MARCH_MIN_SAMPLES, ceil(tr->tau_maj / h));
+    if (tr->s_left < 0.0f) { /* a walk starts */
+      tr->s_left = rng_uniform(rng) * spacing;
+      tr->acc = (float4)(0.0f);
+      if (first) {
+        tr->s_left1 = rng_uniform(rng) * h;
+        tr->P = mask; /* the pilot's roulette factor */
+      }
+      *t = 0.0f;
+    }
+    st_walker w;
+    walker_begin(scene, maj, &w, o, d, *t, mask, tracker_decomposes(scene), ST_WALK_CONTROL_CLOSED_FORM, left);
+    float4 tau_none = (float4)(0.0f);
+    for (;;) {
+      if (first && !tr->pad[0] && w.mu_bar > 0.0f) { /* the first non-empty segment: the pilot samples it */
+        float rest = (w.seg.t1 - w.t) * w.mu_bar;
+        if (tr->s_left > rest) tr->s_left = rng_uniform(rng) * rest;
+        tr->pad[0] = 1; /* decided once (saved across launches) */
+      }
+      float s = first ? fmin(tr->s_left, tr->s_left1) : tr->s_left;
+      float walked;
+      /* pass 0: tr->S holds the control's optical depth so far */
+      int step = walker_march(scene, maj, &w, s, &walked, first ? &tr->S : &tau_none, &st->dda_steps,
+                              &st->dda_nonempty);
+      if (step == ST_WALK_BUDGET) {
+        *t = w.t;
+        return 0;
+      }
+      if (step == ST_WALK_DONE) break;
+      int hit = step == ST_WALK_COLLISION && tr->s_left <= s;
+      int hit1 = first && step == ST_WALK_COLLISION && tr->s_left1 <= s;
+      if (hit || hit1) {
+        float4 f = march_sample(scene, grids, &w.seg, o + w.t * d, mask, &st->lookups);
+        if (hit) tr->acc += f, tr->count += first ? 1u : 0u;
+        if (hit1) tr->acc1 += f, tr->count1 += 1u;
+      }
+      tr->s_left = hit ? spacing : fmax(tr->s_left - walked, 0.0f);
+      if (!first) continue;
+      tr->s_left1 = hit1 ? h : fmax(tr->s_left1 - walked, 0.0f);
+      tr->tau_maj += walked;
+      /* Russian roulette on the pilot's running estimate (exp of the control's and the ratio-form
+       * residual optical depth so far, clamped at 0 so it cannot overflow; ratio tracking's
+       * constants), its factor kept in P. Any rule that looks only at the past is unbiased. */
+      float4 tau_so_far = tr->count > 0u ? tr->tau_maj * tr->acc / (float)tr->count : (float4)(0.0f);
+      float m = masked_max(tr->P * exp(-fmax(tr->S + tau_so_far, 0.0f)), mask);
+      if (m < 0.05f) {
+        if (m == 0.0f || rng_uniform(rng) < 0.75f) {
+          tr->T = (float4)(0.0f);
+          return 1;
+        }
+        tr->P /= 0.25f;
+      }
+    }
+    left -= w.iter;
+    if (first) {
+      float4 fbar = tr->count > 0u ? tr->acc / (float)tr->count : (float4)(0.0f);
+      /* the expansion point: the ratio form, kept >= -tau_ctrl (the whole optical depth is >= 0),
+       * so P_0 = exp(-(tau_ctrl + tau_c)) <= the roulette factor: no overflow */
+      tr->tau_c = fmax(tr->tau_maj * fbar, -tr->S);
+      tr->T = tr->P * exp(-(tr->S + tr->tau_c)) * mask; /* P_0 */
+      tr->S = tr->T;
+      if (!(tr->tau_maj > 0.0f)) return 1; /* no residual anywhere on the ray: P_0 is exact */
+      /* X_1 = tau_c - (an unbiased estimate of tau_r given the pilot): h sum f over the first
+       * estimate's comb, plus the control variate fbar (tau_maj - h count1), of mean 0 */
+      float4 X = (tr->tau_c - tr->tau_maj * fbar) + h * ((float)tr->count1 * fbar - tr->acc1);
+      tr->P = tr->T * X * mask;
+      tr->pass = 1;
+    } else {
+      tr->P *= (tr->tau_c - spacing * tr->acc) * (mask / (float)tr->pass);
+    }
+    tr->S += tr->P;
+    float4 E = fabs(tr->T);
+    float q = fmin(masked_max(select((float4)(0.0f), fabs(tr->P) / E, E > 0.0f), mask), 1.0f);
+    if (!(q > 0.0f) || rng_uniform(rng) >= q) {
+      tr->T = tr->S;
       return 1;
     }
-    if (iter >= budget) {
-      *t = seg.t;
-      return 0;
-    }
-    float tc = comp.bar_r > 0.0f ? seg.t + sample_exponential(rng_uniform(rng), comp.bar_r) : INFINITY;
-    float t_to = fmin(tc, seg.end);
-    if (decompose) *T *= exp(-(comp.ca + comp.cs) * (t_to - seg.t)) * mask;
-    int segment_end = !(tc < seg.end);
-    if (segment_end) {
-      st->dda_steps += segments_next(scene, maj, &seg, &st->dda_nonempty);
-      comp = segment_components(scene, &seg, mask, decompose);
-    } else {
-      seg.t = tc;
-      st_coeffs c = scene_coeffs(scene, grids, o + tc * d, &st->lookups);
-      float4 residual = c.sigma_a + c.sigma_s - comp.ca - comp.cs;
-      *T *= mask * ((comp.bar_r - residual) / comp.bar_r);
-    }
-    /* Russian roulette after every update of the estimate (also after the closed-form control
-     * factor, which can make T tiny without any lookup) */
-    float m = masked_max(fabs(*T), mask);
-    if (m < 0.05f) {
-      if (m == 0.0f || rng_uniform(rng) < 0.75f) {
-        *T = (float4)(0.0f);
-        *t = seg.t;
-        return 1;
-      }
-      *T /= 0.25f;
-    }
+    tr->P /= q;
+    tr->pass += 1;
+    tr->s_left = -1.0f;
+    *t = 0.0f;
+    if (left <= 0) return 0;
   }
+}
+
+/* The scene's transmittance estimator along (o, d) from t = 0 (the ray's origin; *t is where a
+ * resumed estimate is), per carried channel; tr from transmittance_begin. Returns 1 when finished (the estimate in tr->T), 0 when the budget is
+ * spent (call again). */
+inline int transmittance_estimate(__constant const st_scene* scene, __global const uint* grids,
+                                  __global const float2* maj, float3 o, float3 d, float* t, st_trans* tr,
+                                  float4 mask, st_rng* rng, int budget, st_track_stats* st) {
+  if (scene->transmittance == ST_TRANSMITTANCE_RAY_MARCHING)
+    return ray_march_transmittance(scene, grids, maj, o, d, t, tr, mask, rng, budget, st);
+  float4 T = tr->T;
+  int done = ratio_track(scene, grids, maj, o, d, t, &T, mask, rng, budget, st);
+  tr->T = T;
+  return done;
 }
 
 #endif

@@ -3,9 +3,9 @@
  * Design: one header, compiled by both sides, is the only place where an enum value or a struct
  * layout is written down. Vectors are st_float4 (16 bytes, 16-aligned on both sides; .w is
  * padding unless a comment says otherwise); there are no float3 fields (their size differs between
- * OpenCL and C++). The host static_asserts every struct size in src/cl/types_check.cpp and the
- * device checks the same sizes through st_check_sizes() in kernels (a negative array size fails
- * the build), so a layout drift fails at compile time on both sides.
+ * OpenCL and C++). The end of this file checks every struct size against its ST_SIZEOF_*: the
+ * host with static_assert, the device with st_check_* typedefs (a negative array size fails the
+ * kernel build), so a layout drift fails at compile time on both sides.
  *
  * Names follow the physics: sigma_a, sigma_s (per unit density), beta (path throughput weight),
  * dmax / dmin (per-cell density majorant / minorant).
@@ -34,22 +34,66 @@ typedef uint64_t st_ulong;
 #define ST_NO_GRID 0xffffffffu
 #define ST_MAX_BATCHES_IN_FLIGHT 8 /* ring of batch result buffers (work distribution) */
 
-/* ---- enums: one definition; names for the CLI/scene live in src/scene/names.cpp ---- */
-enum st_tracker {
-  ST_TRACKER_DELTA_PER_CHANNEL = 0,
-  ST_TRACKER_DELTA = 1,
-  ST_TRACKER_SPECTRAL = 2,
-  ST_TRACKER_DECOMPOSITION = 3,
-  ST_TRACKER_SPECTRAL_DECOMPOSITION = 4,
-  ST_TRACKER_COUNT = 5
-};
-enum st_scheme {
-  ST_SCHEME_MAX = 0,
-  ST_SCHEME_AVERAGE = 1,
-  ST_SCHEME_HISTORY_MAX = 2,
-  ST_SCHEME_HISTORY_AVERAGE = 3,
-  ST_SCHEME_COUNT = 4
-};
+/* ---- enums: one definition each; the user-facing names are in the tables below ---- */
+
+/* How a real collision treats absorption (tracking.h): X(ENUM suffix, name).
+ *   event:  absorption is an event that ends the path (P_a > 0), emission scored there; the
+ *           paper's analog baselines;
+ *   weight: real collisions always scatter (P_a = 0, paper 5.1.3), beta takes the albedo,
+ *           emission is scored at every real collision, paths end by Russian roulette. */
+#define ST_ABSORPTIONS(X) X(EVENT, "event") X(WEIGHT, "weight")
+#define ST_X_ABSORPTION_ENUM(E, name) ST_ABSORPTION_##E,
+enum st_absorption { ST_ABSORPTIONS(ST_X_ABSORPTION_ENUM) ST_ABSORPTION_COUNT };
+
+/* Which lights next-event estimation samples at a scatter event (scatter.cl): X(ENUM suffix, name).
+ *   all:     one shadow ray to every light;
+ *   uniform: one light, each with the same probability (pbrt-v4's BVH light sampler does this
+ *            for lights at infinity), the contribution divided by that probability;
+ *   power:   one light, chosen in proportion to its power (pbrt-v4's PowerLightSampler: the
+ *            radiance it would send to a point with no medium around it).
+ * MIS with phase sampling takes the probability of the choice into the light's pdf. */
+#define ST_LIGHT_SAMPLINGS(X) X(ALL, "all") X(UNIFORM, "uniform") X(POWER, "power")
+#define ST_X_LIGHT_SAMPLING_ENUM(E, name) ST_LIGHT_SAMPLING_##E,
+enum st_light_sampling { ST_LIGHT_SAMPLINGS(ST_X_LIGHT_SAMPLING_ENUM) ST_LIGHT_SAMPLING_COUNT };
+
+/* The transmittance estimator of shadow rays (and of every other transmittance; tracking.h):
+ * X(ENUM suffix, name).
+ *   ratio:        (residual) ratio tracking, one lookup per tentative collision;
+ *   ray-marching: the unbiased ray-marching estimator of Kettunen et al. 2021 (docs/transmittance.md):
+ *                 a power series of exp(-tau) around a pilot estimate, each power from
+ *                 stratified ray-marched estimates of tau, the series truncated by Russian roulette. */
+#define ST_TRANSMITTANCES(X) X(RATIO, "ratio") X(RAY_MARCHING, "ray-marching")
+#define ST_X_TRANSMITTANCE_ENUM(E, name) ST_TRANSMITTANCE_##E,
+enum st_transmittance_mode { ST_TRANSMITTANCES(ST_X_TRANSMITTANCE_ENUM) ST_TRANSMITTANCE_COUNT };
+
+/* The trackers, as one table that the host (names, settings, feature mask) and the kernels
+ * (tracking.h) read: X(ENUM suffix, CLI/scene name, colour channels traced per sample (one path
+ * each), needs achromatic media, uses the spectral scheme, decomposes into control + residual,
+ * default st_absorption). Enum values follow the table's order. */
+#define ST_TRACKERS(X)                                                                  \
+  X(DELTA_PER_CHANNEL, "delta-per-channel", 3, 0, 0, 0, ST_ABSORPTION_EVENT)            \
+  X(DELTA, "delta", 1, 1, 0, 0, ST_ABSORPTION_EVENT)                                    \
+  X(SPECTRAL, "spectral", 1, 0, 1, 0, ST_ABSORPTION_WEIGHT)                             \
+  X(DECOMPOSITION, "decomposition", 3, 0, 0, 1, ST_ABSORPTION_WEIGHT)                   \
+  X(SPECTRAL_DECOMPOSITION, "spectral-decomposition", 1, 0, 1, 1, ST_ABSORPTION_WEIGHT)
+#define ST_X_TRACKER_ENUM(E, name, ch, achromatic, scheme, decomposes, absorption) ST_TRACKER_##E,
+enum st_tracker { ST_TRACKERS(ST_X_TRACKER_ENUM) ST_TRACKER_COUNT };
+#define ST_X_TRACKER_CHANNELS(E, name, ch, achromatic, scheme, decomposes, absorption) (t == ST_TRACKER_##E) ? ch :
+#define ST_X_TRACKER_ACHROMATIC(E, name, ch, achromatic, scheme, decomposes, absorption) (t == ST_TRACKER_##E) ? achromatic :
+#define ST_X_TRACKER_SCHEME(E, name, ch, achromatic, scheme, decomposes, absorption) (t == ST_TRACKER_##E) ? scheme :
+#define ST_X_TRACKER_DECOMPOSES(E, name, ch, achromatic, scheme, decomposes, absorption) (t == ST_TRACKER_##E) ? decomposes :
+#define ST_X_TRACKER_ABSORPTION(E, name, ch, achromatic, scheme, decomposes, absorption) (t == ST_TRACKER_##E) ? absorption :
+inline int st_tracker_channels(int t) { return ST_TRACKERS(ST_X_TRACKER_CHANNELS) 1; }
+inline int st_tracker_achromatic_only(int t) { return ST_TRACKERS(ST_X_TRACKER_ACHROMATIC) 0; }
+inline int st_tracker_uses_scheme(int t) { return ST_TRACKERS(ST_X_TRACKER_SCHEME) 0; }
+inline int st_tracker_decomposes(int t) { return ST_TRACKERS(ST_X_TRACKER_DECOMPOSES) 0; }
+inline int st_tracker_default_absorption(int t) { return ST_TRACKERS(ST_X_TRACKER_ABSORPTION) ST_ABSORPTION_EVENT; }
+
+/* Spectral schemes (ALGORITHMS.md 4): X(ENUM suffix, name). */
+#define ST_SCHEMES(X) X(MAX, "max") X(AVERAGE, "average") X(HISTORY_MAX, "history-max") X(HISTORY_AVERAGE, "history-average")
+#define ST_X_SCHEME_ENUM(E, name) ST_SCHEME_##E,
+enum st_scheme { ST_SCHEMES(ST_X_SCHEME_ENUM) ST_SCHEME_COUNT };
+
 enum st_camera_type { ST_CAMERA_PERSPECTIVE = 0, ST_CAMERA_ORTHOGRAPHIC = 1 };
 enum st_light_type { ST_LIGHT_ENV_UNIFORM = 0, ST_LIGHT_ENV_MAP = 1, ST_LIGHT_DIRECTIONAL = 2 };
 enum st_medium_type { ST_MEDIUM_VDB = 0, ST_MEDIUM_HOMOGENEOUS = 1 };
@@ -76,36 +120,62 @@ enum st_feature {
 };
 
 /* Queues of the wavefront. Each stage reads the current buffer of its queue and pushes into the
- * next buffers; the host swaps them once per iteration. */
+ * next buffers; the host swaps them once per iteration. The queues before ST_Q_SHADOW hold path
+ * slots (capacity Q each); ST_Q_SHADOW holds shadow-ray ids (capacity Q * lights). */
 enum st_queue {
-  ST_Q_FREE = 0,    /* free path slots (raygen input) */
+  ST_Q_FREE = 0,    /* free path slots (raygen input): one stack, not two buffers (queues.h free_push) */
   ST_Q_TRACK = 1,   /* paths to track (free-flight sampling) */
   ST_Q_ESCAPE = 2,  /* paths that left every medium (shade: environment and sun) */
   ST_Q_SCATTER = 3, /* paths at a real scattering event (NEE + phase sampling) */
   ST_Q_FINISH = 4,  /* finished paths (write the sample once its shadow rays are done) */
-  ST_Q_SHADOW = 5,  /* shadow rays (transmittance by ratio tracking); capacity slots * ST_MAX_LIGHTS */
-  ST_Q_COUNT = 6
+  ST_Q_SHADOW = 5,  /* shadow rays (transmittance by ratio tracking); capacity slots * lights */
+  ST_Q_COUNT = 6,
+  ST_Q_PATH_QUEUES = ST_Q_SHADOW /* queues of path slots */
 };
 
-/* Statistic counters, accumulated on the device per iteration (32-bit) and summed on the host
- * into 64-bit totals. */
+/* Statistic counters that the device sums per iteration (32-bit) and the host adds into 64-bit
+ * totals: X(ENUM suffix, RenderStats field, --stats-json key). The one list behind the enum, the
+ * host's fold and the JSON names (Cycles' state_template.h pattern). */
+#define ST_SUM_COUNTERS(X)                                         \
+  X(LOOKUPS_TRACK, lookups_track, "density_lookups_tracking")      \
+  X(LOOKUPS_SHADOW, lookups_shadow, "density_lookups_shadow")      \
+  X(LOOKUPS_EMISSION, lookups_emission, "emission_lookups")        \
+  X(REAL_COLLISIONS, real_collisions, "real_collisions")           \
+  X(NULL_COLLISIONS, null_collisions, "null_collisions")           \
+  X(CONTROL_COLLISIONS, control_collisions, "control_collisions")  \
+  X(RESIDUAL_COLLISIONS, residual_collisions, "residual_collisions") \
+  X(SCATTER_EVENTS, scatter_events, "scatter_events")              \
+  X(DDA_STEPS, dda_steps, "dda_steps")                             \
+  X(DDA_NONEMPTY, dda_nonempty, "dda_steps_nonempty")              \
+  X(REQUEUES, requeues, "requeues")                                \
+  X(NONFINITE, nonfinite_samples, "nonfinite_samples")
+#define ST_X_COUNTER_ENUM(E, field, key) ST_C_##E,
+/* The counter buffer: queue sizes, finished paths per batch ring slot, the sums, the maximum. */
 enum st_counter {
-  ST_C_QUEUE = 0,                        /* ST_Q_COUNT entries: sizes of the next queues */
+  ST_C_QUEUE = 0,                            /* ST_Q_COUNT entries: sizes of the next queues */
   ST_C_BATCH_DONE = ST_C_QUEUE + ST_Q_COUNT, /* ST_MAX_BATCHES_IN_FLIGHT entries: finished paths per ring slot */
-  ST_C_LOOKUPS_TRACK = ST_C_BATCH_DONE + ST_MAX_BATCHES_IN_FLIGHT, /* density lookups by tracking */
-  ST_C_LOOKUPS_SHADOW,                   /* density lookups by shadow rays */
-  ST_C_LOOKUPS_EMISSION,                 /* emission-grid lookups */
-  ST_C_REAL_COLLISIONS,                  /* absorption + scattering events */
-  ST_C_NULL_COLLISIONS,
-  ST_C_CONTROL_COLLISIONS,
-  ST_C_RESIDUAL_COLLISIONS,
-  ST_C_DDA_STEPS,
-  ST_C_REQUEUES,                         /* items that used up their launch budget */
-  ST_C_NONFINITE,                        /* samples dropped because they were NaN or Inf */
-  ST_C_MAX_THROUGHPUT_BITS,              /* float bits of the largest beta component (atomic_max) */
-  ST_C_SCATTER_EVENTS,
-  ST_C_DDA_NONEMPTY,                     /* DDA steps that entered a cell with a non-zero majorant */
+  ST_C_SUMS_ANCHOR = ST_C_BATCH_DONE + ST_MAX_BATCHES_IN_FLIGHT - 1, /* the sums follow */
+  ST_SUM_COUNTERS(ST_X_COUNTER_ENUM)
+  ST_C_MAX_THROUGHPUT_BITS,                  /* float bits of the largest beta component (atomic_max) */
   ST_C_COUNT
+};
+
+/* Arguments of every stage kernel, in order (kernels/queues.h ST_STAGE_ARGS spells the same list;
+ * the host binds by these names). The last one, st_iteration, changes every iteration. */
+enum st_stage_arg {
+  ST_ARG_SCENE = 0,
+  ST_ARG_GRIDS,
+  ST_ARG_MAJORANTS,
+  ST_ARG_ENV,
+  ST_ARG_PATHS,
+  ST_ARG_SHADOWS,
+  ST_ARG_QUEUES,
+  ST_ARG_COUNTERS,
+  ST_ARG_RESULTS,
+  ST_ARG_SLOTS,      /* Q: path slots */
+  ST_ARG_LIGHTS,     /* NL: shadow-ray slots per path */
+  ST_ARG_ITERATION,  /* st_iteration */
+  ST_ARG_COUNT
 };
 
 /* One participating medium as the kernels see it. Coefficients are per unit density and already
@@ -130,7 +200,7 @@ typedef struct {
   st_int emissive;             /* 1 if Le != 0 */
   st_int maj_block;            /* fine cells per coarse-block edge of the two-level grid; 0: one level */
   st_uint maj_coarse_offset;   /* first coarse block in the majorant buffer (float2: dmax, dmin over the block) */
-  st_int pad;                  /* coarse blocks per axis: ceil(maj_dims / maj_block) */
+  st_int pad;                  /* padding to ST_SIZEOF_MEDIUM (unused; 0) */
 } st_medium;
 
 typedef struct {
@@ -155,7 +225,9 @@ typedef struct {
   st_uint cdf_offset;   /* float: marginal cdf (height+1) then conditional cdfs (height*(width+1)) */
   st_int map_width, map_height;
   float map_integral;   /* integral of luminance * sin(theta) over the map's (u,v) domain */
-  st_int pad[3];
+  float select_pmf;     /* probability that next-event estimation picks this light (1 with light sampling "all") */
+  float select_cdf;     /* power light sampling: sum of select_pmf over lights 0..this one */
+  st_int pad;
 } st_light;
 
 /* Everything the kernels need about the scene and the render, in one __constant block. */
@@ -176,7 +248,11 @@ typedef struct {
   st_int has_env;               /* any environment light */
   st_int chromatic;             /* any medium with channel-dependent coefficients */
   st_int batches_in_flight;     /* ring size: batch b uses ring slot b % batches_in_flight */
-  st_int pad;
+  st_int absorption;            /* st_absorption (event: 0, the layout's former padding) */
+  st_int light_sampling;        /* st_light_sampling */
+  st_int transmittance;         /* st_transmittance_mode */
+  float march_spacing;          /* ray-marching: majorant optical depth between the samples of one estimate */
+  float pilot_spacing;          /* ray-marching: the same for the pilot estimate (the expansion point) */
 } st_scene;
 
 /* Path state, one slot per path in flight. */
@@ -198,25 +274,58 @@ typedef struct {
   st_uint pad[3];
 } st_path;
 
+/* A transmittance estimate in progress, resumable across launches (tracking.h). Ratio tracking
+ * uses T only; ray marching (docs/transmittance.md) walks the ray once for the pilot and the
+ * first estimate together (pass 0) and once more for each further term of the series. */
+typedef struct {
+  st_float4 T;        /* ratio: running estimate; ray marching: P_0 = exp(-(tau_ctrl + tau_c)), then the estimate */
+  st_float4 tau_c;    /* ray marching: the expansion point (residual optical depth from the pilot) */
+  st_float4 P;        /* ray marching: the current term, divided by the probability of reaching it (pass 0: the roulette factor) */
+  st_float4 S;        /* ray marching: the sum of the terms so far (pass 0: the control's optical depth so far) */
+  st_float4 acc;      /* ray marching: pass 0: the pilot's sum of sigma / mu_bar; later: the pass's */
+  st_float4 acc1;     /* ray marching: pass 0: the first estimate's sum of sigma / mu_bar */
+  float s_left;       /* ray marching: majorant optical depth to the next pilot (later: pass) sample; < 0: not started */
+  float s_left1;      /* ray marching: pass 0: the same for the first estimate's samples */
+  float tau_maj;      /* ray marching: the residual majorant's optical depth along the ray (pass 0) */
+  st_uint count;      /* ray marching: pass 0: pilot samples */
+  st_uint count1;     /* ray marching: pass 0: first-estimate samples */
+  st_int pass;        /* ray marching: 0 the pilot and term 1, k >= 2 term k */
+  st_int pad[2];      /* pad[0]: ray marching, pass 0: the first non-empty segment was met; pad[1]: 0 */
+} st_trans;
+
 /* Shadow ray: slot * ST_MAX_LIGHTS + light. */
 typedef struct {
   st_float4 o;        /* xyz origin; w: t reached */
   st_float4 d;        /* xyz unit direction */
   st_float4 weight;   /* contribution if the transmittance were 1 */
-  st_float4 T;        /* running transmittance estimate per channel */
   st_float4 Ls;       /* this light's contributions gathered over the path's bounces */
+  st_trans tr;        /* the transmittance estimate */
   st_uint rng_draw;
   st_uint stream;     /* random stream id (bounce, light) */
   st_uint slot;       /* owning path slot */
   st_uint pad;
 } st_shadow;
 
+/* What changes from one iteration of the stage loop to the next (one by-value kernel argument). */
+typedef struct {
+  st_ulong first;              /* raygen: index of the first new path over the whole render */
+  st_uint cur;                 /* parity of the queue buffers read this iteration */
+  st_uint n_queue[ST_Q_COUNT]; /* items in each queue's current buffer */
+  st_uint n_new;               /* raygen: new camera paths, from the top of the free stack (queues.h free_push) */
+  st_uint batch_paths;         /* paths per batch of samples */
+  st_uint sample_begin;        /* first sample index of the render (shards) */
+  st_uint samples_per_batch;
+  st_uint pad[3];
+} st_iteration;
+
 #define ST_SIZEOF_MEDIUM 176
 #define ST_SIZEOF_CAMERA 80
 #define ST_SIZEOF_LIGHT 80
-#define ST_SIZEOF_SCENE (ST_SIZEOF_CAMERA + ST_MAX_LIGHTS * ST_SIZEOF_LIGHT + ST_MAX_MEDIA * ST_SIZEOF_MEDIUM + 64)
+#define ST_SIZEOF_SCENE (ST_SIZEOF_CAMERA + ST_MAX_LIGHTS * ST_SIZEOF_LIGHT + ST_MAX_MEDIA * ST_SIZEOF_MEDIUM + 80)
 #define ST_SIZEOF_PATH 128
-#define ST_SIZEOF_SHADOW 96
+#define ST_SIZEOF_TRANS 128
+#define ST_SIZEOF_SHADOW 208
+#define ST_SIZEOF_ITERATION 64
 
 #ifdef __OPENCL_VERSION__
 typedef char st_check_medium[(sizeof(st_medium) == ST_SIZEOF_MEDIUM) ? 1 : -1];
@@ -224,14 +333,18 @@ typedef char st_check_camera[(sizeof(st_camera) == ST_SIZEOF_CAMERA) ? 1 : -1];
 typedef char st_check_light[(sizeof(st_light) == ST_SIZEOF_LIGHT) ? 1 : -1];
 typedef char st_check_scene[(sizeof(st_scene) == ST_SIZEOF_SCENE) ? 1 : -1];
 typedef char st_check_path[(sizeof(st_path) == ST_SIZEOF_PATH) ? 1 : -1];
+typedef char st_check_trans[(sizeof(st_trans) == ST_SIZEOF_TRANS) ? 1 : -1];
 typedef char st_check_shadow[(sizeof(st_shadow) == ST_SIZEOF_SHADOW) ? 1 : -1];
+typedef char st_check_iteration[(sizeof(st_iteration) == ST_SIZEOF_ITERATION) ? 1 : -1];
 #else
 static_assert(sizeof(st_medium) == ST_SIZEOF_MEDIUM, "st_medium layout");
 static_assert(sizeof(st_camera) == ST_SIZEOF_CAMERA, "st_camera layout");
 static_assert(sizeof(st_light) == ST_SIZEOF_LIGHT, "st_light layout");
 static_assert(sizeof(st_scene) == ST_SIZEOF_SCENE, "st_scene layout");
 static_assert(sizeof(st_path) == ST_SIZEOF_PATH, "st_path layout");
+static_assert(sizeof(st_trans) == ST_SIZEOF_TRANS, "st_trans layout");
 static_assert(sizeof(st_shadow) == ST_SIZEOF_SHADOW, "st_shadow layout");
+static_assert(sizeof(st_iteration) == ST_SIZEOF_ITERATION, "st_iteration layout");
 #endif
 
 #endif /* SPECTRACK_TYPES_H */

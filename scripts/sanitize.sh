@@ -26,7 +26,7 @@ echo "sanitize: built build-asan/ in $(( $(date +%s) - start )) s"
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 HOST='^(SceneTest|SceneNames|VolumeLoad|VolumeErrors|VolumeSample|VolumeMajorant|VolumeNanoVdb)\.'
-DEVICE='^(Render|ProfileVolume|Estimators|Volume|CliSceneErrors|CliFlags|CliDevices|CliRender|CliInterrupt|CliShards|CliShardFlags|CliMerge|CliMultiDevice|OpenCL)\.'
+DEVICE='^(Render|ProfileVolume|Estimators|Volume|CliSceneErrors|CliFlags|CliDevices|CliRender|CliInterrupt|CliHostileImages|CliHostileRadiance|CliHostileFiles|CliHostileOutputs|CliShards|CliShardFlags|CliMerge|CliMultiDevice|OpenCL)\.'
 cd build-asan
 status=0
 start=$(date +%s)
@@ -35,8 +35,18 @@ ctest --output-on-failure -j "${TEST_JOBS:-2}" -R "$HOST" --no-tests=error "$@" 
 echo "sanitize: host-side suites took $(( $(date +%s) - start )) s"
 start=$(date +%s)
 echo "sanitize: kernel suites on PoCL (suppressions: tests/asan.supp, tests/lsan.supp)"
-ASAN_OPTIONS="$ASAN_OPTIONS:suppressions=$ROOT/tests/asan.supp" LSAN_OPTIONS="suppressions=$ROOT/tests/lsan.supp" \
-  ctest --output-on-failure -j "${TEST_JOBS:-2}" -R "$DEVICE" --no-tests=error "$@" || status=1
+# use_sigaltstack=0: PoCL's LLVM installs its own alternate signal stack (malloc'd, 64 KiB +
+# MINSIGSTKSZ, llvm/lib/Support/Unix/Signals.inc) in every thread that compiles a kernel; when such
+# a thread ends (one host thread per device with --device 0:0,0:0), GCC 12's ASan unmaps the
+# registered stack as if it were its own and aborts with "failed to deallocate ... unable to
+# unmap" (google/sanitizers#1152, fixed upstream in llvm/llvm-project#179000). Without ASan's own
+# alternate stack a stack overflow is still reported, only as a plain SEGV.
+# --repeat until-pass:2: LeakSanitizer's exit-time check can itself crash ("Tracer caught signal
+# 11 ... LeakSanitizer has encountered a fatal error") when it stops the world while PoCL's worker
+# threads are being torn down; seen once in ~80 kernel tests after the test had passed. A test that
+# fails both times (any real sanitizer report reproduces: the inputs are fixed) still fails.
+ASAN_OPTIONS="$ASAN_OPTIONS:use_sigaltstack=0:suppressions=$ROOT/tests/asan.supp" LSAN_OPTIONS="suppressions=$ROOT/tests/lsan.supp" \
+  ctest --output-on-failure -j "${TEST_JOBS:-2}" -R "$DEVICE" --no-tests=error --repeat until-pass:2 "$@" || status=1
 echo "sanitize: kernel suites took $(( $(date +%s) - start )) s"
 [ $status -eq 0 ] && echo "sanitize: clean" || echo "sanitize: FAILED (sanitizer report or test failure above)" >&2
 exit $status

@@ -17,7 +17,13 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "image/image.h"
+#include "scene/radiance.h"
 #include "scene/scene.h"
+#include "util/files.h"
+#include "volume/volume.h"
+
+#include <sys/stat.h>
 
 namespace spectrack {
 namespace {
@@ -534,7 +540,7 @@ TEST_F(SceneTest, UnknownFieldInSections) {
   EXPECT_SCENE_ERROR(j, "/film/samples", "unknown field");
   j = example();
   j["render"]["scheme"] = "max";
-  EXPECT_SCENE_ERROR(j, "/render/scheme", "unknown field (expected one of: tracker, spectral_scheme, max_depth, seed)");
+  EXPECT_SCENE_ERROR(j, "/render/scheme", "unknown field (expected one of: tracker, spectral_scheme, absorption, light_sampling, transmittance, max_depth, seed, time_limit)");
 }
 
 TEST_F(SceneTest, UnknownFieldInArrays) {
@@ -695,6 +701,20 @@ TEST_F(SceneTest, UnknownTypeNames) {
   j = example();
   j["render"]["spectral_scheme"] = "min";
   EXPECT_SCENE_ERROR(j, "/render/spectral_scheme", "(expected one of: " + scheme_names() + ")");
+  j = example();
+  j["render"]["absorption"] = "russian";
+  EXPECT_SCENE_ERROR(j, "/render/absorption", "unknown absorption mode \"russian\" (expected one of: event, weight)");
+  j = example();
+  j["render"]["absorption"] = 1;
+  EXPECT_SCENE_ERROR(j, "/render/absorption", "");
+  j = example();
+  j["render"]["light_sampling"] = "random";
+  EXPECT_SCENE_ERROR(j, "/render/light_sampling",
+                     "unknown light sampling \"random\" (expected one of: all, uniform, power)");
+  j = example();
+  j["render"]["light_sampling"] = "power";
+  EXPECT_EQ(parse(j).render.light_sampling, ST_LIGHT_SAMPLING_POWER);
+  EXPECT_EQ(parse(example()).render.light_sampling, -1) << "not given: the default (settings.h)";
   j = example();
   j["camera"]["type"] = "fisheye";
   EXPECT_SCENE_ERROR(j, "/camera/type", "unknown camera type \"fisheye\"");
@@ -914,6 +934,158 @@ TEST_F(SceneTest, ErrorsInsideAMediumNameIt) {
   j = example();
   j["film"]["spp"] = 0;
   EXPECT_THAT(error(j), testing::Not(HasSubstr("in medium")));
+}
+
+// ---- hostile inputs (issue 16): magnitudes the float kernels cannot carry, files that are not
+// files, images that would be misread, paths that collide ----
+
+TEST_F(SceneTest, LightMagnitudesThatOverflowFloatAreRefused) {
+  json j = example();
+  j["lights"] = json::array({{{"type", "directional"}, {"to_light", {0, 1, 0}}, {"irradiance", {1e38, 1, 1}}}});
+  EXPECT_SCENE_ERROR(j, "/lights/0/irradiance", "value 1e+38 is too large");
+  j["lights"] = json::array({{{"type", "environment"}, {"radiance", {1, 3e38, 1}}}});
+  EXPECT_SCENE_ERROR(j, "/lights/0/radiance", "value 3e+38 is too large");
+  j["lights"] = json::array({{{"type", "environment"}, {"radiance", {1e19, 1, 1}}}});  // 4 pi x 1e19 > 1e20
+  EXPECT_SCENE_ERROR(j, "/lights/0/radiance", "too large");
+  j["lights"] = json::array({{{"type", "environment"}, {"map", "sky.exr"}, {"scale", 1e30}}});
+  EXPECT_SCENE_ERROR(j, "/lights/0/scale", "value 1e+30 is more than 1e+20");
+  // a disc's radiance is irradiance / (pi sin^2(angle / 2)): a tiny disc overflows it, and its pdf
+  j["lights"] = json::array({{{"type", "directional"}, {"to_light", {0, 1, 0}}, {"irradiance", {1e10, 1, 1}},
+                              {"angle_deg", 1e-4}}});
+  EXPECT_SCENE_ERROR(j, "/lights/0/irradiance", "is a radiance of");
+  j["lights"] = json::array({{{"type", "directional"}, {"to_light", {0, 1, 0}}, {"angle_deg", 1e-12}}});
+  EXPECT_SCENE_ERROR(j, "/lights/0/angle_deg", "too small");
+  // a delta sun's bound includes the scene's sharpest phase function
+  j = example();
+  j["lights"] = json::array({{{"type", "directional"}, {"to_light", {0, 1, 0}}, {"irradiance", {1e16, 1, 1}}}});
+  j["media"][0]["phase"] = {{"type", "hg"}, {"g", 0.999}};
+  EXPECT_SCENE_ERROR(j, "/lights/0/irradiance", "largest phase-function value");
+  j["media"][0]["phase"] = {{"type", "isotropic"}};
+  EXPECT_NO_THROW(parse(j));
+}
+
+TEST_F(SceneTest, EmissionThatOverflowsFloatIsRefused) {
+  json j = example();
+  j["media"][0]["emission"] = {{"radiance", {1e19, 1, 1}}, {"scale", 100}};
+  EXPECT_SCENE_ERROR(j, "/media/0/emission", "radiance x scale = 1e+21");
+  // the product density x sigma_a x Le, once the grids' largest values are known
+  MediumDesc m;
+  m.name = "hot";
+  m.sigma_a = {2, 1, 1};
+  m.emission.present = true;
+  m.emission.radiance = {1e10, 1, 1};
+  EXPECT_NO_THROW(check_emission_bounds("s.json: /media/0", m, 1e3, 1e3));
+  EXPECT_THAT([&] { try { check_emission_bounds("s.json: /media/0", m, 1e20, 1.0); } catch (const Error& e) { return std::string(e.what()); } return std::string(); }(),
+              StartsWith("s.json: /media/0/emission: sigma_a x density_scale x the density grid's largest value"));
+  EXPECT_THAT([&] { try { check_emission_bounds("s.json: /media/0", m, 1.0, 1e11); } catch (const Error& e) { return std::string(e.what()); } return std::string(); }(),
+              HasSubstr("the emission grid's largest value"));
+}
+
+TEST_F(SceneTest, HgAsymmetryThatRoundsToOneInFloatIsRefused) {
+  json j = example();
+  j["media"][0]["phase"] = {{"type", "hg"}, {"g", 0.99999999999}};
+  EXPECT_SCENE_ERROR(j, "/media/0/phase/g", "rounds to 1 in single precision");
+  j["media"][0]["phase"]["g"] = -0.999999999;
+  EXPECT_SCENE_ERROR(j, "/media/0/phase/g", "rounds to -1");
+  j["media"][0]["phase"]["g"] = 0.9999;
+  EXPECT_NO_THROW(parse(j));
+}
+
+TEST_F(SceneTest, LargeButRepresentableLightsAreAccepted) {
+  json j = example();
+  j["lights"] = json::array({{{"type", "environment"}, {"radiance", {1e18, 1e18, 1e18}}},
+                             {{"type", "directional"}, {"to_light", {0, 1, 0}}, {"irradiance", {1e17, 1, 1}}},
+                             {{"type", "directional"}, {"to_light", {1, 1, 0}}, {"angle_deg", 0.53}}});
+  EXPECT_NO_THROW(parse(j));
+}
+
+TEST_F(SceneTest, InputsThatAreNotRegularFilesAreRefused) {
+  const fs::path fifo = dir_ / "pipe.vdb";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  json j = example();
+  j["media"][0]["file"] = "pipe.vdb";
+  EXPECT_SCENE_ERROR(j, "/media/0/file", "is a FIFO (named pipe), not a regular file");
+  j = example();
+  j["lights"][0] = {{"type", "environment"}, {"map", "/dev/zero"}};
+  EXPECT_SCENE_ERROR(j, "/lights/0/map", "/dev/zero: is a character device");
+  // the loaders refuse them too, whoever calls them
+  EXPECT_THAT([&] { try { load_float_grid(fifo.string(), "density", -1, "ctx"); } catch (const Error& e) { return std::string(e.what()); } return std::string(); }(),
+              HasSubstr("ctx: " + fifo.string() + ": is a FIFO"));
+  EXPECT_THROW(read_image(fifo.string()), Error);
+  try {
+    load_scene("/dev/zero");
+    ADD_FAILURE() << "/dev/zero accepted as a scene";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), StartsWith("/dev/zero: is a character device"));
+  }
+}
+
+// OpenEXR allocates what a header attribute claims before it finds the file short: read_image
+// walks the header first (a fuzz finding: a "capDate" string claiming 1.9 GB made OpenEXR allocate it)
+TEST_F(SceneTest, DamagedExrHeaderIsRefusedBeforeOpenExrReadsIt) {
+  const std::string good = (dir_ / "good.exr").string();
+  write_image(good, 4, 2, std::vector<float>(4 * 2 * 3, 0.5f), {{"spectrack:spp", 3}});
+  RgbImage img = read_image(good);
+  EXPECT_EQ(img.width, 4);
+  EXPECT_EQ(img.height, 2);
+  std::ifstream in(good, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  // the first attribute is "channels" of type "chlist"; its size follows the two names
+  const size_t size_at = bytes.find("chlist");
+  ASSERT_NE(size_at, std::string::npos);
+  auto damaged = [&](const std::string& name, std::string b) {
+    const std::string p = (dir_ / name).string();
+    std::ofstream(p, std::ios::binary) << b;
+    try {
+      read_image(p);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  std::string b = bytes;
+  b[size_at + 7] = '\x00', b[size_at + 8] = '\x00', b[size_at + 9] = '\x00', b[size_at + 10] = '\x73';  // 1.9 GB
+  EXPECT_THAT(damaged("huge.exr", b), StartsWith((dir_ / "huge.exr").string() +
+                                                 ": damaged OpenEXR header: attribute 'channels' (chlist) claims"));
+  b = bytes;
+  b[size_at + 10] = '\x80';  // negative
+  EXPECT_THAT(damaged("negative.exr", b), HasSubstr("attribute 'channels' (chlist) claims -"));
+  EXPECT_THAT(damaged("cut.exr", bytes.substr(0, size_at + 2)), HasSubstr("damaged OpenEXR header: the file ends inside"));
+  b = bytes;
+  b[5] |= 0x10;  // the multi-part flag on a single-part file: refused, by the walk or by OpenEXR
+  EXPECT_THAT(damaged("parts.exr", b), StartsWith((dir_ / "parts.exr").string() + ": "));
+}
+
+TEST_F(SceneTest, ReadInputFileStopsAtItsBound) {
+  const fs::path f = dir_ / "ten.json";
+  std::ofstream(f) << "0123456789";
+  EXPECT_EQ(read_input_file(f.string(), "", 10), "0123456789");
+  EXPECT_THAT([&] { try { read_input_file(f.string(), "ctx", 9); } catch (const Error& e) { return std::string(e.what()); } return std::string(); }(),
+              StartsWith("ctx: " + f.string() + ": is 10 bytes, more than the 9"));
+  // a /proc file says size 0 but holds more: the read itself stops at the bound
+  EXPECT_THROW(read_input_file("/proc/self/maps", "", 16), Error);
+}
+
+TEST_F(SceneTest, SameFileComparesWhatPathsName) {
+  const std::string a = (dir_ / "a.exr").string();
+  EXPECT_TRUE(same_file(a, (dir_ / "." / "a.exr").string()));
+  EXPECT_TRUE(same_file(a, (dir_ / "sub" / ".." / "a.exr").string()));
+  EXPECT_FALSE(same_file(a, (dir_ / "b.exr").string()));
+  fs::create_symlink(a, dir_ / "dangling.exr");  // a.exr does not exist yet: writing the link creates it
+  EXPECT_TRUE(same_file(a, (dir_ / "dangling.exr").string()));
+  std::ofstream(a) << "x";
+  fs::create_hard_link(a, dir_ / "hard.exr");
+  EXPECT_TRUE(same_file(a, (dir_ / "hard.exr").string()));
+  EXPECT_TRUE(same_file((dir_ / "dangling.exr").string(), (dir_ / "hard.exr").string()));
+  try {
+    check_distinct_paths({{"the image", a}, {"--preview", ""}, {"--stats-json", (dir_ / "hard.exr").string()}}, {});
+    ADD_FAILURE() << "colliding outputs accepted";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("the image " + a + " and --stats-json"));
+    EXPECT_THAT(e.what(), HasSubstr("name the same file"));
+  }
+  EXPECT_THROW(check_distinct_paths({{"the image", (dir_ / "x.exr").string()}}, {{"the scene file", (dir_ / "x.exr").string()}}), Error);
+  EXPECT_NO_THROW(check_distinct_paths({{"the image", a}, {"--preview", (dir_ / "a.png").string()}}, {{"the scene file", (dir_ / "s.json").string()}}));
 }
 
 }  // namespace

@@ -43,7 +43,8 @@ std::string shard_scene(const std::string& dir, const std::string& name = "scene
   return write_scene(dir, name, s);
 }
 
-spectrack::RgbImage read(const std::string& path) { return spectrack::read_image(path); }
+// spectrack EXRs, tiles included (an environment map must be a whole image, a film piece need not)
+spectrack::RgbImage read(const std::string& path) { return spectrack::read_image(path, spectrack::ImageUse::kFilmPiece); }
 
 std::string meta_string(const spectrack::RgbImage& img, const std::string& key) {
   auto it = img.meta.find(key);

@@ -137,7 +137,7 @@ TEST_F(SparseVolume, TwoLevelGridSkipsEmptyBlocksAndKeepsTheEstimate) {
   Renderer one = make(0), two = make(4);
   EXPECT_FALSE(one.features() & ST_FEATURE_COARSE_MAJORANT);
   EXPECT_TRUE(two.features() & ST_FEATURE_COARSE_MAJORANT);
-  auto T1 = one.probe_transmittance(o, d, n), T2 = two.probe_transmittance(o, d, n);
+  auto T1 = Probe(one).transmittance(o, d, n), T2 = Probe(two).transmittance(o, d, n);
   auto stats = [&](const std::vector<std::array<float, 4>>& v) {
     std::vector<double> x;
     for (auto& t : v) x.push_back(t[0]);
@@ -149,7 +149,7 @@ TEST_F(SparseVolume, TwoLevelGridSkipsEmptyBlocksAndKeepsTheEstimate) {
   EXPECT_NEAR(s1.mean, std::exp(-tau), 4 * s1.se + 1e-3);
   EXPECT_NEAR(s2.mean, s1.mean, 4 * std::sqrt(s1.se * s1.se + s2.se * s2.se) + 1e-6) << "the skip changed the estimate";
   // free flights: the DDA steps of rays that cross everything (escapes) drop with the skip
-  auto tr1 = one.probe_track(o, d, -1, 2000), tr2 = two.probe_track(o, d, -1, 2000);
+  auto tr1 = Probe(one).track(o, d, -1, 2000), tr2 = Probe(two).track(o, d, -1, 2000);
   double steps1 = 0, steps2 = 0;
   int esc1 = 0, esc2 = 0;
   for (auto& x : tr1)

@@ -14,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "render/probe.h"
 #include "render/renderer.h"
 #include "scene/scene.h"
 
@@ -107,7 +108,7 @@ inline std::vector<double> channel(const spectrack::RenderResult& r, int c) {
 inline spectrack::RenderOptions quiet_options(int spp = -1) {
   spectrack::RenderOptions o;
   o.quiet = true;
-  o.spp = spp;
+  if (spp > 0) o.spp = spp;
   return o;
 }
 

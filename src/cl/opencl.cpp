@@ -173,20 +173,23 @@ static std::string rewrite_pnanovdb(std::string s) {
   return s;
 }
 
-std::string assemble_kernel_source(const std::vector<std::pair<std::string, std::string>>& defines) {
-  static const char* order[] = {"types.h",   "features.h", "rng.h",     "sampling.h", "phase.h",    "pnanovdb_cl.h",
-                                "PNanoVDB.h", "medium.h",  "majorant.h", "tracking.h", "light.h",
-                                "queues.h",  "raygen.cl", "track.cl",   "shade.cl",   "scatter.cl",
-                                "shadow.cl", "finish.cl", "probe.cl"};
+std::string assemble_kernel_source(const std::vector<std::pair<std::string, std::string>>& defines,
+                                   const std::vector<std::string>& extra_files) {
+  static const std::vector<std::string> renderer_files = {
+      "types.h",  "features.h", "rng.h",      "sampling.h", "phase.h",  "pnanovdb_cl.h", "PNanoVDB.h",
+      "medium.h", "majorant.h", "tracking.h", "light.h",    "queues.h", "raygen.cl",     "track.cl",
+      "shade.cl", "scatter.cl", "shadow.cl",  "finish.cl"};
+  std::vector<std::string> order = renderer_files;
+  order.insert(order.end(), extra_files.begin(), extra_files.end());
   const auto& files = embedded_kernel_sources();
   std::ostringstream out;
   out << "/* spectrack " << SPECTRACK_VERSION << ": assembled kernel source */\n";
   for (auto& [k, v] : defines) out << "#define " << k << " " << v << "\n";
-  for (const char* name : order) {
+  for (const std::string& name : order) {
     auto it = files.find(name);
     if (it == files.end()) throw Error(fmt::format("internal: kernel file {} is not embedded", name));
-    std::string text = std::string(name) == "PNanoVDB.h" ? rewrite_pnanovdb(it->second) : it->second;
-    std::string shown = std::string(name) == "PNanoVDB.h" ? "nanovdb/PNanoVDB.h" : "kernels/" + std::string(name);
+    std::string text = name == "PNanoVDB.h" ? rewrite_pnanovdb(it->second) : it->second;
+    std::string shown = name == "PNanoVDB.h" ? "nanovdb/PNanoVDB.h" : "kernels/" + name;
     out << "#line 1 \"" << shown << "\"\n" << text << "\n";
   }
   return out.str();

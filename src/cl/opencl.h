@@ -52,9 +52,11 @@ struct ProgramBuild {
 ProgramBuild build_program(const cl::Context& ctx, const DeviceInfo& dev, const std::string& source,
                            const std::string& options, bool quiet);
 
-// The kernel source for a scene: defines, every kernels/ file in dependency order (with #line
-// markers) and a rewritten copy of PNanoVDB.h.
-std::string assemble_kernel_source(const std::vector<std::pair<std::string, std::string>>& defines);
+// The kernel source for a scene: defines, every kernels/ file of the renderer in dependency order
+// (with #line markers), a rewritten copy of PNanoVDB.h, then `extra_files` (kernels/ files not
+// in the renderer's program, such as the test probes' probe.cl).
+std::string assemble_kernel_source(const std::vector<std::pair<std::string, std::string>>& defines,
+                                   const std::vector<std::string>& extra_files = {});
 
 // Directory of the kernel binary cache ("" when disabled).
 std::string kernel_cache_dir();

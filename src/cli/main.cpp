@@ -5,6 +5,7 @@
 //   spectrack merge OUT.exr IN.exr... [--preview FILE.png]
 //   (tuning: [--majorant-cell N] [--majorant-block N] [--generic-kernels] [--batches-in-flight N])
 //   spectrack devices
+//   spectrack info FILE... [--json]   (cli/info.cpp)
 // A render is a FilmPiece (render/film.h): the window and sample range it holds, with exact
 // per-pixel sums; shards, tiles, devices and MPI ranks all combine through merge_pieces.
 // Exit codes: 0 success; 1 a user-facing error (message on stderr names file, field and reason);
@@ -14,7 +15,11 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <atomic>
+#include <cmath>
+#include <cstdlib>
+#include <cstdint>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
@@ -22,34 +27,51 @@
 #include <fstream>
 #include <functional>
 #include <future>
+#include <memory>
 #include <tuple>
 #include <iostream>
 #include <unistd.h>
 
+#include "cli/checks.h"
 #include "cl/opencl.h"
+#include "cli/info.h"
+#include "cli/progress.h"
 #include "image/image.h"
 #include "render/film.h"
 #include "render/multi_device.h"
 #include "render/renderer.h"
 #include "render/stats_json.h"
+#include "scene/frames.h"
 #include "scene/scene.h"
 #ifdef SPECTRACK_HAVE_MPI
 #include "cli/mpi_render.h"
 #endif
 
 using namespace spectrack;
+namespace fs = std::filesystem;
 
 namespace {
 
 std::atomic<bool> g_stop{false};
+std::atomic<bool> g_loop_started{false};  // a stage loop runs: a stop has finished samples to save
 
-extern "C" void on_signal(int sig) {
-  if (g_stop.load()) {  // a second signal ends the process at once
-    std::signal(sig, SIG_DFL);
-    std::raise(sig);
-    return;
+// SIGINT/SIGTERM: while a render's stage loop runs, ask it to stop at its next iteration (the
+// finished samples are written, exit 130); before that (loading, kernel builds) there is nothing
+// to save, and a second signal means "now": end the process at once with 130. Only
+// async-signal-safe calls here.
+extern "C" void on_signal(int) {
+  if (!g_loop_started.load() || g_stop.load()) {
+    static const char msg[] = "\nspectrack: interrupted (no finished samples to write)\n";
+    ssize_t ignored = ::write(2, msg, sizeof(msg) - 1);
+    (void)ignored;
+    ::_exit(130);
   }
   g_stop.store(true);
+}
+
+void install_stop_handlers() {
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
 }
 
 int cmd_devices() {
@@ -58,17 +80,22 @@ int cmd_devices() {
     std::cerr << "no OpenCL device found (install pocl-opencl-icd or a GPU driver)\n";
     return 1;
   }
-  std::cout << fmt::format("{:<5} {:<44} {:<5} {:>4} {:>11} {:>11}  {}\n", "P:D", "device", "type", "CUs",
+  // columns as wide as their longest entry, whatever the device names
+  size_t wname = 6, wtype = 4;
+  for (auto& d : devs) wname = std::max(wname, d.name.size()), wtype = std::max(wtype, std::string(d.type_name()).size());
+  std::cout << fmt::format("{:<5} {:<{}} {:<{}} {:>4} {:>11} {:>11}  {}\n", "P:D", "device", wname, "type", wtype, "CUs",
                            "memory MiB", "max alloc", "platform");
   for (auto& d : devs)
-    std::cout << fmt::format("{:<5} {:<44} {:<5} {:>4} {:>11} {:>11}  {} ({})\n",
-                             fmt::format("{}:{}", d.platform_index, d.device_index), d.name, d.type_name(),
+    std::cout << fmt::format("{:<5} {:<{}} {:<{}} {:>4} {:>11} {:>11}  {} ({})\n",
+                             fmt::format("{}:{}", d.platform_index, d.device_index), d.name, wname, d.type_name(), wtype,
                              d.compute_units, d.global_mem >> 20, d.max_alloc >> 20, d.platform_name, d.driver_version);
   return 0;
 }
 
 struct RenderArgs {
-  std::string scene, output, stats_json, preview, device, tracker, scheme, spp_range, pixel_bounds;
+  std::string scene, output, stats_json, preview, device, tracker, scheme, absorption, light_sampling, transmittance,
+      spp_range, pixel_bounds, frames;
+  double march_spacing = 0, pilot_spacing = 0;  // 0: not given
   int spp = -1;
   int64_t seed = -1;
   int path_slots = 0;
@@ -77,6 +104,8 @@ struct RenderArgs {
   int majorant_cell = RenderOptions().majorant_cell;
   int majorant_block = RenderOptions().majorant_block;
   int batches_in_flight = 0;
+  uint32_t feature_floor = 0;  // RenderOptions::feature_floor (frame sequences)
+  double time_limit = 0;
   bool generic_kernels = false;
   bool quiet = false;
   bool mpi = false;
@@ -110,6 +139,43 @@ bool parse_pixel_bounds(const std::string& text, std::array<int, 4>* out) {
   return true;
 }
 
+// A CLI11 check that the value is one of `names` (the tables of scene/names.cpp): exit 2 otherwise.
+CLI::Validator one_of(const std::string& what, const std::vector<std::string>& names) {
+  return CLI::Validator(
+      [what, names](std::string& v) {
+        for (auto& n : names)
+          if (v == n) return std::string();
+        std::string list;
+        for (auto& n : names) list += (list.empty() ? "" : ", ") + n;
+        return "unknown " + what + " '" + v + "' (one of: " + list + ")";
+      },
+      "NAME");
+}
+
+// A CLI11 check that a preview is a .png (an EXR is written with -o).
+// A finite number in [lo, hi] (CLI::Range lets "nan" through: every comparison with NaN is false).
+CLI::Validator finite_range(double lo, double hi) {
+  return CLI::Validator(
+      [lo, hi](std::string& s) -> std::string {
+        char* end = nullptr;
+        const double v = std::strtod(s.c_str(), &end);
+        if (end == s.c_str() || *end != '\0' || !std::isfinite(v) || v < lo || v > hi)
+          return fmt::format("{} is not a number in [{}, {}]", s, lo, hi);
+        return "";
+      },
+      fmt::format("NUMBER in [{}, {}]", lo, hi));
+}
+
+CLI::Validator png_file() {
+  return CLI::Validator(
+      [](std::string& v) {
+        std::string e = std::filesystem::path(v).extension().string();
+        std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+        return e == ".png" ? std::string() : "a preview is a PNG file (FILE.png), got '" + v + "'";
+      },
+      "FILE.png");
+}
+
 std::string join(const std::vector<std::string>& v, const char* sep) {
   std::string s;
   for (auto& x : v) s += (s.empty() ? "" : sep) + x;
@@ -117,16 +183,21 @@ std::string join(const std::vector<std::string>& v, const char* sep) {
 }
 
 void write_stats_json(const std::string& path, const MultiDeviceResult& r, double seconds_total,
-                      double seconds_to_renderer, int mpi_ranks) {
+                      double seconds_to_renderer, int mpi_ranks, const Metadata& meta) {
   nlohmann::json j = stats_to_json(r.stats);
   const FilmPiece& p = r.piece;
   j["spp"] = p.samples();
   j["spp_requested"] = r.spp_requested;
   j["spp_ranges"] = format_ranges(p.ranges);
   j["interrupted"] = p.interrupted;
+  j["stop_reason"] = p.interrupted ? (r.time_limit_reached ? "time-limit" : "signal") : "";
+  if (auto t = meta.find("time_limit"); t != meta.end()) j["time_limit"] = std::get<float>(t->second);
   j["seed"] = r.seed;
   j["tracker"] = tracker_name(r.tracker);
   j["scheme"] = scheme_name(r.scheme);
+  j["absorption"] = absorption_name(r.absorption);
+  j["light_sampling"] = light_sampling_name(r.light_sampling);
+  j["transmittance"] = transmittance_name(r.transmittance);
   j["device"] = join(r.devices, ", ");
   j["devices"] = r.devices;
   j["samples_per_device"] = r.samples_per_device;
@@ -160,13 +231,10 @@ struct MpiArg {
 #endif
 };
 
-int cmd_render(const RenderArgs& a, MpiArg& mpi) {
-  auto t0 = std::chrono::steady_clock::now();
-  const bool root = mpi.rank == 0;
-  const bool quiet = a.quiet || !root;
-  SceneDesc scene = load_scene(a.scene);
+// The command line's overrides of the scene (the flags CLI11 has already range-checked).
+RenderOptions render_options(const RenderArgs& a, bool quiet) {
   RenderOptions opt;
-  opt.seed = a.seed;
+  if (a.seed >= 0) opt.seed = a.seed;
   opt.quiet = quiet;
   opt.path_slots = a.path_slots;
   opt.iteration_budget = a.budget;
@@ -174,117 +242,205 @@ int cmd_render(const RenderArgs& a, MpiArg& mpi) {
   opt.majorant_block = a.majorant_block;
   opt.generic_kernels = a.generic_kernels;
   opt.batches_in_flight = a.batches_in_flight;
+  opt.feature_floor = a.feature_floor;
   if (!a.tracker.empty()) {
     opt.tracker = tracker_from_name(a.tracker);
-    if (opt.tracker < 0) throw Error(fmt::format("--tracker {}: unknown tracker (one of: {})", a.tracker, tracker_names()));
+    if (*opt.tracker < 0) throw Error(fmt::format("--tracker {}: unknown tracker (one of: {})", a.tracker, tracker_names()));
   }
   if (!a.scheme.empty()) {
     opt.scheme = scheme_from_name(a.scheme);
-    if (opt.scheme < 0) throw Error(fmt::format("--scheme {}: unknown scheme (one of: {})", a.scheme, scheme_names()));
+    if (*opt.scheme < 0) throw Error(fmt::format("--scheme {}: unknown scheme (one of: {})", a.scheme, scheme_names()));
   }
-  int64_t begin = 0;
-  int spp = a.spp > 0 ? a.spp : scene.film.spp;
+  if (!a.light_sampling.empty()) {
+    opt.light_sampling = light_sampling_from_name(a.light_sampling);
+    if (*opt.light_sampling < 0)
+      throw Error(fmt::format("--light-sampling {}: unknown light sampling (one of: {})", a.light_sampling,
+                              light_sampling_names()));
+  }
+  if (!a.transmittance.empty()) {
+    opt.transmittance = transmittance_from_name(a.transmittance);
+    if (*opt.transmittance < 0)
+      throw Error(fmt::format("--transmittance {}: unknown transmittance estimator (one of: {})", a.transmittance,
+                              transmittance_names()));
+  }
+  if (a.march_spacing > 0) opt.march_spacing = a.march_spacing;
+  if (a.pilot_spacing > 0) opt.pilot_spacing = a.pilot_spacing;
+  if (!a.absorption.empty()) {
+    opt.absorption = absorption_from_name(a.absorption);
+    if (*opt.absorption < 0)
+      throw Error(fmt::format("--absorption {}: unknown absorption mode (one of: {})", a.absorption, absorption_names()));
+  }
+  if (a.spp > 0) opt.spp = a.spp;
   if (!a.spp_range.empty()) {
     int64_t b = 0;
-    parse_spp_range(a.spp_range, &begin, &b);  // checked by CLI11 already
-    spp = int(b - begin);
+    parse_spp_range(a.spp_range, &opt.sample_begin, &b);  // checked by CLI11 already
+    opt.spp = int(b - opt.sample_begin);
   }
-  opt.spp = spp;
-  opt.sample_begin = begin;
   if (!a.pixel_bounds.empty()) {
-    parse_pixel_bounds(a.pixel_bounds, &opt.pixel_bounds);
-    auto [x0, x1, y0, y1] = opt.pixel_bounds;
-    if (x1 > scene.film.width || y1 > scene.film.height)
-      throw Error(fmt::format("--pixel-bounds {}: the window x {}..{}, y {}..{} leaves the {}x{} film of {} "
-                              "(/film/width, /film/height)",
-                              a.pixel_bounds, x0, x1 - 1, y0, y1 - 1, scene.film.width, scene.film.height, scene.path));
+    std::array<int, 4> bounds;
+    parse_pixel_bounds(a.pixel_bounds, &bounds);
+    opt.pixel_bounds = bounds;
   }
-  std::string output = a.output.empty() ? scene.film.output : a.output;
+  return opt;
+}
+
+// How many samples this process renders (its share under MPI), for the progress line.
+int64_t process_samples(const RenderSettings& set, MpiArg& mpi) {
+  int64_t my_begin = set.sample_begin, my_end = set.sample_begin + set.spp;
+#ifdef SPECTRACK_HAVE_MPI
+  if (mpi.on) std::tie(my_begin, my_end) = mpi_sample_share(mpi.world, set.sample_begin, set.spp);
+#endif
+  return std::max<int64_t>(my_end - my_begin, 0);
+}
+
+// This process's share of the samples rendered on its devices (an MPI rank with no samples, when
+// there are more ranks than samples, contributes an empty piece), reduced to rank 0 under MPI.
+MultiDeviceResult render_share(const SceneDesc& scene, const RenderOptions& opt, const RenderSettings& set,
+                               const std::vector<std::string>& devices, int chunk_spp, MpiArg& mpi) {
+  int64_t my_begin = set.sample_begin, my_end = set.sample_begin + set.spp;
+#ifdef SPECTRACK_HAVE_MPI
+  if (mpi.on) std::tie(my_begin, my_end) = mpi_sample_share(mpi.world, set.sample_begin, set.spp);
+#endif
+  MultiDeviceResult r;
+  if (my_end > my_begin) {
+    r = render_multi_device(scene, opt, set, devices, my_begin, int(my_end - my_begin), chunk_spp);
+  } else {
+    r.piece = empty_piece(render_identity(set), set.window, "render");
+    r.tracker = set.tracker, r.scheme = set.scheme, r.absorption = set.absorption, r.seed = set.seed;
+    r.light_sampling = set.light_sampling;
+    r.transmittance = set.transmittance;
+  }
+  r.spp_requested = set.spp;
+  r.piece.interrupted = r.piece.interrupted || r.piece.samples() < my_end - my_begin;
+#ifdef SPECTRACK_HAVE_MPI
+  if (mpi.on) mpi_reduce_to_root(mpi.world, r);
+#endif
+  if (mpi.rank == 0) r.piece.interrupted = r.piece.interrupted || r.piece.samples() < set.spp;
+  return r;
+}
+
+// Rank 0: the image, the preview, the statistics, and the summary line.
+void write_render_outputs(const RenderArgs& a, const std::string& output, const SceneDesc& scene,
+                          const MultiDeviceResult& r, double seconds_total, double seconds_to_renderer, int mpi_ranks,
+                          double time_limit) {
+  Metadata meta;
+  if (time_limit > 0) meta["time_limit"] = float(time_limit);
+  if (r.piece.interrupted) meta["stop_reason"] = std::string(r.time_limit_reached ? "time-limit" : "signal");
+  if (r.stats.nonfinite_samples > 0) meta["nonfinite_samples"] = int(std::min<uint64_t>(r.stats.nonfinite_samples, INT32_MAX));
+  meta["spp_requested"] = r.spp_requested;
+  meta["device"] = join(r.devices, ", ");
+  meta["render_seconds"] = float(r.seconds_render);
+  meta["scene"] = scene.path;
+  if (a.mpi) meta["mpi_ranks"] = mpi_ranks;
+  write_piece(output, r.piece, meta);
+  if (!a.preview.empty()) write_piece(a.preview, r.piece, meta);
+  if (!a.stats_json.empty()) write_stats_json(a.stats_json, r, seconds_total, seconds_to_renderer, mpi_ranks, meta);
+  if (!a.quiet) {
+    std::cerr << fmt::format("wrote {} ({} spp in {:.2f} s render, {:.2f} s total{})\n", output, r.piece.samples(),
+                             r.seconds_render, seconds_total,
+                             !r.piece.interrupted ? "" : r.time_limit_reached ? ", stopped at the time limit" : ", INTERRUPTED");
+    if (!a.preview.empty()) std::cerr << fmt::format("wrote {} (preview)\n", a.preview);
+    if (!a.stats_json.empty()) std::cerr << fmt::format("wrote {} (statistics)\n", a.stats_json);
+  }
+}
+
+// One render of a loaded scene (one frame of a sequence) to `output`.
+int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const std::string& output,
+                 std::chrono::steady_clock::time_point t0) {
+  const bool root = mpi.rank == 0;
+  const bool quiet = a.quiet || !root;
+  RenderOptions opt = render_options(a, quiet);
+  check_tracker_scheme(scene, opt, a.scheme, a.tracker);  // --scheme with a tracker that ignores it: exit 2
+  const RenderSettings set = resolve_settings(scene, opt);
+  const double time_limit = a.time_limit > 0 ? a.time_limit : scene.render.time_limit;
+  if (time_limit > 0)
+    opt.deadline = t0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(time_limit));
+  check_distinct_paths({{"the image", output}, {"--preview", a.preview}, {"--stats-json", a.stats_json}},
+                       scene_inputs(scene));
   if (root) {
     check_output_path(output);
     if (!a.preview.empty()) check_output_path(a.preview);
     if (!a.stats_json.empty()) check_writable_file(a.stats_json);
   }
   std::vector<std::string> devices = parse_device_list(a.device);
+  check_chunk_spp(a.chunk_spp, devices, a.device);  // meaningless with one device: exit 2
 #ifdef SPECTRACK_HAVE_MPI
   if (mpi.on && devices.size() == 1 && devices[0].empty()) devices[0] = mpi_default_device(mpi.world);
 #endif
-  RenderIdentity id = render_identity(scene, opt);
   // The scene hash reads every VDB and map once more: on the writing rank only, beside the render.
   std::future<std::string> hash;
   if (root) hash = std::async(std::launch::async, [&scene] { return scene_hash(scene); });
-
-  bool tty = ::isatty(2);
-  int last_pct = -10;
-  std::function<void(double)> progress = [&](double f) {
-    if (quiet) return;
-    int pct = int(f * 100.0);
-    if (tty) {
-      int bar = int(f * 40.0);
-      std::fprintf(stderr, "\r[%-40s] %3d%%", std::string(size_t(bar), '#').c_str(), pct);
-      std::fflush(stderr);
-    } else if (pct / 10 != last_pct / 10 || pct == 100) {
-      if (pct != last_pct) std::fprintf(stderr, "progress: %d%%\n", pct);
-    }
-    last_pct = pct;
-  };
-  opt.progress = progress;
+  const bool tty = ::isatty(2);
+  opt.progress = progress_reporter(quiet, tty, double(process_samples(set, mpi)));
   opt.stop = &g_stop;
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
-
-  // this process's share of the samples (all of them without MPI)
-  int64_t my_begin = begin, my_end = begin + spp;
-#ifdef SPECTRACK_HAVE_MPI
-  if (mpi.on) std::tie(my_begin, my_end) = mpi_sample_share(mpi.world, begin, spp);
-#endif
+  opt.loop_started = &g_loop_started;
   if (!quiet)
     std::cerr << fmt::format("spectrack: {} on {} ({}x{}{}, samples {}:{}, tracker {}, scheme {}{})\n", scene.path,
                              devices.size() == 1 && devices[0].empty() ? select_device("").name : join(devices, ","),
                              scene.film.width, scene.film.height,
-                             a.pixel_bounds.empty() ? "" : ", pixels " + a.pixel_bounds, begin, begin + spp,
-                             id.tracker, id.scheme, mpi.on ? fmt::format(", {} MPI ranks", mpi.size) : "");
+                             a.pixel_bounds.empty() ? "" : ", pixels " + a.pixel_bounds, set.sample_begin,
+                             set.sample_begin + set.spp, tracker_name(set.tracker), scheme_name(set.scheme),
+                             mpi.on ? fmt::format(", {} MPI ranks", mpi.size) : "");
   const double seconds_to_renderer = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  MultiDeviceResult r;
-  if (my_end > my_begin) {
-    r = render_multi_device(scene, opt, devices, id, my_begin, int(my_end - my_begin), a.chunk_spp);
-  } else {  // an MPI rank with no samples (more ranks than samples) contributes zeros
-    auto [x0, x1, y0, y1] = opt.pixel_bounds;
-    if (x1 < 0) x0 = 0, x1 = scene.film.width, y0 = 0, y1 = scene.film.height;
-    r.piece.id = id;
-    r.piece.x0 = x0, r.piece.y0 = y0, r.piece.width = x1 - x0, r.piece.height = y1 - y0;
-    r.piece.sum.assign(size_t(r.piece.width) * r.piece.height * 3, 0.0);
-  }
-  r.spp_requested = spp;
-  r.tracker = tracker_from_name(id.tracker);
-  r.scheme = scheme_from_name(id.scheme);
-  r.seed = uint32_t(id.seed);
-  r.piece.interrupted = r.piece.interrupted || r.piece.samples() < my_end - my_begin;
-#ifdef SPECTRACK_HAVE_MPI
-  if (mpi.on) mpi_reduce_to_root(mpi.world, r);
-#endif
-  if (root) r.piece.interrupted = r.piece.interrupted || r.piece.samples() < spp;
+  MultiDeviceResult r = render_share(scene, opt, set, devices, a.chunk_spp, mpi);
   if (tty && !quiet) std::fprintf(stderr, "\n");
-  if (!root) return r.piece.interrupted ? 130 : 0;
+  if (!root) return (r.piece.interrupted && !r.time_limit_reached) ? 130 : 0;
   r.piece.id.scene_hash = hash.get();
   double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  write_render_outputs(a, output, scene, r, total, seconds_to_renderer, mpi.size, time_limit);
+  if (r.stats.nonfinite_samples > 0) return nonfinite_verdict(r.stats.nonfinite_samples, output);
+  return (r.piece.interrupted && !r.time_limit_reached) ? 130 : 0;
+}
 
-  Metadata meta;
-  meta["spp_requested"] = spp;
-  meta["device"] = join(r.devices, ", ");
-  meta["render_seconds"] = float(r.seconds_render);
-  meta["scene"] = scene.path;
-  if (mpi.on) meta["mpi_ranks"] = mpi.size;
-  write_piece(output, r.piece, meta);
-  if (!a.preview.empty()) write_piece(a.preview, r.piece, meta);
-  if (!a.stats_json.empty()) write_stats_json(a.stats_json, r, total, seconds_to_renderer, mpi.size);
-  if (r.stats.nonfinite_samples > 0)
-    std::cerr << fmt::format("warning: {} non-finite samples were dropped (counted in nonfinite_samples)\n",
-                             r.stats.nonfinite_samples);
-  if (!a.quiet)
-    std::cerr << fmt::format("wrote {} ({} spp in {:.2f} s render, {:.2f} s total{})\n", output, r.piece.samples(),
-                             r.seconds_render, total, r.piece.interrupted ? ", INTERRUPTED" : "");
-  return r.piece.interrupted ? 130 : 0;
+// "A:B", integers with A <= B (a CLI11 check).
+bool parse_frames(const std::string& text, long long* a, long long* b) {
+  char extra = 0;
+  if (text.find_first_not_of("0123456789:-") != std::string::npos) return false;
+  if (std::sscanf(text.c_str(), "%lld:%lld%c", a, b, &extra) != 2) return false;
+  return *a <= *b && *b - *a < 1000000;
+}
+
+// A render, or with --frames A:B a sequence: frame patterns (frames.h) in the media's files and
+// in the output, preview and statistics names are replaced per frame; every frame's files are
+// checked before the first render, and a missing one is named.
+int cmd_render(const RenderArgs& a, MpiArg& mpi) {
+  auto t0 = std::chrono::steady_clock::now();
+  install_stop_handlers();  // before loading: a stop must never wait for a slow or blocked input
+  SceneDesc scene = load_scene(a.scene);
+  const std::string output = a.output.empty() ? scene.film.output : a.output;
+  if (a.frames.empty()) {
+    for (const MediumDesc& m : scene.media)
+      if (has_frame_pattern(fs::path(m.file).filename().string()))
+        throw Error(fmt::format("{}: {}/file: {} is a frame pattern: render it with --frames A:B", scene.path, m.json_path, m.file));
+    return render_scene(a, mpi, scene, output, t0);
+  }
+  long long first = 0, last = 0;
+  parse_frames(a.frames, &first, &last);  // checked by CLI11 already
+  if (!has_frame_pattern(fs::path(output).filename().string()))
+    throw Error(fmt::format("--frames {}: the output {} has no frame pattern (e.g. out_####.exr or out_$F4.exr), so "
+                            "every frame would overwrite it", a.frames, output));
+  for (long long f = first; f <= last; ++f)
+    for (const MediumDesc& m : scene.media) {
+      const std::string file = expand_frame(m.file, f);
+      std::error_code ec;
+      if (!fs::is_regular_file(file, ec))
+        throw Error(fmt::format("{}: {}/file: frame {}: {}: no such file", scene.path, m.json_path, f, file));
+    }
+  for (long long f = first; f <= last; ++f) {
+    SceneDesc frame = scene;
+    for (MediumDesc& m : frame.media) m.file = expand_frame(m.file, f);
+    RenderArgs fa = a;
+    // the two-level majorant grid is used or not by the size of each frame's grid: compile it in
+    // for every frame, so that the frames share one kernel build
+    if (a.majorant_block > 1) fa.feature_floor = ST_FEATURE_COARSE_MAJORANT;
+    fa.preview = expand_frame(a.preview, f);
+    fa.stats_json = expand_frame(a.stats_json, f);
+    if (!a.quiet && mpi.rank == 0) std::cerr << fmt::format("frame {} ({} of {})\n", f, f - first + 1, last - first + 1);
+    const int code = render_scene(fa, mpi, frame, expand_frame(output, f),
+                                  f == first ? t0 : std::chrono::steady_clock::now());
+    if (code != 0) return code;
+  }
+  return 0;
 }
 
 int cmd_merge(const MergeArgs& a) {
@@ -293,6 +449,7 @@ int cmd_merge(const MergeArgs& a) {
   if (ext != ".exr") throw Error(fmt::format("{}: the merged image must be an EXR (use --preview for a PNG)", a.output));
   check_output_path(a.output);
   if (!a.preview.empty()) check_output_path(a.preview);
+  check_distinct_paths({{"the merged image", a.output}, {"--preview", a.preview}}, merge_inputs(a.inputs));
   std::error_code ec;
   std::vector<FilmPiece> pieces;
   double seconds = 0;
@@ -303,6 +460,7 @@ int cmd_merge(const MergeArgs& a) {
       throw Error(fmt::format("{}: is both an input and the output of the merge", in));
     Metadata head;  // the other metadata, for the record
     pieces.push_back(read_piece(in, &head));
+    check_merge_input(in, head);
     if (auto f = head.find("render_seconds"); f != head.end() && std::holds_alternative<float>(f->second))
       seconds += std::get<float>(f->second);
     if (auto d = head.find("device"); d != head.end() && std::holds_alternative<std::string>(d->second))
@@ -329,13 +487,8 @@ int cmd_merge(const MergeArgs& a) {
   return 0;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{"spectrack: spectral and decomposition tracking for heterogeneous volumes on OpenCL"};
-  app.require_subcommand(1);
-  app.set_version_flag("--version", std::string("spectrack ") + SPECTRACK_VERSION);
-  RenderArgs ra;
+// The `render` subcommand's arguments and flags.
+CLI::App* add_render_command(CLI::App& app, RenderArgs& ra) {
   auto* render = app.add_subcommand("render", "render a scene file to EXR or PNG");
   render->add_option("scene", ra.scene, "scene file (spectrack-scene/1 JSON)")->required();
   render->add_option("-o,--output", ra.output, "output image (.exr or .png); default: the scene's film.output");
@@ -359,9 +512,38 @@ int main(int argc, char** argv) {
                                              : "expected x0,x1,y0,y1 with 0 <= x0 < x1 and 0 <= y0 < y1, got '" + v + "'";
           },
           "x0,x1,y0,y1"));
+  render->add_option("--frames", ra.frames,
+                     "render frames A..B of a sequence: '#' runs or $F<N> in the media's file, the output, preview and "
+                     "stats names become the frame number")
+      ->check(CLI::Validator(
+          [](std::string& v) {
+            long long a = 0, b = 0;
+            return parse_frames(v, &a, &b) ? std::string() : "expected A:B with A <= B, got '" + v + "'";
+          },
+          "A:B"));
   render->add_option("--seed", ra.seed, "random seed (overrides render.seed)")->check(CLI::Range(int64_t(0), int64_t(4294967295LL)));
-  render->add_option("--tracker", ra.tracker, "delta-per-channel, delta, spectral, decomposition, spectral-decomposition");
-  render->add_option("--scheme", ra.scheme, "spectral scheme: max, average, history-max, history-average");
+  render->add_option("--tracker", ra.tracker, "tracker: " + tracker_names())->check(one_of("tracker", tracker_name_list()));
+  render->add_option("--scheme", ra.scheme, "spectral scheme (spectral trackers only): " + scheme_names())
+      ->check(one_of("scheme", scheme_name_list()));
+  render->add_option("--absorption", ra.absorption,
+                     "absorption at real collisions (overrides render.absorption): event (ends the path) or weight "
+                     "(beta takes the albedo; default for spectral, decomposition, spectral-decomposition)")
+      ->check(one_of("absorption", absorption_name_list()));
+  render->add_option("--light-sampling", ra.light_sampling,
+                     "lights that next-event estimation samples at each scatter event (overrides "
+                     "render.light_sampling): all (one shadow ray to each), uniform (one, each as likely) or power (one, "
+                     "chosen by power)")
+      ->check(one_of("light sampling", light_sampling_name_list()));
+  render->add_option("--transmittance", ra.transmittance,
+                     "transmittance estimator of shadow rays (overrides render.transmittance): ratio ((residual) ratio "
+                     "tracking) or ray-marching (the unbiased ray-marching estimator of Kettunen et al. 2021)")
+      ->check(one_of("transmittance", transmittance_name_list()));
+  render->add_option("--march-spacing", ra.march_spacing,
+                     "ray-marching transmittance: majorant optical depth between the samples of one estimate (default 1)")
+      ->check(finite_range(1e-3, 1e3));
+  render->add_option("--pilot-spacing", ra.pilot_spacing,
+                     "ray-marching transmittance: majorant optical depth between the pilot's samples (default 2)")
+      ->check(finite_range(1e-3, 1e3));
   render->add_option("--device", ra.device,
                      "OpenCL device: P:D or a name substring, 'all', or a comma-separated list to share the samples "
                      "(env SPECTRACK_DEVICE)");
@@ -369,7 +551,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 1 << 24));
   render->add_flag("--mpi", ra.mpi, "under mpirun: each rank renders a disjoint sample range, rank 0 writes the image");
   render->add_option("--stats-json", ra.stats_json, "write render statistics as JSON");
-  render->add_option("--preview", ra.preview, "also write a PNG preview");
+  render->add_option("--preview", ra.preview, "also write a PNG preview")->check(png_file());
   render->add_option("--path-slots", ra.path_slots, "paths in flight (default: 65536 on CPUs, 1M on GPUs)")->check(CLI::Range(1, 1 << 24));
   render->add_option("--budget", ra.budget, "tracking iterations per path and kernel launch")->check(CLI::Range(1, 1 << 20));
   render->add_option("--majorant-cell", ra.majorant_cell, "voxels per majorant-grid cell edge")
@@ -382,15 +564,35 @@ int main(int argc, char** argv) {
   render->add_option("--batches-in-flight", ra.batches_in_flight,
                      "batches of samples in flight, 1-" + std::to_string(ST_MAX_BATCHES_IN_FLIGHT) + " (default: the maximum)")
       ->check(CLI::Range(1, ST_MAX_BATCHES_IN_FLIGHT));
+  render->add_option("--time-limit", ra.time_limit,
+                     "stop cleanly after this many seconds from the start (the finished samples are written, "
+                     "exit 0; overrides render.time_limit)")
+      ->check(finite_range(1e-3, 1e9));
   render->add_flag("--generic-kernels", ra.generic_kernels, "use the generic kernels instead of ones specialised to the scene");
   render->add_flag("-q,--quiet", ra.quiet, "no progress output");
+  return render;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"spectrack: spectral and decomposition tracking for heterogeneous volumes on OpenCL"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("spectrack ") + SPECTRACK_VERSION);
+  RenderArgs ra;
+  add_render_command(app, ra);
   MergeArgs ma;
   auto* merge = app.add_subcommand("merge", "combine sample-range shards and tiles (EXR) into one EXR");
   merge->add_option("output", ma.output, "the merged EXR")->required();
   merge->add_option("inputs", ma.inputs, "EXR outputs of `spectrack render` (shards and/or tiles)")->required()->expected(1, -1);
-  merge->add_option("--preview", ma.preview, "also write a PNG preview");
+  merge->add_option("--preview", ma.preview, "also write a PNG preview")->check(png_file());
   merge->add_flag("-q,--quiet", ma.quiet, "no summary line");
   app.add_subcommand("devices", "list OpenCL platforms and devices");
+  std::vector<std::string> info_files;
+  bool info_json = false;
+  auto* info = app.add_subcommand("info", "print the grids of VDB/NanoVDB files and the media, lights and camera of scenes");
+  info->add_option("files", info_files, "volume (.vdb, .nvdb) or scene (.json) files")->required()->expected(1, -1);
+  info->add_flag("--json", info_json, "one JSON document instead of tables");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -400,6 +602,7 @@ int main(int argc, char** argv) {
   try {
     if (app.got_subcommand("devices")) return cmd_devices();
     if (app.got_subcommand("merge")) return cmd_merge(ma);
+    if (app.got_subcommand("info")) return cmd_info(info_files, info_json);
     if (ra.mpi) {
 #ifdef SPECTRACK_HAVE_MPI
       mpi.world = mpi_start(&argc, &argv);
@@ -415,6 +618,13 @@ int main(int argc, char** argv) {
     if (mpi.on) mpi_finish();
 #endif
     return code;
+  } catch (const UsageError& e) {
+    std::cerr << "error: " << e.what() << "\n";
+#ifdef SPECTRACK_HAVE_MPI
+    if (mpi.on && mpi.size > 1) mpi_abort(2);
+    if (mpi.on) mpi_finish();
+#endif
+    return 2;
   } catch (const std::exception& e) {
     std::cerr << (mpi.on && mpi.size > 1 ? fmt::format("error (MPI rank {}): ", mpi.rank) : std::string("error: "))
               << e.what() << "\n";

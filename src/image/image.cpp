@@ -1,12 +1,15 @@
 // image.cpp: see image.h. sRGB encoding for PNG previews is done here (the OETF of IEC 61966-2-1)
 // so that the preview matches what an EXR viewer shows for the same linear values.
 #include "image/image.h"
+#include "util/files.h"
 
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <unistd.h>
@@ -81,27 +84,198 @@ void write_image(const std::string& path, int width, int height, const std::vect
   if (!ok || !out->close()) throw Error(fmt::format("{}: write failed: {}", path, out->geterror()));
 }
 
-RgbImage read_image(const std::string& path) {
-  auto in = OIIO::ImageInput::open(path);
-  if (!in) throw Error(fmt::format("{}: cannot read image: {}", path, OIIO::geterror()));
-  const OIIO::ImageSpec& spec = in->spec();
+static float srgb_decode(float v) {
+  if (!(v > 0.0f)) return 0.0f;
+  return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
+}
+
+// "R", "G", "B" or a layer's "diffuse.R": the last component, case-insensitive.
+static std::string channel_base(const std::string& name) {
+  std::string b = name.substr(name.rfind('.') == std::string::npos ? 0 : name.rfind('.') + 1);
+  std::transform(b.begin(), b.end(), b.begin(), [](unsigned char c) { return char(std::toupper(c)); });
+  return b;
+}
+
+static std::string channel_list(const OIIO::ImageSpec& spec) {
+  std::string s;
+  for (int c = 0; c < spec.nchannels && c < 16; ++c)
+    s += (c ? ", " : "") + (c < int(spec.channelnames.size()) ? spec.channelnames[c] : std::string("?"));
+  if (spec.nchannels > 16) s += ", ...";
+  return s;
+}
+
+// OpenEXR allocates what a header attribute claims (a 2 GB string for a damaged "capDate") before
+// it finds the file too short. Walk the EXR header(s) first: each attribute is name\0 type\0 int32
+// size, then size bytes (skipped, not read); a multi-part file has several headers, each ended by
+// a null byte, and an empty header after the last. Every claim must fit in the bytes the file has;
+// the message names the attribute. Returns normally for a header that is well formed up to the
+// offset tables.
+static void check_exr_header(const std::string& path, std::istream& f, uint64_t file_bytes) {
+  auto fail = [&](const std::string& reason) { throw Error(fmt::format("{}: damaged OpenEXR header: {}", path, reason)); };
+  unsigned char v[8] = {};
+  f.clear();
+  f.seekg(0);
+  if (!f.read(reinterpret_cast<char*>(v), 8)) fail("the file ends inside its 8-byte magic number and version");
+  const uint32_t version = uint32_t(v[4]) | uint32_t(v[5]) << 8 | uint32_t(v[6]) << 16 | uint32_t(v[7]) << 24;
+  const bool multipart = version & 0x1000u;
+  const size_t max_name = (version & 0x400u) ? 255 : 31;
+  uint64_t at = 8;  // bytes of the file walked
+  auto read_name = [&](const char* what) -> std::string {
+    std::string s;
+    for (;;) {
+      const int c = f.get();
+      if (c == EOF) fail(fmt::format("the file ends inside an attribute {}", what));
+      ++at;
+      if (c == 0) return s;
+      if (s.size() >= max_name) fail(fmt::format("an attribute {} is longer than {} characters", what, max_name));
+      s += char(c);
+    }
+  };
+  auto header_ends = [&](int part) {  // the next byte is the null that ends a header
+    const int c = f.peek();
+    if (c == EOF) fail(fmt::format("the file ends inside header {}", part));
+    return c == 0;
+  };
+  for (int part = 0;; ++part) {
+    if (header_ends(part)) {  // an empty header: in a multi-part file, the end of the header list
+      f.get(), ++at;
+      if (!multipart || part > 0) break;
+      fail("a multi-part file whose first header is empty");
+    }
+    for (int attrs = 0; !header_ends(part); ++attrs) {
+      if (attrs >= 4096) fail(fmt::format("header {} has more than 4096 attributes", part));
+      std::string name = read_name("name");
+      std::string type = read_name("type");
+      unsigned char b[4];
+      if (!f.read(reinterpret_cast<char*>(b), 4)) fail(fmt::format("the file ends inside the size of attribute '{}'", name));
+      at += 4;
+      const int32_t size = int32_t(uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24);
+      if (size < 0 || at + uint64_t(size) > file_bytes)
+        fail(fmt::format("attribute '{}' ({}) claims {} bytes, but only {} remain in the {}-byte file", name, type,
+                         size, file_bytes - std::min<uint64_t>(at, file_bytes), file_bytes));
+      f.seekg(size, std::ios::cur);
+      at += uint64_t(size);
+    }
+    f.get(), ++at;  // the null byte that ends this header
+    if (!multipart) break;
+    if (part >= 1024) fail("more than 1024 parts");
+  }
+}
+
+// Design: the header is checked in full against what will be read before any pixel buffer is
+// allocated (the buffer is at most 2^28 pixels x 3 floats, whatever the file claims), so an image
+// OpenImageIO opens but spectrack would misread (a VDB as a stack of slices, a multi-part EXR, a
+// deep or 2-channel image, a cropped data window) is refused by name, never guessed at.
+RgbImage read_image(const std::string& path, ImageUse use) {
+  const bool env = use == ImageUse::kEnvironmentMap;
+  const char* what = env ? "an environment map" : "a merge input";
+  auto fail = [&](const std::string& reason) -> void { throw Error(path + ": " + reason); };
+  const uint64_t file_bytes = check_input_file(path, "");  // a FIFO would block OpenImageIO, a device never end
+  {
+    // OIIO's openvdb reader would parse a VDB (damaged ones included) before any check here:
+    // volumes are refused by their magic number, whatever their name
+    unsigned char magic[8] = {};
+    std::ifstream f(path, std::ios::binary);
+    f.read(reinterpret_cast<char*>(magic), 8);
+    const bool vdb = magic[0] == 0x20 && magic[1] == 0x42 && magic[2] == 0x44 && magic[3] == 0x56;  // OPENVDB_MAGIC
+    const bool nvdb = std::memcmp(magic, "NanoVDB", 7) == 0;
+    if (vdb || nvdb)
+      fail(fmt::format("is a{} volume (a 3-D image to OpenImageIO's openvdb reader); {} must be a 2-D image",
+                       vdb ? "n OpenVDB" : " NanoVDB", what));
+    if (std::memcmp(magic, "\x76\x2f\x31\x01", 4) == 0) check_exr_header(path, f, file_bytes);
+  }
+  OIIO::ImageSpec config;
+  config.attribute("oiio:UnassociatedAlpha", 1);  // colours as stored, not multiplied by alpha
+  auto in = OIIO::ImageInput::open(path, &config);
+  if (!in) fail(fmt::format("cannot read image: {}", OIIO::geterror()));
+  const OIIO::ImageSpec spec = in->spec();  // a copy: seek_subimage replaces in->spec()
   RgbImage img;
+  img.format = in->format_name();
+  const size_t max_pixels = size_t(1) << 28;
+  if (spec.depth > 1 || spec.tile_depth > 1)
+    fail(fmt::format("is a 3-D image ({}x{}x{} voxels, read by OpenImageIO's {} reader); {} must be a 2-D image",
+                     spec.width, spec.height, spec.depth, img.format, what));
+  if (spec.deep) fail(fmt::format("is a deep image (several samples per pixel); {} must be a flat image", what));
+  if (in->seek_subimage(1, 0))
+    fail(fmt::format("holds more than one subimage (a multi-part or multi-frame {} file); {} must be a single image",
+                     img.format, what));
+  if (!in->seek_subimage(0, 0)) fail(fmt::format("cannot read image: {}", in->geterror()));
+  const int nc = spec.nchannels;
+  if (spec.width <= 0 || spec.height <= 0 || nc <= 0 || size_t(spec.width) * size_t(spec.height) > max_pixels)
+    fail(fmt::format("unsupported image size {}x{} with {} channels (at most 2^28 pixels)", spec.width, spec.height, nc));
+  if (spec.tile_width > 0 && size_t(spec.tile_width) * size_t(std::max(spec.tile_height, 1)) > max_pixels)
+    fail(fmt::format("tiles of {}x{} pixels are more than the 2^28 pixels an image can have", spec.tile_width,
+                     spec.tile_height));
   img.width = spec.width;
   img.height = spec.height;
-  img.format = in->format_name();
   img.window.x0 = spec.x - spec.full_x;
   img.window.y0 = spec.y - spec.full_y;
   img.window.full_width = spec.full_width > 0 ? spec.full_width : spec.width;
   img.window.full_height = spec.full_height > 0 ? spec.full_height : spec.height;
-  int nc = spec.nchannels;
-  if (img.width <= 0 || img.height <= 0 || nc <= 0 || size_t(img.width) * size_t(img.height) > (size_t(1) << 28))
-    throw Error(fmt::format("{}: unsupported image size {}x{}x{}", path, img.width, img.height, nc));
-  std::vector<float> px(size_t(img.width) * img.height * nc);
-  if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, px.data()))
-    throw Error(fmt::format("{}: cannot read pixels: {}", path, in->geterror()));
-  img.rgb.resize(size_t(img.width) * img.height * 3);
-  for (size_t i = 0; i < size_t(img.width) * img.height; ++i)
-    for (int c = 0; c < 3; ++c) img.rgb[i * 3 + c] = px[i * nc + std::min(c, nc - 1)];
+  const bool cropped = img.window.x0 != 0 || img.window.y0 != 0 || img.window.full_width != img.width ||
+                       img.window.full_height != img.height;
+  auto base = [&](int c) { return c < int(spec.channelnames.size()) ? channel_base(spec.channelnames[c]) : ""; };
+  const bool rgb_named = nc >= 3 && base(0) == "R" && base(1) == "G" && base(2) == "B";
+  int gray = -1;  // the channel replicated to RGB, or -1 for R, G, B
+  if (env) {
+    if (cropped)
+      fail(fmt::format("its data window ({}x{} pixels at {},{}) is not its {}x{} display window (a tile or a crop); "
+                       "an environment map must cover the whole sphere",
+                       img.width, img.height, img.window.x0, img.window.y0, img.window.full_width,
+                       img.window.full_height));
+    if (nc == 1 && spec.alpha_channel != 0 && spec.z_channel != 0) gray = 0;
+    else if (nc == 2 && spec.alpha_channel == 1) gray = 0;  // gray + alpha: the alpha is ignored
+    else if (!rgb_named)
+      fail(fmt::format("has {} channel(s) ({}); an environment map needs one gray channel, gray + alpha, or R, G, B "
+                       "first (further channels are ignored)",
+                       nc, channel_list(spec)));
+  } else {
+    if (img.format != "openexr")
+      fail(fmt::format("a {} image cannot be merged: only spectrack's EXR outputs hold the float pixels and sample "
+                       "ranges a merge needs",
+                       img.format));
+    if (nc != 3 || !rgb_named)
+      fail(fmt::format("has {} channel(s) ({}); spectrack's EXR outputs have exactly R, G, B", nc, channel_list(spec)));
+    bool all_float = spec.format == OIIO::TypeDesc::FLOAT;
+    for (auto& t : spec.channelformats) all_float = all_float && t == OIIO::TypeDesc::FLOAT;
+    if (!all_float)
+      fail(fmt::format("holds {} pixels; spectrack's EXR outputs hold 32-bit float (a converted file loses the exact "
+                       "sums a merge needs)",
+                       spec.format.c_str()));
+    if (img.window.x0 < 0 || img.window.y0 < 0 || int64_t(img.window.x0) + img.width > img.window.full_width ||
+        int64_t(img.window.y0) + img.height > img.window.full_height)
+      fail(fmt::format("its data window ({}x{} pixels at {},{}) leaves its {}x{} display window", img.width,
+                       img.height, img.window.x0, img.window.y0, img.window.full_width, img.window.full_height));
+  }
+  const size_t n = size_t(img.width) * size_t(img.height);
+  const int nread = gray >= 0 ? 1 : 3;
+  img.rgb.resize(n * 3);
+  std::vector<float> g;
+  if (gray >= 0) g.resize(n);
+  float* dst = gray >= 0 ? g.data() : img.rgb.data();
+  if (!in->read_image(0, 0, gray >= 0 ? gray : 0, (gray >= 0 ? gray : 0) + nread, OIIO::TypeDesc::FLOAT, dst))
+    fail(fmt::format("cannot read pixels: {}", in->geterror()));
+  if (gray >= 0)
+    for (size_t i = 0; i < n; ++i) img.rgb[i * 3] = img.rgb[i * 3 + 1] = img.rgb[i * 3 + 2] = g[i];
+  if (env) {
+    // 8-bit PNG and JPEG files hold sRGB-encoded values; radiance is linear
+    std::string cs = spec.get_string_attribute("oiio:ColorSpace");
+    std::string lower = cs;
+    std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    if (lower == "srgb") {
+      for (float& v : img.rgb) v = srgb_decode(v);
+    } else if (lower.rfind("gammacorrected", 0) == 0) {
+      float gamma = std::strtof(cs.c_str() + 14, nullptr);
+      if (!(gamma > 0.0f && gamma < 10.0f)) fail(fmt::format("unsupported colour space {}", cs));
+      for (float& v : img.rgb) v = v > 0.0f ? std::pow(v, gamma) : 0.0f;
+    }
+  } else {
+    for (size_t i = 0; i < img.rgb.size(); ++i)
+      if (!std::isfinite(img.rgb[i]))
+        fail(fmt::format("pixel {},{} holds a non-finite value ({}); spectrack writes finite pixels only",
+                         img.window.x0 + int((i / 3) % size_t(img.width)), img.window.y0 + int(i / 3 / size_t(img.width)),
+                         img.rgb[i]));
+  }
   for (const auto& a : spec.extra_attribs) {
     std::string n = a.name().string();
     if (n.rfind("spectrack:", 0) != 0) continue;

@@ -36,7 +36,16 @@ struct RgbImage {
   std::vector<float> rgb;  // linear, row 0 at the top
   Metadata meta;
 };
-// Reads any OIIO-readable image as linear float RGB (grey images are replicated). Throws Error.
-RgbImage read_image(const std::string& path);
+// What an image is read for; the checks and conversions differ (image.cpp, README "Scenes").
+enum class ImageUse {
+  kEnvironmentMap,  // 1 channel (gray, replicated), gray + alpha, or R, G, B (+ more, ignored);
+                    // sRGB / gamma-encoded files are decoded to linear; the whole display window
+  kFilmPiece,       // a spectrack EXR: exactly float R, G, B, finite, its data window inside the display window
+};
+// Reads one 2-D image (subimage 0, MIP level 0) as linear float RGB. Throws Error naming the
+// file and the reason for anything it cannot read as `use` says: not a regular file, volumes
+// (depth > 1), deep images, several subimages, no pixels or more than 2^28, channels it would
+// have to guess, tiles bigger than that bound.
+RgbImage read_image(const std::string& path, ImageUse use = ImageUse::kEnvironmentMap);
 
 }  // namespace spectrack

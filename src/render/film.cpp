@@ -92,7 +92,8 @@ std::string scene_hash(const SceneDesc& scene) {
       j["film"].erase("spp");
     }
     if (j.contains("render") && j["render"].is_object())
-      for (const char* k : {"seed", "tracker", "spectral_scheme"}) j["render"].erase(k);
+      for (const char* k : {"seed", "tracker", "spectral_scheme", "absorption", "light_sampling", "transmittance"})
+        j["render"].erase(k);
     // file names stand for their contents, hashed below: a scene whose assets moved is the same scene
     for (const char* list : {"media", "lights"})
       if (j.contains(list) && j[list].is_array())
@@ -109,15 +110,27 @@ std::string scene_hash(const SceneDesc& scene) {
   return h.digest();
 }
 
-RenderIdentity render_identity(const SceneDesc& scene, const RenderOptions& opt) {
+RenderIdentity render_identity(const RenderSettings& s) {
   RenderIdentity id;
-  id.full_width = scene.film.width;
-  id.full_height = scene.film.height;
-  id.seed = opt.seed >= 0 ? uint32_t(opt.seed) : scene.render.seed;
-  id.tracker = tracker_name(opt.tracker >= 0 ? opt.tracker : scene.render.tracker);
-  id.scheme = scheme_name(opt.scheme >= 0 ? opt.scheme : scene.render.scheme);
+  id.full_width = s.full_width;
+  id.full_height = s.full_height;
+  id.seed = s.seed;
+  id.tracker = tracker_name(s.tracker);
+  id.scheme = scheme_name(s.scheme);
+  id.absorption = absorption_name(s.absorption);
+  id.light_sampling = light_sampling_name(s.light_sampling);
+  id.transmittance = transmittance_name(s.transmittance);
   id.version = SPECTRACK_VERSION;
   return id;
+}
+
+FilmPiece empty_piece(const RenderIdentity& id, const FilmWindow& w, const std::string& source) {
+  FilmPiece p;
+  p.source = source;
+  p.id = id;
+  p.x0 = w.x0, p.y0 = w.y0, p.width = w.width, p.height = w.height;
+  p.sum.assign(size_t(w.pixels()) * 3, 0.0);
+  return p;
 }
 
 std::vector<float> FilmPiece::mean() const {
@@ -146,8 +159,10 @@ static std::string window_text(int x0, int x1, int y0, int y1) {
   return fmt::format("x {}..{}, y {}..{}", x0, x1 - 1, y0, y1 - 1);
 }
 
-FilmPiece merge_pieces(const std::vector<FilmPiece>& pieces) {
-  if (pieces.empty()) throw Error("merge: no input");
+namespace {
+
+// Every piece belongs to the render of the first one and holds samples inside the film.
+void check_one_render(const std::vector<FilmPiece>& pieces) {
   const FilmPiece& a = pieces[0];
   for (auto& p : pieces) {
     auto differ = [&](const std::string& what, const std::string& va, const std::string& vb) {
@@ -160,6 +175,11 @@ FilmPiece merge_pieces(const std::vector<FilmPiece>& pieces) {
     if (p.id.seed != a.id.seed) differ("the seed", std::to_string(a.id.seed), std::to_string(p.id.seed));
     if (p.id.tracker != a.id.tracker) differ("the tracker", a.id.tracker, p.id.tracker);
     if (p.id.scheme != a.id.scheme) differ("the spectral scheme", a.id.scheme, p.id.scheme);
+    if (p.id.absorption != a.id.absorption) differ("the absorption mode", a.id.absorption, p.id.absorption);
+    if (p.id.light_sampling != a.id.light_sampling)
+      differ("the light sampling", a.id.light_sampling, p.id.light_sampling);
+    if (p.id.transmittance != a.id.transmittance)
+      differ("the transmittance estimator", a.id.transmittance, p.id.transmittance);
     if (p.id.version != a.id.version) differ("the spectrack version", a.id.version, p.id.version);
     if (p.id.scene_hash != a.id.scene_hash) differ("the scene (spectrack:scene_hash)", a.id.scene_hash, p.id.scene_hash);
     if (p.width <= 0 || p.height <= 0 || p.x0 < 0 || p.y0 < 0 || p.x0 + p.width > p.id.full_width ||
@@ -169,6 +189,40 @@ FilmPiece merge_pieces(const std::vector<FilmPiece>& pieces) {
                               p.id.full_height));
     if (p.samples() == 0) throw Error(fmt::format("merge: {}: holds no sample", p.source));
   }
+}
+
+// The sample ranges that the pieces covering cell (a rectangle between window edges) hold, joined;
+// throws when none covers it or two overlap.
+std::vector<SampleRange> cell_ranges(const std::vector<FilmPiece>& pieces, int cx0, int cx1, int cy0, int cy1,
+                                     const std::string& box) {
+  std::string cell = window_text(cx0, cx1, cy0, cy1);
+  std::vector<std::pair<SampleRange, size_t>> held;
+  for (size_t i = 0; i < pieces.size(); ++i) {
+    const FilmPiece& p = pieces[i];
+    if (p.x0 <= cx0 && cx1 <= p.x0 + p.width && p.y0 <= cy0 && cy1 <= p.y0 + p.height)
+      for (auto& r : p.ranges) held.push_back({r, i});
+  }
+  if (held.empty())
+    throw Error(fmt::format("merge: pixels {} lie inside the inputs' bounding box ({}) but in no input: a tile "
+                            "is missing",
+                            cell, box));
+  std::sort(held.begin(), held.end(), [](auto& p, auto& q) { return p.first.begin < q.first.begin; });
+  for (size_t k = 1; k < held.size(); ++k)
+    if (held[k].first.begin < held[k - 1].first.end)
+      throw Error(fmt::format("merge: {} and {} overlap: both hold samples {}:{} of pixels {}",
+                              pieces[held[k - 1].second].source, pieces[held[k].second].source,
+                              held[k].first.begin, std::min(held[k].first.end, held[k - 1].first.end), cell));
+  std::vector<SampleRange> rs;
+  for (auto& h : held) rs.push_back(h.first);
+  return join_ranges(rs);
+}
+
+}  // namespace
+
+FilmPiece merge_pieces(const std::vector<FilmPiece>& pieces) {
+  if (pieces.empty()) throw Error("merge: no input");
+  check_one_render(pieces);
+  const FilmPiece& a = pieces[0];
   std::vector<int> xs, ys;
   for (auto& p : pieces) {
     xs.insert(xs.end(), {p.x0, p.x0 + p.width});
@@ -192,25 +246,8 @@ FilmPiece merge_pieces(const std::vector<FilmPiece>& pieces) {
     for (size_t xi = 0; xi + 1 < xs.size(); ++xi) {
       int cx0 = xs[xi], cx1 = xs[xi + 1], cy0 = ys[yi], cy1 = ys[yi + 1];
       std::string cell = window_text(cx0, cx1, cy0, cy1);
-      std::vector<std::pair<SampleRange, size_t>> held;
-      for (size_t i = 0; i < pieces.size(); ++i) {
-        const FilmPiece& p = pieces[i];
-        if (p.x0 <= cx0 && cx1 <= p.x0 + p.width && p.y0 <= cy0 && cy1 <= p.y0 + p.height)
-          for (auto& r : p.ranges) held.push_back({r, i});
-      }
-      if (held.empty())
-        throw Error(fmt::format("merge: pixels {} lie inside the inputs' bounding box ({}) but in no input: a tile "
-                                "is missing",
-                                cell, window_text(out.x0, out.x0 + out.width, out.y0, out.y0 + out.height)));
-      std::sort(held.begin(), held.end(), [](auto& p, auto& q) { return p.first.begin < q.first.begin; });
-      for (size_t k = 1; k < held.size(); ++k)
-        if (held[k].first.begin < held[k - 1].first.end)
-          throw Error(fmt::format("merge: {} and {} overlap: both hold samples {}:{} of pixels {}",
-                                  pieces[held[k - 1].second].source, pieces[held[k].second].source,
-                                  held[k].first.begin, std::min(held[k].first.end, held[k - 1].first.end), cell));
-      std::vector<SampleRange> rs;
-      for (auto& h : held) rs.push_back(h.first);
-      rs = join_ranges(rs);
+      std::vector<SampleRange> rs =
+          cell_ranges(pieces, cx0, cx1, cy0, cy1, window_text(out.x0, out.x0 + out.width, out.y0, out.y0 + out.height));
       if (first_cell) {
         out.ranges = rs;
         first_cell_text = cell;
@@ -246,6 +283,9 @@ Metadata piece_metadata(const FilmPiece& p) {
   else m["seed"] = std::to_string(p.id.seed);
   m["tracker"] = p.id.tracker;
   m["scheme"] = p.id.scheme;
+  m["absorption"] = p.id.absorption;
+  m["light_sampling"] = p.id.light_sampling;
+  m["transmittance"] = p.id.transmittance;
   m["version"] = p.id.version;
   m["scene_hash"] = p.id.scene_hash;
   m["pixel_bounds"] = fmt::format("{},{},{},{}", p.x0, p.x0 + p.width, p.y0, p.y0 + p.height);
@@ -266,7 +306,7 @@ void write_piece(const std::string& path, const FilmPiece& p, const Metadata& ex
 }
 
 FilmPiece read_piece(const std::string& path, Metadata* meta) {
-  RgbImage img = read_image(path);
+  RgbImage img = read_image(path, ImageUse::kFilmPiece);
   if (meta) *meta = img.meta;
   if (img.format != "openexr")
     throw Error(fmt::format("{}: a {} image cannot be merged: only spectrack's EXR outputs hold the float pixels and "
@@ -286,6 +326,9 @@ FilmPiece read_piece(const std::string& path, Metadata* meta) {
   p.id.scene_hash = str("scene_hash");
   p.id.tracker = str("tracker");
   p.id.scheme = str("scheme");
+  if (img.meta.count("absorption")) p.id.absorption = str("absorption");
+  if (img.meta.count("light_sampling")) p.id.light_sampling = str("light_sampling");
+  if (img.meta.count("transmittance")) p.id.transmittance = str("transmittance");
   p.id.version = str("version");
   try {
     p.id.seed = std::stoll(str("seed"));

@@ -38,18 +38,21 @@ struct RenderIdentity {
   int full_width = 0, full_height = 0;
   int64_t seed = 0;
   std::string tracker, scheme, version;
+  std::string absorption = "event";  // st_absorption name (pieces written before the option: event)
+  std::string light_sampling = "all";  // st_light_sampling name (pieces written before the option: all)
+  std::string transmittance = "ratio";  // st_transmittance_mode name (pieces written before the option: ratio)
 };
 
 // A SHA-1 of the scene as it shapes the image: the scene file's JSON (keys sorted, whitespace
 // dropped; without film.output, film.spp, the render fields that are recorded on their own:
-// seed, tracker, spectral_scheme, and the names of referenced files) and the contents of every
+// seed, tracker, spectral_scheme, absorption, light_sampling, transmittance, and the names of referenced files) and the contents of every
 // file it references (VDB files, environment maps), so a scene moved to another folder or
 // machine keeps its hash.
 std::string scene_hash(const SceneDesc& scene);
-// The identity of a render of `scene` with `opt` (tracker, scheme and seed resolved as Renderer
-// does), without scene_hash: hashing reads every referenced file, so the caller computes it where
-// it does not delay the render (the CLI overlaps it with rendering, on the rank that writes).
-RenderIdentity render_identity(const SceneDesc& scene, const RenderOptions& opt);
+// The identity of a render with these settings, without scene_hash: hashing reads every
+// referenced file, so the caller computes it where it does not delay the render (the CLI overlaps
+// it with rendering, on the rank that writes).
+RenderIdentity render_identity(const RenderSettings& settings);
 
 struct FilmPiece {
   std::string source;  // the file (or device, or rank) it came from, for messages
@@ -63,6 +66,9 @@ struct FilmPiece {
   std::vector<float> mean() const;
 };
 
+// A piece of window w that holds no sample yet (zero sums): what a device or an MPI rank that
+// rendered nothing contributes.
+FilmPiece empty_piece(const RenderIdentity& id, const FilmWindow& w, const std::string& source);
 FilmPiece piece_from_result(const RenderResult& r, const RenderIdentity& id, const std::string& source);
 // Combines pieces into one over their bounding box; throws Error (naming the sources) as above.
 FilmPiece merge_pieces(const std::vector<FilmPiece>& pieces);

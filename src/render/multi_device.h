@@ -26,21 +26,25 @@ struct MultiDeviceResult {
   std::vector<std::string> devices;  // device names, in list order
   std::vector<int64_t> samples_per_device;
   double seconds_setup = 0, seconds_build = 0;  // the slowest device's
-  double seconds_render = 0;                    // wall time of the chunk loop
+  double seconds_render = 0;                    // stage loops alone: the device with the longest sum
   bool kernels_from_cache = true;
   double seconds_first_pass = 0;  // the first device to put a batch on its film: construction to then
   uint32_t features = 0;          // the kernels' feature mask (the same on every device)
   int tracker = 0, scheme = 0;
+  int absorption = 0;      // st_absorption
+  int light_sampling = 0;  // st_light_sampling
+  int transmittance = 0;   // st_transmittance_mode
   uint32_t seed = 0;
   int spp_requested = 0;
+  bool time_limit_reached = false;  // some device stopped at RenderOptions::deadline
 };
 
-// Renders samples [sample_begin, sample_begin + spp) of the window in `base` (base.device and
-// base.progress are replaced per device; base.stop is honoured) on each device of `devices`.
-// chunk_spp <= 0 picks the chunk size (the whole range for one device). Errors from any device
-// are rethrown naming it.
-MultiDeviceResult render_multi_device(const SceneDesc& scene, const RenderOptions& base,
-                                      const std::vector<std::string>& devices, const RenderIdentity& id,
-                                      int64_t sample_begin, int spp, int chunk_spp = 0);
+// Renders samples [sample_begin, sample_begin + spp) of the settings' window (resolved from
+// `base`; base.device and base.progress are replaced per device, base.stop is honoured) on each
+// device of `devices`. chunk_spp <= 0 picks the chunk size (the whole range for one device).
+// Errors from any device are rethrown naming it.
+MultiDeviceResult render_multi_device(const SceneDesc& scene, const RenderOptions& base, const RenderSettings& settings,
+                                      const std::vector<std::string>& devices, int64_t sample_begin, int spp,
+                                      int chunk_spp = 0);
 
 }  // namespace spectrack

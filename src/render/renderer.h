@@ -1,51 +1,39 @@
 // renderer.h: a scene on one OpenCL device, and the wavefront scheduler that renders it.
 //
-// Construction does all set-up (device choice, VDB loading, majorant grids, kernel build,
-// uploads) so render() only runs the stage loop. The loop keeps Q path slots in flight: each
-// iteration launches raygen (refill free slots), track, escape, scatter, shadow and finish on
-// the queues the previous iteration filled, then reads every queue size and statistic counter in
-// one copy. Samples are organised in batches of whole samples per pixel; a batch's results are
-// added to the film (in a fixed order) once all its paths are done, and up to
-// ST_MAX_BATCHES_IN_FLIGHT batches are in flight (a ring of result buffers) so that a batch's
-// longest paths do not leave the slots idle. Stopping (Ctrl-C) lets the started batches finish and reports the samples done.
+// Construction does all set-up (settings resolved once, device choice, scene packing with VDB
+// loading and majorant grids, kernel build, uploads) so render() only runs the stage loop. The
+// loop keeps Q path slots in flight: each iteration launches raygen (refill free slots), track,
+// escape, scatter, shadow and finish on the queues the previous iteration filled, then reads every
+// queue size and statistic counter in one copy. Samples are organised in batches of whole samples
+// per pixel; a batch's results are added to the film (in a fixed order) once all its paths are
+// done, and up to ST_MAX_BATCHES_IN_FLIGHT batches are in flight (a ring of result buffers) so
+// that a batch's longest paths do not leave the slots idle. A stop request (Ctrl-C) or the
+// deadline (--time-limit) ends the loop at its next iteration, with the finished batches on the
+// film.
 #pragma once
 #include <array>
-#include <atomic>
-#include <functional>
 #include <map>
 #include <memory>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "render/settings.h"
 #include "scene/scene.h"
 
 namespace spectrack {
-
-struct RenderOptions {
-  int spp = -1;            // overrides film.spp when > 0: the number of samples per pixel
-  int64_t sample_begin = 0;  // first sample index of the full sequence (sample-range shards)
-  // Pixel window x0, x1, y0, y1 (x1, y1 exclusive, pbrt's --pixelbounds); x1 < 0 = the whole film.
-  std::array<int, 4> pixel_bounds{0, -1, 0, -1};
-  int64_t seed = -1;       // overrides render.seed when >= 0
-  int tracker = -1;        // overrides render.tracker when >= 0
-  int scheme = -1;         // overrides render.spectral_scheme when >= 0
-  std::string device;      // "P:D", name substring, or "" (SPECTRACK_DEVICE, then default)
-  int path_slots = 0;      // paths in flight; 0 = by device type
-  int iteration_budget = 256;  // tentative collisions + DDA steps per item and launch
-  int majorant_cell = 8;   // voxels per majorant-grid cell edge
-  int majorant_block = 4;  // fine cells per coarse-block edge of a two-level majorant grid; 0 or 1 = one level
-  bool generic_kernels = false;
-  int batches_in_flight = 0;     // batch result buffers in the ring (0: ST_MAX_BATCHES_IN_FLIGHT); 2 = the old scheme  // the generic kernel (every feature) instead of one specialised to the scene
-  bool quiet = false;
-  std::function<void(double)> progress;        // fraction of samples done
-  const std::atomic<bool>* stop = nullptr;     // set asynchronously to stop after started batches
-};
 
 struct KernelTime {
   double seconds = 0;
   uint64_t launches = 0;
 };
+
+// Statistics the host counts itself (the device's are ST_SUM_COUNTERS of kernels/types.h):
+// X(RenderStats field, --stats-json key).
+#define ST_HOST_COUNTERS(X)    \
+  X(paths, "paths")            \
+  X(iterations, "iterations")  \
+  X(iterations_below_half, "iterations_below_half_occupancy")
 
 struct RenderStats {
   // Adds another shard's statistics (counters summed, max_throughput maxed, kernel times summed).
@@ -53,14 +41,13 @@ struct RenderStats {
   // Every counter with its --stats-json key: the one list that add() and stats_json.cpp use.
   using Counter = uint64_t RenderStats::*;
   static const std::vector<std::pair<const char*, Counter>>& counters();
-  uint64_t paths = 0;
-  uint64_t lookups_track = 0, lookups_shadow = 0, lookups_emission = 0;
-  uint64_t real_collisions = 0, null_collisions = 0, control_collisions = 0, residual_collisions = 0;
-  uint64_t dda_steps = 0, dda_nonempty = 0, requeues = 0, nonfinite_samples = 0, scatter_events = 0, iterations = 0;
+#define ST_X_DEVICE_STAT(E, field, key) uint64_t field = 0;
+#define ST_X_HOST_STAT(field, key) uint64_t field = 0;
+  ST_SUM_COUNTERS(ST_X_DEVICE_STAT)
+  ST_HOST_COUNTERS(ST_X_HOST_STAT)  // iterations_below_half: iterations with fewer than half the slots busy
   double max_throughput = 0;
   // work distribution: paths in flight (all queues but FREE) over the slots, per iteration
   double occupancy_mean = 0, occupancy_min = 0;
-  uint64_t iterations_below_half = 0;  // iterations with fewer than half the slots busy
   std::map<std::string, KernelTime> kernels;
 };
 
@@ -74,8 +61,12 @@ struct RenderResult {
   std::vector<double> sum;
   int64_t sample_begin = 0;            // samples sample_begin .. sample_begin + spp_done - 1
   int spp_requested = 0, spp_done = 0;
-  bool interrupted = false;
+  bool interrupted = false;         // fewer samples done than requested (a stop or the time limit)
+  bool time_limit_reached = false;  // stopped by RenderOptions::deadline
   int tracker = 0, scheme = 0;
+  int absorption = 0;      // st_absorption
+  int light_sampling = 0;  // st_light_sampling
+  int transmittance = 0;   // st_transmittance_mode
   uint32_t seed = 0;
   std::string device;
   double seconds_setup = 0, seconds_build = 0, seconds_render = 0;
@@ -85,6 +76,8 @@ struct RenderResult {
   RenderStats stats;
 };
 
+struct DeviceScene;
+
 class Renderer {
  public:
   Renderer(const SceneDesc& scene, const RenderOptions& options);
@@ -92,28 +85,18 @@ class Renderer {
   Renderer(const Renderer&) = delete;
   Renderer& operator=(const Renderer&) = delete;
 
+  // Renders the resolved settings' samples.
   RenderResult render();
   // Renders samples [sample_begin, sample_begin + spp) of every window pixel (a shard of the full
-  // sequence); render() is render(options.sample_begin, spp of the options or the scene).
+  // sequence, e.g. one chunk of a multi-device render).
   RenderResult render(int64_t sample_begin, int spp);
-
-  // Probes for tests and benchmarks: the kernels' own device functions on given inputs.
-  std::vector<float> probe_density(int medium, const std::vector<std::array<float, 3>>& world_points);
-  std::vector<std::array<float, 2>> probe_majorant(int medium, const std::vector<std::array<float, 3>>& world_points);
-  // Per item: (t of first real collision or +inf, event, lookups, dda steps); channel -1 = rgb.
-  std::vector<std::array<float, 4>> probe_track(std::array<float, 3> o, std::array<float, 3> d, int channel, int n,
-                                                std::vector<std::array<float, 4>>* beta = nullptr);
-  // Infinite-medium albedo walks from o: per item (sum of scattering weights xyz, max weight) and
-  // (absorption score with Le = 1 xyz, escaped flag). channel -1 = rgb.
-  void probe_albedo(std::array<float, 3> o, int channel, int n, std::vector<std::array<float, 4>>* scatter,
-                    std::vector<std::array<float, 4>>* absorb);
-  // Phase sampling around +z: per item (cos theta, pdf, phase value, |wi| - 1).
-  std::vector<std::array<float, 4>> probe_phase(int type, float g, int n);
-  std::vector<std::array<float, 4>> probe_transmittance(std::array<float, 3> o, std::array<float, 3> d, int n);
 
   const std::string& device_name() const;
   uint32_t features() const;  // the kernels' st_feature mask
   const SceneDesc& scene() const;
+  const RenderSettings& settings() const;
+  // The scene as uploaded to the device (for the test probes of render/probe.h).
+  DeviceScene& device_scene();
 
  private:
   struct Impl;

@@ -1,18 +1,30 @@
 // names.cpp: the user-facing names of the tracker and spectral-scheme enums of kernels/types.h.
 //
-// Design: one table per enum, indexed by the enum value and sized by its *_COUNT, so adding an
-// enum value without a name fails to compile. The scene loader, the CLI flags and the EXR
-// metadata all go through these functions; nothing else spells the names.
+// Design: the names come from the enums' own tables in kernels/types.h (ST_TRACKERS, ST_SCHEMES),
+// so an enum value cannot lack a name. The scene loader, the CLI flags and the EXR metadata all go
+// through these functions; nothing else spells the names.
+#include <iterator>
 #include <string>
+#include <vector>
 
 #include "scene/scene.h"
 
 namespace spectrack {
 namespace {
 
-const char* const kTrackerNames[] = {"delta-per-channel", "delta", "spectral", "decomposition",
-                                     "spectral-decomposition"};
-const char* const kSchemeNames[] = {"max", "average", "history-max", "history-average"};
+#define ST_X_TRACKER_NAME(E, name, ch, achromatic, scheme, decomposes, absorption) name,
+#define ST_X_SCHEME_NAME(E, name) name,
+#define ST_X_ABSORPTION_NAME(E, name) name,
+#define ST_X_LIGHT_SAMPLING_NAME(E, name) name,
+#define ST_X_TRANSMITTANCE_NAME(E, name) name,
+const char* const kTrackerNames[] = {ST_TRACKERS(ST_X_TRACKER_NAME)};
+const char* const kSchemeNames[] = {ST_SCHEMES(ST_X_SCHEME_NAME)};
+const char* const kAbsorptionNames[] = {ST_ABSORPTIONS(ST_X_ABSORPTION_NAME)};
+const char* const kLightSamplingNames[] = {ST_LIGHT_SAMPLINGS(ST_X_LIGHT_SAMPLING_NAME)};
+const char* const kTransmittanceNames[] = {ST_TRANSMITTANCES(ST_X_TRANSMITTANCE_NAME)};
+static_assert(sizeof(kTransmittanceNames) / sizeof(kTransmittanceNames[0]) == ST_TRANSMITTANCE_COUNT, "transmittance names");
+static_assert(sizeof(kLightSamplingNames) / sizeof(kLightSamplingNames[0]) == ST_LIGHT_SAMPLING_COUNT, "light sampling names");
+static_assert(sizeof(kAbsorptionNames) / sizeof(kAbsorptionNames[0]) == ST_ABSORPTION_COUNT, "absorption names");
 static_assert(sizeof(kTrackerNames) / sizeof(kTrackerNames[0]) == ST_TRACKER_COUNT, "tracker names");
 static_assert(sizeof(kSchemeNames) / sizeof(kSchemeNames[0]) == ST_SCHEME_COUNT, "scheme names");
 
@@ -43,5 +55,24 @@ int tracker_from_name(const std::string& name) { return value_of(kTrackerNames, 
 int scheme_from_name(const std::string& name) { return value_of(kSchemeNames, name); }
 std::string tracker_names() { return list_of(kTrackerNames); }
 std::string scheme_names() { return list_of(kSchemeNames); }
+std::vector<std::string> tracker_name_list() { return {std::begin(kTrackerNames), std::end(kTrackerNames)}; }
+std::vector<std::string> scheme_name_list() { return {std::begin(kSchemeNames), std::end(kSchemeNames)}; }
+const char* absorption_name(int absorption) { return name_of(kAbsorptionNames, absorption); }
+int absorption_from_name(const std::string& name) { return value_of(kAbsorptionNames, name); }
+std::string absorption_names() { return list_of(kAbsorptionNames); }
+std::vector<std::string> absorption_name_list() { return {std::begin(kAbsorptionNames), std::end(kAbsorptionNames)}; }
+const char* light_sampling_name(int mode) { return name_of(kLightSamplingNames, mode); }
+int light_sampling_from_name(const std::string& name) { return value_of(kLightSamplingNames, name); }
+std::string light_sampling_names() { return list_of(kLightSamplingNames); }
+std::vector<std::string> light_sampling_name_list() {
+  return {std::begin(kLightSamplingNames), std::end(kLightSamplingNames)};
+}
+const char* transmittance_name(int mode) { return name_of(kTransmittanceNames, mode); }
+int transmittance_from_name(const std::string& name) { return value_of(kTransmittanceNames, name); }
+std::string transmittance_names() { return list_of(kTransmittanceNames); }
+std::vector<std::string> transmittance_name_list() {
+  return {std::begin(kTransmittanceNames), std::end(kTransmittanceNames)};
+}
+bool tracker_uses_scheme(int tracker) { return st_tracker_uses_scheme(tracker) != 0; }
 
 }  // namespace spectrack

@@ -1,4 +1,4 @@
-// scene.cpp: loading and validating spectrack-scene/1 files (SCENE_FORMAT.md is the contract).
+// scene.cpp: loading and validating spectrack-scene/1 files (docs/scene-format.md is the reference).
 //
 // Design: nlohmann::json parses the text with a callback that rejects duplicate keys (the library
 // would silently keep the last one); then one Parser walks the tree top-down. Each object is first
@@ -24,6 +24,9 @@
 #include <nlohmann/json.hpp>
 
 #include "scene/scene.h"
+#include "scene/radiance.h"
+#include "util/files.h"
+#include "scene/frames.h"
 
 namespace spectrack {
 namespace {
@@ -95,6 +98,7 @@ class Parser {
 
  private:
   void camera(const json& j, const std::string& path, CameraDesc& c);
+  void camera_framing(const json& j, const std::string& path, CameraDesc& c);
   void film(const json& j, const std::string& path, FilmDesc& f);
   void render(const json& j, const std::string& path, RenderDesc& r);
   LightDesc light(const json& j, const std::string& path);
@@ -171,8 +175,16 @@ class Parser {
     std::string p = string(obj, path, key, "");
     fs::path resolved = normalized(fs::path(p).is_absolute() ? fs::path(p) : dir_ / p);
     std::error_code ec;
+    if (must_exist && has_frame_pattern(resolved.filename().string())) return resolved.string();  // checked per frame (--frames)
     if (must_exist && !fs::exists(resolved, ec)) fail(child(path, key), resolved.string() + ": no such file");
     if (must_exist && fs::is_directory(resolved, ec)) fail(child(path, key), resolved.string() + ": is a directory");
+    if (must_exist) {
+      try {
+        check_input_file(resolved.string(), "");  // a FIFO or device would block or never end
+      } catch (const Error& e) {
+        fail(child(path, key), e.what());
+      }
+    }
     return resolved.string();
   }
 
@@ -258,31 +270,57 @@ SceneDesc Parser::scene(const json& root) {
 
 void Parser::camera(const json& j, const std::string& path, CameraDesc& c) {
   expect_object(j, path);
-  const Names all = {"type", "position", "look_at", "up", "fov_deg", "height"};
+  const Names all = {"type", "position", "look_at", "up", "fov_deg", "height", "fit"};
   fields(j, path, all);
   std::string type = string(j, path, "type", "perspective");
   if (type == "perspective") {
     c.type = ST_CAMERA_PERSPECTIVE;
-    fields(j, path, {"type", "position", "look_at", "up", "fov_deg"}, "a perspective camera", all);
+    fields(j, path, {"type", "position", "look_at", "up", "fov_deg", "fit"}, "a perspective camera", all);
     c.fov_deg = number(j, path, "fov_deg", c.fov_deg, Range{0, 180, true, true});
   } else if (type == "orthographic") {
     c.type = ST_CAMERA_ORTHOGRAPHIC;
-    fields(j, path, {"type", "position", "look_at", "up", "height"}, "an orthographic camera", all);
+    fields(j, path, {"type", "position", "look_at", "up", "height", "fit"}, "an orthographic camera", all);
     c.height = number(j, path, "height", c.height, kPositive);
   } else {
     fail(path + "/type", "unknown camera type " + in_quotes(type) + " (expected one of: perspective, orthographic)");
   }
-  c.position = vec3(j, path, "position", c.position, kAny);
-  c.look_at = vec3(j, path, "look_at", c.look_at, kAny);
+  camera_framing(j, path, c);
+  if (!c.position_auto) c.position = vec3(j, path, "position", c.position, kAny);
+  if (!c.look_at_media) c.look_at = vec3(j, path, "look_at", c.look_at, kAny);
   c.up = vec3(j, path, "up", c.up, kAny);
+  const double ulen = std::sqrt(c.up[0] * c.up[0] + c.up[1] * c.up[1] + c.up[2] * c.up[2]);
+  if (c.position_auto || c.look_at_media) {  // the view direction is known once the media are (scene/framing.h)
+    if (!(ulen > 0)) fail(path + "/up", "is zero");
+    return;
+  }
   const Vec3 d{c.look_at[0] - c.position[0], c.look_at[1] - c.position[1], c.look_at[2] - c.position[2]};
   const double dlen = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
   if (!(dlen > 0)) fail(path + "/look_at", "equals the camera position (no view direction)");
   const Vec3 x{d[1] * c.up[2] - d[2] * c.up[1], d[2] * c.up[0] - d[0] * c.up[2], d[0] * c.up[1] - d[1] * c.up[0]};
-  const double ulen = std::sqrt(c.up[0] * c.up[0] + c.up[1] * c.up[1] + c.up[2] * c.up[2]);
   // |d x up| = |d| |up| sin(angle): parallel (or zero) below a small angle.
   if (!(std::sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]) > 1e-6 * dlen * ulen) || !(ulen > 0))
     fail(path + "/up", "is zero or parallel to the view direction (look_at - position)");
+}
+
+// Framing (docs/scene-format.md, scene/framing.h): "look_at": "media", "position": "auto", "fit".
+void Parser::camera_framing(const json& j, const std::string& path, CameraDesc& c) {
+  if (const json* v = find(j, "look_at"); v && v->is_string()) {
+    if (v->get<std::string>() != "media")
+      fail(path + "/look_at", "expected a point [x, y, z] or \"media\", got " + in_quotes(v->get<std::string>()));
+    c.look_at_media = true;
+  }
+  if (const json* v = find(j, "position"); v && v->is_string()) {
+    if (v->get<std::string>() != "auto")
+      fail(path + "/position", "expected a point [x, y, z] or \"auto\", got " + in_quotes(v->get<std::string>()));
+    c.position_auto = true;
+  }
+  if (find(j, "fit")) {
+    c.fit = number(j, path, "fit", 1.0, Range{0, 1000, true, false});
+  } else if (c.position_auto) {
+    c.fit = 1.1;
+  }
+  if (c.position_auto && !c.look_at_media && !find(j, "look_at"))
+    c.look_at_media = true;  // "auto" alone: aim at the media too
 }
 
 void Parser::film(const json& j, const std::string& path, FilmDesc& f) {
@@ -307,20 +345,27 @@ void Parser::film(const json& j, const std::string& path, FilmDesc& f) {
 
 void Parser::render(const json& j, const std::string& path, RenderDesc& r) {
   expect_object(j, path);
-  fields(j, path, {"tracker", "spectral_scheme", "max_depth", "seed"});
-  if (find(j, "tracker")) {
-    std::string t = string(j, path, "tracker", "");
-    r.tracker = tracker_from_name(t);
-    if (r.tracker < 0) fail(path + "/tracker", "unknown tracker " + in_quotes(t) + " (expected one of: " + tracker_names() + ")");
-  }
-  if (find(j, "spectral_scheme")) {
-    std::string t = string(j, path, "spectral_scheme", "");
-    r.scheme = scheme_from_name(t);
-    if (r.scheme < 0)
-      fail(path + "/spectral_scheme", "unknown spectral scheme " + in_quotes(t) + " (expected one of: " + scheme_names() + ")");
-  }
+  fields(j, path,
+         {"tracker", "spectral_scheme", "absorption", "light_sampling", "transmittance", "max_depth", "seed", "time_limit"});
+  // a name from one of the enum tables of kernels/types.h (scene/names.cpp): its value, or the
+  // field named with the valid names
+  auto named = [&](const char* key, const char* what, int (*from_name)(const std::string&), std::string (*names)(),
+                   int* out) {
+    if (!find(j, key)) return false;
+    std::string t = string(j, path, key, "");
+    *out = from_name(t);
+    if (*out < 0)
+      fail(path + "/" + key, std::string("unknown ") + what + " " + in_quotes(t) + " (expected one of: " + names() + ")");
+    return true;
+  };
+  named("tracker", "tracker", tracker_from_name, tracker_names, &r.tracker);
+  r.scheme_set = named("spectral_scheme", "spectral scheme", scheme_from_name, scheme_names, &r.scheme) || r.scheme_set;
+  named("absorption", "absorption mode", absorption_from_name, absorption_names, &r.absorption);
+  named("light_sampling", "light sampling", light_sampling_from_name, light_sampling_names, &r.light_sampling);
+  named("transmittance", "transmittance estimator", transmittance_from_name, transmittance_names, &r.transmittance);
   r.max_depth = static_cast<int>(integer(j, path, "max_depth", r.max_depth, -1, std::numeric_limits<int>::max()));
   r.seed = static_cast<uint32_t>(integer(j, path, "seed", r.seed, 0, 0xffffffffll));
+  if (find(j, "time_limit")) r.time_limit = number(j, path, "time_limit", 0.0, Range{0, 1e9, true, false});
 }
 
 LightDesc Parser::light(const json& j, const std::string& path) {
@@ -525,20 +570,19 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& name, con
   Parser parser(name, dir);
   SceneDesc s = parser.scene(root);
   s.path = name;
+  check_radiance_bounds(s);  // magnitudes the float kernels cannot carry (scene/radiance.h)
   return s;
 }
 
 SceneDesc load_scene(const std::string& path) {
-  std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) throw Error(path + ": cannot open scene file (" + std::strerror(errno) + ")");
-  std::string text;
-  char buf[65536];
-  size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) text.append(buf, n);
-  // Reading a directory "opens" but fails here with EISDIR.
-  int err = std::ferror(f) ? errno : 0;
-  std::fclose(f);
-  if (err) throw Error(path + ": cannot open scene file (" + std::strerror(err) + ")");
+  // The common failures keep their plain wording; anything else that is not a regular file of at
+  // most kMaxSceneBytes (a FIFO, /dev/zero, a huge file) is refused by read_input_file.
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (!fs::exists(st))
+    throw Error(path + ": cannot open scene file (" + (ec ? ec.message() : "No such file or directory") + ")");
+  if (fs::is_directory(st)) throw Error(path + ": cannot open scene file (Is a directory)");
+  const std::string text = read_input_file(path, "", kMaxSceneBytes);
   fs::path dir = fs::path(path).parent_path();
   return parse_scene(text, path, dir.empty() ? "." : dir.string());
 }

@@ -1,5 +1,5 @@
 // scene.h: the scene description as loaded from a spectrack-scene/1 JSON file
-// (../shared/design/SCENE_FORMAT.md is the contract). load_scene() validates everything it can
+// (docs/scene-format.md is the reference). load_scene() validates everything it can
 // without touching VDB files: unknown fields, types, ranges, negative or NaN coefficients; every
 // error is a spectrack::Error whose message names the scene file, the JSON path and the reason,
 // e.g. "scene.json: /media/0/sigma_s: value -1 is negative". Relative paths are resolved against
@@ -70,6 +70,11 @@ struct CameraDesc {
   Vec3 up{0, 1, 0};
   double fov_deg = 40.0;  // perspective: full angle across the shorter image side
   double height = 2.0;    // orthographic: world units across the shorter image side
+  // Framing (scene/framing.h), resolved when the scene is packed, once the media's boxes are known:
+  bool look_at_media = false;  // "look_at": "media": aim at the centre of the union of the media's boxes
+  bool position_auto = false;  // "position": "auto": along the default direction (0, 0, 1), (0, 1, 0) if up is z
+  double fit = 0;              // > 0: move along the view direction (orthographic: set height) so every
+                               // medium's box fills at most 1/fit of the frame; 0: no fitting
 };
 
 struct FilmDesc {
@@ -82,8 +87,13 @@ struct FilmDesc {
 struct RenderDesc {
   int tracker = ST_TRACKER_SPECTRAL_DECOMPOSITION;
   int scheme = ST_SCHEME_HISTORY_AVERAGE;
+  bool scheme_set = false;  // the file gave spectral_scheme (a tracker that ignores it gets a warning)
+  int absorption = -1;      // st_absorption; -1: the tracker's default (ST_TRACKERS)
+  int light_sampling = -1;  // st_light_sampling; -1: the default (kDefaultLightSampling, settings.h)
+  int transmittance = -1;   // st_transmittance_mode; -1: the default (kDefaultTransmittance, settings.h)
   int max_depth = -1;
   uint32_t seed = 0;
+  double time_limit = 0;  // seconds from the start of the command after which the render stops cleanly; 0: none
 };
 
 struct SceneDesc {
@@ -110,5 +120,26 @@ int scheme_from_name(const std::string& name);
 // "a, b, c" lists for messages.
 std::string tracker_names();
 std::string scheme_names();
+// The names in enum order (for the CLI's validators: the one table of names.cpp).
+std::vector<std::string> tracker_name_list();
+std::vector<std::string> scheme_name_list();
+// Whether a tracker's event probabilities use the spectral scheme (spectral, spectral-decomposition);
+// the others are analog: they use the channel maximum, which kernels/tracking.h calls max.
+bool tracker_uses_scheme(int tracker);
+// Names of the absorption modes (st_absorption): "event", "weight".
+const char* absorption_name(int absorption);
+int absorption_from_name(const std::string& name);  // -1 when unknown
+std::string absorption_names();
+std::vector<std::string> absorption_name_list();
+// Names of the light sampling modes (st_light_sampling): "all", "uniform", "power".
+const char* light_sampling_name(int mode);
+int light_sampling_from_name(const std::string& name);  // -1 when unknown
+std::string light_sampling_names();
+std::vector<std::string> light_sampling_name_list();
+// Names of the transmittance estimators (st_transmittance_mode): "ratio", "ray-marching".
+const char* transmittance_name(int mode);
+int transmittance_from_name(const std::string& name);  // -1 when unknown
+std::string transmittance_names();
+std::vector<std::string> transmittance_name_list();
 
 }  // namespace spectrack

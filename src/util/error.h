@@ -11,4 +11,9 @@ struct Error : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// A bad command line found after parsing (a flag that contradicts the scene): the CLI exits 2.
+struct UsageError : Error {
+  using Error::Error;
+};
+
 }  // namespace spectrack

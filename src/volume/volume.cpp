@@ -1,4 +1,5 @@
-// volume.cpp: VDB loading and majorant-grid construction.
+// volume.cpp: VDB and NanoVDB loading (.nvdb parsing is in nvdb_file.cpp, the majorant grids are
+// built in majorant_grid.cpp).
 //
 // Design: every grid ends up as a NanoVDB float grid (OpenVDB grids are converted with
 // openToNanoVDB), and all checks that matter for rendering (level set, background, negative or
@@ -8,18 +9,19 @@
 // reader trusts every size in the file; each size is checked against the file length before
 // anything is allocated, compressed chunks (BLOSC, ZIP) are decoded through OpenVDB's own codecs
 // after checking their headers, and the decoded grid is validated (checksum, node pointers).
-// The majorant grid follows ALGORITHMS.md 7.2: cell boundaries sit on voxel centres, so a cell
-// of B voxels reads the (B+1)^3 voxels of its trilinear support.
 #include "volume/volume.h"
+#include "volume/volume_detail.h"
+#include "util/files.h"
+#include "volume/vdb_open.h"
 
 #include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <climits>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -40,22 +42,9 @@
 namespace spectrack {
 namespace {
 
+using namespace volume_detail;
+
 namespace fs = std::filesystem;
-using FloatGrid = nanovdb::NanoGrid<float>;
-using Root = nanovdb::NanoRoot<float>;
-using Upper = nanovdb::NanoUpper<float>;
-using Lower = nanovdb::NanoLower<float>;
-using Leaf = nanovdb::NanoLeaf<float>;
-
-// Formats "<context>: <file>: <reason>" and throws.
-struct Fail {
-  std::string context, file;
-  [[noreturn]] void operator()(const std::string& reason) const {
-    std::string msg = context.empty() ? file : context + ": " + file;
-    throw Error(msg + ": " + reason);
-  }
-};
-
 void init_openvdb() {
   static std::once_flag once;
   std::call_once(once, [] { openvdb::initialize(); });
@@ -72,33 +61,15 @@ void check_readable(const std::string& file, const Fail& fail) {
   const fs::file_status st = fs::status(file, ec);
   if (!fs::exists(st)) fail("no such file");
   if (fs::is_directory(st)) fail("is a directory, not a VDB file");
+  try {
+    check_input_file(file, "");  // a FIFO would block the reader, a device never end
+  } catch (const Error& e) {
+    // "<file>: <reason>" -> the reason, under this loader's own prefix
+    std::string why = e.what();
+    fail(why.compare(0, file.size() + 2, file + ": ") == 0 ? why.substr(file.size() + 2) : why);
+  }
   std::ifstream f(file, std::ios::binary);
   if (!f) fail(std::string("cannot open for reading: ") + std::strerror(errno));
-}
-
-std::string coord_str(int x, int y, int z) {
-  std::ostringstream s;
-  s << "(" << x << ", " << y << ", " << z << ")";
-  return s.str();
-}
-
-std::string in_quotes(const std::string& s) { return "\"" + s + "\""; }
-
-// One grid of a file, as listed before its tree is read.
-struct Entry {
-  std::string name;   // grid name ("" for unnamed)
-  std::string type;   // value type: float, int32, vec3s / Vec3f, ...
-  std::string cls;    // grid class in OpenVDB's words
-  bool is_float = false;
-  bool level_set = false;
-  std::string vdb_key;          // .vdb: unique name for io::File::readGrid
-  uint64_t nv_offset = 0;       // .nvdb: byte offset of the (possibly compressed) grid data
-  uint64_t nv_grid_size = 0, nv_file_size = 0;
-  uint16_t nv_codec = 0;
-};
-
-std::string describe(const Entry& e) {
-  return (e.name.empty() ? std::string("<unnamed>") : e.name) + " (" + e.type + ", " + e.cls + ")";
 }
 
 // ---- OpenVDB ----------------------------------------------------------------------------------
@@ -238,175 +209,6 @@ void check_file_bbox(const openvdb::GridBase& g, const Fail& fail) {
   }
 }
 
-// ---- NanoVDB files ----------------------------------------------------------------------------
-
-const char* nano_class_name(uint32_t c) {
-  static const char* names[] = {"unknown",  "level set",  "fog volume", "staggered", "point index",
-                                "point data", "topology", "voxel volume", "index"};
-  return c < sizeof(names) / sizeof(names[0]) ? names[c] : "invalid class";
-}
-
-std::string nano_type_name(uint32_t t) {
-  if (t < uint32_t(nanovdb::GridType::End)) return nanovdb::toStr(nanovdb::GridType(t));
-  return "invalid type " + std::to_string(t);
-}
-
-// Lists the grids of a .nvdb file, checking every size against the file length.
-std::vector<Entry> nvdb_entries(const std::string& file, const Fail& fail) {
-  std::ifstream is(file, std::ios::binary);
-  if (!is) fail(std::string("cannot open for reading: ") + std::strerror(errno));
-  const uint64_t fsize = fs::file_size(file);
-  std::vector<Entry> out;
-  uint64_t pos = 0;
-  while (pos < fsize) {
-    nanovdb::io::Header h;
-    if (fsize - pos < sizeof(h)) fail("truncated NanoVDB file (partial segment header at byte " + std::to_string(pos) + ")");
-    is.seekg(std::streamoff(pos));
-    is.read(reinterpret_cast<char*>(&h), sizeof(h));
-    if (!is) fail("read error in NanoVDB segment header");
-    if (h.magic != NANOVDB_MAGIC_NUMBER) {
-      if (pos == 0) fail("not a NanoVDB file (bad magic number), or written by an incompatible NanoVDB version");
-      fail("corrupt NanoVDB file: bad segment magic number at byte " + std::to_string(pos));
-    }
-    if (h.version.getMajor() != NANOVDB_MAJOR_VERSION_NUMBER) {
-      fail(std::string("written by NanoVDB ") + h.version.c_str() + ", but this build reads major version " +
-           std::to_string(NANOVDB_MAJOR_VERSION_NUMBER) + " only");
-    }
-    if (h.gridCount == 0) fail("corrupt NanoVDB file: segment with no grids at byte " + std::to_string(pos));
-    const uint16_t codec = uint16_t(h.codec);
-    if (codec > uint16_t(nanovdb::io::Codec::BLOSC)) fail("corrupt NanoVDB file: unknown codec " + std::to_string(codec));
-    pos += sizeof(h);
-    std::vector<Entry> seg;
-    for (uint32_t i = 0; i < h.gridCount; ++i) {
-      nanovdb::io::MetaData m;
-      if (fsize - pos < sizeof(m)) fail("truncated NanoVDB file (partial grid header)");
-      is.read(reinterpret_cast<char*>(&m), sizeof(m));
-      pos += sizeof(m);
-      if (!is || m.nameSize == 0 || m.nameSize > fsize - pos || m.nameSize > (1u << 20)) {
-        fail("corrupt NanoVDB file: bad grid header");
-      }
-      std::string name(m.nameSize, '\0');
-      is.read(&name[0], m.nameSize);
-      pos += m.nameSize;
-      if (!is || name.back() != '\0') fail("corrupt NanoVDB file: unterminated grid name");
-      Entry e;
-      e.name = name.c_str();
-      e.type = nano_type_name(uint32_t(m.gridType));
-      e.cls = nano_class_name(uint32_t(m.gridClass));
-      e.is_float = m.gridType == nanovdb::GridType::Float;
-      e.level_set = m.gridClass == nanovdb::GridClass::LevelSet;
-      e.nv_grid_size = m.gridSize;
-      e.nv_file_size = m.fileSize;
-      e.nv_codec = codec;
-      seg.push_back(e);
-    }
-    for (Entry& e : seg) {
-      if (e.nv_file_size > fsize - pos) fail("truncated NanoVDB file (grid " + in_quotes(e.name) + " data runs past the end)");
-      e.nv_offset = pos;
-      pos += e.nv_file_size;
-      out.push_back(e);
-    }
-  }
-  if (out.empty()) fail("empty NanoVDB file (no grids)");
-  return out;
-}
-
-// Checks a blosc chunk header (16 bytes: version, versionlz, flags, typesize, nbytes, blocksize,
-// cbytes) so that blosc never reads past the chunk or writes past the expected size.
-void check_blosc_header(const char* p, uint64_t csize, uint64_t expect, const Fail& fail) {
-  uint32_t nbytes, cbytes;
-  std::memcpy(&nbytes, p + 4, 4);
-  std::memcpy(&cbytes, p + 12, 4);
-  if (csize < 16 || cbytes != csize || nbytes != expect) fail("corrupt NanoVDB file: bad BLOSC chunk header");
-}
-
-// Checks that the tree, the root tile table and the node arrays lie inside the grid buffer
-// before anything (NanoVDB's checksum and validator included) follows offsets from the file.
-void check_layout(const FloatGrid& g, const Fail& fail) {
-  const char* begin = reinterpret_cast<const char*>(&g);
-  const uint64_t size = g.gridSize();
-  auto within = [&](const void* p, uint64_t n) {
-    const char* c = reinterpret_cast<const char*>(p);
-    return c >= begin && uint64_t(c - begin) <= size && n <= size - uint64_t(c - begin);
-  };
-  const auto& tree = g.tree();
-  const auto* td = reinterpret_cast<const nanovdb::TreeData<3>*>(&tree);
-  bool ok = reinterpret_cast<const char*>(&tree) == begin + sizeof(nanovdb::GridData) && within(&tree, sizeof(*td));
-  ok = ok && td->mNodeOffset[3] < size && within(&tree.root(), sizeof(nanovdb::RootData<Upper>));
-  ok = ok && within(&tree.root(), tree.root().memUsage());
-  const uint64_t node_size[3] = {sizeof(Leaf), sizeof(Lower), sizeof(Upper)};
-  for (int level = 0; ok && level < 3; ++level) {
-    const uint64_t n = td->mNodeCount[level];
-    if (n == 0) continue;
-    ok = td->mNodeOffset[level] < size && n <= size / node_size[level] &&
-         within(reinterpret_cast<const char*>(td) + td->mNodeOffset[level], n * node_size[level]);
-  }
-  if (!ok) fail("corrupt NanoVDB grid (tree layout outside the grid buffer)");
-}
-
-nanovdb::GridHandle<nanovdb::HostBuffer> nvdb_read(const std::string& file, const Entry& e, const Fail& fail) {
-  using nanovdb::io::Codec;
-  const uint64_t gsize = e.nv_grid_size, csize = e.nv_file_size;
-  if (gsize < sizeof(nanovdb::GridData) + sizeof(nanovdb::NanoTree<float>) || gsize % NANOVDB_DATA_ALIGNMENT) {
-    fail("corrupt NanoVDB file: implausible grid size " + std::to_string(gsize));
-  }
-  // Neither codec expands data more than ~1000:1 on real grids; this bounds the allocation.
-  const bool plausible = e.nv_codec == uint16_t(Codec::NONE) ? gsize == csize : gsize <= csize * 1024 + (1u << 20);
-  if (!plausible) fail("corrupt NanoVDB file: grid size " + std::to_string(gsize) + " does not match its " +
-                       std::to_string(csize) + " bytes on disk");
-  std::ifstream is(file, std::ios::binary);
-  is.seekg(std::streamoff(e.nv_offset));
-  nanovdb::HostBuffer buf = nanovdb::HostBuffer::create(gsize);
-  char* dst = reinterpret_cast<char*>(buf.data());
-  if (e.nv_codec == uint16_t(Codec::NONE)) {
-    is.read(dst, std::streamsize(gsize));
-    if (!is) fail("read error in NanoVDB grid data");
-  } else {
-    // Each chunk is a uint64 byte count and the payload, as OpenVDB's codecs expect; BLOSC
-    // data comes in chunks of at most nanovdb::io::Internal::MAX_SIZE decoded bytes, ZIP in one.
-    std::vector<char> chunk;
-    uint64_t left = gsize, disk_left = csize;
-    while (left > 0) {
-      const uint64_t expect = e.nv_codec == uint16_t(Codec::BLOSC) ? std::min<uint64_t>(left, nanovdb::io::Internal::MAX_SIZE) : left;
-      uint64_t n = 0;
-      if (disk_left < 8) fail("truncated NanoVDB grid data");
-      is.read(reinterpret_cast<char*>(&n), 8);
-      disk_left -= 8;
-      if (!is || n == 0 || n > disk_left) fail("corrupt NanoVDB file: bad compressed chunk size");
-      chunk.resize(8 + n);
-      std::memcpy(chunk.data(), &n, 8);
-      is.read(chunk.data() + 8, std::streamsize(n));
-      if (!is) fail("read error in NanoVDB grid data");
-      disk_left -= n;
-      std::istringstream cs(std::string(chunk.data(), chunk.size()));
-      try {
-        if (e.nv_codec == uint16_t(Codec::BLOSC)) {
-          check_blosc_header(chunk.data() + 8, n, expect, fail);
-          openvdb::io::bloscFromStream(cs, dst, expect);
-        } else {
-          openvdb::io::unzipFromStream(cs, dst, expect);
-        }
-      } catch (const openvdb::IoError& err) {
-        const char* codec = e.nv_codec == uint16_t(Codec::BLOSC) ? "BLOSC" : "ZIP";
-        fail(std::string(codec) + "-compressed NanoVDB grid, but this build cannot decode " + codec + " (" +
-             err.what() + "); re-save the file uncompressed, e.g. nanovdb_convert without a codec");
-      }
-      dst += expect;
-      left -= expect;
-    }
-  }
-  auto* gd = reinterpret_cast<const nanovdb::GridData*>(buf.data());
-  // GridHandle::grid() walks mGridIndex grids forward, so only index 0 is safe to look up.
-  if (gd->mMagic != NANOVDB_MAGIC_NUMBER || gd->mGridSize != gsize || gd->mGridIndex != 0 || gd->mGridCount < 1) {
-    fail("corrupt NanoVDB grid (bad grid header)");
-  }
-  nanovdb::GridHandle<nanovdb::HostBuffer> handle(std::move(buf));
-  const FloatGrid* g = handle.grid<float>();
-  if (!g) fail("grid " + in_quotes(e.name) + " is not a float grid");
-  check_layout(*g, fail);
-  return handle;
-}
-
 // ---- checks on the NanoVDB tree ---------------------------------------------------------------
 
 // Active bbox, value range and the first bad (negative or non-finite) active value.
@@ -449,6 +251,14 @@ Scan scan_tree(const FloatGrid& g, const Fail& fail) {
     const char* c = reinterpret_cast<const char*>(p);
     return c >= begin && c + n <= end;
   };
+  // A child is `off` bytes from its parent's data: checked as integers before a pointer is
+  // formed (base + a wild offset is undefined behaviour even if never dereferenced; fuzz_nvdb).
+  auto child_at = [&](const void* base, int64_t off, size_t n) {
+    const int64_t at = int64_t(reinterpret_cast<const char*>(base) - begin), size = int64_t(end - begin);
+    if (off < -at || off > size - at - int64_t(n) || (at + off) % NANOVDB_DATA_ALIGNMENT != 0)
+      fail("corrupt NanoVDB grid (node pointer outside the grid or misaligned)");
+    return begin + (at + off);
+  };
   Scan tiles;
   std::vector<const Leaf*> leaves;
   const Root& root = g.tree().root();
@@ -459,21 +269,21 @@ Scan scan_tree(const FloatGrid& g, const Fail& fail) {
       if (t->isActive()) tiles.add(t->origin(), Upper::DIM, t->value, order++);
       continue;
     }
-    const Upper* u = root.data()->getChild(t);
+    const Upper* u = reinterpret_cast<const Upper*>(child_at(root.data(), t->child, sizeof(Upper)));
     if (!inside(u, sizeof(Upper))) fail("corrupt NanoVDB grid (node pointer outside the grid)");
     for (uint32_t n = 0; n < Upper::SIZE; ++n) {
       if (!u->data()->isChild(n)) {
         if (u->data()->isActive(n)) tiles.add(u->offsetToGlobalCoord(n), Lower::DIM, u->data()->getValue(n), order++);
         continue;
       }
-      const Lower* l = u->data()->getChild(n);
+      const Lower* l = reinterpret_cast<const Lower*>(child_at(u->data(), u->data()->mTable[n].child, sizeof(Lower)));
       if (!inside(l, sizeof(Lower))) fail("corrupt NanoVDB grid (node pointer outside the grid)");
       for (uint32_t m = 0; m < Lower::SIZE; ++m) {
         if (!l->data()->isChild(m)) {
           if (l->data()->isActive(m)) tiles.add(l->offsetToGlobalCoord(m), Leaf::DIM, l->data()->getValue(m), order++);
           continue;
         }
-        const Leaf* leaf = l->data()->getChild(m);
+        const Leaf* leaf = reinterpret_cast<const Leaf*>(child_at(l->data(), l->data()->mTable[m].child, sizeof(Leaf)));
         if (!inside(leaf, sizeof(Leaf))) fail("corrupt NanoVDB grid (node pointer outside the grid)");
         leaves.push_back(leaf);
       }
@@ -681,6 +491,15 @@ GridData load_nvdb(const std::string& file, const std::string& grid_name, int gr
 
 }  // namespace
 
+// For `spectrack info` (vdb_open.h): the same checks as the loaders, on the whole file.
+namespace volume_detail {
+std::unique_ptr<openvdb::io::File> open_vdb_checked(const std::string& file, const Fail& fail) {
+  check_readable(file, fail);
+  return vdb_open(file, fail);
+}
+void check_vdb_file_bbox(const openvdb::GridBase& g, const Fail& fail) { check_file_bbox(g, fail); }
+}  // namespace volume_detail
+
 GridData load_float_grid(const std::string& file, const std::string& grid_name, int grid_index,
                          const std::string& context) {
   const Fail fail{context, file};
@@ -706,117 +525,6 @@ std::vector<std::string> list_grids(const std::string& file) {
   std::vector<std::string> out;
   for (const Entry& e : entries) out.push_back(describe(e));
   return out;
-}
-
-// Each cell walks the 8^3 leaf-aligned blocks that meet its support: a leaf contributes the
-// voxels inside the support, a block without a leaf (a tile or background) its one constant
-// value. The cost is thus about (1 + 1/cell)^3 reads per voxel of allocated leaves plus a probe
-// per empty block; the Disney cloud (16x11x20 cells) takes a few ms. A grid with huge active
-// tiles still costs one probe per 8^3 block of its bbox (512^3 cells for a root tile at cell 8),
-// where a two-level grid (ALGORITHMS.md 7.1) would be the fix.
-MajorantGrid build_majorant_grid(const GridData& grid, int cell) {
-  if (cell < 1) throw Error("build_majorant_grid: cell size must be >= 1, got " + std::to_string(cell));
-  MajorantGrid mg;
-  mg.cell = cell;
-  const FloatGrid* g = grid.handle.grid<float>();
-  if (grid.empty || !g) {
-    mg.origin = {grid.index_min[0] - 1, grid.index_min[1] - 1, grid.index_min[2] - 1};
-    mg.dims = {1, 1, 1};
-    mg.dmax.assign(1, 0.0f);
-    mg.dmin.assign(1, 0.0f);
-    return mg;
-  }
-  for (int a = 0; a < 3; ++a) {
-    mg.origin[a] = grid.index_min[a] - 1;
-    const int64_t span = int64_t(grid.index_max[a]) - grid.index_min[a] + 2;
-    mg.dims[a] = int(std::max<int64_t>(1, (span + cell - 1) / cell));
-  }
-  const double cells = double(mg.dims[0]) * mg.dims[1] * mg.dims[2];
-  if (cells > double(1 << 27)) {
-    throw Error(grid.file + ": grid " + in_quotes(grid.name) + ": its active bounding box " +
-                coord_str(grid.index_min[0], grid.index_min[1], grid.index_min[2]) + " .. " +
-                coord_str(grid.index_max[0], grid.index_max[1], grid.index_max[2]) + " needs " +
-                std::to_string(uint64_t(cells)) + " majorant cells of " + std::to_string(cell) +
-                " voxels; use a larger cell size");
-  }
-  const size_t n = size_t(cells);
-  mg.dmax.assign(n, 0.0f);
-  mg.dmin.assign(n, 0.0f);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16), [&](const tbb::blocked_range<size_t>& r) {
-    auto acc = g->getAccessor();
-    for (size_t idx = r.begin(); idx != r.end(); ++idx) {
-      const int cx = int(idx % size_t(mg.dims[0]));
-      const int cy = int((idx / size_t(mg.dims[0])) % size_t(mg.dims[1]));
-      const int cz = int(idx / (size_t(mg.dims[0]) * size_t(mg.dims[1])));
-      const int x0 = mg.origin[0] + cx * cell, y0 = mg.origin[1] + cy * cell, z0 = mg.origin[2] + cz * cell;
-      float hi = -std::numeric_limits<float>::infinity(), lo = std::numeric_limits<float>::infinity();
-      const int x1 = x0 + cell, y1 = y0 + cell, z1 = z0 + cell;
-      for (int bz = z0 & ~7; bz <= z1; bz += 8)
-        for (int by = y0 & ~7; by <= y1; by += 8)
-          for (int bx = x0 & ~7; bx <= x1; bx += 8) {
-            const nanovdb::Coord block(bx, by, bz);
-            const Leaf* leaf = acc.probeLeaf(block);
-            if (!leaf) {
-              const float v = acc.getValue(block);
-              hi = std::max(hi, v);
-              lo = std::min(lo, v);
-              continue;
-            }
-            for (int z = std::max(z0, bz); z <= std::min(z1, bz + 7); ++z)
-              for (int y = std::max(y0, by); y <= std::min(y1, by + 7); ++y)
-                for (int x = std::max(x0, bx); x <= std::min(x1, bx + 7); ++x) {
-                  const float v = leaf->getValue(nanovdb::Coord(x, y, z));
-                  hi = std::max(hi, v);
-                  lo = std::min(lo, v);
-                }
-          }
-      // Float rounding of the interpolation can exceed the corner values by a few ulps.
-      hi = hi * (1.0f + 1e-5f);
-      if (hi > 0.0f) hi += 1e-30f;
-      mg.dmax[idx] = hi;
-      mg.dmin[idx] = lo * (1.0f - 1e-5f);
-    }
-  });
-  return mg;
-}
-
-float sample_index_trilinear(const GridData& grid, double x, double y, double z) {
-  const FloatGrid* g = grid.handle.grid<float>();
-  if (!g) return 0.0f;
-  auto acc = g->getAccessor();
-  const double fx = std::floor(x), fy = std::floor(y), fz = std::floor(z);
-  const double tx = x - fx, ty = y - fy, tz = z - fz;
-  const int ix = int(fx), iy = int(fy), iz = int(fz);
-  double c[2][2][2];
-  for (int k = 0; k < 2; ++k)
-    for (int j = 0; j < 2; ++j)
-      for (int i = 0; i < 2; ++i) c[k][j][i] = acc.getValue(nanovdb::Coord(ix + i, iy + j, iz + k));
-  double e[2][2];
-  for (int k = 0; k < 2; ++k)
-    for (int j = 0; j < 2; ++j) e[k][j] = c[k][j][0] + tx * (c[k][j][1] - c[k][j][0]);
-  const double f0 = e[0][0] + ty * (e[0][1] - e[0][0]);
-  const double f1 = e[1][0] + ty * (e[1][1] - e[1][0]);
-  return float(f0 + tz * (f1 - f0));
-}
-
-MajorantGrid coarsen_majorant_grid(const MajorantGrid& fine, int block) {
-  if (block < 1) throw Error("majorant block must be at least 1 cell");
-  MajorantGrid c;
-  c.origin = fine.origin;
-  c.cell = fine.cell * block;
-  for (int a = 0; a < 3; ++a) c.dims[a] = (fine.dims[a] + block - 1) / block;
-  size_t n = size_t(c.dims[0]) * c.dims[1] * c.dims[2];
-  c.dmax.assign(n, 0.0f);
-  c.dmin.assign(n, std::numeric_limits<float>::infinity());
-  for (int k = 0; k < fine.dims[2]; ++k)
-    for (int j = 0; j < fine.dims[1]; ++j)
-      for (int i = 0; i < fine.dims[0]; ++i) {
-        size_t f = size_t(i) + size_t(fine.dims[0]) * (size_t(j) + size_t(fine.dims[1]) * k);
-        size_t b = size_t(i / block) + size_t(c.dims[0]) * (size_t(j / block) + size_t(c.dims[1]) * (k / block));
-        c.dmax[b] = std::max(c.dmax[b], fine.dmax[f]);
-        c.dmin[b] = std::min(c.dmin[b], fine.dmin[f]);
-      }
-  return c;
 }
 
 }  // namespace spectrack

@@ -12,6 +12,7 @@
 // so the fuzzer also reaches the fields read after a file check. Missing files are plain errors.
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -23,6 +24,7 @@
 #include <string>
 #include <system_error>
 
+#include "scene/radiance.h"
 #include "scene/scene.h"
 
 namespace {
@@ -60,7 +62,9 @@ void check_scene(const spectrack::SceneDesc& s) {
   check(finite3(c.position) && finite3(c.look_at) && finite3(c.up), "camera vectors not finite");
   check(c.fov_deg > 0 && c.fov_deg < 180, "camera fov_deg out of (0, 180)");
   check(std::isfinite(c.height) && c.height > 0, "camera height not positive");
-  check(c.position != c.look_at, "camera look_at equals position");
+  // framing ("look_at": "media", "position": "auto") resolves the view direction at packing time
+  check(c.look_at_media || c.position_auto || c.position != c.look_at, "camera look_at equals position");
+  check(c.fit == 0 || (c.fit > 0 && c.fit <= 1000), "camera fit out of (0, 1000]");
   check(s.film.width >= 1 && s.film.width <= 65536 && s.film.height >= 1 && s.film.height <= 65536, "film size");
   check(static_cast<long long>(s.film.width) * s.film.height <= (1ll << 28), "film has more than 2^28 pixels");
   check(s.film.spp >= 1 && s.film.spp <= (1 << 24), "film spp");
@@ -78,6 +82,16 @@ void check_scene(const spectrack::SceneDesc& s) {
     check(finite3(l.to_light) && (l.to_light[0] != 0 || l.to_light[1] != 0 || l.to_light[2] != 0), "light to_light");
     check(l.angle_deg >= 0 && l.angle_deg < 180, "light angle_deg");
     check(l.type != ST_LIGHT_ENV_MAP || fs::path(l.map).is_absolute(), "environment map not absolute");
+    // scene/radiance.h: what the float kernels can carry
+    const double r = std::max({l.radiance[0], l.radiance[1], l.radiance[2]});
+    const double e = std::max({l.irradiance[0], l.irradiance[1], l.irradiance[2]});
+    if (l.type == ST_LIGHT_ENV_UNIFORM) check(4.0 * M_PI * r <= kMaxRadiance, "uniform environment over the radiance bound");
+    if (l.type == ST_LIGHT_ENV_MAP) check(l.scale <= kMaxRadiance, "map scale over the radiance bound");
+    if (l.type == ST_LIGHT_DIRECTIONAL && l.angle_deg == 0) check(e / (4.0 * M_PI) <= kMaxRadiance, "delta sun over the bound");
+    if (l.type == ST_LIGHT_DIRECTIONAL && l.angle_deg > 0) {
+      const double h = l.angle_deg * M_PI / 360.0;
+      check(e / (M_PI * std::sin(h) * std::sin(h)) <= kMaxRadiance * (1 + 1e-9), "sun disc radiance over the bound");
+    }
   }
   check(environments <= 1, "more than one environment light");
   check(s.media.size() <= ST_MAX_MEDIA, "more than ST_MAX_MEDIA media");
@@ -89,6 +103,7 @@ void check_scene(const spectrack::SceneDesc& s) {
     check(nonneg3(m.sigma_s) && nonneg3(m.sigma_a), "medium sigma negative or not finite");
     check(m.phase.type == ST_PHASE_ISOTROPIC || m.phase.type == ST_PHASE_HG, "phase type");
     check(m.phase.g > -1 && m.phase.g < 1, "phase g out of (-1, 1)");
+    check(std::abs(float(m.phase.g)) < 1.0f, "phase g rounds to +-1 in float");
     if (m.emission.present)
       check(nonneg3(m.emission.radiance) && std::isfinite(m.emission.scale) && m.emission.scale >= 0, "emission");
     check(std::isfinite(m.majorant_scale) && m.majorant_scale > 0, "majorant_scale");

@@ -1,0 +1,91 @@
+// checks.h: the command line's checks around a render or merge, one call each from main.cpp.
+//
+// Design: header-only (the CLI is one translation unit; tests reach these through the binary).
+//   - check_tracker_scheme: --scheme is refused (UsageError, exit 2) when the tracker that will
+//     run (from --tracker or the scene) ignores it; a scene's render.spectral_scheme with such a
+//     tracker is a warning (a scene may set both and be rendered with several trackers). Trackers
+//     without a scheme then run and are recorded with max, the analog probabilities they use.
+//   - render_outputs / scene_inputs / merge inputs feed check_distinct_paths (util/files.h).
+//   - nonfinite_verdict: a render that dropped non-finite samples exits 1. Its image is still
+//     written, marked with spectrack:nonfinite_samples, for diagnosis; dropping samples is never a
+//     success (it is a bug, or an input the float kernels cannot represent).
+#pragma once
+#include <fmt/format.h>
+
+#include <cstdint>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "image/image.h"
+#include "render/renderer.h"
+#include "scene/scene.h"
+#include "util/files.h"
+
+namespace spectrack {
+
+// Checks --scheme (`scheme_flag`, its text) against the tracker that will run; resolve_settings
+// then records max, the analog probabilities, for a tracker without a scheme.
+inline void check_tracker_scheme(const SceneDesc& scene, const RenderOptions& opt, const std::string& scheme_flag,
+                                 const std::string& tracker_flag) {
+  const int tracker = opt.tracker.value_or(scene.render.tracker);
+  if (tracker_uses_scheme(tracker)) return;
+  const std::string from = tracker_flag.empty() ? fmt::format(" (render.tracker of {})", scene.path) : "";
+  if (!scheme_flag.empty())
+    throw UsageError(fmt::format("--scheme {}: tracker {}{} ignores the spectral scheme; only spectral and "
+                                 "spectral-decomposition use one (drop --scheme, or pick one of those with --tracker)",
+                                 scheme_flag, tracker_name(tracker), from));
+  if (scene.render.scheme_set && scene.render.scheme != ST_SCHEME_MAX && !opt.quiet)
+    std::cerr << fmt::format("warning: {}: /render/spectral_scheme: \"{}\" is ignored by tracker {}{} (only spectral "
+                             "and spectral-decomposition use a scheme); the render uses and records max\n",
+                             scene.path, scheme_name(scene.render.scheme), tracker_name(tracker),
+                             tracker_flag.empty() ? "" : " (--tracker)");
+}
+
+// --chunk-spp shares samples between devices: with one device named (not "all") it means nothing.
+inline void check_chunk_spp(int chunk_spp, const std::vector<std::string>& devices, const std::string& device_flag) {
+  if (chunk_spp <= 0 || devices.size() > 1 || device_flag == "all") return;
+  throw UsageError(fmt::format("--chunk-spp {}: only used to share samples between several devices (--device all or "
+                               "a comma-separated list); this render has one device",
+                               chunk_spp));
+}
+
+// Every file a render of `scene` reads.
+inline std::vector<NamedPath> scene_inputs(const SceneDesc& scene) {
+  std::vector<NamedPath> in{{"the scene file", scene.path}};
+  for (const MediumDesc& m : scene.media)
+    if (m.type == ST_MEDIUM_VDB) in.push_back({"the volume of " + m.json_path + "/file", m.file});
+  for (const LightDesc& l : scene.lights)
+    if (!l.map.empty()) in.push_back({"the environment map of " + l.json_path + "/map", l.map});
+  return in;
+}
+
+inline std::vector<NamedPath> merge_inputs(const std::vector<std::string>& files) {
+  std::vector<NamedPath> in;
+  for (const std::string& f : files) in.push_back({"the merge input", f});
+  return in;
+}
+
+// Returns the exit code for a render that wrote `output` after dropping `nonfinite` samples.
+inline int nonfinite_verdict(uint64_t nonfinite, const std::string& output) {
+  if (nonfinite == 0) return 0;
+  std::cerr << fmt::format(
+      "error: {} non-finite sample(s) (NaN or infinity) were dropped, so the image is wrong; it was written to {} "
+      "for diagnosis (metadata spectrack:nonfinite_samples). This is a bug, or an input the float kernels cannot "
+      "represent: please report it with the scene\n",
+      nonfinite, output);
+  return 1;
+}
+
+// A merge input whose render dropped samples holds wrong pixels: refused.
+inline void check_merge_input(const std::string& file, const Metadata& meta) {
+  auto it = meta.find("nonfinite_samples");
+  if (it == meta.end()) return;
+  const int* n = std::get_if<int>(&it->second);
+  if (n && *n == 0) return;
+  throw Error(fmt::format("{}: its render dropped non-finite samples (spectrack:nonfinite_samples): its pixels are "
+                          "wrong, refusing to merge it",
+                          file));
+}
+
+}  // namespace spectrack

@@ -1,0 +1,200 @@
+// info.cpp: `spectrack info` (info.h). Volumes through inspect_volume (volume/inspect.h), scenes
+// through load_scene and the loaders (render/media_bounds.h); the camera as framing resolves it.
+#include "cli/info.h"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+
+#include "render/media_bounds.h"
+#include "scene/framing.h"
+#include "scene/scene.h"
+#include "util/error.h"
+#include "volume/inspect.h"
+#include "volume/volume.h"
+
+namespace spectrack {
+namespace {
+
+using json = nlohmann::json;
+
+json vec(const Vec3& v) { return json::array({v[0], v[1], v[2]}); }
+json vec(const std::array<double, 3>& v, int) { return json::array({v[0], v[1], v[2]}); }
+json ivec(const std::array<int, 3>& v) { return json::array({v[0], v[1], v[2]}); }
+std::string v3(const std::array<double, 3>& v) { return fmt::format("({:.6g}, {:.6g}, {:.6g})", v[0], v[1], v[2]); }
+std::string i3(const std::array<int, 3>& v) { return fmt::format("({}, {}, {})", v[0], v[1], v[2]); }
+
+std::string bytes_str(int64_t b) {
+  if (b < 0) return "n/a";
+  if (b < (1 << 20)) return fmt::format("{:.1f} KiB", b / 1024.0);
+  return fmt::format("{:.2f} MiB", b / 1048576.0);
+}
+
+json volume_json(const std::string& file, const std::vector<GridInfo>& grids) {
+  json out = {{"file", file}, {"kind", "volume"}, {"grids", json::array()}};
+  for (const GridInfo& g : grids) {
+    json j = {{"name", g.name}, {"type", g.type}, {"class", g.cls}, {"empty", g.empty},
+              {"active_voxels", g.active_voxels}, {"voxel_size", vec(g.voxel_size, 0)},
+              {"density_use", g.density_use}};
+    if (!g.empty) {
+      j["index_bbox"] = {ivec(g.index_min), ivec(g.index_max)};
+      j["world_bbox"] = {vec(g.world_min, 0), vec(g.world_max, 0)};
+    } else {
+      j["index_bbox"] = nullptr;
+      j["world_bbox"] = nullptr;
+    }
+    j["value_range"] = g.has_range ? json::array({g.value_min, g.value_max}) : json(nullptr);
+    j["nanovdb_bytes"] = g.nanovdb_bytes >= 0 ? json(g.nanovdb_bytes) : json(nullptr);
+    out["grids"].push_back(j);
+  }
+  return out;
+}
+
+void print_volume(const std::string& file, const std::vector<GridInfo>& grids) {
+  std::cout << fmt::format("{}: {} grid{}\n", file, grids.size(), grids.size() == 1 ? "" : "s");
+  for (size_t i = 0; i < grids.size(); ++i) {
+    const GridInfo& g = grids[i];
+    std::cout << fmt::format("  [{}] {:<20} {} ({})\n", i, g.name.empty() ? "<unnamed>" : "\"" + g.name + "\"", g.type, g.cls);
+    if (g.empty) {
+      std::cout << "      bbox           empty (no active values)\n";
+    } else {
+      const std::array<int, 3> dims{g.index_max[0] - g.index_min[0] + 1, g.index_max[1] - g.index_min[1] + 1,
+                                    g.index_max[2] - g.index_min[2] + 1};
+      std::cout << fmt::format("      index bbox     {} .. {}  ({} x {} x {} voxels)\n", i3(g.index_min), i3(g.index_max),
+                               dims[0], dims[1], dims[2]);
+      std::cout << fmt::format("      world bbox     {} .. {}\n", v3(g.world_min), v3(g.world_max));
+    }
+    std::cout << fmt::format("      voxel size     {}\n", v3(g.voxel_size));
+    std::cout << fmt::format("      active voxels  {}\n", g.active_voxels);
+    std::cout << fmt::format("      value range    {}\n", g.has_range ? fmt::format("{:.6g} .. {:.6g}{}", g.value_min, g.value_max,
+                                                                                 g.type.rfind("vec", 0) == 0 ? " (length)" : "")
+                                                                   : std::string("n/a"));
+    std::cout << fmt::format("      as NanoVDB     {}\n", bytes_str(g.nanovdb_bytes));
+    std::cout << fmt::format("      as density     {}\n", g.density_use);
+  }
+}
+
+const char* light_type(int t) {
+  return t == ST_LIGHT_DIRECTIONAL ? "directional" : t == ST_LIGHT_ENV_MAP ? "environment (map)" : "environment (uniform)";
+}
+
+json scene_json(const SceneDesc& s, std::string* text) {
+  json out = {{"file", s.path}, {"kind", "scene"}, {"media", json::array()}, {"lights", json::array()}};
+  std::string& t = *text;
+  t += fmt::format("{}: scene, {}x{} film, {} spp, tracker {}\n", s.path, s.film.width, s.film.height, s.film.spp,
+                   tracker_name(s.render.tracker));
+  std::vector<Box3> boxes;
+  for (const MediumDesc& md : s.media) {
+    json m = {{"name", md.name}, {"type", md.type == ST_MEDIUM_VDB ? "vdb" : "homogeneous"}};
+    Box3 b;
+    double dmax = 1, voxel = 0;
+    if (md.type == ST_MEDIUM_VDB) {
+      GridData g = load_float_grid(md.file, md.grid, md.grid_index, s.path + ": " + md.json_path);
+      b = medium_world_box(md, g);
+      dmax = g.value_max;
+      // the longest world step of one index unit along an axis
+      const Vec3 o = medium_index_to_world(md, g, {0, 0, 0});
+      for (int a = 0; a < 3; ++a) {
+        Vec3 e{0, 0, 0};
+        e[a] = 1;
+        const Vec3 w = medium_index_to_world(md, g, e);
+        voxel = std::max(voxel, std::sqrt((w[0] - o[0]) * (w[0] - o[0]) + (w[1] - o[1]) * (w[1] - o[1]) + (w[2] - o[2]) * (w[2] - o[2])));
+      }
+      m["file"] = md.file;
+      m["grid"] = g.name;
+      m["density_range"] = {g.value_min, g.value_max};
+      m["voxel_world_size"] = voxel;
+    } else {
+      b = Box3{md.bounds[0], md.bounds[1]};
+    }
+    boxes.push_back(b);
+    const double diag = std::sqrt((b.hi[0] - b.lo[0]) * (b.hi[0] - b.lo[0]) + (b.hi[1] - b.lo[1]) * (b.hi[1] - b.lo[1]) +
+                                  (b.hi[2] - b.lo[2]) * (b.hi[2] - b.lo[2]));
+    Vec3 st, tau_diag, tau_voxel;
+    for (int c = 0; c < 3; ++c) {
+      st[c] = (md.sigma_s[c] + md.sigma_a[c]) * md.density_scale;
+      tau_diag[c] = st[c] * dmax * diag;
+      tau_voxel[c] = st[c] * dmax * voxel;
+    }
+    m["world_bbox"] = {vec(b.lo), vec(b.hi)};
+    const Vec3 st_max{st[0] * dmax, st[1] * dmax, st[2] * dmax};
+    m["sigma_t_max"] = vec(st_max);
+    m["optical_depth_diagonal_max"] = vec(tau_diag);
+    if (md.type == ST_MEDIUM_VDB) m["optical_depth_voxel_max"] = vec(tau_voxel);
+    out["media"].push_back(m);
+    t += fmt::format("  medium \"{}\" ({}{})\n", md.name, md.type == ST_MEDIUM_VDB ? "vdb " : "homogeneous",
+                     md.type == ST_MEDIUM_VDB ? md.file : "");
+    t += fmt::format("      world bbox     {} .. {}\n", v3(b.lo), v3(b.hi));
+    t += fmt::format("      max sigma_t    {}  (coefficients x density_scale x max density {:.6g})\n", v3(st_max),
+                     dmax);
+    t += fmt::format("      optical depth  up to {} along the box diagonal", v3(tau_diag));
+    t += md.type == ST_MEDIUM_VDB ? fmt::format(", up to {} per voxel\n", v3(tau_voxel)) : std::string("\n");
+  }
+  for (const LightDesc& l : s.lights) {
+    json j = {{"type", light_type(l.type)}};
+    std::string what;
+    if (l.type == ST_LIGHT_DIRECTIONAL) {
+      j["to_light"] = vec(l.to_light), j["irradiance"] = vec(l.irradiance), j["angle_deg"] = l.angle_deg;
+      what = fmt::format("to_light {}, irradiance {}, angle {:.3g} deg", v3(l.to_light), v3(l.irradiance), l.angle_deg);
+    } else if (l.type == ST_LIGHT_ENV_MAP) {
+      j["map"] = l.map, j["scale"] = l.scale;
+      what = fmt::format("map {}, scale {:.6g}", l.map, l.scale);
+    } else {
+      j["radiance"] = vec(l.radiance);
+      what = fmt::format("radiance {}", v3(l.radiance));
+    }
+    out["lights"].push_back(j);
+    t += fmt::format("  light {}: {}\n", light_type(l.type), what);
+  }
+  const CameraDesc& c0 = s.camera;
+  const CameraDesc c = frame_camera(c0, s.film.width, s.film.height, boxes, s.path + ": /camera");
+  json cam = {{"type", c.type == ST_CAMERA_ORTHOGRAPHIC ? "orthographic" : "perspective"},
+              {"position", vec(c.position)}, {"look_at", vec(c.look_at)}, {"up", vec(c.up)},
+              {"framed", camera_needs_framing(c0)}};
+  if (c.type == ST_CAMERA_ORTHOGRAPHIC) cam["height"] = c.height; else cam["fov_deg"] = c.fov_deg;
+  json in_view = json::array();
+  for (const Box3& b : boxes) in_view.push_back(box_in_view(c, s.film.width, s.film.height, b, 1e-6));
+  cam["media_in_view"] = in_view;
+  out["camera"] = cam;
+  t += fmt::format("  camera {}{}: position {}, look_at {}, up {}, {}\n", cam["type"].get<std::string>(),
+                   camera_needs_framing(c0) ? " (framed)" : "", v3(c.position), v3(c.look_at), v3(c.up),
+                   c.type == ST_CAMERA_ORTHOGRAPHIC ? fmt::format("height {:.6g}", c.height) : fmt::format("fov {:.6g} deg", c.fov_deg));
+  for (size_t i = 0; i < boxes.size(); ++i)
+    if (!in_view[i].get<bool>()) t += fmt::format("      note: medium \"{}\" is not entirely in view (see \"look_at\": \"media\" and \"fit\")\n", s.media[i].name);
+  return out;
+}
+
+}  // namespace
+
+int cmd_info(const std::vector<std::string>& files, bool as_json) {
+  json all = json::array();
+  int failed = 0;
+  for (const std::string& f : files) {
+    try {
+      std::string ext = std::filesystem::path(f).extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return char(std::tolower(ch)); });
+      if (ext == ".json") {
+        std::string text;
+        json j = scene_json(load_scene(f), &text);
+        all.push_back(j);
+        if (!as_json) std::cout << text;
+      } else {
+        const std::vector<GridInfo> grids = inspect_volume(f);
+        all.push_back(volume_json(f, grids));
+        if (!as_json) print_volume(f, grids);
+      }
+    } catch (const std::exception& e) {
+      std::cerr << "error: " << e.what() << "\n";
+      if (as_json) all.push_back({{"file", f}, {"error", e.what()}});
+      ++failed;
+    }
+  }
+  if (as_json) std::cout << all.dump(2) << "\n";
+  return failed ? 1 : 0;
+}
+
+}  // namespace spectrack

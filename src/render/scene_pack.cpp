@@ -1,0 +1,416 @@
+// scene_pack.cpp: see scene_pack.h. Transforms are composed in double precision (scale, then
+// rotations about x, y, z, then translation: SCENE_FORMAT.md) and only the final world-to-index
+// rows are rounded to float.
+#include "render/scene_pack.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+
+#include "image/image.h"
+#include "scene/radiance.h"
+#include "volume/float_limits.h"
+#include "render/media_bounds.h"
+#include "scene/framing.h"
+#include "volume/volume.h"
+
+namespace spectrack {
+
+namespace {
+
+
+
+st_float4 f4(double x, double y, double z, double w = 0) { return st_float4{float(x), float(y), float(z), float(w)}; }
+st_float4 f4(const Vec3& v, double w = 0) { return f4(v[0], v[1], v[2], w); }
+
+// 4x4 affine matrices in double precision, row-major, for the medium transforms.
+struct Mat4 {
+  double m[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
+  Mat4 operator*(const Mat4& b) const {
+    Mat4 r;
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) {
+        r.m[i][j] = 0;
+        for (int k = 0; k < 4; ++k) r.m[i][j] += m[i][k] * b.m[k][j];
+      }
+    return r;
+  }
+};
+
+Mat4 inverse_affine(const Mat4& a, const std::string& what) {
+  // inverse of [A t; 0 1] = [A^-1, -A^-1 t; 0 1]
+  const double(*m)[4] = a.m;
+  double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+               m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+  if (!(std::abs(det) > 1e-300) || !std::isfinite(det)) throw Error(what + ": transform is singular (zero scale?)");
+  Mat4 r;
+  double inv[3][3];
+  inv[0][0] = (m[1][1] * m[2][2] - m[1][2] * m[2][1]) / det;
+  inv[0][1] = (m[0][2] * m[2][1] - m[0][1] * m[2][2]) / det;
+  inv[0][2] = (m[0][1] * m[1][2] - m[0][2] * m[1][1]) / det;
+  inv[1][0] = (m[1][2] * m[2][0] - m[1][0] * m[2][2]) / det;
+  inv[1][1] = (m[0][0] * m[2][2] - m[0][2] * m[2][0]) / det;
+  inv[1][2] = (m[0][2] * m[1][0] - m[0][0] * m[1][2]) / det;
+  inv[2][0] = (m[1][0] * m[2][1] - m[1][1] * m[2][0]) / det;
+  inv[2][1] = (m[0][1] * m[2][0] - m[0][0] * m[2][1]) / det;
+  inv[2][2] = (m[0][0] * m[1][1] - m[0][1] * m[1][0]) / det;
+  for (int i = 0; i < 3; ++i) {
+    double t = 0;
+    for (int j = 0; j < 3; ++j) {
+      r.m[i][j] = inv[i][j];
+      t -= inv[i][j] * m[j][3];
+    }
+    r.m[i][3] = t;
+  }
+  return r;
+}
+
+// scale, then rotations about x, y, z, then translate (SCENE_FORMAT.md)
+Mat4 user_transform(const TransformDesc& t) {
+  Mat4 S, Rx, Ry, Rz, T;
+  for (int i = 0; i < 3; ++i) S.m[i][i] = t.scale[i];
+  const double k = M_PI / 180.0;
+  double cx = std::cos(t.rotate_deg[0] * k), sx = std::sin(t.rotate_deg[0] * k);
+  double cy = std::cos(t.rotate_deg[1] * k), sy = std::sin(t.rotate_deg[1] * k);
+  double cz = std::cos(t.rotate_deg[2] * k), sz = std::sin(t.rotate_deg[2] * k);
+  Rx.m[1][1] = cx; Rx.m[1][2] = -sx; Rx.m[2][1] = sx; Rx.m[2][2] = cx;
+  Ry.m[0][0] = cy; Ry.m[0][2] = sy; Ry.m[2][0] = -sy; Ry.m[2][2] = cy;
+  Rz.m[0][0] = cz; Rz.m[0][1] = -sz; Rz.m[1][0] = sz; Rz.m[1][1] = cz;
+  for (int i = 0; i < 3; ++i) T.m[i][3] = t.translate[i];
+  return T * Rz * Ry * Rx * S;
+}
+
+Vec3 normalize(Vec3 v) {
+  double l = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+  return {v[0] / l, v[1] / l, v[2] / l};
+}
+Vec3 cross(const Vec3& a, const Vec3& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+
+bool achromatic(const Vec3& v) { return v[0] == v[1] && v[1] == v[2]; }
+
+// Fills a PackedScene; member names follow st_scene's buffers.
+struct Packer {
+  const SceneDesc& scene;
+  const PackOptions& opt;
+  st_scene& st;
+  std::vector<uint32_t>& grid_words;
+  std::vector<float>& maj_cells;
+  std::vector<float>& env_data;
+  std::vector<Box3> media_boxes = {};  // world boxes, for the camera's framing
+  // Each light's power up to the common factor pi r^2 of pbrt-v4's Light::Phi (r: the scene
+  // radius): the mean over channels of the irradiance a directional light gives, or 4 pi times the
+  // mean radiance of an environment over the sphere.
+  std::array<double, ST_MAX_LIGHTS> light_power = {};
+
+  void add_medium(int i, const MediumDesc& md);
+  void add_vdb_medium(st_medium& m, const MediumDesc& md, const std::string& ctx_name);
+  uint32_t upload_grid(const std::string& ctx_name, const GridData& g);
+  void add_light(int i, const LightDesc& ld);
+  // both return the map's mean radiance over the sphere (before its scale)
+  double add_env_map(st_light& l, const LightDesc& ld);
+  double add_env_cdf(st_light& l, const RgbImage& img);
+  void set_light_selection(int light_sampling);
+  void set_camera();
+  uint32_t scene_features() const;
+};
+
+void Packer::add_medium(int i, const MediumDesc& md) {
+  st_medium& m = st.media[i];
+  std::memset(&m, 0, sizeof(m));
+  std::string ctx_name = scene.path + ": " + md.json_path;
+  m.type = md.type;
+  m.phase_type = md.phase.type;
+  m.g = float(md.phase.g);
+  m.majorant_scale = float(md.majorant_scale);
+  m.minorant_scale = float(md.minorant_scale);
+  m.sigma_a = f4(md.sigma_a[0] * md.density_scale, md.sigma_a[1] * md.density_scale, md.sigma_a[2] * md.density_scale);
+  m.sigma_s = f4(md.sigma_s[0] * md.density_scale, md.sigma_s[1] * md.density_scale, md.sigma_s[2] * md.density_scale);
+  m.density_grid = ST_NO_GRID;
+  m.emission_grid = ST_NO_GRID;
+  if (md.emission.present) {
+    Vec3 r = md.emission.radiance;
+    m.Le = f4(r[0] * md.emission.scale, r[1] * md.emission.scale, r[2] * md.emission.scale);
+    m.emissive = (m.Le.x > 0 || m.Le.y > 0 || m.Le.z > 0) ? 1 : 0;
+  }
+  m.maj_offset = uint32_t(maj_cells.size() / 2);
+
+
+  if (md.type == ST_MEDIUM_HOMOGENEOUS) {
+    const auto& lo = md.bounds[0];
+    const auto& hi = md.bounds[1];
+    for (int r = 0; r < 3; ++r) {
+      double s = 1.0 / (hi[r] - lo[r]);
+      float row[4] = {0, 0, 0, float(-lo[r] * s)};
+      row[r] = float(s);
+      m.world_to_index[r] = st_float4{row[0], row[1], row[2], row[3]};
+    }
+    m.maj_origin = f4(0, 0, 0, 1);
+    m.maj_dims[0] = m.maj_dims[1] = m.maj_dims[2] = 1;
+    maj_cells.push_back(1.0f);
+    maj_cells.push_back(1.0f);
+    check_float_limits(md, m, nullptr, ctx_name);
+    media_boxes.push_back(Box3{lo, hi});
+    return;
+  }
+
+  add_vdb_medium(m, md, ctx_name);
+}
+
+void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::string& ctx_name) {
+  GridData g = load_float_grid(md.file, md.grid, md.grid_index, ctx_name);
+  media_boxes.push_back(medium_world_box(md, g));
+  Mat4 i2w;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) i2w.m[r][c] = g.index_to_world[r][c];
+  Mat4 w2i = inverse_affine(user_transform(md.transform) * i2w, ctx_name + "/transform");
+  for (int r = 0; r < 3; ++r) m.world_to_index[r] = f4(w2i.m[r][0], w2i.m[r][1], w2i.m[r][2], w2i.m[r][3]);
+  check_float_limits(md, m, &g, ctx_name);
+  MajorantGrid mg = build_majorant_grid(g, majorant_cell_for(m, g, md.majorant_scale, opt.majorant_cell));
+  m.maj_origin = f4(mg.origin[0], mg.origin[1], mg.origin[2], mg.cell);
+  for (int a = 0; a < 3; ++a) m.maj_dims[a] = mg.dims[a];
+  for (size_t c = 0; c < mg.dmax.size(); ++c) {
+    maj_cells.push_back(mg.dmax[c]);
+    maj_cells.push_back(mg.dmin[c]);
+  }
+  // a coarse level only pays when the grid spans more than one block
+  const int B = opt.majorant_block;
+  if (B > 1 && std::max({mg.dims[0], mg.dims[1], mg.dims[2]}) > B) {
+    MajorantGrid coarse = coarsen_majorant_grid(mg, B);
+    m.maj_block = B;
+    m.maj_coarse_offset = uint32_t(maj_cells.size() / 2);
+    for (size_t c = 0; c < coarse.dmax.size(); ++c) {
+      maj_cells.push_back(coarse.dmax[c]);
+      maj_cells.push_back(coarse.dmin[c]);
+    }
+  }
+  m.density_grid = upload_grid(ctx_name, g);
+  if (md.emission.grid.empty()) check_emission_bounds(ctx_name, md, g.value_max, 1.0);
+  if (md.emission.present && !md.emission.grid.empty() && m.emissive) {
+    GridData e = load_float_grid(md.file, md.emission.grid, -1, ctx_name + "/emission");
+    check_emission_bounds(ctx_name, md, g.value_max, e.value_max);
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 4; ++c)
+        if (std::abs(e.index_to_world[r][c] - g.index_to_world[r][c]) > 1e-6 * (1 + std::abs(g.index_to_world[r][c])))
+          throw Error(fmt::format("{}/emission/grid: grid '{}' has a different index-to-world transform than density "
+                                  "grid '{}'; both grids must share one transform",
+                                  ctx_name, md.emission.grid, md.grid));
+    m.emission_grid = upload_grid(ctx_name, e);
+  }
+}
+
+uint32_t Packer::upload_grid(const std::string& ctx_name, const GridData& g) {
+  uint32_t offset = uint32_t(grid_words.size());
+  size_t bytes = g.handle.size();
+  size_t words = (bytes + 7) / 8 * 2;
+  grid_words.resize(grid_words.size() + words, 0u);
+  std::memcpy(grid_words.data() + offset, g.handle.data(), bytes);
+  if (grid_words.size() > (size_t(1) << 30))
+    throw Error(ctx_name + ": volumes exceed 4 GiB of NanoVDB data, which 32-bit addressing cannot reach");
+  return offset;
+}
+
+void Packer::add_light(int i, const LightDesc& ld) {
+  st_light& l = st.lights[i];
+  std::memset(&l, 0, sizeof(l));
+  l.type = ld.type;
+  auto mean = [](const Vec3& v) { return (v[0] + v[1] + v[2]) / 3.0; };
+  if (ld.type == ST_LIGHT_DIRECTIONAL) {
+    light_power[i] = mean(ld.irradiance);
+    Vec3 d = normalize(ld.to_light);
+    l.direction = f4(d);
+    double half = ld.angle_deg * 0.5 * M_PI / 180.0;
+    if (half <= 0) {
+      l.is_delta = 1;
+      l.radiance = f4(ld.irradiance);
+      l.cos_max = 1.0f;
+    } else {
+      // a uniform disc of angular radius `half` gives irradiance E = L * pi * sin^2(half)
+      double s2 = std::sin(half) * std::sin(half);
+      double L = 1.0 / (M_PI * s2);
+      l.radiance = f4(ld.irradiance[0] * L, ld.irradiance[1] * L, ld.irradiance[2] * L);
+      l.cos_max = float(std::cos(half));
+      l.pdf_cone = float(1.0 / (2.0 * M_PI * (1.0 - std::cos(half))));
+    }
+    return;
+  }
+  if (ld.map.empty()) {
+    l.type = ST_LIGHT_ENV_UNIFORM;
+    l.radiance = f4(ld.radiance);
+    light_power[i] = 4.0 * M_PI * mean(ld.radiance);
+    return;
+  }
+  light_power[i] = 4.0 * M_PI * ld.scale * add_env_map(l, ld);
+}
+
+// The probabilities with which next-event estimation picks each light (st_light::select_pmf):
+// 1 for every light with light sampling "all" (one shadow ray each) or a single light; 1 / n with
+// "uniform"; with "power" in proportion to power (uniform if no light has any), a light without
+// power never being picked.
+void Packer::set_light_selection(int light_sampling) {
+  double total = 0;
+  for (int i = 0; i < st.n_lights; ++i) total += light_power[i];
+  double acc = 0;
+  for (int i = 0; i < st.n_lights; ++i) {
+    st_light& l = st.lights[i];
+    if (light_sampling == ST_LIGHT_SAMPLING_ALL || st.n_lights == 1) {
+      l.select_pmf = 1.0f;
+      l.select_cdf = 1.0f;
+      continue;
+    }
+    double pmf = light_sampling == ST_LIGHT_SAMPLING_POWER && total > 0 ? light_power[i] / total : 1.0 / st.n_lights;
+    acc += pmf;
+    l.select_pmf = float(pmf);
+    l.select_cdf = i == st.n_lights - 1 ? 1.0f : float(acc);
+  }
+}
+
+double Packer::add_env_map(st_light& l, const LightDesc& ld) {
+  l.type = ST_LIGHT_ENV_MAP;
+  RgbImage img;
+  try {
+    img = read_image(ld.map);
+  } catch (const Error& e) {
+    throw Error(fmt::format("{}: {}/map: {}", scene.path, ld.json_path, e.what()));
+  }
+  check_env_map_bounds(scene.path + ": " + ld.json_path + "/map", ld.map, img.rgb, img.width, img.height, ld.scale);
+  l.radiance = f4(ld.scale, ld.scale, ld.scale);
+  l.map_width = img.width;
+  l.map_height = img.height;
+  l.map_offset = uint32_t(env_data.size());
+  for (size_t p = 0; p < size_t(img.width) * img.height; ++p) {
+    for (int c = 0; c < 3; ++c) env_data.push_back(img.rgb[p * 3 + c]);
+    env_data.push_back(0.0f);
+  }
+  return add_env_cdf(l, img);
+}
+
+// sampling distribution: f(u, v) = max(rgb) * sin(theta), piecewise constant per texel; the
+// marginal CDF over rows, then one conditional CDF per row, after the texels in env_data
+double Packer::add_env_cdf(st_light& l, const RgbImage& img) {
+  int W = img.width, H = img.height;
+  double mean_radiance = 0;
+  std::vector<double> row_sum(H, 0.0);
+  std::vector<double> f(size_t(W) * H);
+  for (int y = 0; y < H; ++y) {
+    double s = std::sin(M_PI * (y + 0.5) / H);
+    for (int x = 0; x < W; ++x) {
+      const float* px = &img.rgb[(size_t(y) * W + x) * 3];
+      f[size_t(y) * W + x] = std::max({px[0], px[1], px[2]}) * s;
+      // the texel's solid angle over the whole sphere's: (2 pi / W) (cos theta0 - cos theta1) / (4 pi)
+      double omega = (std::cos(M_PI * y / H) - std::cos(M_PI * (y + 1.0) / H)) / (2.0 * W);
+      mean_radiance += (double(px[0]) + px[1] + px[2]) / 3.0 * omega;
+      row_sum[y] += f[size_t(y) * W + x];
+    }
+  }
+  double total = 0;
+  for (double r : row_sum) total += r;
+  l.cdf_offset = uint32_t(env_data.size());
+  l.map_integral = float(total / (double(W) * H));
+  double acc = 0;
+  env_data.push_back(0.0f);
+  for (int y = 0; y < H; ++y) {
+    acc += row_sum[y];
+    env_data.push_back(total > 0 ? float(acc / total) : float(y + 1) / H);
+  }
+  env_data[l.cdf_offset + H] = 1.0f;
+  for (int y = 0; y < H; ++y) {
+    double a = 0;
+    size_t base = env_data.size();
+    env_data.push_back(0.0f);
+    for (int x = 0; x < W; ++x) {
+      a += f[size_t(y) * W + x];
+      env_data.push_back(row_sum[y] > 0 ? float(a / row_sum[y]) : float(x + 1) / W);
+    }
+    env_data[base + W] = 1.0f;
+  }
+  return mean_radiance;
+}
+
+void Packer::set_camera() {
+  const CameraDesc c = frame_camera(scene.camera, scene.film.width, scene.film.height, media_boxes, scene.path + ": /camera");
+  st_camera& cam = st.camera;
+  cam.type = c.type;
+  cam.width = scene.film.width;
+  cam.height = scene.film.height;
+  Vec3 fwd = normalize({c.look_at[0] - c.position[0], c.look_at[1] - c.position[1], c.look_at[2] - c.position[2]});
+  Vec3 right = normalize(cross(fwd, c.up));
+  Vec3 up = cross(right, fwd);
+  double shorter = std::min(cam.width, cam.height);
+  double half = c.type == ST_CAMERA_ORTHOGRAPHIC ? 0.5 * c.height : std::tan(0.5 * c.fov_deg * M_PI / 180.0);
+  double sx = half * cam.width / shorter, sy = half * cam.height / shorter;
+  cam.position = f4(c.position);
+  cam.forward = f4(fwd);
+  cam.right = f4(right[0] * sx, right[1] * sx, right[2] * sx);
+  cam.up = f4(up[0] * sy, up[1] * sy, up[2] * sy);
+}
+
+uint32_t Packer::scene_features() const {
+  uint32_t f = 0;
+  if (st.n_media > 1) f |= ST_FEATURE_MULTI_MEDIUM;
+  for (int i = 0; i < st.n_media; ++i) {
+    const st_medium& m = st.media[i];
+    if (m.emissive) f |= ST_FEATURE_EMISSION;
+    // exactly what the kernels see: the float coefficients
+    bool gray = m.sigma_a.x == m.sigma_a.y && m.sigma_a.y == m.sigma_a.z && m.sigma_s.x == m.sigma_s.y &&
+                m.sigma_s.y == m.sigma_s.z;
+    if (!gray) f |= ST_FEATURE_CHROMATIC;
+    if (m.phase_type == ST_PHASE_HG) f |= ST_FEATURE_HG;
+    if (m.type == ST_MEDIUM_VDB) f |= ST_FEATURE_VDB;
+    if (m.maj_block > 0) f |= ST_FEATURE_COARSE_MAJORANT;
+  }
+  for (int i = 0; i < st.n_lights; ++i) {
+    const st_light& l = st.lights[i];
+    if (l.type == ST_LIGHT_ENV_MAP) f |= ST_FEATURE_ENV_MAP;
+    if (l.type != ST_LIGHT_DIRECTIONAL || !l.is_delta) f |= ST_FEATURE_ESCAPE;
+  }
+  if (st_tracker_decomposes(st.tracker)) f |= ST_FEATURE_DECOMPOSITION;
+  return f;
+}
+
+}  // namespace
+
+PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const PackOptions& options) {
+  if (options.iteration_budget < 1) throw Error("iteration budget must be at least 1");
+  if (options.majorant_cell < 1) throw Error("majorant cell must be at least 1 voxel");
+  if (options.majorant_block < 0) throw Error("majorant block must be 0 (one level) or at least 1 cell");
+  PackedScene out;
+  st_scene& st = out.st;
+  std::memset(&st, 0, sizeof(st));
+  Packer pk{scene, options, st, out.grid_words, out.maj_cells, out.env_data};
+  st.n_media = int(scene.media.size());
+  st.n_lights = int(scene.lights.size());
+  for (int i = 0; i < st.n_media; ++i) pk.add_medium(i, scene.media[i]);
+  for (int i = 0; i < st.n_lights; ++i) pk.add_light(i, scene.lights[i]);
+  pk.set_light_selection(s.light_sampling);
+  pk.set_camera();
+  st.tracker = s.tracker;
+  st.scheme = s.scheme;
+  st.absorption = s.absorption;
+  st.light_sampling = s.light_sampling;
+  st.transmittance = s.transmittance;
+  st.march_spacing = float(s.march_spacing);
+  st.pilot_spacing = float(s.pilot_spacing);
+  st.max_depth = scene.render.max_depth;
+  st.seed = s.seed;
+  st.n_channels_per_sample = s.channels_per_sample;
+  st.iteration_budget = options.iteration_budget;
+  st.batches_in_flight = 2;  // set per render
+  st.pixel_x0 = s.window.x0;
+  st.pixel_y0 = s.window.y0;
+  st.window_width = s.window.width;
+  st.window_height = s.window.height;
+  for (auto& l : scene.lights) st.has_env |= (l.type != ST_LIGHT_DIRECTIONAL);
+  for (auto& m : scene.media) st.chromatic |= !(achromatic(m.sigma_a) && achromatic(m.sigma_s));
+  if (out.maj_cells.empty()) out.maj_cells = {0.0f, 0.0f};
+  if (out.grid_words.empty()) out.grid_words = {0u, 0u};
+  if (out.env_data.empty()) out.env_data = {0.0f};
+  out.features = pk.scene_features();
+  return out;
+}
+
+}  // namespace spectrack

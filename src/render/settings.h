@@ -1,0 +1,94 @@
+// settings.h: what a render is asked for and what it resolves to.
+//
+// Design (pbrt-v4's PBRTOptions pattern): RenderOptions holds the caller's overrides of the scene
+// (command line, tests, benchmarks), each one std::optional so "not given" is not a sentinel
+// value; resolve_settings() combines them with the scene once, checks them against the scene and
+// the film, and returns plain RenderSettings (tracker, scheme, seed, samples, pixel window,
+// channels per sample). Every consumer (Renderer, the render identity of a film piece, the
+// multi-device and MPI drivers, the CLI) takes the resolved settings; nothing else re-derives them.
+#pragma once
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+
+#include "scene/scene.h"
+
+namespace spectrack {
+
+// Light sampling of next-event estimation when neither the command line nor the scene chooses
+// (bench/RESULTS.md, "One light per scatter event").
+constexpr int kDefaultLightSampling = ST_LIGHT_SAMPLING_ALL;
+// Transmittance estimator of shadow rays when neither the command line nor the scene chooses, and
+// the ray-marching spacings (majorant optical depth between samples; bench/RESULTS.md,
+// "Ray-marching transmittance").
+constexpr int kDefaultTransmittance = ST_TRANSMITTANCE_RATIO;
+constexpr double kDefaultMarchSpacing = 1.0;
+constexpr double kDefaultPilotSpacing = 2.0;
+
+struct RenderOptions {
+  std::optional<int> spp;               // samples per pixel (else film.spp)
+  int64_t sample_begin = 0;             // first sample index of the full sequence (sample-range shards)
+  // Pixel window x0, x1, y0, y1 (x1, y1 exclusive, pbrt's --pixelbounds); else the whole film.
+  std::optional<std::array<int, 4>> pixel_bounds;
+  std::optional<int64_t> seed;          // else render.seed
+  std::optional<int> tracker;           // st_tracker, else render.tracker
+  std::optional<int> scheme;            // st_scheme, else render.spectral_scheme
+  std::optional<int> absorption;        // st_absorption, else render.absorption, else the tracker's default
+  std::optional<int> light_sampling;    // st_light_sampling, else render.light_sampling, else kDefaultLightSampling
+  std::optional<int> transmittance;     // st_transmittance_mode, else render.transmittance, else kDefaultTransmittance
+  std::optional<double> march_spacing;  // ray marching: majorant optical depth between samples (kDefaultMarchSpacing)
+  std::optional<double> pilot_spacing;  // ray marching: the same for the pilot (kDefaultPilotSpacing)
+  std::string device;                   // "P:D", name substring, or "" (SPECTRACK_DEVICE, then default)
+  int path_slots = 0;                   // paths in flight; 0 = by device type
+  int iteration_budget = 256;           // tentative collisions + DDA steps per item and launch
+  int majorant_cell = 8;                // voxels per majorant-grid cell edge
+  int majorant_block = 4;               // fine cells per coarse-block edge of a two-level majorant grid; 0 or 1 = one level
+  bool generic_kernels = false;         // the generic kernel (every feature) instead of one specialised to the scene
+  int batches_in_flight = 0;            // batch result buffers in the ring (0: ST_MAX_BATCHES_IN_FLIGHT; 2: the old scheme)
+  // st_feature bits compiled in whatever the scene needs (a kernel with more features renders the
+  // same image): a frame sequence asks for the bits that depend on a frame's grid data, so every
+  // frame uses the one kernel build
+  uint32_t feature_floor = 0;
+  bool quiet = false;
+  std::function<void(double)> progress;     // fraction of samples done
+  // Set asynchronously to stop: the stage loop ends at its next iteration and the result holds
+  // the batches finished by then (RenderResult::interrupted).
+  const std::atomic<bool>* stop = nullptr;
+  // Stop the same way once this time has come (--time-limit, render.time_limit).
+  std::optional<std::chrono::steady_clock::time_point> deadline;
+  // Set to true when a stage loop starts (from then on a stop has finished samples to save).
+  std::atomic<bool>* loop_started = nullptr;
+};
+
+// A pixel window of the film: pixels x0 .. x0 + width - 1, y0 .. y0 + height - 1.
+struct FilmWindow {
+  int x0 = 0, y0 = 0, width = 0, height = 0;
+  int x1() const { return x0 + width; }
+  int y1() const { return y0 + height; }
+  uint64_t pixels() const { return uint64_t(width) * uint64_t(height); }
+};
+
+struct RenderSettings {
+  int tracker = 0, scheme = 0;  // st_tracker, st_scheme
+  int absorption = 0;           // st_absorption
+  int light_sampling = 0;       // st_light_sampling
+  int transmittance = 0;        // st_transmittance_mode
+  double march_spacing = kDefaultMarchSpacing, pilot_spacing = kDefaultPilotSpacing;  // ray marching
+  uint32_t seed = 0;
+  int spp = 0;                  // samples per pixel to render
+  int64_t sample_begin = 0;     // samples sample_begin .. sample_begin + spp - 1
+  FilmWindow window;            // the pixels rendered
+  int full_width = 0, full_height = 0;  // the film
+  int channels_per_sample = 1;  // paths per (pixel, sample): 3 for the per-channel trackers
+};
+
+// Throws Error naming the scene file and field (or the option) when the options do not fit the
+// scene: pixel bounds outside the film, a tracker that needs achromatic media on chromatic ones,
+// an empty or out-of-range sample range.
+RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& options);
+
+}  // namespace spectrack

@@ -1,0 +1,144 @@
+// float_limits.cpp: see float_limits.h.
+#include "volume/float_limits.h"
+
+#include <algorithm>
+#include <cfloat>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <nanovdb/NanoVDB.h>
+
+namespace spectrack {
+namespace {
+
+// Longest world-space edge of one index-space unit: the column norms of index -> world, the
+// inverse of the packed world -> index rows.
+double longest_voxel_edge(const st_medium& m) {
+  double a[3][3];
+  for (int r = 0; r < 3; ++r) {
+    a[r][0] = m.world_to_index[r].x;
+    a[r][1] = m.world_to_index[r].y;
+    a[r][2] = m.world_to_index[r].z;
+  }
+  const double det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
+                     a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+                     a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+  double inv[3][3];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) {
+      // cofactor of a[c][r] over det (adjugate: transposed cofactors)
+      const int r1 = (c + 1) % 3, r2 = (c + 2) % 3, c1 = (r + 1) % 3, c2 = (r + 2) % 3;
+      inv[r][c] = (a[r1][c1] * a[r2][c2] - a[r1][c2] * a[r2][c1]) / det;
+    }
+  double edge = 0;
+  for (int c = 0; c < 3; ++c) edge = std::max(edge, std::sqrt(inv[0][c] * inv[0][c] + inv[1][c] * inv[1][c] + inv[2][c] * inv[2][c]));
+  return edge;
+}
+
+// " at voxel (i, j, k)" of an active voxel holding the grid's largest value ("" when that value
+// sits in a tile). Walks the leaves; only called to word a refusal.
+std::string where_max(const GridData& g) {
+  const nanovdb::NanoGrid<float>* grid = g.handle.grid<float>();
+  if (!grid) return "";
+  const auto& tree = grid->tree();
+  const auto* leaves = tree.getFirstLeaf();
+  for (uint32_t n = 0; n < tree.nodeCount(0); ++n) {
+    const auto& leaf = leaves[n];
+    for (auto it = leaf.valueMask().beginOn(); it; ++it) {
+      if (leaf.getValue(*it) == g.value_max) {
+        const nanovdb::Coord p = leaf.offsetToGlobalCoord(*it);
+        return fmt::format(" at voxel ({}, {}, {})", p[0], p[1], p[2]);
+      }
+    }
+  }
+  return " in an active tile";
+}
+
+void check_coefficient(const std::string& context, const char* field, const Vec3& v, double density_scale,
+                       const st_float4& packed) {
+  const float p[3] = {packed.x, packed.y, packed.z};
+  for (int c = 0; c < 3; ++c) {
+    if (std::isfinite(p[c])) continue;
+    if (!(std::abs(v[c]) <= FLT_MAX))
+      throw Error(fmt::format("{}/{}: {:g} is beyond the largest float ({:g}); the kernels compute in float", context,
+                              field, v[c], FLT_MAX));
+    throw Error(fmt::format("{}/{}: {:g} times density_scale {:g} is {:g}, beyond the largest float ({:g}); the "
+                            "kernels compute in float",
+                            context, field, v[c], density_scale, v[c] * density_scale, FLT_MAX));
+  }
+}
+
+// A homogeneous box has a tight majorant (no null collisions to pay for), so its size is no
+// limit: the walker advances t exactly whatever the flight length (kernels/majorant.h). What a
+// float cannot do is move a scattering point by less than the spacing of its coordinates: a mean
+// free path below the float spacing of world coordinates everywhere in the box (at its point
+// nearest the origin, where they are finest) leaves paths scattering in place.
+void check_homogeneous(const MediumDesc& md, double mu, const std::string& context) {
+  if (mu > kMaxExtinction)
+    throw Error(fmt::format("{}: extinction up to {:g} per unit length (sigma_a + sigma_s times density_scale) is "
+                            "beyond 2^60 (about 1.2e18), where the products of two coefficients in the float kernels "
+                            "overflow; lower density_scale, sigma_a or sigma_s",
+                            context, mu));
+  double nearest = 0;  // max-norm of the box's point nearest the origin
+  for (int a = 0; a < 3; ++a) {
+    const double lo = md.bounds[0][a], hi = md.bounds[1][a];
+    nearest = std::max(nearest, (lo <= 0 && hi >= 0) ? 0.0 : std::min(std::abs(lo), std::abs(hi)));
+  }
+  const double spacing = std::ldexp(nearest, -23);  // float spacing of coordinates of that size (upper bound)
+  if (mu * spacing <= 1.0) return;
+  throw Error(fmt::format("{}: extinction up to {:g} per unit length gives a mean free path of {:g}, shorter than "
+                          "the float spacing {:g} of world coordinates anywhere in the box (its nearest point to the "
+                          "origin is {:g} away): scattering points could not move; lower density_scale, sigma_a or "
+                          "sigma_s, or place the medium nearer the origin",
+                          context, mu, 1.0 / mu, spacing, nearest));
+}
+
+}  // namespace
+
+void check_float_limits(const MediumDesc& md, const st_medium& packed, const GridData* grid,
+                        const std::string& context) {
+  check_coefficient(context, "sigma_a", md.sigma_a, md.density_scale, packed.sigma_a);
+  check_coefficient(context, "sigma_s", md.sigma_s, md.density_scale, packed.sigma_s);
+  const double sigma_t = std::max({double(packed.sigma_a.x) + packed.sigma_s.x, double(packed.sigma_a.y) + packed.sigma_s.y,
+                                   double(packed.sigma_a.z) + packed.sigma_s.z});
+  const double density = grid ? (grid->empty ? 0.0 : double(grid->value_max)) : 1.0;
+  const double mu = sigma_t * density * std::max({1.0, md.majorant_scale, md.minorant_scale});
+  if (!grid) {
+    check_homogeneous(md, mu, context);
+    return;
+  }
+  const double edge = longest_voxel_edge(packed);
+  const double depth = mu * edge;
+  if (mu <= kMaxExtinction && depth <= kMaxOpticalDepthPerVoxel) return;
+  const std::string at = grid ? where_max(*grid) : "";
+  const std::string what =
+      fmt::format("{}: extinction up to {:g} per unit length (sigma_a + sigma_s up to {:g} per unit density, "
+                  "times density_scale {:g}, times the largest density {:g}{})",
+                  context, mu, sigma_t / md.density_scale, md.density_scale, density, at);
+  if (mu > kMaxExtinction)
+    throw Error(fmt::format("{} is beyond 2^60 (about 1.2e18), where the products of two coefficients in the float "
+                            "kernels overflow; lower density_scale, sigma_a or sigma_s{}",
+                            what, grid ? ", or fix the voxel" : ""));
+  throw Error(fmt::format("{} gives an optical depth of {:g} across one {} ({:g} world units), beyond 2^24 "
+                          "(16777216): float tracking cannot resolve free flights that short in a segment that long, "
+                          "and each walk across it would take more than 2^24 tentative collisions; lower "
+                          "density_scale, sigma_a or sigma_s{}",
+                          what, depth, grid ? "voxel" : "box of the medium", edge, grid ? ", or fix the voxel" : ""));
+}
+
+int majorant_cell_for(const st_medium& packed, const GridData& grid, double majorant_scale, int requested) {
+  if (grid.empty || requested <= 1) return requested;
+  const double sigma_t = std::max({double(packed.sigma_a.x) + packed.sigma_s.x, double(packed.sigma_a.y) + packed.sigma_s.y,
+                                   double(packed.sigma_a.z) + packed.sigma_s.z});
+  const double depth_per_voxel = sigma_t * grid.value_max * std::max(1.0, majorant_scale) * longest_voxel_edge(packed);
+  auto cells = [&](int c) {
+    double n = 1;
+    for (int a = 0; a < 3; ++a) n *= double((grid.index_max[a] - grid.index_min[a] + 2) / c + 2);
+    return n;
+  };
+  int cell = requested;
+  while (cell > 1 && depth_per_voxel * cell > kMaxOpticalDepthPerCell && cells(cell / 2) <= kMaxMajorantCells) cell /= 2;
+  return cell;
+}
+
+}  // namespace spectrack

@@ -1,0 +1,204 @@
+// inspect.cpp: inspect_volume (inspect.h), for `spectrack info`. .vdb files are opened with the
+// loaders' pre-scan (vdb_open.h) and every grid read by OpenVDB; .nvdb files through the loaders'
+// own .nvdb reader (nvdb_file.cpp), float grids through load_float_grid (validated value range).
+#include "volume/inspect.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <type_traits>
+
+#include <nanovdb/util/OpenToNanoVDB.h>
+#include <openvdb/openvdb.h>
+
+#include "volume/vdb_open.h"
+#include "volume/volume.h"
+#include "volume/volume_detail.h"
+
+namespace spectrack {
+namespace {
+
+using namespace volume_detail;
+
+template <class GridT>
+void scalar_range(const openvdb::GridBase& base, GridInfo& out) {
+  const auto& g = static_cast<const GridT&>(base);
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (auto it = g.cbeginValueOn(); it; ++it) {
+    lo = std::min(lo, double(*it));
+    hi = std::max(hi, double(*it));
+  }
+  out.has_range = lo <= hi;
+  if (out.has_range) out.value_min = lo, out.value_max = hi;
+}
+
+template <class GridT>
+void vector_range(const openvdb::GridBase& base, GridInfo& out) {
+  const auto& g = static_cast<const GridT&>(base);
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (auto it = g.cbeginValueOn(); it; ++it) {
+    const double l = double(it->length());
+    lo = std::min(lo, l);
+    hi = std::max(hi, l);
+  }
+  out.has_range = lo <= hi;
+  if (out.has_range) out.value_min = lo, out.value_max = hi;
+}
+
+template <class GridT>
+int64_t nano_bytes(const openvdb::GridBase& base) {
+  try {
+    return int64_t(nanovdb::openToNanoVDB(static_cast<const GridT&>(base)).size());
+  } catch (const std::exception&) {
+    return -1;
+  }
+}
+
+// Value range and NanoVDB size of g when its type is one of GridTs (vector grids: the range of
+// the length); false when it is none of them.
+template <bool Vector, class... GridTs>
+bool describe_values(const openvdb::GridBase& g, GridInfo& out) {
+  auto one = [&](auto* tag) {
+    using GridT = std::remove_pointer_t<decltype(tag)>;
+    if (!g.isType<GridT>()) return false;
+    if constexpr (Vector) vector_range<GridT>(g, out);
+    else scalar_range<GridT>(g, out);
+    out.nanovdb_bytes = nano_bytes<GridT>(g);
+    return true;
+  };
+  return (one(static_cast<GridTs*>(nullptr)) || ...);
+}
+
+GridInfo vdb_grid(const openvdb::GridBase& g, const Fail& fail) {
+  check_vdb_file_bbox(g, fail);
+  GridInfo out;
+  out.name = g.getName();
+  out.type = g.valueType();
+  out.cls = openvdb::GridBase::gridClassToString(g.getGridClass());
+  const openvdb::CoordBBox box = g.evalActiveVoxelBoundingBox();
+  out.empty = box.empty();
+  out.active_voxels = g.activeVoxelCount();
+  const openvdb::Vec3d vs = g.voxelSize();
+  out.voxel_size = {vs.x(), vs.y(), vs.z()};
+  if (!out.empty) {
+    out.index_min = {box.min().x(), box.min().y(), box.min().z()};
+    out.index_max = {box.max().x(), box.max().y(), box.max().z()};
+    const openvdb::BBoxd w = g.transform().indexToWorld(box);
+    out.world_min = {w.min().x(), w.min().y(), w.min().z()};
+    out.world_max = {w.max().x(), w.max().y(), w.max().z()};
+  }
+  describe_values<false, openvdb::FloatGrid, openvdb::DoubleGrid, openvdb::Int32Grid, openvdb::Int64Grid>(g, out) ||
+      describe_values<true, openvdb::Vec3SGrid, openvdb::Vec3DGrid>(g, out);
+  // The loader's refusals (volume.cpp), as a note rather than an error.
+  if (!g.isType<openvdb::FloatGrid>()) {
+    out.density_use = "no: value type " + out.type + " (only float density grids)";
+  } else if (g.getGridClass() == openvdb::GRID_LEVEL_SET) {
+    out.density_use = "no: a level set, not a fog volume";
+  } else if (!g.transform().isLinear()) {
+    out.density_use = "no: non-affine transform";
+  } else if (static_cast<const openvdb::FloatGrid&>(g).background() != 0.0f) {
+    out.density_use = "no: background is not 0";
+  } else if (out.has_range && (!(out.value_min >= 0) || !std::isfinite(out.value_max))) {
+    out.density_use = "no: negative or non-finite values";
+  } else {
+    out.density_use = "yes";
+  }
+  return out;
+}
+
+std::vector<GridInfo> inspect_vdb(const std::string& file, const Fail& fail) {
+  std::vector<GridInfo> out;
+  try {
+    auto f = open_vdb_checked(file, fail);
+    openvdb::GridPtrVecPtr grids = f->getGrids();
+    f->close();
+    if (!grids) fail("cannot read OpenVDB file (no grids)");
+    for (const auto& g : *grids) out.push_back(vdb_grid(*g, fail));
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& ex) {
+    fail(std::string("cannot read OpenVDB file (corrupt or truncated?): ") + ex.what());
+  }
+  return out;
+}
+
+std::vector<GridInfo> inspect_nvdb(const std::string& file, const Fail& fail) {
+  std::vector<GridInfo> out;
+  std::vector<Entry> entries;
+  try {
+    entries = nvdb_entries(file, fail);
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& ex) {
+    fail(std::string("cannot read NanoVDB file (corrupt or truncated?): ") + ex.what());
+  }
+  for (size_t i = 0; i < entries.size(); ++i) {
+    const Entry& e = entries[i];
+    GridInfo gi;
+    gi.name = e.name, gi.type = e.type, gi.cls = e.cls;
+    nanovdb::GridHandle<nanovdb::HostBuffer> h;
+    try {
+      h = nvdb_read(file, e, fail);
+    } catch (const Error&) {
+      throw;
+    } catch (const std::exception& ex) {
+      fail(std::string("cannot read NanoVDB grid (corrupt or truncated?): ") + ex.what());
+    }
+    const nanovdb::GridMetaData* m = h.gridMetaData();
+    if (!m) fail("cannot read NanoVDB grid " + in_quotes(e.name));
+    gi.nanovdb_bytes = int64_t(h.size());
+    gi.active_voxels = m->activeVoxelCount();
+    const nanovdb::Vec3R vs = m->voxelSize();
+    gi.voxel_size = {vs[0], vs[1], vs[2]};
+    const auto& ib = m->indexBBox();
+    gi.empty = ib[0][0] > ib[1][0] || m->activeVoxelCount() == 0;
+    if (!gi.empty) {
+      gi.index_min = {ib[0][0], ib[0][1], ib[0][2]};
+      gi.index_max = {ib[1][0], ib[1][1], ib[1][2]};
+    }
+    if (e.is_float && !e.level_set) {
+      int same = 0;
+      for (size_t j = 0; j < i; ++j) same += entries[j].name == e.name;
+      try {
+        GridData d = load_float_grid(file, e.name, same, "");
+        gi.empty = d.empty;
+        gi.index_min = d.index_min, gi.index_max = d.index_max;
+        gi.has_range = !d.empty;
+        gi.value_min = d.value_min, gi.value_max = d.value_max;
+        gi.density_use = "yes";
+      } catch (const Error& ex) {
+        gi.density_use = std::string("no: ") + ex.what();
+      }
+    } else {
+      gi.density_use = e.level_set ? "no: a level set, not a fog volume" : "no: value type " + e.type + " (only float density grids)";
+    }
+    if (!gi.empty) {
+      const nanovdb::Map& map = m->map();
+      for (int a = 0; a < 3; ++a) gi.world_min[a] = std::numeric_limits<double>::infinity(), gi.world_max[a] = -gi.world_min[a];
+      for (int c = 0; c < 8; ++c) {
+        const nanovdb::Vec3d p((c & 1) ? gi.index_max[0] : gi.index_min[0], (c & 2) ? gi.index_max[1] : gi.index_min[1],
+                               (c & 4) ? gi.index_max[2] : gi.index_min[2]);
+        const nanovdb::Vec3d w = map.applyMap(p);
+        for (int a = 0; a < 3; ++a) gi.world_min[a] = std::min(gi.world_min[a], w[a]), gi.world_max[a] = std::max(gi.world_max[a], w[a]);
+      }
+    }
+    out.push_back(gi);
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<GridInfo> inspect_volume(const std::string& file) {
+  const Fail fail{"", file};
+  std::string ext = std::filesystem::path(file).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  if (ext != ".vdb" && ext != ".nvdb") fail("unknown volume file extension " + in_quotes(ext) + " (expected .vdb or .nvdb)");
+  std::error_code ec;
+  if (!std::filesystem::exists(file, ec)) fail("no such file");
+  if (std::filesystem::is_directory(file, ec)) fail("is a directory, not a VDB file");
+  return ext == ".vdb" ? inspect_vdb(file, fail) : inspect_nvdb(file, fail);
+}
+
+}  // namespace spectrack

@@ -1,0 +1,134 @@
+// majorant_grid.cpp: the sparse majorant/minorant grids of a density grid (volume.h).
+//
+// Design: the grid follows ALGORITHMS.md 7.2: cell boundaries sit on voxel centres, so a cell of
+// B voxels reads the (B+1)^3 voxels of its trilinear support and bounds the interpolated density
+// anywhere inside it. The coarse level of a two-level grid is the max (min) over blocks of cells.
+// sample_index_trilinear is the host reference of the device lookup (kernels/medium.h).
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <nanovdb/NanoVDB.h>
+
+#include "volume/volume.h"
+
+namespace spectrack {
+
+using FloatGrid = nanovdb::NanoGrid<float>;
+using Leaf = nanovdb::NanoLeaf<float>;
+
+// Each cell walks the 8^3 leaf-aligned blocks that meet its support: a leaf contributes the
+// voxels inside the support, a block without a leaf (a tile or background) its one constant
+// value. The cost is thus about (1 + 1/cell)^3 reads per voxel of allocated leaves plus a probe
+// per empty block; the Disney cloud (16x11x20 cells) takes a few ms. A grid with huge active
+// tiles still costs one probe per 8^3 block of its bbox (512^3 cells for a root tile at cell 8),
+// where a two-level grid (ALGORITHMS.md 7.1) would be the fix.
+MajorantGrid build_majorant_grid(const GridData& grid, int cell) {
+  if (cell < 1) throw Error("build_majorant_grid: cell size must be >= 1, got " + std::to_string(cell));
+  MajorantGrid mg;
+  mg.cell = cell;
+  const FloatGrid* g = grid.handle.grid<float>();
+  if (grid.empty || !g) {
+    mg.origin = {grid.index_min[0] - 1, grid.index_min[1] - 1, grid.index_min[2] - 1};
+    mg.dims = {1, 1, 1};
+    mg.dmax.assign(1, 0.0f);
+    mg.dmin.assign(1, 0.0f);
+    return mg;
+  }
+  for (int a = 0; a < 3; ++a) {
+    mg.origin[a] = grid.index_min[a] - 1;
+    const int64_t span = int64_t(grid.index_max[a]) - grid.index_min[a] + 2;
+    mg.dims[a] = int(std::max<int64_t>(1, (span + cell - 1) / cell));
+  }
+  const double cells = double(mg.dims[0]) * mg.dims[1] * mg.dims[2];
+  if (cells > double(1 << 27)) {
+    throw Error(fmt::format("{}: grid \"{}\": its active bounding box ({}, {}, {}) .. ({}, {}, {}) needs {} majorant "
+                            "cells of {} voxels; use a larger cell size",
+                            grid.file, grid.name, grid.index_min[0], grid.index_min[1], grid.index_min[2],
+                            grid.index_max[0], grid.index_max[1], grid.index_max[2], uint64_t(cells), cell));
+  }
+  const size_t n = size_t(cells);
+  mg.dmax.assign(n, 0.0f);
+  mg.dmin.assign(n, 0.0f);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16), [&](const tbb::blocked_range<size_t>& r) {
+    auto acc = g->getAccessor();
+    for (size_t idx = r.begin(); idx != r.end(); ++idx) {
+      const int cx = int(idx % size_t(mg.dims[0]));
+      const int cy = int((idx / size_t(mg.dims[0])) % size_t(mg.dims[1]));
+      const int cz = int(idx / (size_t(mg.dims[0]) * size_t(mg.dims[1])));
+      const int x0 = mg.origin[0] + cx * cell, y0 = mg.origin[1] + cy * cell, z0 = mg.origin[2] + cz * cell;
+      float hi = -std::numeric_limits<float>::infinity(), lo = std::numeric_limits<float>::infinity();
+      const int x1 = x0 + cell, y1 = y0 + cell, z1 = z0 + cell;
+      for (int bz = z0 & ~7; bz <= z1; bz += 8)
+        for (int by = y0 & ~7; by <= y1; by += 8)
+          for (int bx = x0 & ~7; bx <= x1; bx += 8) {
+            const nanovdb::Coord block(bx, by, bz);
+            const Leaf* leaf = acc.probeLeaf(block);
+            if (!leaf) {
+              const float v = acc.getValue(block);
+              hi = std::max(hi, v);
+              lo = std::min(lo, v);
+              continue;
+            }
+            for (int z = std::max(z0, bz); z <= std::min(z1, bz + 7); ++z)
+              for (int y = std::max(y0, by); y <= std::min(y1, by + 7); ++y)
+                for (int x = std::max(x0, bx); x <= std::min(x1, bx + 7); ++x) {
+                  const float v = leaf->getValue(nanovdb::Coord(x, y, z));
+                  hi = std::max(hi, v);
+                  lo = std::min(lo, v);
+                }
+          }
+      // Float rounding of the interpolation can exceed the corner values by a few ulps.
+      hi = hi * (1.0f + 1e-5f);
+      if (hi > 0.0f) hi += 1e-30f;
+      mg.dmax[idx] = hi;
+      mg.dmin[idx] = lo * (1.0f - 1e-5f);
+    }
+  });
+  return mg;
+}
+
+float sample_index_trilinear(const GridData& grid, double x, double y, double z) {
+  const FloatGrid* g = grid.handle.grid<float>();
+  if (!g) return 0.0f;
+  auto acc = g->getAccessor();
+  const double fx = std::floor(x), fy = std::floor(y), fz = std::floor(z);
+  const double tx = x - fx, ty = y - fy, tz = z - fz;
+  const int ix = int(fx), iy = int(fy), iz = int(fz);
+  double c[2][2][2];
+  for (int k = 0; k < 2; ++k)
+    for (int j = 0; j < 2; ++j)
+      for (int i = 0; i < 2; ++i) c[k][j][i] = acc.getValue(nanovdb::Coord(ix + i, iy + j, iz + k));
+  double e[2][2];
+  for (int k = 0; k < 2; ++k)
+    for (int j = 0; j < 2; ++j) e[k][j] = c[k][j][0] + tx * (c[k][j][1] - c[k][j][0]);
+  const double f0 = e[0][0] + ty * (e[0][1] - e[0][0]);
+  const double f1 = e[1][0] + ty * (e[1][1] - e[1][0]);
+  return float(f0 + tz * (f1 - f0));
+}
+
+MajorantGrid coarsen_majorant_grid(const MajorantGrid& fine, int block) {
+  if (block < 1) throw Error("majorant block must be at least 1 cell");
+  MajorantGrid c;
+  c.origin = fine.origin;
+  c.cell = fine.cell * block;
+  for (int a = 0; a < 3; ++a) c.dims[a] = (fine.dims[a] + block - 1) / block;
+  size_t n = size_t(c.dims[0]) * c.dims[1] * c.dims[2];
+  c.dmax.assign(n, 0.0f);
+  c.dmin.assign(n, std::numeric_limits<float>::infinity());
+  for (int k = 0; k < fine.dims[2]; ++k)
+    for (int j = 0; j < fine.dims[1]; ++j)
+      for (int i = 0; i < fine.dims[0]; ++i) {
+        size_t f = size_t(i) + size_t(fine.dims[0]) * (size_t(j) + size_t(fine.dims[1]) * k);
+        size_t b = size_t(i / block) + size_t(c.dims[0]) * (size_t(j / block) + size_t(c.dims[1]) * (k / block));
+        c.dmax[b] = std::max(c.dmax[b], fine.dmax[f]);
+        c.dmin[b] = std::min(c.dmin[b], fine.dmin[f]);
+      }
+  return c;
+}
+
+}  // namespace spectrack

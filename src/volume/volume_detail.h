@@ -1,0 +1,63 @@
+// volume_detail.h: what the loaders of volume.cpp and nvdb_file.cpp share (internal to
+// src/volume): NanoVDB type names, the Fail message builder, and the grid list entry.
+#pragma once
+#include <cstdint>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nanovdb/NanoVDB.h>
+#include <nanovdb/util/GridHandle.h>
+
+#include "util/error.h"
+
+namespace spectrack {
+namespace volume_detail {
+
+using FloatGrid = nanovdb::NanoGrid<float>;
+using Root = nanovdb::NanoRoot<float>;
+using Upper = nanovdb::NanoUpper<float>;
+using Lower = nanovdb::NanoLower<float>;
+using Leaf = nanovdb::NanoLeaf<float>;
+
+// Formats "<context>: <file>: <reason>" and throws.
+struct Fail {
+  std::string context, file;
+  [[noreturn]] void operator()(const std::string& reason) const {
+    std::string msg = context.empty() ? file : context + ": " + file;
+    throw Error(msg + ": " + reason);
+  }
+};
+
+inline std::string coord_str(int x, int y, int z) {
+  std::ostringstream s;
+  s << "(" << x << ", " << y << ", " << z << ")";
+  return s.str();
+}
+
+inline std::string in_quotes(const std::string& s) { return "\"" + s + "\""; }
+
+// One grid of a file, as listed before its tree is read.
+struct Entry {
+  std::string name;   // grid name ("" for unnamed)
+  std::string type;   // value type: float, int32, vec3s / Vec3f, ...
+  std::string cls;    // grid class in OpenVDB's words
+  bool is_float = false;
+  bool level_set = false;
+  std::string vdb_key;          // .vdb: unique name for io::File::readGrid
+  uint64_t nv_offset = 0;       // .nvdb: byte offset of the (possibly compressed) grid data
+  uint64_t nv_grid_size = 0, nv_file_size = 0;
+  uint16_t nv_codec = 0;
+};
+
+inline std::string describe(const Entry& e) {
+  return (e.name.empty() ? std::string("<unnamed>") : e.name) + " (" + e.type + ", " + e.cls + ")";
+}
+
+// .nvdb files (nvdb_file.cpp): the grids of a file, every size checked against the file length;
+// and one grid read (decompressed, validated) into a handle.
+std::vector<Entry> nvdb_entries(const std::string& file, const Fail& fail);
+nanovdb::GridHandle<nanovdb::HostBuffer> nvdb_read(const std::string& file, const Entry& e, const Fail& fail);
+
+}  // namespace volume_detail
+}  // namespace spectrack
