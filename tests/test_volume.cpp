@@ -625,6 +625,20 @@ TEST(VolumeNanoVdb, CodecsRoundTripAndCorruption) {
     const std::string msg = error_of([&] { spectrack::load_float_grid(t.path, "density", -1, "test"); });
     EXPECT_TRUE(contains(msg, "corrupt")) << "flipped at " << at << ": " << msg;
   }
+  // A node offset moved off NanoVDB's 32-byte alignment (leaf, lower, upper, root) is refused
+  // before a node reference is formed from it (fuzz_nvdb found the root case; UBSan reports it).
+  const size_t tree_start = grid_start + sizeof(nanovdb::GridData);
+  for (int level = 0; level < 4; ++level) {
+    std::string moved = bytes;
+    uint64_t off = 0;
+    std::memcpy(&off, &moved[tree_start + 8 * size_t(level)], 8);
+    off += 8;
+    std::memcpy(&moved[tree_start + 8 * size_t(level)], &off, 8);
+    TempFile t("misaligned.nvdb");
+    std::ofstream(t.path, std::ios::binary) << moved;
+    const std::string msg = error_of([&] { spectrack::load_float_grid(t.path, "density", -1, "test"); });
+    EXPECT_TRUE(contains(msg, "misaligned")) << "level " << level << ": " << msg;
+  }
 }
 
 TEST(VolumeNanoVdb, ErrorsMatchVdb) {

@@ -118,17 +118,25 @@ void check_layout(const FloatGrid& g, const Fail& fail) {
   };
   const auto& tree = g.tree();
   const auto* td = reinterpret_cast<const nanovdb::TreeData<3>*>(&tree);
-  bool ok = reinterpret_cast<const char*>(&tree) == begin + sizeof(nanovdb::GridData) && within(&tree, sizeof(*td));
-  ok = ok && td->mNodeOffset[3] < size && within(&tree.root(), sizeof(nanovdb::RootData<Upper>));
+  // Node offsets are checked as integers (in range and 32-byte aligned, as NanoVDB's node types
+  // require) before tree.root() or a node pointer is formed from them (fuzz_nvdb: a misaligned
+  // root offset is undefined behaviour at the reference NanoVDB's root() returns).
+  const uint64_t tree_at = sizeof(nanovdb::GridData);
+  auto offset_ok = [&](uint64_t off) {
+    return off < size - tree_at && (tree_at + off) % NANOVDB_DATA_ALIGNMENT == 0;
+  };
+  bool ok = reinterpret_cast<const char*>(&tree) == begin + tree_at && within(&tree, sizeof(*td));
+  ok = ok && offset_ok(td->mNodeOffset[3]) &&
+       within(reinterpret_cast<const char*>(td) + td->mNodeOffset[3], sizeof(nanovdb::RootData<Upper>));
   ok = ok && within(&tree.root(), tree.root().memUsage());
   const uint64_t node_size[3] = {sizeof(Leaf), sizeof(Lower), sizeof(Upper)};
   for (int level = 0; ok && level < 3; ++level) {
     const uint64_t n = td->mNodeCount[level];
     if (n == 0) continue;
-    ok = td->mNodeOffset[level] < size && n <= size / node_size[level] &&
+    ok = offset_ok(td->mNodeOffset[level]) && n <= size / node_size[level] &&
          within(reinterpret_cast<const char*>(td) + td->mNodeOffset[level], n * node_size[level]);
   }
-  if (!ok) fail("corrupt NanoVDB grid (tree layout outside the grid buffer)");
+  if (!ok) fail("corrupt NanoVDB grid (tree layout outside the grid buffer, or misaligned)");
 }
 
 nanovdb::GridHandle<nanovdb::HostBuffer> nvdb_read(const std::string& file, const Entry& e, const Fail& fail) {
