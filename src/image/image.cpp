@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -162,6 +163,33 @@ static void check_exr_header(const std::string& path, std::istream& f, uint64_t 
   }
 }
 
+// libpng allocates what a chunk's length claims before it reads the chunk (1.7 GB for a damaged
+// tEXt length, fuzz_image). Walk the chunks first: each is a big-endian uint32 length (at most
+// 2^31 - 1, PNG's own limit), a 4-byte type, the data (skipped, not read) and a 4-byte CRC, up to
+// IEND. Every length must fit in the bytes the file has; the message names the chunk. A file that
+// ends at a chunk boundary before IEND is left to libpng, which reports it.
+static void check_png_chunks(const std::string& path, std::istream& f, uint64_t file_bytes) {
+  auto fail = [&](const std::string& reason) { throw Error(fmt::format("{}: damaged PNG file: {}", path, reason)); };
+  f.clear();
+  f.seekg(8);
+  uint64_t at = 8;  // bytes of the file walked
+  for (int chunk = 0; at < file_bytes; ++chunk) {
+    unsigned char h[8];
+    if (file_bytes - at < 8 || !f.read(reinterpret_cast<char*>(h), 8))
+      fail(fmt::format("the file ends inside the header of chunk {} (byte {})", chunk, at));
+    at += 8;
+    const uint32_t length = uint32_t(h[0]) << 24 | uint32_t(h[1]) << 16 | uint32_t(h[2]) << 8 | uint32_t(h[3]);
+    std::string type;
+    for (int i = 4; i < 8; ++i) type += std::isalpha(h[i]) ? char(h[i]) : '?';
+    if (length > 0x7fffffffu || uint64_t(length) + 4 > file_bytes - at)
+      fail(fmt::format("chunk {} ('{}') claims {} bytes, but only {} remain in the {}-byte file", chunk, type, length,
+                       file_bytes - at, file_bytes));
+    if (type == "IEND") return;
+    f.seekg(std::streamoff(length) + 4, std::ios::cur);
+    at += uint64_t(length) + 4;
+  }
+}
+
 // Design: the header is checked in full against what will be read before any pixel buffer is
 // allocated (the buffer is at most 2^28 pixels x 3 floats, whatever the file claims), so an image
 // OpenImageIO opens but spectrack would misread (a VDB as a stack of slices, a multi-part EXR, a
@@ -183,6 +211,7 @@ RgbImage read_image(const std::string& path, ImageUse use) {
       fail(fmt::format("is a{} volume (a 3-D image to OpenImageIO's openvdb reader); {} must be a 2-D image",
                        vdb ? "n OpenVDB" : " NanoVDB", what));
     if (std::memcmp(magic, "\x76\x2f\x31\x01", 4) == 0) check_exr_header(path, f, file_bytes);
+    if (std::memcmp(magic, "\x89PNG\r\n\x1a\n", 8) == 0) check_png_chunks(path, f, file_bytes);
   }
   OIIO::ImageSpec config;
   config.attribute("oiio:UnassociatedAlpha", 1);  // colours as stored, not multiplied by alpha
