@@ -90,6 +90,17 @@ class SceneTest : public ::testing::Test {
     return json{{"type", "homogeneous"}, {"bounds", {{-1, -1, -1}, {1, 1, 1}}}};
   }
   SceneDesc parse(const json& j) const { return parse_scene(j.dump(2), "cloud.json", dir_.string()); }
+  // Writes bytes to dir_/name and reads it as an image: the error message, or "accepted".
+  std::string image_error(const std::string& name, const std::string& bytes) const {
+    const std::string p = (dir_ / name).string();
+    std::ofstream(p, std::ios::binary) << bytes;
+    try {
+      read_image(p);
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "accepted";
+  }
   // The message of the expected error, or "" after recording a failure.
   std::string error_text(const std::string& text) const {
     try {
@@ -1033,27 +1044,17 @@ TEST_F(SceneTest, DamagedExrHeaderIsRefusedBeforeOpenExrReadsIt) {
   // the first attribute is "channels" of type "chlist"; its size follows the two names
   const size_t size_at = bytes.find("chlist");
   ASSERT_NE(size_at, std::string::npos);
-  auto damaged = [&](const std::string& name, std::string b) {
-    const std::string p = (dir_ / name).string();
-    std::ofstream(p, std::ios::binary) << b;
-    try {
-      read_image(p);
-    } catch (const Error& e) {
-      return std::string(e.what());
-    }
-    return std::string("accepted");
-  };
   std::string b = bytes;
   b[size_at + 7] = '\x00', b[size_at + 8] = '\x00', b[size_at + 9] = '\x00', b[size_at + 10] = '\x73';  // 1.9 GB
-  EXPECT_THAT(damaged("huge.exr", b), StartsWith((dir_ / "huge.exr").string() +
+  EXPECT_THAT(image_error("huge.exr", b), StartsWith((dir_ / "huge.exr").string() +
                                                  ": damaged OpenEXR header: attribute 'channels' (chlist) claims"));
   b = bytes;
   b[size_at + 10] = '\x80';  // negative
-  EXPECT_THAT(damaged("negative.exr", b), HasSubstr("attribute 'channels' (chlist) claims -"));
-  EXPECT_THAT(damaged("cut.exr", bytes.substr(0, size_at + 2)), HasSubstr("damaged OpenEXR header: the file ends inside"));
+  EXPECT_THAT(image_error("negative.exr", b), HasSubstr("attribute 'channels' (chlist) claims -"));
+  EXPECT_THAT(image_error("cut.exr", bytes.substr(0, size_at + 2)), HasSubstr("damaged OpenEXR header: the file ends inside"));
   b = bytes;
   b[5] |= 0x10;  // the multi-part flag on a single-part file: refused, by the walk or by OpenEXR
-  EXPECT_THAT(damaged("parts.exr", b), StartsWith((dir_ / "parts.exr").string() + ": "));
+  EXPECT_THAT(image_error("parts.exr", b), StartsWith((dir_ / "parts.exr").string() + ": "));
 }
 
 // libpng allocates what a chunk's length claims before it reads the chunk: read_image walks the
@@ -1068,24 +1069,14 @@ TEST_F(SceneTest, DamagedPngChunkIsRefusedBeforeLibpngReadsIt) {
   std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   ASSERT_EQ(bytes.substr(12, 4), "IHDR");
   const size_t after_ihdr = 8 + 8 + 13 + 4;  // signature, IHDR length and type, data, CRC
-  auto damaged = [&](const std::string& name, const std::string& b) {
-    const std::string p = (dir_ / name).string();
-    std::ofstream(p, std::ios::binary) << b;
-    try {
-      read_image(p);
-    } catch (const Error& e) {
-      return std::string(e.what());
-    }
-    return std::string("accepted");
-  };
   std::string b = bytes;
   b.insert(after_ihdr, std::string("\x66\x00\x00\x19tEXtspectrack", 17));
-  EXPECT_THAT(damaged("huge.png", b), StartsWith((dir_ / "huge.png").string() +
+  EXPECT_THAT(image_error("huge.png", b), StartsWith((dir_ / "huge.png").string() +
                                                  ": damaged PNG file: chunk 1 ('tEXt') claims 1711276057 bytes"));
   b = bytes;
   b[after_ihdr] = '\x80';  // more than PNG's 2^31 - 1
-  EXPECT_THAT(damaged("negative.png", b), HasSubstr("damaged PNG file: chunk 1 ("));
-  EXPECT_THAT(damaged("cut.png", bytes.substr(0, after_ihdr + 3)), HasSubstr("damaged PNG file: the file ends inside"));
+  EXPECT_THAT(image_error("negative.png", b), HasSubstr("damaged PNG file: chunk 1 ("));
+  EXPECT_THAT(image_error("cut.png", bytes.substr(0, after_ihdr + 3)), HasSubstr("damaged PNG file: the file ends inside"));
 }
 
 TEST_F(SceneTest, ReadInputFileStopsAtItsBound) {

@@ -206,12 +206,7 @@ MultiDeviceResult MultiDeviceRun::combine() const {
       out.features = d.features;
     }
   }
-  out.tracker = settings_.tracker;
-  out.scheme = settings_.scheme;
-  out.absorption = settings_.absorption;
-  out.light_sampling = settings_.light_sampling;
-  out.transmittance = settings_.transmittance;
-  out.seed = settings_.seed;
+  out.record_settings(settings_);
   if (with_samples.empty())  // stopped before any sample finished
     out.piece = empty_piece(id_, settings_.window, "render");
   else

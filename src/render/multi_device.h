@@ -20,7 +20,7 @@ namespace spectrack {
 // them ("P:D" or a name substring); "" is the one default device. Throws Error for an empty item.
 std::vector<std::string> parse_device_list(const std::string& spec);
 
-struct MultiDeviceResult {
+struct MultiDeviceResult : RenderChoices {
   FilmPiece piece;          // the merged film of every device
   RenderStats stats;        // summed over devices and chunks
   std::vector<std::string> devices;  // device names, in list order
@@ -30,11 +30,6 @@ struct MultiDeviceResult {
   bool kernels_from_cache = true;
   double seconds_first_pass = 0;  // the first device to put a batch on its film: construction to then
   uint32_t features = 0;          // the kernels' feature mask (the same on every device)
-  int tracker = 0, scheme = 0;
-  int absorption = 0;      // st_absorption
-  int light_sampling = 0;  // st_light_sampling
-  int transmittance = 0;   // st_transmittance_mode
-  uint32_t seed = 0;
   int spp_requested = 0;
   bool time_limit_reached = false;  // some device stopped at RenderOptions::deadline
 };

@@ -337,12 +337,7 @@ RenderResult Renderer::Impl::result_header(int64_t sample_begin, int spp) const 
   res.y0 = settings.window.y0;
   res.sample_begin = sample_begin;
   res.spp_requested = spp;
-  res.tracker = settings.tracker;
-  res.scheme = settings.scheme;
-  res.absorption = settings.absorption;
-  res.light_sampling = settings.light_sampling;
-  res.transmittance = settings.transmittance;
-  res.seed = settings.seed;
+  res.record_settings(settings);
   res.device = ds.dev.name;
   res.seconds_setup = seconds_setup;
   res.seconds_build = seconds_build;

@@ -51,7 +51,7 @@ struct RenderStats {
   std::map<std::string, KernelTime> kernels;
 };
 
-struct RenderResult {
+struct RenderResult : RenderChoices {
   int width = 0, height = 0;           // the pixel window rendered
   int full_width = 0, full_height = 0; // the film
   int x0 = 0, y0 = 0;                  // the window's top-left pixel in the film
@@ -63,11 +63,6 @@ struct RenderResult {
   int spp_requested = 0, spp_done = 0;
   bool interrupted = false;         // fewer samples done than requested (a stop or the time limit)
   bool time_limit_reached = false;  // stopped by RenderOptions::deadline
-  int tracker = 0, scheme = 0;
-  int absorption = 0;      // st_absorption
-  int light_sampling = 0;  // st_light_sampling
-  int transmittance = 0;   // st_transmittance_mode
-  uint32_t seed = 0;
   std::string device;
   double seconds_setup = 0, seconds_build = 0, seconds_render = 0;
   double seconds_first_pass = 0;  // Renderer construction to the first batch added to the film

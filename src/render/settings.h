@@ -86,6 +86,25 @@ struct RenderSettings {
   int channels_per_sample = 1;  // paths per (pixel, sample): 3 for the per-channel trackers
 };
 
+// What a result records of the settings it was rendered with: the estimator choices and the seed
+// (RenderResult, MultiDeviceResult; film identities and stats are made from these).
+struct RenderChoices {
+  int tracker = 0, scheme = 0;  // st_tracker, st_scheme
+  int absorption = 0;           // st_absorption
+  int light_sampling = 0;       // st_light_sampling
+  int transmittance = 0;        // st_transmittance_mode
+  uint32_t seed = 0;
+
+  void record_settings(const RenderSettings& s) {
+    tracker = s.tracker;
+    scheme = s.scheme;
+    absorption = s.absorption;
+    light_sampling = s.light_sampling;
+    transmittance = s.transmittance;
+    seed = s.seed;
+  }
+};
+
 // Throws Error naming the scene file and field (or the option) when the options do not fit the
 // scene: pixel bounds outside the film, a tracker that needs achromatic media on chromatic ones,
 // an empty or out-of-range sample range.

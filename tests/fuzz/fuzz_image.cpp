@@ -22,21 +22,12 @@
 
 #include "image/image.h"
 #include "scene/radiance.h"
+#include "fuzz_contract.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 std::string g_dir, g_file;
-
-[[noreturn]] void finding(const std::string& what) {
-  std::fprintf(stderr, "fuzz_image: contract violated: %s\n", what.c_str());
-  std::fflush(stderr);
-  std::abort();
-}
-
-void check(bool ok, const char* what) {
-  if (!ok) finding(what);
-}
 
 void remove_file() {
   std::error_code ec;

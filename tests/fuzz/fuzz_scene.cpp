@@ -26,6 +26,7 @@
 
 #include "scene/radiance.h"
 #include "scene/scene.h"
+#include "fuzz_contract.h"
 
 namespace {
 
@@ -38,16 +39,6 @@ std::string g_dir;     // the scene folder given to parse_scene
 void remove_root() {
   std::error_code ec;
   if (!g_root.empty()) fs::remove_all(g_root, ec);
-}
-
-[[noreturn]] void finding(const std::string& what) {
-  std::fprintf(stderr, "fuzz_scene: contract violated: %s\n", what.c_str());
-  std::fflush(stderr);
-  std::abort();
-}
-
-void check(bool ok, const char* what) {
-  if (!ok) finding(what);
 }
 
 bool finite3(const spectrack::Vec3& v) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }

@@ -19,6 +19,7 @@
 #include <string>
 
 #include "volume/volume.h"
+#include "fuzz_contract.h"
 
 #ifndef FUZZ_VOLUME_EXT
 #error "FUZZ_VOLUME_EXT must be \".vdb\" or \".nvdb\""
@@ -28,16 +29,6 @@ namespace {
 
 namespace fs = std::filesystem;
 std::string g_file;
-
-[[noreturn]] void finding(const std::string& what) {
-  std::fprintf(stderr, "fuzz_volume: contract violated: %s\n", what.c_str());
-  std::fflush(stderr);
-  std::abort();
-}
-
-void check(bool ok, const char* what) {
-  if (!ok) finding(what);
-}
 
 void remove_file() {
   std::error_code ec;
