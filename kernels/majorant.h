@@ -209,6 +209,8 @@ inline uint segments_next(__constant const st_scene* scene, __global const float
 
 /* Gray majorant (and minorant) coefficient of medium i over the channels in mask. */
 inline float medium_gray_sigma_t(__constant const st_medium* m, float4 mask) {
+  /* a colour grid's extinction bound (medium.h); a colour medium is always chromatic */
+  if (medium_has_color(m)) return masked_max(m->sigma_t_maj, mask);
   /* achromatic media: every channel holds the same sum, which is the max over any mask */
   return ST_HAS_CHROMATIC ? masked_max(m->sigma_a + m->sigma_s, mask) : m->sigma_a.x + m->sigma_s.x;
 }
@@ -244,7 +246,7 @@ inline st_segment segments_current(__constant const st_scene* scene, const st_se
     float gray = medium_gray_sigma_t(m, mask);
     float dmax = s->m[i].dmax, dmin = s->m[i].dmin;
     float dmax_s = dmax * m->majorant_scale;
-    if (decompose) {
+    if (decompose && !medium_has_color(m)) { /* a colour medium has no control (medium.h) */
       float dc = dmin * m->minorant_scale;
       g.density_c[i] = dc;
       g.sigma_a_c += dc * m->sigma_a;

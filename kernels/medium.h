@@ -90,11 +90,51 @@ inline float4 medium_Le(__constant const st_medium* m, __global const uint* grid
   return m->Le * grid_trilinear(grids, m->emission_grid, pi);
 }
 
+/* ---- colour grids (st_color_mode) ----
+ * A VDB medium may carry a vec3 colour grid C (three float grids in the density grid's index
+ * space; inactive voxels read the file's background). Its coefficients per unit density at p are
+ *   albedo:     sigma_s = sigma_t * clamp(C(p), 0, 1), sigma_a = sigma_t - sigma_s, where
+ *               sigma_t = m->sigma_a + m->sigma_s: the extinction, and so every majorant and
+ *               minorant, is the colour-free one;
+ *   scattering: sigma_s = m->sigma_s * max(C(p), 0), sigma_a = m->sigma_a: the extinction per
+ *               unit density is bounded by m->sigma_t_maj = sigma_a + sigma_s * max C (the host
+ *               takes the maximum over the grid's values and its background).
+ * A medium with a colour grid has no control component (majorant.h segments_current): its
+ * coefficients are not constant anywhere, so every collision it takes part in is a residual one,
+ * which looks C up. The colour of each medium at a collision travels with the collision (tint). */
+inline int medium_has_color(__constant const st_medium* m) { return ST_HAS_COLOR && m->color_mode != ST_COLOR_NONE; }
+
+/* C at world point p (3 lookups). */
+inline float4 medium_color(__constant const st_medium* m, __global const uint* grids, float3 p, uint* lookups) {
+  float3 pi = medium_to_index(m, p);
+  *lookups += 3u;
+  return (float4)(grid_trilinear(grids, m->color_grid[0], pi), grid_trilinear(grids, m->color_grid[1], pi),
+                  grid_trilinear(grids, m->color_grid[2], pi), 0.0f);
+}
+
+/* Coefficients per unit density of medium m with colour tint (ignored without a colour grid). */
+inline void medium_unit_coeffs(__constant const st_medium* m, float4 tint, float4* sigma_a, float4* sigma_s) {
+  if (medium_has_color(m)) {
+    if (m->color_mode == ST_COLOR_ALBEDO) {
+      float4 sigma_t = m->sigma_a + m->sigma_s;
+      *sigma_s = sigma_t * clamp(tint, 0.0f, 1.0f);
+      *sigma_a = fmax(sigma_t - *sigma_s, 0.0f);
+    } else {
+      *sigma_s = m->sigma_s * fmax(tint, 0.0f);
+      *sigma_a = m->sigma_a;
+    }
+    return;
+  }
+  *sigma_a = m->sigma_a;
+  *sigma_s = m->sigma_s;
+}
+
 /* Coefficients at a point, per channel, summed over media; the per-medium densities are kept
- * for phase-function choice and emission. */
+ * for phase-function choice and emission, with each colour medium's tint. */
 typedef struct {
   float4 sigma_a, sigma_s;
   float density[ST_KERNEL_MAX_MEDIA];
+  float4 tint[ST_KERNEL_MAX_MEDIA]; /* colour media: C at the point (else unused, 1) */
 } st_coeffs;
 
 inline st_coeffs scene_coeffs(__constant const st_scene* scene, __global const uint* grids, float3 p, uint* lookups) {
@@ -103,10 +143,20 @@ inline st_coeffs scene_coeffs(__constant const st_scene* scene, __global const u
   c.sigma_s = (float4)(0.0f);
   for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
     c.density[i] = 0.0f;
+    c.tint[i] = (float4)(1.0f);
     if (i >= scene->n_media) continue;
     __constant const st_medium* m = &scene->media[i];
     float d = medium_density(m, grids, p, lookups);
     c.density[i] = d;
+    if (medium_has_color(m)) {
+      if (d == 0.0f) continue;
+      c.tint[i] = medium_color(m, grids, p, lookups);
+      float4 sa, ss;
+      medium_unit_coeffs(m, c.tint[i], &sa, &ss);
+      c.sigma_a += d * sa;
+      c.sigma_s += d * ss;
+      continue;
+    }
     c.sigma_a += d * m->sigma_a;
     c.sigma_s += d * m->sigma_s;
   }

@@ -121,6 +121,7 @@ typedef struct {
   float4 sigma_a, sigma_s, sigma_n;
   float mu_bar;
   float density[ST_KERNEL_MAX_MEDIA];
+  float4 tint[ST_KERNEL_MAX_MEDIA]; /* each colour medium's C at the collision (medium.h; else 1) */
 } st_collision;
 
 /* A tentative collision at p belongs to the control component with probability
@@ -135,14 +136,20 @@ inline st_collision collision_component(__constant const st_scene* scene, __glob
     c.sigma_a = seg->sigma_a_c; /* control collision: constants, no density lookup */
     c.sigma_s = seg->sigma_s_c;
     c.mu_bar = seg->mu_bar_c;
-    for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) c.density[i] = seg->density_c[i];
+    for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
+      c.density[i] = seg->density_c[i]; /* 0 for colour media, which have no control */
+      c.tint[i] = (float4)(1.0f);
+    }
     st->control += 1u;
   } else {
     st_coeffs k = scene_coeffs(scene, grids, p, &st->lookups);
     c.sigma_a = k.sigma_a - seg->sigma_a_c;
     c.sigma_s = k.sigma_s - seg->sigma_s_c;
     c.mu_bar = seg->mu_bar_r;
-    for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) c.density[i] = k.density[i] - seg->density_c[i];
+    for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
+      c.density[i] = k.density[i] - seg->density_c[i];
+      c.tint[i] = k.tint[i];
+    }
     if (w->decompose) st->residual += 1u;
   }
   c.sigma_n = c.mu_bar - c.sigma_a - c.sigma_s;
@@ -156,7 +163,10 @@ inline float4 absorbed_emission(__constant const st_scene* scene, __global const
   for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
     if (i >= scene->n_media || c->density[i] == 0.0f) continue;
     __constant const st_medium* m = &scene->media[i];
-    if (m->emissive) mua_Le += c->density[i] * m->sigma_a * medium_Le(m, grids, p, lookups);
+    if (!m->emissive) continue;
+    float4 sigma_a, sigma_s;
+    medium_unit_coeffs(m, c->tint[i], &sigma_a, &sigma_s);
+    mua_Le += c->density[i] * sigma_a * medium_Le(m, grids, p, lookups);
   }
   return mua_Le;
 }
@@ -176,7 +186,9 @@ inline int choose_scattering_medium(__constant const st_scene* scene, const st_c
   for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
     q[i] = 0.0f;
     if (i >= scene->n_media) continue;
-    q[i] = masked_avg(fabs(beta * c->density[i] * scene->media[i].sigma_s), mask);
+    float4 sigma_a, sigma_s;
+    medium_unit_coeffs(&scene->media[i], c->tint[i], &sigma_a, &sigma_s);
+    q[i] = masked_avg(fabs(beta * c->density[i] * sigma_s), mask);
     q_sum += q[i];
   }
   float xi = rng_uniform(rng) * q_sum;
@@ -188,7 +200,9 @@ inline int choose_scattering_medium(__constant const st_scene* scene, const st_c
     xi -= q[i];
   }
   if (k < 0) return -1;
-  *sigma_s_k = c->density[k] * scene->media[k].sigma_s;
+  float4 sigma_a;
+  medium_unit_coeffs(&scene->media[k], c->tint[k], &sigma_a, sigma_s_k);
+  *sigma_s_k *= c->density[k];
   *inv_p = q_sum / q[k];
   return k;
 }

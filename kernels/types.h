@@ -97,6 +97,9 @@ enum st_scheme { ST_SCHEMES(ST_X_SCHEME_ENUM) ST_SCHEME_COUNT };
 enum st_camera_type { ST_CAMERA_PERSPECTIVE = 0, ST_CAMERA_ORTHOGRAPHIC = 1 };
 enum st_light_type { ST_LIGHT_ENV_UNIFORM = 0, ST_LIGHT_ENV_MAP = 1, ST_LIGHT_DIRECTIONAL = 2 };
 enum st_medium_type { ST_MEDIUM_VDB = 0, ST_MEDIUM_HOMOGENEOUS = 1 };
+/* A medium's per-voxel colour grid (kernels/medium.h medium_unit_coeffs): none; the
+ * single-scattering albedo per channel (sigma_t unchanged); a multiplier of sigma_s per channel. */
+enum st_color_mode { ST_COLOR_NONE = 0, ST_COLOR_ALBEDO = 1, ST_COLOR_SCATTERING = 2 };
 enum st_phase_type { ST_PHASE_ISOTROPIC = 0, ST_PHASE_HG = 1 };
 
 /* Scene features, as one mask: the kernels are compiled with ST_FEATURES = the scene's mask
@@ -116,7 +119,8 @@ enum st_feature {
   ST_FEATURE_MULTI_MEDIUM = 1 << 6,   /* more than one medium (overlaps possible) */
   ST_FEATURE_DECOMPOSITION = 1 << 7,  /* tracker decomposes (control + residual) */
   ST_FEATURE_COARSE_MAJORANT = 1 << 8, /* two-level majorant grid (empty blocks skipped) */
-  ST_FEATURES_ALL = (1 << 9) - 1
+  ST_FEATURE_COLOR = 1 << 9,          /* some medium has a per-voxel colour grid (st_color_mode) */
+  ST_FEATURES_ALL = (1 << 10) - 1
 };
 
 /* Queues of the wavefront. Each stage reads the current buffer of its queue and pushes into the
@@ -200,7 +204,9 @@ typedef struct {
   st_int emissive;             /* 1 if Le != 0 */
   st_int maj_block;            /* fine cells per coarse-block edge of the two-level grid; 0: one level */
   st_uint maj_coarse_offset;   /* first coarse block in the majorant buffer (float2: dmax, dmin over the block) */
-  st_int pad;                  /* padding to ST_SIZEOF_MEDIUM (unused; 0) */
+  st_int color_mode;           /* st_color_mode; ST_COLOR_NONE: no colour grid */
+  st_float4 sigma_t_maj;       /* colour grid: per unit density, an upper bound of sigma_t over the medium (rgb) */
+  st_uint color_grid[4];       /* colour grid: word offsets of its x, y, z component float grids; w unused */
 } st_medium;
 
 typedef struct {
@@ -318,7 +324,7 @@ typedef struct {
   st_uint pad[3];
 } st_iteration;
 
-#define ST_SIZEOF_MEDIUM 176
+#define ST_SIZEOF_MEDIUM 208
 #define ST_SIZEOF_CAMERA 80
 #define ST_SIZEOF_LIGHT 80
 #define ST_SIZEOF_SCENE (ST_SIZEOF_CAMERA + ST_MAX_LIGHTS * ST_SIZEOF_LIGHT + ST_MAX_MEDIA * ST_SIZEOF_MEDIUM + 80)

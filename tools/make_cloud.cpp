@@ -1,6 +1,6 @@
 // make_cloud: writes the procedural cumulus cloud used by the default scene.
 //
-//   make_cloud OUT.vdb [--res N] [--style cumulus|dense]
+//   make_cloud OUT.vdb [--res N] [--style cumulus|dense] [--color]
 //
 // Design: a handful of overlapping spheres (a flat-bottomed cumulus heap) give a smooth
 // "depth inside the cloud" field; fractal value noise displaces that field, so the surface
@@ -15,6 +15,9 @@
 // the heap's silhouette but makes it a solid: a sharp edge (a few voxels) and an interior that
 // varies only mildly (0.8 to 1.0 of the peak), so the per-cell minorant stays close to the
 // majorant, which is the regime decomposition tracking is built for.
+// --color adds a vec3s grid "Cd" on the density's active voxels and transform: a single-scattering
+// albedo from a warm, absorbing base (0.9, 0.6, 0.35) to a near-white top (0.97, 0.95, 0.92),
+// blended by height and noise (docs/examples/colored_smoke.json; a medium's "color" field).
 #include <openvdb/openvdb.h>
 
 #include <algorithm>
@@ -132,7 +135,7 @@ double dense_density(double x, double y, double z) {
 }
 
 int usage(const char* argv0) {
-  std::cerr << "usage: " << argv0 << " OUT.vdb [--res N] [--style cumulus|dense]   (N voxels across, 16..512, default 96)\n";
+  std::cerr << "usage: " << argv0 << " OUT.vdb [--res N] [--style cumulus|dense] [--color]   (N voxels across, 16..512, default 96)\n";
   return 2;
 }
 
@@ -141,7 +144,7 @@ int usage(const char* argv0) {
 int main(int argc, char** argv) {
   std::string out;
   int res = 96;
-  bool dense_style = false;
+  bool dense_style = false, color = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--res" && i + 1 < argc) {
@@ -153,6 +156,8 @@ int main(int argc, char** argv) {
       const std::string v = argv[++i];
       if (v != "cumulus" && v != "dense") return usage(argv[0]);
       dense_style = v == "dense";
+    } else if (a == "--color") {
+      color = true;
     } else if (a == "-h" || a == "--help") {
       return usage(argv[0]);
     } else if (out.empty() && !a.empty() && a[0] != '-') {
@@ -201,8 +206,22 @@ int main(int argc, char** argv) {
     grid->insertMeta("make_cloud_res", openvdb::Int32Metadata(res));
     grid->insertMeta("make_cloud_style", openvdb::StringMetadata(dense_style ? "dense" : "cumulus"));
 
+    openvdb::GridPtrVec grids{grid};
+    if (color) {
+      openvdb::Vec3SGrid::Ptr cd = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f));
+      cd->setName("Cd");
+      cd->setTransform(xf->copy());
+      auto cacc = cd->getAccessor();
+      for (auto it = grid->cbeginValueOn(); it; ++it) {
+        const openvdb::Coord q = it.getCoord();
+        const double y = -1.0 + (q.y() + 0.5) * vs;
+        const double t = std::clamp(0.5 + 0.6 * y + 0.25 * (fbm(q.x() * vs * 3.0, y * 3.0, q.z() * vs * 3.0, 3, 77u) - 0.5), 0.0, 1.0);
+        cacc.setValue(q, openvdb::Vec3s(float(0.9 + 0.07 * t), float(0.6 + 0.35 * t), float(0.35 + 0.57 * t)));
+      }
+      grids.push_back(cd);
+    }
     openvdb::io::File file(out);
-    file.write({grid});
+    file.write(grids);
     file.close();
 
     const openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();

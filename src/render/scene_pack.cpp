@@ -9,6 +9,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 #include "image/image.h"
 #include "scene/radiance.h"
@@ -109,6 +110,7 @@ struct Packer {
 
   void add_medium(int i, const MediumDesc& md);
   void add_vdb_medium(st_medium& m, const MediumDesc& md, const std::string& ctx_name);
+  void add_color_grid(st_medium& m, const MediumDesc& md, const GridData& density, const std::string& ctx_name);
   uint32_t upload_grid(const std::string& ctx_name, const GridData& g);
   void add_light(int i, const LightDesc& ld);
   // both return the map's mean radiance over the sphere (before its scale)
@@ -189,6 +191,7 @@ void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::strin
     }
   }
   m.density_grid = upload_grid(ctx_name, g);
+  if (md.color.present) add_color_grid(m, md, g, ctx_name);
   if (md.emission.grid.empty()) check_emission_bounds(ctx_name, md, g.value_max, 1.0);
   if (md.emission.present && !md.emission.grid.empty() && m.emissive) {
     GridData e = load_float_grid(md.file, md.emission.grid, -1, ctx_name + "/emission");
@@ -201,6 +204,46 @@ void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::strin
                                   ctx_name, md.emission.grid, md.grid));
     m.emission_grid = upload_grid(ctx_name, e);
   }
+}
+
+// A medium's colour grid (medium.h): three component grids in the density grid's index space, and
+// the extinction bound per unit density that the majorants use.
+void Packer::add_color_grid(st_medium& m, const MediumDesc& md, const GridData& density, const std::string& ctx_name) {
+  const std::string ctx = ctx_name + "/color";
+  std::array<GridData, 3> c = load_color_grid(md.file, md.color.grid, ctx);
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 4; ++k)
+      if (std::abs(c[0].index_to_world[r][k] - density.index_to_world[r][k]) >
+          1e-6 * (1 + std::abs(density.index_to_world[r][k])))
+        throw Error(fmt::format("{}/grid: grid '{}' has a different index-to-world transform than density grid "
+                                "'{}'; both grids must share one transform (resample one onto the other)",
+                                ctx, md.color.grid, md.grid));
+  std::array<double, 3> cmax{};
+  for (int k = 0; k < 3; ++k) cmax[size_t(k)] = c[size_t(k)].value_max;
+  if (md.color.mode == ST_COLOR_ALBEDO) {
+    for (int k = 0; k < 3; ++k)
+      if (cmax[size_t(k)] > 1.0)
+        throw Error(fmt::format("{}/grid: grid '{}' holds albedo {} in channel {} (max over the grid and its "
+                                "background), above 1; an albedo lies in [0, 1] (use \"mode\": \"scattering\" "
+                                "to scale sigma_s instead)",
+                                ctx, md.color.grid, cmax[size_t(k)], "xyz"[k]));
+  }
+  m.color_mode = md.color.mode;
+  for (int k = 0; k < 3; ++k) m.color_grid[k] = upload_grid(ctx, c[size_t(k)]);
+  m.color_grid[3] = ST_NO_GRID;
+  // An upper bound of sigma_t per unit density, rounded up (the interpolated colour is a convex
+  // combination of voxel values, up to a few ulps of rounding: 1e-5 relative covers it).
+  const float sa[3] = {m.sigma_a.x, m.sigma_a.y, m.sigma_a.z}, ss[3] = {m.sigma_s.x, m.sigma_s.y, m.sigma_s.z};
+  float bound[3];
+  for (int k = 0; k < 3; ++k) {
+    const double scale = md.color.mode == ST_COLOR_ALBEDO ? 1.0 : cmax[size_t(k)] * (1.0 + 1e-5);
+    const double b = double(sa[k]) + double(ss[k]) * scale;
+    bound[k] = std::nextafter(float(b), std::numeric_limits<float>::infinity());
+    if (!std::isfinite(bound[k]))
+      throw Error(fmt::format("{}/grid: grid '{}' scales sigma_s past the float range (max colour {})", ctx,
+                              md.color.grid, cmax[size_t(k)]));
+  }
+  m.sigma_t_maj = f4(bound[0], bound[1], bound[2]);
 }
 
 uint32_t Packer::upload_grid(const std::string& ctx_name, const GridData& g) {
@@ -359,6 +402,7 @@ uint32_t Packer::scene_features() const {
     bool gray = m.sigma_a.x == m.sigma_a.y && m.sigma_a.y == m.sigma_a.z && m.sigma_s.x == m.sigma_s.y &&
                 m.sigma_s.y == m.sigma_s.z;
     if (!gray) f |= ST_FEATURE_CHROMATIC;
+    if (m.color_mode != ST_COLOR_NONE) f |= ST_FEATURE_COLOR | ST_FEATURE_CHROMATIC;
     if (m.phase_type == ST_PHASE_HG) f |= ST_FEATURE_HG;
     if (m.type == ST_MEDIUM_VDB) f |= ST_FEATURE_VDB;
     if (m.maj_block > 0) f |= ST_FEATURE_COARSE_MAJORANT;

@@ -63,12 +63,18 @@ RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) 
   s.full_width = scene.film.width;
   s.full_height = scene.film.height;
   s.channels_per_sample = st_tracker_channels(s.tracker);
-  if (st_tracker_achromatic_only(s.tracker))
-    for (auto& m : scene.media)
+  if (st_tracker_achromatic_only(s.tracker)) {
+    for (auto& m : scene.media) {
       if (!achromatic(m.sigma_a) || !achromatic(m.sigma_s))
         throw Error(fmt::format("{}: {}: tracker '{}' needs achromatic media (equal sigma_a and sigma_s in every "
                                 "channel); medium '{}' is chromatic: use delta-per-channel or spectral",
                                 scene.path, m.json_path, tracker_name(s.tracker), m.name));
+      else if (m.color.present)
+        throw Error(fmt::format("{}: {}/color: tracker '{}' needs achromatic media; medium '{}' has a colour grid, "
+                                "which makes its coefficients differ by channel: use delta-per-channel or spectral",
+                                scene.path, m.json_path, tracker_name(s.tracker), m.name));
+    }
+  }
   return s;
 }
 

@@ -105,6 +105,7 @@ class Parser {
   MediumDesc medium(const json& j, const std::string& path, size_t index);
   PhaseDesc phase(const json& j, const std::string& path);
   EmissionDesc emission(const json& j, const std::string& path, bool vdb);
+  ColorDesc color(const json& j, const std::string& path);
   TransformDesc transform(const json& j, const std::string& path);
 
   [[noreturn]] void fail(const std::string& path, const std::string& reason) const {
@@ -404,11 +405,11 @@ LightDesc Parser::light(const json& j, const std::string& path) {
 MediumDesc Parser::medium(const json& j, const std::string& path, size_t index) {
   expect_object(j, path);
   const Names all = {"name", "type", "file", "grid", "grid_index", "bounds", "density_scale", "sigma_s",
-                     "sigma_a", "phase", "emission", "transform", "majorant_scale", "minorant_scale"};
+                     "sigma_a", "phase", "emission", "color", "transform", "majorant_scale", "minorant_scale"};
   Names vdb, homogeneous;
   for (const char* k : all) {
     if (std::strcmp(k, "bounds") != 0) vdb.push_back(k);
-    if (!contains({"file", "grid", "grid_index", "transform"}, k)) homogeneous.push_back(k);
+    if (!contains({"file", "grid", "grid_index", "transform", "color"}, k)) homogeneous.push_back(k);
   }
   fields(j, path, all);
 
@@ -426,6 +427,7 @@ MediumDesc Parser::medium(const json& j, const std::string& path, size_t index) 
     m.grid = string(j, path, "grid", m.grid);
     m.grid_index = static_cast<int>(integer(j, path, "grid_index", m.grid_index, 0, std::numeric_limits<int>::max()));
     if (const json* t = find(j, "transform")) m.transform = transform(*t, path + "/transform");
+    if (const json* c = find(j, "color")) m.color = color(*c, path + "/color");
   } else if (type == "homogeneous") {
     fields(j, path, homogeneous, "a homogeneous medium", all);
     m.type = ST_MEDIUM_HOMOGENEOUS;
@@ -480,6 +482,24 @@ EmissionDesc Parser::emission(const json& j, const std::string& path, bool vdb) 
   e.radiance = vec3_at(need(j, path, "radiance"), path + "/radiance", kNonNegative);
   e.scale = number(j, path, "scale", e.scale, kNonNegative);
   return e;
+}
+
+ColorDesc Parser::color(const json& j, const std::string& path) {
+  expect_object(j, path);
+  fields(j, path, {"grid", "mode"});
+  ColorDesc c;
+  c.present = true;
+  c.grid = string(j, path, "grid", c.grid);
+  if (c.grid.empty()) fail(path + "/grid", "must name a vec3 grid of the medium's file");
+  const std::string mode = string(j, path, "mode", "albedo");
+  if (mode == "albedo") {
+    c.mode = ST_COLOR_ALBEDO;
+  } else if (mode == "scattering") {
+    c.mode = ST_COLOR_SCATTERING;
+  } else {
+    fail(path + "/mode", "unknown colour mode " + in_quotes(mode) + " (expected one of: albedo, scattering)");
+  }
+  return c;
 }
 
 TransformDesc Parser::transform(const json& j, const std::string& path) {

@@ -34,6 +34,16 @@ struct EmissionDesc {
   double scale = 1.0;
 };
 
+// A per-voxel colour (a vec3 grid of the medium's file, sharing the density grid's transform):
+// "albedo": the single-scattering albedo per channel, in [0, 1] (sigma_t = sigma_a + sigma_s keeps
+// its value; sigma_s = sigma_t * albedo, sigma_a = the rest); "scattering": a multiplier of sigma_s
+// per channel, >= 0 (sigma_a unchanged). Kernels: medium.h medium_unit_coeffs.
+struct ColorDesc {
+  bool present = false;
+  std::string grid = "Cd";
+  int mode = ST_COLOR_ALBEDO;  // st_color_mode
+};
+
 struct MediumDesc {
   std::string name;
   std::string json_path;  // "/media/0", for messages
@@ -46,6 +56,7 @@ struct MediumDesc {
   Vec3 sigma_a{0, 0, 0};
   PhaseDesc phase;
   EmissionDesc emission;
+  ColorDesc color;
   TransformDesc transform;
   std::array<Vec3, 2> bounds{Vec3{-1, -1, -1}, Vec3{1, 1, 1}};  // homogeneous
   double majorant_scale = 1.0;  // testing aid: < 1 under-estimates (still unbiased)

@@ -92,7 +92,7 @@ GridInfo vdb_grid(const openvdb::GridBase& g, const Fail& fail) {
       describe_values<true, openvdb::Vec3SGrid, openvdb::Vec3DGrid>(g, out);
   // The loader's refusals (volume.cpp), as a note rather than an error.
   if (!g.isType<openvdb::FloatGrid>()) {
-    out.density_use = "no: value type " + out.type + " (only float density grids)";
+    out.density_use = out.type == "vec3s" ? "no: value type vec3s; usable as a medium's colour grid (\"color\": {\"grid\": \"" + out.name + "\"})" : "no: value type " + out.type + " (only float density grids)";
   } else if (g.getGridClass() == openvdb::GRID_LEVEL_SET) {
     out.density_use = "no: a level set, not a fog volume";
   } else if (!g.transform().isLinear()) {

@@ -509,6 +509,117 @@ GridData load_float_grid(const std::string& file, const std::string& grid_name, 
   return ext == ".vdb" ? load_vdb(file, grid_name, grid_index, fail) : load_nvdb(file, grid_name, grid_index, fail);
 }
 
+// The colour grid: a vec3s OpenVDB grid split into three float grids that keep its transform and
+// its background (inactive voxels read the background, as the renderer's lookups do).
+std::array<GridData, 3> load_color_grid(const std::string& file, const std::string& grid_name,
+                                        const std::string& context) {
+  const Fail fail{context, file};
+  const std::string ext = lower_extension(file);
+  if (ext == ".nvdb") {
+    fail("colour grid " + in_quotes(grid_name) + ": colour grids are read from OpenVDB (.vdb) files only; convert "
+         "the file with nanovdb_convert or export a .vdb");
+  }
+  if (ext != ".vdb") fail("unknown volume file extension " + in_quotes(ext) + " (expected .vdb)");
+  check_readable(file, fail);
+  openvdb::Vec3SGrid::Ptr grid;
+  try {
+    auto f = vdb_open(file, fail);
+    const std::vector<Entry> entries = vdb_entries(*f);
+    const Entry* hit = nullptr;
+    for (const Entry& e : entries)
+      if (e.name == grid_name && !hit) hit = &e;
+    if (!hit) {
+      std::string list;
+      for (const Entry& e : entries) list += (list.empty() ? "" : ", ") + describe(e);
+      fail("no colour grid named " + in_quotes(grid_name) + "; the file has " +
+           (list.empty() ? std::string("no grids") : list));
+    }
+    if (hit->type != "vec3s") {
+      fail("colour grid " + in_quotes(grid_name) + " has value type " + hit->type + " (class " + hit->cls +
+           "); a colour grid must be a vec3s grid (e.g. Houdini's Cd)");
+    }
+    grid = openvdb::gridPtrCast<openvdb::Vec3SGrid>(f->readGrid(hit->vdb_key));
+    f->close();
+    if (!grid) fail("colour grid " + in_quotes(grid_name) + " could not be read as a vec3s grid");
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& ex) {
+    fail(std::string("cannot read OpenVDB file (corrupt or truncated?): ") + ex.what());
+  }
+  const std::string gname = in_quotes(grid_name);
+  if (!grid->transform().isLinear()) {
+    fail("colour grid " + gname + " has a non-affine (" + grid->transform().mapType() +
+         ") transform; only affine index-to-world maps are supported");
+  }
+  check_file_bbox(*grid, fail);
+  auto bad = [&](const openvdb::Vec3s& v) {
+    for (int c = 0; c < 3; ++c)
+      if (!std::isfinite(v[c]) || v[c] < 0.0f) return true;
+    return false;
+  };
+  auto vec_str = [](const openvdb::Vec3s& v) {
+    return "(" + value_str(v[0]) + ", " + value_str(v[1]) + ", " + value_str(v[2]) + ")";
+  };
+  const openvdb::Vec3s bg = grid->background();
+  if (bad(bg)) fail("colour grid " + gname + " has background " + vec_str(bg) + "; colours must be finite and >= 0");
+  std::array<openvdb::FloatGrid::Ptr, 3> comp;
+  std::array<float, 3> lo{bg[0], bg[1], bg[2]}, hi = lo;
+  try {
+    for (int c = 0; c < 3; ++c) {
+      comp[c] = openvdb::FloatGrid::create(bg[c]);
+      comp[c]->setTransform(grid->transform().copy());
+    }
+    std::array<openvdb::FloatGrid::Accessor, 3> acc{comp[0]->getAccessor(), comp[1]->getAccessor(),
+                                                      comp[2]->getAccessor()};
+    for (auto it = grid->cbeginValueOn(); it; ++it) {
+      const openvdb::Vec3s v = *it;
+      if (bad(v)) {
+        const openvdb::Coord q = it.getCoord();
+        fail("colour grid " + gname + ": value " + vec_str(v) + " at " + coord_str(q[0], q[1], q[2]) +
+             " is negative or not finite (colours must be finite and >= 0)");
+      }
+      for (int c = 0; c < 3; ++c) {
+        lo[c] = std::min(lo[c], v[c]);
+        hi[c] = std::max(hi[c], v[c]);
+        if (it.isVoxelValue()) {
+          acc[c].setValue(it.getCoord(), v[c]);
+        } else {
+          comp[c]->fill(it.getBoundingBox(), v[c], true);
+        }
+      }
+    }
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& ex) {
+    fail("cannot split colour grid " + gname + " into its components: " + ex.what());
+  }
+  std::array<GridData, 3> out;
+  const openvdb::math::Mat4d mat = grid->transform().baseMap()->getAffineMap()->getMat4();
+  const openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
+  for (int c = 0; c < 3; ++c) {
+    GridData& g = out[size_t(c)];
+    g.file = file;
+    g.name = grid_name + "." + "xyz"[c];
+    try {
+      g.handle = nanovdb::openToNanoVDB(*comp[c]);
+    } catch (const std::exception& ex) {
+      fail("cannot convert colour grid " + gname + " to NanoVDB: " + ex.what());
+    }
+    g.empty = box.empty();
+    if (!g.empty) {
+      g.index_min = {box.min()[0], box.min()[1], box.min()[2]};
+      g.index_max = {box.max()[0], box.max()[1], box.max()[2]};
+    }
+    g.value_min = lo[size_t(c)];  // over active values and the background
+    g.value_max = hi[size_t(c)];
+    for (int r = 0; r < 3; ++r) {
+      for (int k = 0; k < 3; ++k) g.index_to_world[r][k] = mat(k, r);
+      g.index_to_world[r][3] = mat(3, r);
+    }
+  }
+  return out;
+}
+
 std::vector<std::string> list_grids(const std::string& file) {
   const Fail fail{"", file};
   const std::string ext = lower_extension(file);

@@ -39,6 +39,14 @@ struct GridData {
 GridData load_float_grid(const std::string& file, const std::string& grid_name, int grid_index,
                          const std::string& context);
 
+// Loads the vec3s grid `grid_name` of a .vdb file (a medium's colour, e.g. Houdini's Cd) as three
+// float grids, its x, y and z components, each with the vec3 grid's transform and background
+// component (inactive voxels read the background). value_min/value_max span the active values and
+// the background. Throws spectrack::Error for a .nvdb file, a missing or non-vec3s grid, a
+// non-affine transform, and negative or non-finite values (background included).
+std::array<GridData, 3> load_color_grid(const std::string& file, const std::string& grid_name,
+                                        const std::string& context);
+
 // Names and types of the grids in a file, "name (type, class)" each, for messages and `info`.
 std::vector<std::string> list_grids(const std::string& file);
 

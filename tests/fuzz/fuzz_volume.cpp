@@ -4,11 +4,13 @@
 //
 // Contract under test: load_float_grid() and list_grids() on any bytes either succeed with a grid
 // that obeys volume.h (a float fog grid, a consistent active box, finite non-negative values, a
-// finite invertible transform) or throw spectrack::Error whose message names the file; the
+// finite invertible transform) or throw spectrack::Error whose message names the file (for .vdb
+// files, load_color_grid() too: three float grids with finite non-negative values); the
 // majorant grid of an accepted grid bounds its host-side trilinear samples. Anything else (another
 // exception, a sanitizer report, a timeout, more than 2 GiB) is a finding.
 #include <unistd.h>
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -94,6 +96,20 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
   } catch (const spectrack::Error& e) {
     check_error(e);
+  }
+  if (std::string(FUZZ_VOLUME_EXT) == ".vdb") {
+    try {
+      std::array<spectrack::GridData, 3> c = spectrack::load_color_grid(g_file, "Cd", "");
+      for (const spectrack::GridData& g : c) {
+        check(g.handle.grid<float>() != nullptr, "accepted colour component is not a float grid");
+        check(std::isfinite(g.value_min) && std::isfinite(g.value_max), "colour range not finite");
+        check(g.value_min >= 0 && g.value_min <= g.value_max, "colour range negative or inverted");
+        for (auto& row : g.index_to_world)
+          for (double v : row) check(std::isfinite(v), "colour transform not finite");
+      }
+    } catch (const spectrack::Error& e) {
+      check_error(e);
+    }
   }
   return 0;
 }

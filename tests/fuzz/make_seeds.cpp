@@ -88,6 +88,14 @@ int main(int argc, char** argv) {
     write_vdb(out / "vdb" / "fog_zip.vdb", {fog("density", 3, 0.5f, 0.1)}, openvdb::io::COMPRESS_ZIP | openvdb::io::COMPRESS_ACTIVE_MASK);
     write_vdb(out / "vdb" / "fog_blosc.vdb", {fog("density", 2, 1.0f, 2.0)}, openvdb::io::COMPRESS_BLOSC);
     write_vdb(out / "vdb" / "two_grids.vdb", {fog("density", 2, 0.5f, 1.0), fog("heat", 2, 2.0f, 1.0)}, openvdb::io::COMPRESS_ZIP);
+    {
+      auto cd = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f));  // a colour grid beside the density
+      cd->setName("Cd");
+      cd->setTransform(openvdb::math::Transform::createLinearTransform(0.1));
+      auto acc = cd->getAccessor();
+      for (int i = 0; i < 3; ++i) acc.setValue(openvdb::Coord(i, 1, 2), openvdb::Vec3s(0.2f * float(i), 0.5f, 1.0f));
+      write_vdb(out / "vdb" / "color.vdb", {fog("density", 3, 0.5f, 0.1), cd}, openvdb::io::COMPRESS_ZIP);
+    }
     write_vdb(out / "vdb" / "empty.vdb", {openvdb::FloatGrid::create(0.0f)}, openvdb::io::COMPRESS_NONE);
     auto ls = fog("density", 2, -1.0f, 1.0);  // negative values in a level-set-classed grid
     ls->setGridClass(openvdb::GRID_LEVEL_SET);
