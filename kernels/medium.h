@@ -101,7 +101,8 @@ inline float4 medium_Le(__constant const st_medium* m, __global const uint* grid
  *               takes the maximum over the grid's values and its background).
  * A medium with a colour grid has no control component (majorant.h segments_current): its
  * coefficients are not constant anywhere, so every collision it takes part in is a residual one,
- * which looks C up. The colour of each medium at a collision travels with the collision (tint). */
+ * which looks C up. The colour of each medium at a collision travels with the collision (tint).
+ * Transmittance needs only sigma_t, so shadow rays through an albedo grid never read it. */
 inline int medium_has_color(__constant const st_medium* m) { return ST_HAS_COLOR && m->color_mode != ST_COLOR_NONE; }
 
 /* C at world point p (3 lookups). */
@@ -137,7 +138,11 @@ typedef struct {
   float4 tint[ST_KERNEL_MAX_MEDIA]; /* colour media: C at the point (else unused, 1) */
 } st_coeffs;
 
-inline st_coeffs scene_coeffs(__constant const st_scene* scene, __global const uint* grids, float3 p, uint* lookups) {
+/* extinction_only: the caller needs only sigma_a + sigma_s (transmittance), which an albedo grid
+ * does not change, so albedo media skip their colour lookup (their sigma_a/sigma_s split is then
+ * the medium's own, the tint 1). */
+inline st_coeffs scene_coeffs(__constant const st_scene* scene, __global const uint* grids, float3 p, uint* lookups,
+                              int extinction_only) {
   st_coeffs c;
   c.sigma_a = (float4)(0.0f);
   c.sigma_s = (float4)(0.0f);
@@ -148,7 +153,7 @@ inline st_coeffs scene_coeffs(__constant const st_scene* scene, __global const u
     __constant const st_medium* m = &scene->media[i];
     float d = medium_density(m, grids, p, lookups);
     c.density[i] = d;
-    if (medium_has_color(m)) {
+    if (medium_has_color(m) && !(extinction_only && m->color_mode == ST_COLOR_ALBEDO)) {
       if (d == 0.0f) continue;
       c.tint[i] = medium_color(m, grids, p, lookups);
       float4 sa, ss;

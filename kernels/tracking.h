@@ -142,7 +142,7 @@ inline st_collision collision_component(__constant const st_scene* scene, __glob
     }
     st->control += 1u;
   } else {
-    st_coeffs k = scene_coeffs(scene, grids, p, &st->lookups);
+    st_coeffs k = scene_coeffs(scene, grids, p, &st->lookups, 0);
     c.sigma_a = k.sigma_a - seg->sigma_a_c;
     c.sigma_s = k.sigma_s - seg->sigma_s_c;
     c.mu_bar = seg->mu_bar_r;
@@ -293,7 +293,7 @@ inline int track_free_path(__constant const st_scene* scene, __global const uint
 /* The residual component's sigma_t at p: every medium's sigma_a + sigma_s less the segment's control. */
 inline float4 residual_sigma_t(__constant const st_scene* scene, __global const uint* grids, const st_segment* seg,
                                float3 p, uint* lookups) {
-  st_coeffs c = scene_coeffs(scene, grids, p, lookups);
+  st_coeffs c = scene_coeffs(scene, grids, p, lookups, 1);
   return c.sigma_a + c.sigma_s - seg->sigma_a_c - seg->sigma_s_c;
 }
 
