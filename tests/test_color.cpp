@@ -40,8 +40,8 @@ void write_colored(const std::string& path, const std::function<openvdb::Vec3s(i
   auto color = openvdb::Vec3SGrid::create(background);
   color->setName("Cd");
   color->setTransform(openvdb::math::Transform::createLinearTransform(cd_voxel));
-  auto da = density->getAccessor();
-  auto ca = color->getAccessor();
+  auto da = density->getUnsafeAccessor();
+  auto ca = color->getUnsafeAccessor();
   for (int k = -16; k < 16; ++k)
     for (int j = -16; j < 16; ++j)
       for (int i = -16; i < 16; ++i) {

@@ -569,8 +569,10 @@ std::array<GridData, 3> load_color_grid(const std::string& file, const std::stri
       comp[c] = openvdb::FloatGrid::create(bg[c]);
       comp[c]->setTransform(grid->transform().copy());
     }
-    std::array<openvdb::FloatGrid::Accessor, 3> acc{comp[0]->getAccessor(), comp[1]->getAccessor(),
-                                                      comp[2]->getAccessor()};
+    // Unregistered accessors: a registered one leaves TBB's accessor registry in a state whose
+    // teardown UBSan reports (a sentinel bucket pointer downcast in concurrent_hash_map).
+    std::array<openvdb::FloatGrid::UnsafeAccessor, 3> acc{comp[0]->getUnsafeAccessor(), comp[1]->getUnsafeAccessor(),
+                                                            comp[2]->getUnsafeAccessor()};
     for (auto it = grid->cbeginValueOn(); it; ++it) {
       const openvdb::Vec3s v = *it;
       if (bad(v)) {
