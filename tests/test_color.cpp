@@ -79,25 +79,6 @@ RenderResult render(const json& s, const std::string& dir, int tracker, int abso
   return Renderer(scene_from_json(s, dir), o).render();
 }
 
-// Largest |mean(a - scale * b)| / SE over channels and regions (whole image and 4 quadrants).
-double max_z(const RenderResult& a, const RenderResult& b, double scale = 1.0) {
-  double worst = 0;
-  for (int region = -1; region < 4; ++region)
-    for (int c = 0; c < 3; ++c) {
-      std::vector<double> d;
-      for (int y = 0; y < a.height; ++y)
-        for (int x = 0; x < a.width; ++x) {
-          int q = (y * 2 / a.height) * 2 + (x * 2 / a.width);
-          if (region >= 0 && q != region) continue;
-          size_t i = (size_t(y) * a.width + x) * 3 + c;
-          d.push_back(a.rgb[i] - scale * b.rgb[i]);
-        }
-      Stats s = mean_se(d);
-      worst = std::max(worst, std::abs(s.mean) / std::max(s.se, 1e-12));
-    }
-  return worst;
-}
-
 struct Variant {
   int tracker, absorption;
   std::string name() const { return std::string(tracker_name(tracker)) + " / absorption " + absorption_name(absorption); }

@@ -105,6 +105,27 @@ inline std::vector<double> channel(const spectrack::RenderResult& r, int c) {
   return v;
 }
 
+// Largest |mean(a - scale_b * b)| / SE over channels and regions (whole image and 4 quadrants):
+// under "same expectation" the per-pixel differences are independent zero-mean noise.
+inline double max_z(const spectrack::RenderResult& a, const spectrack::RenderResult& b, double scale_b = 1.0) {
+  double worst = 0;
+  for (int region = -1; region < 4; ++region)
+    for (int c = 0; c < 3; ++c) {
+      std::vector<double> d;
+      for (int y = 0; y < a.height; ++y)
+        for (int x = 0; x < a.width; ++x) {
+          int q = (y * 2 / a.height) * 2 + (x * 2 / a.width);
+          if (region >= 0 && q != region) continue;
+          size_t i = (size_t(y) * a.width + x) * 3 + c;
+          d.push_back(a.rgb[i] - scale_b * b.rgb[i]);
+        }
+      Stats s = mean_se(d);
+      double z = std::abs(s.mean) / std::max(s.se, 1e-12);
+      worst = std::max(worst, z);
+    }
+  return worst;
+}
+
 inline spectrack::RenderOptions quiet_options(int spp = -1) {
   spectrack::RenderOptions o;
   o.quiet = true;
