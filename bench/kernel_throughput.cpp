@@ -231,7 +231,7 @@ int main(int argc, char** argv) {
     }
 
     // (4) Tracked free paths per tracker.
-    const std::vector<std::string> trackers = {"delta-per-channel", "spectral", "decomposition", "spectral-decomposition"};
+    const std::vector<std::string> trackers = {"delta-per-channel", "spectral", "decomposition", "spectral-decomposition", "spectral-mis"};
     for (const auto& name : trackers) {
       RenderOptions o2 = opt;
       o2.tracker = tracker_from_name(name);

@@ -215,6 +215,21 @@ inline float medium_gray_sigma_t(__constant const st_medium* m, float4 mask) {
   return ST_HAS_CHROMATIC ? masked_max(m->sigma_a + m->sigma_s, mask) : m->sigma_a.x + m->sigma_s.x;
 }
 
+/* The majorant of the current segment of the merged DDA per channel (spectral-mis, tracking.h):
+ * the sum over the media inside of dmax * majorant_scale * the medium's sigma_t per channel (a
+ * colour medium: its extinction bound sigma_t_maj), which segments_current reduces to the gray
+ * mu_bar of a path's channels. */
+inline float4 segments_sigma_maj(__constant const st_scene* scene, const st_segments* s) {
+  float4 sigma_maj = (float4)(0.0f);
+  for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
+    if (i >= scene->n_media || s->m[i].state != ST_DDA_INSIDE) continue;
+    __constant const st_medium* m = &scene->media[i];
+    float4 sigma_t = medium_has_color(m) ? m->sigma_t_maj : m->sigma_a + m->sigma_s;
+    sigma_maj += s->m[i].dmax * m->majorant_scale * sigma_t;
+  }
+  return sigma_maj * (float4)(1.0f, 1.0f, 1.0f, 0.0f);
+}
+
 /* A majorant segment [t0, t1) as the trackers see it, with its free-path components
  * (ALGORITHMS.md 3, 5). Control: the homogeneous part dmin * minorant_scale of every medium,
  * with per-channel coefficients sigma_a_c, sigma_s_c and a gray coefficient mu_bar_c = max over

@@ -37,14 +37,15 @@ __kernel void k_probe_track(__constant const st_scene* scene, __global const uin
   st_rng rng = rng_make(scene->seed, i, 0u, 0u, 7u, 0u);
   float4 mask = channel < 0 ? (float4)(1.0f, 1.0f, 1.0f, 0.0f)
                             : (float4)(channel == 0 ? 1.0f : 0.0f, channel == 1 ? 1.0f : 0.0f, channel == 2 ? 1.0f : 0.0f, 0.0f);
-  float4 beta = mask, L = (float4)(0.0f);
+  float4 beta = mask, L = (float4)(0.0f), r_u = mask;
+  int hero = draw_hero(scene, &rng);
   st_track_stats st;
   track_stats_clear(&st);
   float t = 0.0f;
   int medium = 0, ev;
   do {
-    ev = track_free_path(scene, grids, maj, o.xyz, normalize(d.xyz), &t, &beta, mask, &L, &medium, &rng,
-                         scene->iteration_budget, &st);
+    ev = track_path(scene, grids, maj, o.xyz, normalize(d.xyz), &t, &beta, &r_u, hero, mask, &L, &medium, &rng,
+                    scene->iteration_budget, &st);
   } while (ev == ST_EV_BUDGET);
   out[i] = (float4)(ev == ST_EV_ESCAPE ? INFINITY : t, (float)ev, (float)st.lookups, (float)st.dda_steps);
   beta_out[i] = beta;
@@ -84,7 +85,8 @@ __kernel void k_probe_albedo(__constant const st_scene* scene, __global const ui
   st_rng rng = rng_make(scene->seed, i, 1u, 0u, 7u, 0u);
   float4 mask = channel < 0 ? (float4)(1.0f, 1.0f, 1.0f, 0.0f)
                             : (float4)(channel == 0 ? 1.0f : 0.0f, channel == 1 ? 1.0f : 0.0f, channel == 2 ? 1.0f : 0.0f, 0.0f);
-  float4 beta = mask, L = (float4)(0.0f), sum = (float4)(0.0f);
+  float4 beta = mask, L = (float4)(0.0f), sum = (float4)(0.0f), r_u = mask;
+  int hero = draw_hero(scene, &rng);
   st_track_stats st;
   track_stats_clear(&st);
   float3 o = origin.xyz;
@@ -92,7 +94,7 @@ __kernel void k_probe_albedo(__constant const st_scene* scene, __global const ui
   float t = 0.0f, escaped = 0.0f;
   for (int events = 0; events < 1000000; ++events) {
     int medium = 0;
-    int ev = track_free_path(scene, grids, maj, o, d, &t, &beta, mask, &L, &medium, &rng, scene->iteration_budget, &st);
+    int ev = track_path(scene, grids, maj, o, d, &t, &beta, &r_u, hero, mask, &L, &medium, &rng, scene->iteration_budget, &st);
     if (ev == ST_EV_BUDGET) continue;
     if (ev == ST_EV_ESCAPE) { escaped = 1.0f; break; }
     if (ev == ST_EV_ABSORB) break;

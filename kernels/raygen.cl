@@ -47,13 +47,15 @@ __kernel void k_raygen(ST_STAGE_ARGS) {
   } else {
     p.mask = (float4)(1.0f, 1.0f, 1.0f, 0.0f);
   }
+  /* spectral-mis: the hero channel, uniform (the one-sample MIS's choice of technique, tracking.h) */
+  if (tracker_is_mis(scene)) p.channel = (uint)draw_hero(scene, &rng);
   p.beta = p.mask;
   p.L = (float4)(0.0f);
   p.rng_draw = rng_draw_index(&rng);
   p.depth = 0;
   p.pending = 0;
   p.medium = 0;
-  p.pad[0] = p.pad[1] = p.pad[2] = 0u;
+  p.r_u[0] = p.r_u[1] = p.r_u[2] = 1.0f;
   paths[slot] = p;
   for (uint l = 0; l < (uint)scene->n_lights; ++l) shadows[slot * NL + l].Ls = (float4)(0.0f);
   queue_push(queues, counters, Q, NL, cur, ST_Q_TRACK, slot);

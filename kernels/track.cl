@@ -13,8 +13,12 @@ __kernel void k_track(ST_STAGE_ARGS) {
   float t = p.o.w;
   int medium = 0;
   float4 beta = p.beta, L = p.L;
-  int ev = track_free_path(scene, grids, maj, p.o.xyz, p.d.xyz, &t, &beta, p.mask, &L, &medium, &rng,
-                           scene->iteration_budget, &st);
+  float4 r_u = (float4)(p.r_u[0], p.r_u[1], p.r_u[2], 0.0f);
+  int ev = track_path(scene, grids, maj, p.o.xyz, p.d.xyz, &t, &beta, &r_u, (int)p.channel, p.mask, &L, &medium, &rng,
+                      scene->iteration_budget, &st);
+  p.r_u[0] = r_u.x;
+  p.r_u[1] = r_u.y;
+  p.r_u[2] = r_u.z;
   p.beta = beta;
   p.L = L;
   p.rng_draw = rng_draw_index(&rng);

@@ -286,6 +286,182 @@ inline int track_free_path(__constant const st_scene* scene, __global const uint
   }
 }
 
+/* ---- spectral MIS (tracker spectral-mis; Miller, Georgiev and Jarosz 2019, pbrt-v4's volpath) ----
+ *
+ * Each path draws a hero channel h uniformly (raygen.cl) and samples its free paths as delta
+ * tracking of channel h would: flights of rate sigma_maj,h (the segment's majorant of channel h),
+ * and at a tentative collision the event with probabilities P_e,h / S_h, where per channel c
+ *   absorption=event:  P_a = |sigma_a|, P_s = |sigma_s|, P_n = |sigma_n|,
+ *   absorption=weight: P_a = 0, P_s = |sigma_a| + |sigma_s|, P_n = |sigma_n|,
+ * sigma_n = sigma_maj - sigma_a - sigma_s per channel and S = P_a + P_s + P_n (= sigma_maj when the
+ * majorant bounds; the |.| keep non-bounding majorants exact, as in the other trackers). Every
+ * channel's estimate uses its own majorant: the integral formulation holds for any majorant, so
+ * the path throughput f_c of channel c carries T_maj,c = exp(-sigma_maj,c dt) per flight and
+ * sigma_s,c or sigma_n,c per event, and technique c (hero c) has the path pdf p_c, the product of
+ * T_maj,c per flight and sigma_maj,c P_e,c / S_c per event. The one-sample MIS with the balance
+ * heuristic over the three techniques, each chosen with probability 1/3, scores
+ *   f_c / ((1/3) sum_k p_k) = (f_c / p_h) / mean_k (p_k / p_h),
+ * which is unbiased for every channel c whenever some technique can make each path f_c != 0 gives
+ * (the hero always can, so every path the render can make is covered).
+ *
+ * State: beta = f / p_h and r_u = p_k / p_h (pbrt's names), both scaled by the same factor after
+ * every update so that mean(r_u) = 1. The score beta / mean(r_u) does not change under a common
+ * factor, so with that scaling beta IS the MIS-weighted throughput: next-event estimation, escape,
+ * Russian roulette and max_throughput (scatter.cl, shade.cl) use it unchanged, and beta <= 3 when
+ * the majorants bound (f_c / mean p_k <= 3 f_c / p_c, and f_c / p_c <= 1 for channel c's own delta
+ * tracking: 1 with absorption events, the product of albedos with absorption as a weight).
+ *
+ * Emission is a collision estimator at every tentative collision (as pbrt-v4): a vertex there has
+ * the pdf T_maj,k sigma_maj,k under technique k, so the score is beta sigma_a Le / mean(r_u sigma_maj)
+ * (before the event's update); an absorption event then scores nothing more (it ends the path).
+ * The scattering medium of several overlapping ones is chosen in proportion to the mean over the
+ * channels of density_k sigma_s,k (the same for every technique, so it cancels in r_u).
+ * Shadow rays use the scene's transmittance estimator over all three channels and MIS against
+ * phase sampling over directions (scatter.cl, shade.cl): the prefix's MIS weight is in beta, and
+ * an unbiased, independent estimate of the light at the vertex times it stays unbiased. (pbrt-v4
+ * also MIS-weights the shadow ray's null collisions across channels; ratio tracking with the
+ * channels' max majorant keeps every channel's factor in [0, 1] when the majorant bounds, so that
+ * refinement is not needed here.) No control component: the tracker does not decompose. */
+
+inline int tracker_is_mis(__constant const st_scene* scene) {
+  return ST_HAS_SPECTRAL_MIS && scene->tracker == ST_TRACKER_SPECTRAL_MIS;
+}
+
+inline float4 one_hot(int c) { return (float4)(c == 0 ? 1.0f : 0.0f, c == 1 ? 1.0f : 0.0f, c == 2 ? 1.0f : 0.0f, 0.0f); }
+inline float channel_of(float4 v, int c) { return c == 0 ? v.x : (c == 1 ? v.y : v.z); }
+
+/* beta and r_u scaled by one factor so that mean(r_u) = 1 (the score beta / mean(r_u) is kept). */
+inline void mis_rescale(float4* beta, float4* r_u) {
+  const float4 rgb = (float4)(1.0f, 1.0f, 1.0f, 0.0f);
+  float m = masked_avg(*r_u, rgb);
+  if (m > 0.0f) {
+    *beta /= m;
+    *r_u /= m;
+  } else {
+    *beta = *r_u = (float4)(0.0f);
+  }
+}
+
+/* The per-channel majorant of the walker's current segment, with the hero's entry the walker's
+ * own flight rate (so that the hero's flight ratio is exactly 1). */
+inline float4 mis_sigma_maj(__constant const st_scene* scene, const st_walker* w, int hero) {
+  float4 sigma_maj = ST_HAS_CHROMATIC ? segments_sigma_maj(scene, &w->dda) : (float4)(w->mu_bar, w->mu_bar, w->mu_bar, 0.0f);
+  return select(sigma_maj, (float4)(w->mu_bar), isnotequal(one_hot(hero), (float4)(0.0f)));
+}
+
+/* The body of spectral-MIS free-path sampling at a tentative collision at p; sigma_maj: the
+ * segment's majorant per channel. Returns ST_EV_ABSORB, ST_EV_SCATTER (*medium) or ST_EV_NULL. */
+inline int mis_collision(__constant const st_scene* scene, __global const uint* grids, float3 p, float4 sigma_maj,
+                         int hero, float4* beta, float4* r_u, float4* L, int* medium, st_rng* rng,
+                         st_track_stats* st) {
+  const float4 rgb = (float4)(1.0f, 1.0f, 1.0f, 0.0f);
+  st_coeffs k = scene_coeffs(scene, grids, p, &st->lookups, 0);
+  st_collision c;
+  c.sigma_a = k.sigma_a * rgb;
+  c.sigma_s = k.sigma_s * rgb;
+  c.sigma_n = sigma_maj - c.sigma_a - c.sigma_s;
+  c.mu_bar = channel_of(sigma_maj, hero);
+  for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
+    c.density[i] = k.density[i];
+    c.tint[i] = k.tint[i];
+  }
+  if (ST_HAS_EMISSION) { /* the collision estimator of emission, MIS-weighted over the techniques */
+    float4 mua_Le = absorbed_emission(scene, grids, &c, p, &st->emission_lookups);
+    float pdf = masked_avg(*r_u * sigma_maj, rgb);
+    if (pdf > 0.0f) *L += *beta * rgb * mua_Le / pdf;
+  }
+  int weighted = absorption_as_weight(scene);
+  float4 P_a = weighted ? (float4)(0.0f) : fabs(c.sigma_a);
+  float4 P_s = weighted ? fabs(c.sigma_a) + fabs(c.sigma_s) : fabs(c.sigma_s);
+  float4 P_n = fabs(c.sigma_n);
+  float4 S = P_a + P_s + P_n;
+  /* technique k's density of "a collision here, then event e" is P_e,k * rate_k */
+  float4 rate = select((float4)(0.0f), sigma_maj / S, isgreater(S, (float4)(0.0f)));
+  float S_h = channel_of(S, hero);
+  if (!(S_h > 0.0f)) {
+    *beta = (float4)(0.0f);
+    return ST_EV_ABSORB;
+  }
+  float xi = rng_uniform(rng) * S_h;
+  float Pa_h = channel_of(P_a, hero), Ps_h = channel_of(P_s, hero);
+  if (xi < Pa_h) {
+    st->real += 1u;
+    *beta = (float4)(0.0f);
+    return ST_EV_ABSORB;
+  }
+  if (xi < Pa_h + Ps_h) {
+    st->real += 1u;
+    float4 sigma_s_k;
+    float inv_p;
+    int m = choose_scattering_medium(scene, &c, rgb, rgb, rng, &sigma_s_k, &inv_p);
+    if (m < 0) {
+      *beta = (float4)(0.0f);
+      return ST_EV_ABSORB;
+    }
+    /* f gains sigma_s,k / p(k), every technique's pdf P_s rate (the common 1 / p_h cancels in the rescale) */
+    *beta *= sigma_s_k * rgb * inv_p;
+    *r_u *= P_s * rate;
+    mis_rescale(beta, r_u);
+    if (!(masked_max(fabs(*beta), rgb) > 0.0f)) {
+      *beta = (float4)(0.0f);
+      return ST_EV_ABSORB;
+    }
+    *medium = m;
+    st->max_beta = fmax(st->max_beta, masked_max(fabs(*beta), rgb));
+    return ST_EV_SCATTER;
+  }
+  *beta *= c.sigma_n;
+  *r_u *= P_n * rate;
+  mis_rescale(beta, r_u);
+  st->nulls += 1u;
+  st->max_beta = fmax(st->max_beta, masked_max(fabs(*beta), rgb));
+  return ST_EV_NULL;
+}
+
+/* Spectral-MIS free-path sampling along (o, d) from *t (the contract of track_free_path); beta and
+ * r_u as above, hero the path's hero channel. */
+inline int track_free_path_mis(__constant const st_scene* scene, __global const uint* grids, __global const float2* maj,
+                               float3 o, float3 d, float* t, float4* beta, float4* r_u, int hero, float4* L,
+                               int* medium, st_rng* rng, int budget, st_track_stats* st) {
+  st_walker w;
+  walker_begin(scene, maj, &w, o, d, *t, one_hot(hero), 0, ST_WALK_SAMPLE_CONTROL, budget);
+  float4 sigma_maj = mis_sigma_maj(scene, &w, hero);
+  for (;;) {
+    float t_prev = w.t, t_end = w.seg.t1;
+    int step = walker_step(scene, maj, &w, rng, &st->dda_steps, &st->dda_nonempty);
+    *t = w.t;
+    if (step == ST_WALK_DONE) return ST_EV_ESCAPE;
+    if (step == ST_WALK_BUDGET) return ST_EV_BUDGET;
+    /* the flight: f_c gains T_maj,c and p_k gains T_maj,k; relative to the hero's, exp(-(sigma_maj - sigma_maj,h) dt) */
+    if (ST_HAS_CHROMATIC) {
+      float dt = (step == ST_WALK_COLLISION ? w.t : t_end) - t_prev;
+      float4 ratio = exp(-(sigma_maj - (float4)(channel_of(sigma_maj, hero))) * fmax(dt, 0.0f)) * (float4)(1.0f, 1.0f, 1.0f, 0.0f);
+      *beta *= ratio;
+      *r_u *= ratio;
+      mis_rescale(beta, r_u);
+    }
+    if (step == ST_WALK_CROSSED) {
+      sigma_maj = mis_sigma_maj(scene, &w, hero);
+      continue;
+    }
+    int ev = mis_collision(scene, grids, o + w.t * d, sigma_maj, hero, beta, r_u, L, medium, rng, st);
+    if (ev != ST_EV_NULL) return ev;
+  }
+}
+
+/* The scene's tracker: spectral MIS (r_u and hero its state) or track_free_path (mask). */
+inline int track_path(__constant const st_scene* scene, __global const uint* grids, __global const float2* maj,
+                      float3 o, float3 d, float* t, float4* beta, float4* r_u, int hero, float4 mask, float4* L,
+                      int* medium, st_rng* rng, int budget, st_track_stats* st) {
+  if (tracker_is_mis(scene)) return track_free_path_mis(scene, grids, maj, o, d, t, beta, r_u, hero, L, medium, rng, budget, st);
+  return track_free_path(scene, grids, maj, o, d, t, beta, mask, L, medium, rng, budget, st);
+}
+
+/* A path's hero channel (spectral-mis), uniform over the three; 0 for the other trackers (no draw). */
+inline int draw_hero(__constant const st_scene* scene, st_rng* rng) {
+  return tracker_is_mis(scene) ? (int)min((uint)(rng_uniform(rng) * 3.0f), 2u) : 0;
+}
+
 /* ---- transmittance ---- */
 
 /* Ratio tracking's factor at a tentative collision at p: the residual's null fraction

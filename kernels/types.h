@@ -69,13 +69,16 @@ enum st_transmittance_mode { ST_TRANSMITTANCES(ST_X_TRANSMITTANCE_ENUM) ST_TRANS
 /* The trackers, as one table that the host (names, settings, feature mask) and the kernels
  * (tracking.h) read: X(ENUM suffix, CLI/scene name, colour channels traced per sample (one path
  * each), needs achromatic media, uses the spectral scheme, decomposes into control + residual,
- * default st_absorption). Enum values follow the table's order. */
+ * default st_absorption). Enum values follow the table's order. spectral-mis (tracking.h) is
+ * the peers' method: one hero channel per path drives free-path sampling, the path weighted by
+ * the one-sample MIS (balance heuristic) over the channels' pdfs. */
 #define ST_TRACKERS(X)                                                                  \
   X(DELTA_PER_CHANNEL, "delta-per-channel", 3, 0, 0, 0, ST_ABSORPTION_EVENT)            \
   X(DELTA, "delta", 1, 1, 0, 0, ST_ABSORPTION_EVENT)                                    \
   X(SPECTRAL, "spectral", 1, 0, 1, 0, ST_ABSORPTION_WEIGHT)                             \
   X(DECOMPOSITION, "decomposition", 3, 0, 0, 1, ST_ABSORPTION_WEIGHT)                   \
-  X(SPECTRAL_DECOMPOSITION, "spectral-decomposition", 1, 0, 1, 1, ST_ABSORPTION_WEIGHT)
+  X(SPECTRAL_DECOMPOSITION, "spectral-decomposition", 1, 0, 1, 1, ST_ABSORPTION_WEIGHT)        \
+  X(SPECTRAL_MIS, "spectral-mis", 1, 0, 0, 0, ST_ABSORPTION_WEIGHT)
 #define ST_X_TRACKER_ENUM(E, name, ch, achromatic, scheme, decomposes, absorption) ST_TRACKER_##E,
 enum st_tracker { ST_TRACKERS(ST_X_TRACKER_ENUM) ST_TRACKER_COUNT };
 #define ST_X_TRACKER_CHANNELS(E, name, ch, achromatic, scheme, decomposes, absorption) (t == ST_TRACKER_##E) ? ch :
@@ -120,7 +123,8 @@ enum st_feature {
   ST_FEATURE_DECOMPOSITION = 1 << 7,  /* tracker decomposes (control + residual) */
   ST_FEATURE_COARSE_MAJORANT = 1 << 8, /* two-level majorant grid (empty blocks skipped) */
   ST_FEATURE_COLOR = 1 << 9,          /* some medium has a per-voxel colour grid (st_color_mode) */
-  ST_FEATURES_ALL = (1 << 10) - 1
+  ST_FEATURE_SPECTRAL_MIS = 1 << 10,  /* tracker spectral-mis (hero-channel sampling, MIS over channels) */
+  ST_FEATURES_ALL = (1 << 11) - 1
 };
 
 /* Queues of the wavefront. Each stage reads the current buffer of its queue and pushes into the
@@ -270,14 +274,14 @@ typedef struct {
   st_float4 mask;     /* 1 for the channels this path carries, 0 otherwise */
   st_uint pixel;      /* pixel index in the film window */
   st_uint sample;     /* sample index in the full sequence */
-  st_uint channel;    /* 0..2 for delta-per-channel, 0 otherwise */
+  st_uint channel;    /* 0..2 for delta-per-channel; spectral-mis: the hero channel; 0 otherwise */
   st_uint result_index; /* slot in the batch result buffer */
   st_uint rng_draw;   /* next draw of the path's random stream */
   st_int depth;       /* real scattering events so far */
   st_int pending;     /* shadow rays of this path not finished yet */
   st_int medium;      /* medium whose phase function applies at the scatter point */
   st_uint batch;      /* ring slot of this path's batch */
-  st_uint pad[3];
+  float r_u[3];       /* spectral-mis: each channel's path pdf over the hero's, scaled to mean 1 (tracking.h) */
 } st_path;
 
 /* A transmittance estimate in progress, resumable across launches (tracking.h). Ratio tracking

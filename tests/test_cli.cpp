@@ -155,7 +155,7 @@ TEST_F(CliFlags, UnknownTrackerListsValidOnes) {
   Proc p = run({"render", scene, "-o", dir + "/out.exr", "--tracker", "bogus", "--quiet"});
   expect_error_exit(p, 2);  // a bad command line (README), found by CLI11
   EXPECT_THAT(p.out, HasSubstr("bogus")) << p.describe();
-  for (const char* t : {"delta-per-channel", "delta", "spectral", "decomposition", "spectral-decomposition"})
+  for (const char* t : {"delta-per-channel", "delta", "spectral", "decomposition", "spectral-decomposition", "spectral-mis"})
     EXPECT_THAT(p.out, HasSubstr(t)) << p.describe();
   EXPECT_FALSE(fs::exists(dir + "/out.exr"));
 }
@@ -818,7 +818,7 @@ TEST_F(CliFlags, UnknownTrackerAndSchemeAreUsageErrorsListingTheNames) {
   Proc p = run({"render", scene, "-o", dir + "/out.exr", "--tracker", "bogus", "--quiet"});
   expect_error_exit(p, 2);
   EXPECT_THAT(p.out, HasSubstr("bogus")) << p.describe();
-  for (const char* t : {"delta-per-channel", "delta", "spectral", "decomposition", "spectral-decomposition"})
+  for (const char* t : {"delta-per-channel", "delta", "spectral", "decomposition", "spectral-decomposition", "spectral-mis"})
     EXPECT_THAT(p.out, HasSubstr(t)) << p.describe();
   p = run({"render", scene, "-o", dir + "/out.exr", "--scheme", "maximum", "--quiet"});
   expect_error_exit(p, 2);

@@ -162,7 +162,7 @@ TEST(SceneNames, UnknownNamesAndValues) {
 }
 
 TEST(SceneNames, Lists) {
-  EXPECT_EQ(tracker_names(), "delta-per-channel, delta, spectral, decomposition, spectral-decomposition");
+  EXPECT_EQ(tracker_names(), "delta-per-channel, delta, spectral, decomposition, spectral-decomposition, spectral-mis");
   EXPECT_EQ(scheme_names(), "max, average, history-max, history-average");
 }
 

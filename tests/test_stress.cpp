@@ -21,7 +21,7 @@ using nlohmann::json;
 namespace {
 
 const int kAllTrackers[] = {ST_TRACKER_DELTA_PER_CHANNEL, ST_TRACKER_DELTA, ST_TRACKER_SPECTRAL, ST_TRACKER_DECOMPOSITION,
-                            ST_TRACKER_SPECTRAL_DECOMPOSITION};
+                            ST_TRACKER_SPECTRAL_DECOMPOSITION, ST_TRACKER_SPECTRAL_MIS};
 
 bool is_chromatic(const json& medium) { return medium["sigma_a"][0] != medium["sigma_a"][1] || medium["sigma_a"][1] != medium["sigma_a"][2]; }
 

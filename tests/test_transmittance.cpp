@@ -65,7 +65,8 @@ Estimate run(const json& s, const std::string& dir, int tracker, int transmittan
   return e;
 }
 
-const int kTrackers[] = {ST_TRACKER_DELTA_PER_CHANNEL, ST_TRACKER_SPECTRAL, ST_TRACKER_SPECTRAL_DECOMPOSITION};
+const int kTrackers[] = {ST_TRACKER_DELTA_PER_CHANNEL, ST_TRACKER_SPECTRAL, ST_TRACKER_SPECTRAL_DECOMPOSITION,
+                         ST_TRACKER_SPECTRAL_MIS};
 
 }  // namespace
 

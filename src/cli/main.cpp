@@ -527,7 +527,7 @@ CLI::App* add_render_command(CLI::App& app, RenderArgs& ra) {
       ->check(one_of("scheme", scheme_name_list()));
   render->add_option("--absorption", ra.absorption,
                      "absorption at real collisions (overrides render.absorption): event (ends the path) or weight "
-                     "(beta takes the albedo; default for spectral, decomposition, spectral-decomposition)")
+                     "(beta takes the albedo; default for spectral, decomposition, spectral-decomposition, spectral-mis)")
       ->check(one_of("absorption", absorption_name_list()));
   render->add_option("--light-sampling", ra.light_sampling,
                      "lights that next-event estimation samples at each scatter event (overrides "

@@ -413,6 +413,7 @@ uint32_t Packer::scene_features() const {
     if (l.type != ST_LIGHT_DIRECTIONAL || !l.is_delta) f |= ST_FEATURE_ESCAPE;
   }
   if (st_tracker_decomposes(st.tracker)) f |= ST_FEATURE_DECOMPOSITION;
+  if (st.tracker == ST_TRACKER_SPECTRAL_MIS) f |= ST_FEATURE_SPECTRAL_MIS;
   return f;
 }
 
