@@ -42,21 +42,21 @@ SCHEMES = ["history-average", "history-max", "average", "max"]
 SCENES = [
     dict(key="a", name="cloud_chromatic", title="(a) Disney cloud, chromatic, sun + sky",
          configs=[("delta-per-channel", None)] + [("spectral", s) for s in SCHEMES] +
-                 [("decomposition", None), ("spectral-decomposition", "history-average")],
+                 [("decomposition", None), ("spectral-decomposition", "history-average"), ("spectral-mis", None)],
          ladder=[1, 2, 4, 8, 16, 32], quick=[1, 2, 4], ref=(1024, 32), ref_tracker=("spectral", "history-average"),
          mitsuba=True),
     dict(key="b", name="dense_subsurface", title="(b) dense, mildly heterogeneous, chromatic (subsurface-like)",
          configs=[("delta-per-channel", None), ("spectral", "history-average"), ("decomposition", None),
-                  ("spectral-decomposition", "history-average")],
+                  ("spectral-decomposition", "history-average"), ("spectral-mis", None)],
          ladder=[1, 2, 4, 8, 16], quick=[1, 2], ref=(256, 16), ref_tracker=("spectral-decomposition", "history-average"),
          mitsuba=True),
     dict(key="c", name="smoke_thin", title="(c) OpenVDB smoke, thin, achromatic",
          configs=[("delta-per-channel", None), ("delta", None), ("spectral", "history-average"),
-                  ("decomposition", None), ("spectral-decomposition", "history-average")],
+                  ("decomposition", None), ("spectral-decomposition", "history-average"), ("spectral-mis", None)],
          ladder=[1, 2, 4, 8, 16, 32], quick=[1, 2, 4], ref=(1024, 32), ref_tracker=("delta", None), mitsuba=True),
     dict(key="d", name="emissive_heat", title="(d) emissive smoke (densityAndHeat, heat as emission)",
          configs=[("delta-per-channel", None), ("delta", None), ("spectral", "history-average"),
-                  ("decomposition", None), ("spectral-decomposition", "history-average")],
+                  ("decomposition", None), ("spectral-decomposition", "history-average"), ("spectral-mis", None)],
          ladder=[1, 2, 4, 8, 16, 32], quick=[1, 2, 4], ref=(1024, 32), ref_tracker=("delta", None), mitsuba=False),
 ]
 

@@ -137,6 +137,27 @@ TEST(Estimators, SpectralMisAgreesOnStronglyChromaticMedia) {
     }
 }
 
+// The spectral-mis feature bit: only that tracker compiles its code, and the generic kernel
+// (every feature) renders the same image bit for bit; another seed differs (the control).
+TEST(Estimators, SpectralMisSpecialisedAndGenericKernelsAgree) {
+  std::string dir = temp_dir("mis_generic");
+  json s = comparison_scene(dir, 1.0, 1.0);
+  s["film"]["spp"] = 4;
+  RenderResult a = render_with(s, dir, ST_TRACKER_SPECTRAL_MIS, ST_SCHEME_MAX, 5);
+  RenderOptions o = quiet_options();
+  o.tracker = ST_TRACKER_SPECTRAL_MIS;
+  o.seed = 5;
+  o.generic_kernels = true;
+  RenderResult b = Renderer(scene_from_json(s, dir), o).render();
+  RenderResult c = render_with(s, dir, ST_TRACKER_SPECTRAL_MIS, ST_SCHEME_MAX, 6);
+  RenderResult d = render_with(s, dir, ST_TRACKER_SPECTRAL, ST_SCHEME_HISTORY_AVERAGE, 5);
+  EXPECT_TRUE(a.features & ST_FEATURE_SPECTRAL_MIS);
+  EXPECT_FALSE(d.features & ST_FEATURE_SPECTRAL_MIS);
+  EXPECT_EQ(b.features, uint32_t(ST_FEATURES_ALL));
+  EXPECT_TRUE(a.rgb == b.rgb) << "specialised and generic spectral-mis kernels give different images";
+  EXPECT_FALSE(a.rgb == c.rgb) << "another seed must give another image";
+}
+
 TEST(Estimators, AbsorptionModeDefaultsAndOverrides) {
   std::string dir = temp_dir("absorption_modes");
   json s = comparison_scene(dir, 1.0, 1.0);
