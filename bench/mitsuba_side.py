@@ -17,6 +17,7 @@ grid_export's dense dump of the grid as spectrack loads it:
   `constant` emitter; the camera is `perspective` with fov across the smaller side
   (fov_axis 'smaller', our convention) and look_at; the pixel filter is a box (ours: uniform
   jitter in the pixel); max_depth -1 (Russian roulette only), as ours.
+The integrator is `volpath`, or $MITSUBA_INTEGRATOR (`volpathmis`: spectral MIS, bench/mitsuba_mis.py).
 Each SPP:SEED render writes OUT_DIR/mi_<spp>_<seed>.npy (H x W x 3 float32, row 0 at the top) and
 the render seconds (wall clock around mi.render and the read-back) into OUT_DIR/timings.json.
 """
@@ -72,7 +73,7 @@ def build_scene(scene, grid_prefix, spp):
     film = scene["film"]
     d = {
         "type": "scene",
-        "integrator": {"type": "volpath", "max_depth": -1},
+        "integrator": {"type": os.environ.get("MITSUBA_INTEGRATOR", "volpath"), "max_depth": -1},
         "sensor": {
             "type": "perspective",
             "fov": cam["fov_deg"],
