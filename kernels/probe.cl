@@ -35,8 +35,7 @@ __kernel void k_probe_track(__constant const st_scene* scene, __global const uin
   uint i = get_global_id(0);
   if (i >= n) return;
   st_rng rng = rng_make(scene->seed, i, 0u, 0u, 7u, 0u);
-  float4 mask = channel < 0 ? (float4)(1.0f, 1.0f, 1.0f, 0.0f)
-                            : (float4)(channel == 0 ? 1.0f : 0.0f, channel == 1 ? 1.0f : 0.0f, channel == 2 ? 1.0f : 0.0f, 0.0f);
+  float4 mask = channel < 0 ? (float4)(1.0f, 1.0f, 1.0f, 0.0f) : one_hot(channel);
   float4 beta = mask, L = (float4)(0.0f), r_u = mask;
   int hero = draw_hero(scene, &rng);
   st_track_stats st;
@@ -83,8 +82,7 @@ __kernel void k_probe_albedo(__constant const st_scene* scene, __global const ui
   uint i = get_global_id(0);
   if (i >= n) return;
   st_rng rng = rng_make(scene->seed, i, 1u, 0u, 7u, 0u);
-  float4 mask = channel < 0 ? (float4)(1.0f, 1.0f, 1.0f, 0.0f)
-                            : (float4)(channel == 0 ? 1.0f : 0.0f, channel == 1 ? 1.0f : 0.0f, channel == 2 ? 1.0f : 0.0f, 0.0f);
+  float4 mask = channel < 0 ? (float4)(1.0f, 1.0f, 1.0f, 0.0f) : one_hot(channel);
   float4 beta = mask, L = (float4)(0.0f), sum = (float4)(0.0f), r_u = mask;
   int hero = draw_hero(scene, &rng);
   st_track_stats st;

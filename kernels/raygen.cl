@@ -43,7 +43,7 @@ __kernel void k_raygen(ST_STAGE_ARGS) {
   p.o = (float4)(o, 0.0f);
   p.d = (float4)(d, 0.0f);
   if (nch == 3u) {
-    p.mask = (float4)(ch == 0u ? 1.0f : 0.0f, ch == 1u ? 1.0f : 0.0f, ch == 2u ? 1.0f : 0.0f, 0.0f);
+    p.mask = one_hot((int)ch);
   } else {
     p.mask = (float4)(1.0f, 1.0f, 1.0f, 0.0f);
   }

@@ -12,6 +12,9 @@ inline float sample_exponential(float u, float mu) { return -log(1.0f - u) / mu;
 
 inline float max3(float4 v) { return fmax(v.x, fmax(v.y, v.z)); }
 inline float sum3(float4 v) { return v.x + v.y + v.z; }
+/* The mask of colour channel c (0..2), and component c of v. */
+inline float4 one_hot(int c) { return (float4)(c == 0 ? 1.0f : 0.0f, c == 1 ? 1.0f : 0.0f, c == 2 ? 1.0f : 0.0f, 0.0f); }
+inline float channel_of(float4 v, int c) { return c == 0 ? v.x : (c == 1 ? v.y : v.z); }
 
 /* Reductions over the channels a path carries (mask entries are 0 or 1). */
 inline float masked_max(float4 v, float4 mask) {

@@ -307,9 +307,14 @@ inline int track_free_path(__constant const st_scene* scene, __global const uint
  * State: beta = f / p_h and r_u = p_k / p_h (pbrt's names), both scaled by the same factor after
  * every update so that mean(r_u) = 1. The score beta / mean(r_u) does not change under a common
  * factor, so with that scaling beta IS the MIS-weighted throughput: next-event estimation, escape,
- * Russian roulette and max_throughput (scatter.cl, shade.cl) use it unchanged, and beta <= 3 when
- * the majorants bound (f_c / mean p_k <= 3 f_c / p_c, and f_c / p_c <= 1 for channel c's own delta
- * tracking: 1 with absorption events, the product of albedos with absorption as a weight).
+ * Russian roulette and max_throughput (scatter.cl, shade.cl) use it unchanged. With absorption
+ * events and bounding majorants beta <= 3: f_c / mean p_k <= 3 f_c / p_c, and f_c / p_c = 1 for
+ * channel c's own (analog) delta tracking. With absorption as a weight f_c / p_c starts as the
+ * product of albedos <= 1, but Russian roulette (scatter.cl, on beta as pbrt-v4 does) divides every
+ * channel by the survival probability q = max_c beta_c, which can leave f_c / p_c > 1 on a
+ * channel whose own pdf was small; a later shift of the pdfs towards that channel then takes its
+ * beta above 3 (3.75 seen in tests/test_estimators.cpp's strongly chromatic scene): no bound of 3
+ * is claimed in that mode.
  *
  * Emission is a collision estimator at every tentative collision (as pbrt-v4): a vertex there has
  * the pdf T_maj,k sigma_maj,k under technique k, so the score is beta sigma_a Le / mean(r_u sigma_maj)
@@ -326,9 +331,6 @@ inline int track_free_path(__constant const st_scene* scene, __global const uint
 inline int tracker_is_mis(__constant const st_scene* scene) {
   return ST_HAS_SPECTRAL_MIS && scene->tracker == ST_TRACKER_SPECTRAL_MIS;
 }
-
-inline float4 one_hot(int c) { return (float4)(c == 0 ? 1.0f : 0.0f, c == 1 ? 1.0f : 0.0f, c == 2 ? 1.0f : 0.0f, 0.0f); }
-inline float channel_of(float4 v, int c) { return c == 0 ? v.x : (c == 1 ? v.y : v.z); }
 
 /* beta and r_u scaled by one factor so that mean(r_u) = 1 (the score beta / mean(r_u) is kept). */
 inline void mis_rescale(float4* beta, float4* r_u) {
