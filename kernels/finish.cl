@@ -9,8 +9,18 @@ __kernel void k_finish(ST_STAGE_ARGS) {
   uint slot = queue_item(queues, Q, NL, cur, ST_Q_FINISH, gid);
   st_path p = paths[slot];
   if (p.pending > 0) {
+    atomic_inc(&counters[ST_C_WAITS]);
     queue_push(queues, counters, Q, NL, cur, ST_Q_FINISH, slot);
     return;
+  }
+  /* the shadow rays not added yet: bounces depth - R .. depth - 1 (R: the shadow ring), oldest first */
+  for (int k = shadow_ring(NL, scene->n_lights); k >= 1; --k) {
+    int bounce = p.depth - k;
+    if (bounce < 0) continue;
+    for (int l = 0; l < scene->n_lights; ++l) {
+      __global st_shadow* e = &shadows[shadow_entry(slot, NL, scene->n_lights, bounce, l)];
+      if (e->state == ST_SHADOW_DONE) shadow_fold(&shadows[slot * NL + (uint)l], e);
+    }
   }
   float4 r = p.L;
   for (uint l = 0; l < (uint)scene->n_lights; ++l) r += shadows[slot * NL + l].Ls;

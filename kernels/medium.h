@@ -1,6 +1,7 @@
 /* medium.h: what a point of the scene is made of. A medium offers a density lookup at a world
- * point (trilinear through PNanoVDB for VDB media, 1 inside the box for homogeneous media) and
- * its per-unit-density coefficients; overlapping media add their coefficients.
+ * point (trilinear through PNanoVDB for VDB media, or one voxel of the trilinear support chosen
+ * at random: st_lookup_mode; 1 inside the box for homogeneous media) and its per-unit-density
+ * coefficients; overlapping media add their coefficients.
  *
  * Index space: a VDB medium's world_to_index maps world points to NanoVDB index coordinates
  * (values at integer coordinates; trilinear between floor(p) and floor(p)+1, inactive voxels
@@ -32,14 +33,19 @@ inline int medium_box_contains(__constant const st_medium* m, float3 pi) {
  * x * 64 + y * 8 + z, 4 bytes each: PNanoVDB's pnanovdb_leaf_coord_to_offset and
  * leaf_get_table_address), instead of seven more accessor walks. The same values, so the same
  * image, either way. */
-inline float grid_trilinear(__global const uint* grids, uint offset, float3 pi) {
-  pnanovdb_buf_t buf;
-  buf.data = grids + offset;
+inline pnanovdb_readaccessor_t grid_accessor(__global const uint* grids, uint offset, pnanovdb_buf_t* buf) {
+  buf->data = grids + offset;
   pnanovdb_grid_handle_t grid = {pnanovdb_address_null()};
-  pnanovdb_tree_handle_t tree = pnanovdb_grid_get_tree(buf, grid);
-  pnanovdb_root_handle_t root = pnanovdb_tree_get_root(buf, tree);
+  pnanovdb_tree_handle_t tree = pnanovdb_grid_get_tree(*buf, grid);
+  pnanovdb_root_handle_t root = pnanovdb_tree_get_root(*buf, tree);
   pnanovdb_readaccessor_t acc;
   pnanovdb_readaccessor_init(&acc, root);
+  return acc;
+}
+
+inline float grid_trilinear(__global const uint* grids, uint offset, float3 pi) {
+  pnanovdb_buf_t buf;
+  pnanovdb_readaccessor_t acc = grid_accessor(grids, offset, &buf);
   float3 fl = floor(pi);
   float3 f = pi - fl;
   int3 i0 = convert_int3(fl);
@@ -71,13 +77,46 @@ inline float grid_trilinear(__global const uint* grids, uint offset, float3 pi) 
   return mix(mix(x00, x10, f.y), mix(x01, x11, f.y), f.z);
 }
 
-/* Density of medium m at world point p (0 outside its box). Counts one lookup for VDB media. */
-inline float medium_density(__constant const st_medium* m, __global const uint* grids, float3 p, uint* lookups) {
+/* Stochastic one-voxel lookup (st_lookup_mode "stochastic"; docs/stochastic-lookup.md): the value
+ * of one voxel of the 2x2x2 trilinear support of pi, voxel (i0 + b) chosen with probability equal
+ * to its trilinear weight prod_a (b_a ? f_a : 1 - f_a), so its expectation is grid_trilinear's
+ * value. One uniform u makes the three binary choices in turn: each compares u with the axis'
+ * weight and rescales it onto the chosen side, which is a partition of [0, 1) into the 8 weights'
+ * intervals, so each voxel's probability is its weight to the uniform's resolution (2^-24) and
+ * float rounding, as exact as the trilinear blend itself. One accessor walk, one read. */
+inline float grid_stochastic(__global const uint* grids, uint offset, float3 pi, float u) {
+  pnanovdb_buf_t buf;
+  pnanovdb_readaccessor_t acc = grid_accessor(grids, offset, &buf);
+  float3 fl = floor(pi);
+  float3 f = pi - fl;
+  int3 i = convert_int3(fl);
+  if (u < f.x) i.x += 1, u = u / f.x;
+  else u = (u - f.x) / (1.0f - f.x);
+  if (u < f.y) i.y += 1, u = u / f.y;
+  else u = (u - f.y) / (1.0f - f.y);
+  if (u < f.z) i.z += 1;
+  pnanovdb_coord_t ijk;
+  ijk.x = i.x;
+  ijk.y = i.y;
+  ijk.z = i.z;
+  return pnanovdb_read_float(buf, pnanovdb_readaccessor_get_value_address(PNANOVDB_GRID_TYPE_FLOAT, buf, &acc, &ijk));
+}
+
+inline int lookup_is_stochastic(__constant const st_scene* scene) {
+  return ST_HAS_STOCHASTIC_LOOKUP && scene->lookup == ST_LOOKUP_STOCHASTIC;
+}
+
+/* Density of medium m at world point p (0 outside its box). Counts one lookup for VDB media.
+ * rng: the caller's stream, drawn once per VDB lookup when lookups are stochastic (scene->lookup),
+ * never otherwise. */
+inline float medium_density(__constant const st_scene* scene, __constant const st_medium* m, __global const uint* grids,
+                            float3 p, uint* lookups, st_rng* rng) {
   float3 pi = medium_to_index(m, p);
   if (!medium_box_contains(m, pi)) return 0.0f;
   if (!ST_HAS_VDB) return 1.0f; /* homogeneous media only */
   if (m->type == ST_MEDIUM_HOMOGENEOUS) return 1.0f;
   *lookups += 1u;
+  if (lookup_is_stochastic(scene)) return grid_stochastic(grids, m->density_grid, pi, rng_uniform(rng));
   return grid_trilinear(grids, m->density_grid, pi);
 }
 
@@ -140,9 +179,11 @@ typedef struct {
 
 /* extinction_only: the caller needs only sigma_a + sigma_s (transmittance), which an albedo grid
  * does not change, so albedo media skip their colour lookup (their sigma_a/sigma_s split is then
- * the medium's own, the tint 1). */
+ * the medium's own, the tint 1). rng: for stochastic density lookups (medium_density); colour and
+ * emission grids are always read trilinearly, independently of the density's voxel choice, so a
+ * product such as density x colour keeps the product of the expectations. */
 inline st_coeffs scene_coeffs(__constant const st_scene* scene, __global const uint* grids, float3 p, uint* lookups,
-                              int extinction_only) {
+                              int extinction_only, st_rng* rng) {
   st_coeffs c;
   c.sigma_a = (float4)(0.0f);
   c.sigma_s = (float4)(0.0f);
@@ -151,7 +192,7 @@ inline st_coeffs scene_coeffs(__constant const st_scene* scene, __global const u
     c.tint[i] = (float4)(1.0f);
     if (i >= scene->n_media) continue;
     __constant const st_medium* m = &scene->media[i];
-    float d = medium_density(m, grids, p, lookups);
+    float d = medium_density(scene, m, grids, p, lookups, rng);
     c.density[i] = d;
     if (medium_has_color(m) && !(extinction_only && m->color_mode == ST_COLOR_ALBEDO)) {
       if (d == 0.0f) continue;

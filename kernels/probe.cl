@@ -8,7 +8,8 @@ __kernel void k_probe_density(__constant const st_scene* scene, __global const u
   uint i = get_global_id(0);
   if (i >= n) return;
   uint lookups = 0;
-  out[i] = medium_density(&scene->media[medium], grids, points[i].xyz, &lookups);
+  st_rng rng = rng_make(scene->seed, i, 3u, 0u, 7u, 0u); /* stochastic lookups: one draw */
+  out[i] = medium_density(scene, &scene->media[medium], grids, points[i].xyz, &lookups, &rng);
 }
 
 /* (dmax, dmin) of the majorant cell of `medium` containing each world point ((-1,-1) outside). */

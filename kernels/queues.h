@@ -5,7 +5,8 @@
  * current buffer and pushes into the next buffers with atomic_inc on the next-size counters,
  * which the host reads once per iteration. Queues FREE..FINISH hold path slots (capacity Q);
  * FREE is the exception to the two buffers: one stack of free slots (free_push below).
- * SHADOW holds shadow-ray ids slot * NL + light (capacity Q * NL). ST_STAGE_ARGS is the argument
+ * SHADOW holds shadow-ray entry ids slot * NL + ring * n_lights + light (capacity Q * NL, NL =
+ * n_lights * R, R the shadow ring of types.h). ST_STAGE_ARGS is the argument
  * list of every stage kernel, in the order of enum st_stage_arg (types.h), by which the host binds
  * them; `it` (st_iteration) holds the queue parity and sizes of the current iteration. */
 #ifndef SPECTRACK_QUEUES_H
@@ -57,6 +58,25 @@ inline void flush_track_stats(__global uint* counters, const st_track_stats* st,
   counter_add(counters, ST_C_DDA_STEPS, st->dda_steps);
   counter_add(counters, ST_C_DDA_NONEMPTY, st->dda_nonempty);
   if (st->max_beta > 0.0f) atomic_max(&counters[ST_C_MAX_THROUGHPUT_BITS], as_uint(st->max_beta));
+}
+
+/* ---- shadow-ray entries (types.h st_shadow) ----
+ * A path's shadow rays of bounce d use the entries slot * NL + (d % R) * n_lights + l, R = NL /
+ * n_lights the ring (shadow_ring). When one finishes, k_shadow marks it done; its weight * T is
+ * added to its light's accumulator (the Ls of entry slot * NL + l) by the path itself, when it
+ * needs the entry again (k_scatter, R bounces later) or when it finishes (k_finish, the remaining entries oldest
+ * first), which leaves every entry of the slot empty for the next path (the host clears the
+ * buffer once). So each accumulator has one writer and adds its terms in bounce order: the sums,
+ * and the image, do not depend on the order in which shadow rays finish. */
+inline int shadow_ring(uint NL, int n_lights) { return n_lights > 0 ? (int)(NL / (uint)n_lights) : 1; }
+inline uint shadow_entry(uint slot, uint NL, int n_lights, int bounce, int light) {
+  return slot * NL + (uint)(bounce % shadow_ring(NL, n_lights)) * (uint)n_lights + (uint)light;
+}
+
+/* Adds finished entry e to its light's accumulator acc and empties it. */
+inline void shadow_fold(__global st_shadow* acc, __global st_shadow* e) {
+  acc->Ls += e->weight * e->tr.T;
+  e->state = ST_SHADOW_EMPTY;
 }
 
 /* The random stream of a path (stream 0) or of one of its shadow rays. */

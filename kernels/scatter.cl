@@ -4,20 +4,29 @@
  * probability of picking it, as k_escape does. Then phase sampling, then Russian roulette on the
  * throughput (from depth 3 on, survival probability min(1, max |beta| over the path's channels),
  * beta divided by it: unbiased; with absorption=weight beta decays by the albedo and this is how
- * paths end). A path whose previous shadow rays are still running waits here (re-queued) so that
- * each (path, light) accumulator has one writer. */
+ * paths end). The shadow rays of the last R - 1 bounces (R: the shadow ring, queues.h) may still
+ * be running: a path waits here (re-queued) only while an entry of bounce depth - R, whose place this
+ * bounce's shadow rays take, is still running; the finished ones are added to their light's
+ * accumulator first (queues.h, "shadow-ray entries"). */
 __kernel void k_scatter(ST_STAGE_ARGS) {
   const uint cur = it.cur, n = it.n_queue[ST_Q_SCATTER];
   uint gid = get_global_id(0);
   if (gid >= n) return;
   uint slot = queue_item(queues, Q, NL, cur, ST_Q_SCATTER, gid);
   st_path p = paths[slot];
-  if (p.pending > 0) {
-    queue_push(queues, counters, Q, NL, cur, ST_Q_SCATTER, slot);
-    return;
-  }
   if (scene->max_depth >= 0 && p.depth >= scene->max_depth) {
     queue_push(queues, counters, Q, NL, cur, ST_Q_FINISH, slot);
+    return;
+  }
+  int busy = 0;
+  for (int l = 0; l < scene->n_lights; ++l) {
+    __global st_shadow* e = &shadows[shadow_entry(slot, NL, scene->n_lights, p.depth, l)];
+    if (e->state == ST_SHADOW_PENDING) busy = 1;
+    else if (e->state == ST_SHADOW_DONE) shadow_fold(&shadows[slot * NL + (uint)l], e);
+  }
+  if (busy) {
+    atomic_inc(&counters[ST_C_WAITS]);
+    queue_push(queues, counters, Q, NL, cur, ST_Q_SCATTER, slot);
     return;
   }
   atomic_inc(&counters[ST_C_SCATTER_EVENTS]);
@@ -39,7 +48,7 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     float w = pdf_l > 0.0f ? power_heuristic(light->select_pmf * pdf_l, f) : 1.0f;
     float4 weight = p.beta * p.mask * Le_over_pdf * (f * w / light->select_pmf);
     if (!(masked_max(fabs(weight), p.mask) > 0.0f)) continue;
-    uint id = slot * NL + (uint)l;
+    uint id = shadow_entry(slot, NL, scene->n_lights, p.depth, l);
     __global st_shadow* sh = &shadows[id];
     sh->o = (float4)(p.o.xyz, 0.0f);
     sh->d = (float4)(wi, 0.0f);
@@ -50,6 +59,7 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     sh->rng_draw = 0u;
     sh->stream = 1u + (uint)p.depth * ST_MAX_LIGHTS + (uint)l;
     sh->slot = slot;
+    sh->state = ST_SHADOW_PENDING;
     p.pending += 1;
     queue_push(queues, counters, Q, NL, cur, ST_Q_SHADOW, id);
   }

@@ -1,6 +1,7 @@
 /* shadow.cl: transmittance of a next-event-estimation ray through the majorant grid by the
  * scene's estimator (ratio tracking or ray marching, tracking.h), resumable across launches; when
- * done, adds weight * T to its (path, light) accumulator and releases the path. */
+ * done, marks its entry done (the path adds weight * T to its light's accumulator: queues.h) and
+ * releases the path. */
 __kernel void k_shadow(ST_STAGE_ARGS) {
   const uint cur = it.cur, n = it.n_queue[ST_Q_SHADOW];
   uint gid = get_global_id(0);
@@ -16,7 +17,7 @@ __kernel void k_shadow(ST_STAGE_ARGS) {
                                     scene->iteration_budget, &st);
   sh.rng_draw = rng_draw_index(&rng);
   if (done) {
-    sh.Ls += sh.weight * sh.tr.T;
+    sh.state = ST_SHADOW_DONE;
     shadows[id] = sh;
     atomic_dec(&paths[sh.slot].pending);
   } else {

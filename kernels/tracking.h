@@ -142,7 +142,7 @@ inline st_collision collision_component(__constant const st_scene* scene, __glob
     }
     st->control += 1u;
   } else {
-    st_coeffs k = scene_coeffs(scene, grids, p, &st->lookups, 0);
+    st_coeffs k = scene_coeffs(scene, grids, p, &st->lookups, 0, rng);
     c.sigma_a = k.sigma_a - seg->sigma_a_c;
     c.sigma_s = k.sigma_s - seg->sigma_s_c;
     c.mu_bar = seg->mu_bar_r;
@@ -357,7 +357,7 @@ inline int mis_collision(__constant const st_scene* scene, __global const uint* 
                          int hero, float4* beta, float4* r_u, float4* L, int* medium, st_rng* rng,
                          st_track_stats* st) {
   const float4 rgb = (float4)(1.0f, 1.0f, 1.0f, 0.0f);
-  st_coeffs k = scene_coeffs(scene, grids, p, &st->lookups, 0);
+  st_coeffs k = scene_coeffs(scene, grids, p, &st->lookups, 0, rng);
   st_collision c;
   c.sigma_a = k.sigma_a * rgb;
   c.sigma_s = k.sigma_s * rgb;
@@ -470,14 +470,14 @@ inline int draw_hero(__constant const st_scene* scene, st_rng* rng) {
  * (mu_bar_r - residual sigma_t) / mu_bar_r per carried channel. */
 /* The residual component's sigma_t at p: every medium's sigma_a + sigma_s less the segment's control. */
 inline float4 residual_sigma_t(__constant const st_scene* scene, __global const uint* grids, const st_segment* seg,
-                               float3 p, uint* lookups) {
-  st_coeffs c = scene_coeffs(scene, grids, p, lookups, 1);
+                               float3 p, uint* lookups, st_rng* rng) {
+  st_coeffs c = scene_coeffs(scene, grids, p, lookups, 1, rng);
   return c.sigma_a + c.sigma_s - seg->sigma_a_c - seg->sigma_s_c;
 }
 
 inline float4 ratio_collision_factor(__constant const st_scene* scene, __global const uint* grids,
-                                     const st_segment* seg, float3 p, float4 mask, uint* lookups) {
-  float4 residual = residual_sigma_t(scene, grids, seg, p, lookups);
+                                     const st_segment* seg, float3 p, float4 mask, uint* lookups, st_rng* rng) {
+  float4 residual = residual_sigma_t(scene, grids, seg, p, lookups, rng);
   return mask * ((seg->mu_bar_r - residual) / seg->mu_bar_r);
 }
 
@@ -511,7 +511,7 @@ inline int ratio_track(__constant const st_scene* scene, __global const uint* gr
     if (step == ST_WALK_DONE) return 1;
     if (step == ST_WALK_BUDGET) return 0;
     if (w.decompose) *T *= w.T_control;
-    if (step == ST_WALK_COLLISION) *T *= ratio_collision_factor(scene, grids, &w.seg, o + w.t * d, mask, &st->lookups);
+    if (step == ST_WALK_COLLISION) *T *= ratio_collision_factor(scene, grids, &w.seg, o + w.t * d, mask, &st->lookups, rng);
     if (!transmittance_roulette(T, mask, rng)) return 1;
   }
 }
@@ -552,8 +552,8 @@ inline void transmittance_begin(st_trans* tr, float4 mask) {
 
 /* f = residual sigma_t / mu_bar_r at p, per carried channel. */
 inline float4 march_sample(__constant const st_scene* scene, __global const uint* grids, const st_segment* seg, float3 p,
-                           float4 mask, uint* lookups) {
-  return mask * (residual_sigma_t(scene, grids, seg, p, lookups) / seg->mu_bar_r);
+                           float4 mask, uint* lookups, st_rng* rng) {
+  return mask * (residual_sigma_t(scene, grids, seg, p, lookups, rng) / seg->mu_bar_r);
 }
 
 /* Runs the estimate of tr along (o, d) (every walk starts at t = 0) for at most `budget` steps
@@ -599,7 +599,7 @@ inline int ray_march_transmittance(__constant const st_scene* scene, __global co
       int hit = step == ST_WALK_COLLISION && tr->s_left <= s;
       int hit1 = first && step == ST_WALK_COLLISION && tr->s_left1 <= s;
       if (hit || hit1) {
-        float4 f = march_sample(scene, grids, &w.seg, o + w.t * d, mask, &st->lookups);
+        float4 f = march_sample(scene, grids, &w.seg, o + w.t * d, mask, &st->lookups, rng);
         if (hit) tr->acc += f, tr->count += first ? 1u : 0u;
         if (hit1) tr->acc1 += f, tr->count1 += 1u;
       }

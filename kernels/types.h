@@ -33,6 +33,13 @@ typedef uint64_t st_ulong;
 #define ST_MAX_LIGHTS 8
 #define ST_NO_GRID 0xffffffffu
 #define ST_MAX_BATCHES_IN_FLIGHT 8 /* ring of batch result buffers (work distribution) */
+/* Shadow-ray entries per (path slot, light): a ring of R entries indexed by the bounce modulo R
+ * (R = NL / n_lights, chosen by the host: RenderOptions::shadow_ring), so a path scatters again
+ * while the shadow rays of its last R - 1 bounces are still running; it waits only when the entry
+ * of bounce d - R is still busy (scatter.cl). R = 1 is the plain rule: wait for every shadow ray. */
+#define ST_MAX_SHADOW_RING 8
+/* st_shadow.state */
+enum st_shadow_state { ST_SHADOW_EMPTY = 0, ST_SHADOW_PENDING = 1, ST_SHADOW_DONE = 2 };
 
 /* ---- enums: one definition each; the user-facing names are in the tables below ---- */
 
@@ -65,6 +72,17 @@ enum st_light_sampling { ST_LIGHT_SAMPLINGS(ST_X_LIGHT_SAMPLING_ENUM) ST_LIGHT_S
 #define ST_TRANSMITTANCES(X) X(RATIO, "ratio") X(RAY_MARCHING, "ray-marching")
 #define ST_X_TRANSMITTANCE_ENUM(E, name) ST_TRANSMITTANCE_##E,
 enum st_transmittance_mode { ST_TRANSMITTANCES(ST_X_TRANSMITTANCE_ENUM) ST_TRANSMITTANCE_COUNT };
+
+/* How a density lookup reads a VDB grid (kernels/medium.h): X(ENUM suffix, name).
+ *   trilinear:  the trilinear blend of the 8 voxels around the point;
+ *   stochastic: one of those 8 voxels, chosen with probability equal to its trilinear weight
+ *               (one random draw per lookup). Its expectation is the trilinear value, and every
+ *               estimator uses a lookup linearly in expectation with the majorant grid bounding
+ *               every voxel of the support, so images keep their expectation
+ *               (docs/stochastic-lookup.md): cheaper lookups for some added variance. */
+#define ST_LOOKUPS(X) X(TRILINEAR, "trilinear") X(STOCHASTIC, "stochastic")
+#define ST_X_LOOKUP_ENUM(E, name) ST_LOOKUP_##E,
+enum st_lookup_mode { ST_LOOKUPS(ST_X_LOOKUP_ENUM) ST_LOOKUP_COUNT };
 
 /* The trackers, as one table that the host (names, settings, feature mask) and the kernels
  * (tracking.h) read: X(ENUM suffix, CLI/scene name, colour channels traced per sample (one path
@@ -124,7 +142,8 @@ enum st_feature {
   ST_FEATURE_COARSE_MAJORANT = 1 << 8, /* two-level majorant grid (empty blocks skipped) */
   ST_FEATURE_COLOR = 1 << 9,          /* some medium has a per-voxel colour grid (st_color_mode) */
   ST_FEATURE_SPECTRAL_MIS = 1 << 10,  /* tracker spectral-mis (hero-channel sampling, MIS over channels) */
-  ST_FEATURES_ALL = (1 << 11) - 1
+  ST_FEATURE_STOCHASTIC_LOOKUP = 1 << 11, /* density lookups read one voxel chosen at random (st_lookup_mode) */
+  ST_FEATURES_ALL = (1 << 12) - 1
 };
 
 /* Queues of the wavefront. Each stage reads the current buffer of its queue and pushes into the
@@ -136,7 +155,7 @@ enum st_queue {
   ST_Q_ESCAPE = 2,  /* paths that left every medium (shade: environment and sun) */
   ST_Q_SCATTER = 3, /* paths at a real scattering event (NEE + phase sampling) */
   ST_Q_FINISH = 4,  /* finished paths (write the sample once its shadow rays are done) */
-  ST_Q_SHADOW = 5,  /* shadow rays (transmittance by ratio tracking); capacity slots * lights */
+  ST_Q_SHADOW = 5,  /* shadow rays (transmittance); capacity slots * NL (lights * shadow ring) */
   ST_Q_COUNT = 6,
   ST_Q_PATH_QUEUES = ST_Q_SHADOW /* queues of path slots */
 };
@@ -156,6 +175,7 @@ enum st_queue {
   X(DDA_STEPS, dda_steps, "dda_steps")                             \
   X(DDA_NONEMPTY, dda_nonempty, "dda_steps_nonempty")              \
   X(REQUEUES, requeues, "requeues")                                \
+  X(WAITS, waits, "waiting_requeues")                              \
   X(NONFINITE, nonfinite_samples, "nonfinite_samples")
 #define ST_X_COUNTER_ENUM(E, field, key) ST_C_##E,
 /* The counter buffer: queue sizes, finished paths per batch ring slot, the sums, the maximum. */
@@ -181,7 +201,7 @@ enum st_stage_arg {
   ST_ARG_COUNTERS,
   ST_ARG_RESULTS,
   ST_ARG_SLOTS,      /* Q: path slots */
-  ST_ARG_LIGHTS,     /* NL: shadow-ray slots per path */
+  ST_ARG_LIGHTS,     /* NL: shadow-ray entries per path slot (lights * shadow ring) */
   ST_ARG_ITERATION,  /* st_iteration */
   ST_ARG_COUNT
 };
@@ -263,6 +283,8 @@ typedef struct {
   st_int transmittance;         /* st_transmittance_mode */
   float march_spacing;          /* ray-marching: majorant optical depth between the samples of one estimate */
   float pilot_spacing;          /* ray-marching: the same for the pilot estimate (the expansion point) */
+  st_int lookup;                /* st_lookup_mode of density lookups */
+  st_int pad[3];
 } st_scene;
 
 /* Path state, one slot per path in flight. */
@@ -303,17 +325,19 @@ typedef struct {
   st_int pad[2];      /* pad[0]: ray marching, pass 0: the first non-empty segment was met; pad[1]: 0 */
 } st_trans;
 
-/* Shadow ray: slot * ST_MAX_LIGHTS + light. */
+/* Shadow-ray entry slot * NL + ring * n_lights + light, ring = bounce % R (NL = n_lights * R
+ * entries per path slot, R the shadow ring). The ring-0 entries' Ls also hold each light's
+ * accumulator: the finished entries' weight * T, added in bounce order (scatter.cl, finish.cl). */
 typedef struct {
   st_float4 o;        /* xyz origin; w: t reached */
   st_float4 d;        /* xyz unit direction */
   st_float4 weight;   /* contribution if the transmittance were 1 */
-  st_float4 Ls;       /* this light's contributions gathered over the path's bounces */
-  st_trans tr;        /* the transmittance estimate */
+  st_float4 Ls;       /* ring-0 entries: this light's contributions gathered over the path's bounces */
+  st_trans tr;        /* the transmittance estimate (done: its T) */
   st_uint rng_draw;
   st_uint stream;     /* random stream id (bounce, light) */
   st_uint slot;       /* owning path slot */
-  st_uint pad;
+  st_uint state;      /* st_shadow_state */
 } st_shadow;
 
 /* What changes from one iteration of the stage loop to the next (one by-value kernel argument). */
@@ -331,7 +355,7 @@ typedef struct {
 #define ST_SIZEOF_MEDIUM 208
 #define ST_SIZEOF_CAMERA 80
 #define ST_SIZEOF_LIGHT 80
-#define ST_SIZEOF_SCENE (ST_SIZEOF_CAMERA + ST_MAX_LIGHTS * ST_SIZEOF_LIGHT + ST_MAX_MEDIA * ST_SIZEOF_MEDIUM + 80)
+#define ST_SIZEOF_SCENE (ST_SIZEOF_CAMERA + ST_MAX_LIGHTS * ST_SIZEOF_LIGHT + ST_MAX_MEDIA * ST_SIZEOF_MEDIUM + 96)
 #define ST_SIZEOF_PATH 128
 #define ST_SIZEOF_TRANS 128
 #define ST_SIZEOF_SHADOW 208

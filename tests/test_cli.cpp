@@ -135,7 +135,7 @@ TEST_F(CliFlags, SppZeroAndNonNumberAreUsageErrors) {
 TEST_F(CliFlags, BadMajorantAndBatchFlagsAreUsageErrors) {
   const std::vector<std::pair<const char*, const char*>> bad = {
       {"--majorant-cell", "0"}, {"--majorant-cell", "x"}, {"--majorant-block", "-1"},
-      {"--batches-in-flight", "0"}, {"--batches-in-flight", "9"}};
+      {"--batches-in-flight", "0"}, {"--batches-in-flight", "9"}, {"--shadow-ring", "0"}, {"--shadow-ring", "9"}};
   for (auto& [flag, value] : bad) {
     SCOPED_TRACE(std::string(flag) + " " + value);
     Proc p = run({"render", scene, "-o", dir + "/out.exr", flag, value, "--quiet"});
@@ -856,6 +856,19 @@ TEST_F(CliFlags, TransmittanceFlagsAreCheckedAndRecorded) {
                  "--stats-json", dir + "/rm.json", "--quiet"});
   ASSERT_EQ(ok.code, 0) << ok.describe();
   EXPECT_EQ(json::parse(std::ifstream(dir + "/rm.json"))["transmittance"], "ray-marching");
+}
+
+TEST_F(CliFlags, LookupFlagIsCheckedAndRecorded) {
+  Proc p = run({"render", scene, "-o", dir + "/out.exr", "--lookup", "nearest", "--quiet"});
+  expect_error_exit(p, 2);
+  for (const char* s : {"nearest", "trilinear", "stochastic"}) EXPECT_THAT(p.out, HasSubstr(s)) << p.describe();
+  EXPECT_FALSE(fs::exists(dir + "/out.exr"));
+  Proc ok = run({"render", scene, "-o", dir + "/st.exr", "--lookup", "stochastic", "--stats-json", dir + "/st.json", "--quiet"});
+  ASSERT_EQ(ok.code, 0) << ok.describe();
+  EXPECT_EQ(json::parse(std::ifstream(dir + "/st.json"))["lookup"], "stochastic");
+  Proc def = run({"render", scene, "-o", dir + "/tri.exr", "--stats-json", dir + "/tri.json", "--quiet"});
+  ASSERT_EQ(def.code, 0) << def.describe();
+  EXPECT_EQ(json::parse(std::ifstream(dir + "/tri.json"))["lookup"], "trilinear");
 }
 
 TEST_F(CliFlags, SchemeWithATrackerThatIgnoresItIsAUsageError) {

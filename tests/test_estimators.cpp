@@ -260,6 +260,51 @@ TEST(Estimators, RayMarchingTransmittanceAgreesWithRatioTracking) {
   }
 }
 
+// Stochastic one-voxel lookups (docs/stochastic-lookup.md) render the same image as trilinear
+// ones: every tracker with stochastic lookups against trilinear per-channel delta tracking on the
+// chromatic, overlapping, emissive comparison scene, in both absorption modes, with non-bounding
+// majorants and minorants, with ray-marching transmittance and with a budget small enough that
+// paths resume between launches. Twin: a 3% error is seen.
+TEST(Estimators, StochasticLookupsAgreeWithTrilinear) {
+  std::string dir = temp_dir("stochastic_lookup");
+  json s = comparison_scene(dir, 1.0, 1.0);
+  RenderResult ref = render_with(s, dir, ST_TRACKER_DELTA_PER_CHANNEL, ST_SCHEME_HISTORY_AVERAGE, 100, ST_ABSORPTION_EVENT);
+  struct Case {
+    int tracker, absorption, transmittance, budget;
+    double majorant_scale, minorant_scale;
+  };
+  const int R = ST_TRANSMITTANCE_RATIO, M = ST_TRANSMITTANCE_RAY_MARCHING, E = ST_ABSORPTION_EVENT,
+            W = ST_ABSORPTION_WEIGHT;
+  const Case cases[] = {{ST_TRACKER_DELTA_PER_CHANNEL, E, R, 256, 1, 1},
+                        {ST_TRACKER_SPECTRAL, W, R, 256, 1, 1},
+                        {ST_TRACKER_DECOMPOSITION, W, R, 256, 1, 1},
+                        {ST_TRACKER_SPECTRAL_DECOMPOSITION, W, R, 256, 1, 1},
+                        {ST_TRACKER_SPECTRAL_DECOMPOSITION, E, R, 7, 1, 1},
+                        {ST_TRACKER_SPECTRAL_DECOMPOSITION, W, R, 256, 0.6, 1.4},
+                        {ST_TRACKER_SPECTRAL_DECOMPOSITION, W, M, 256, 1, 1},
+                        {ST_TRACKER_DELTA_PER_CHANNEL, E, M, 5, 1, 1},
+                        {ST_TRACKER_SPECTRAL_MIS, W, R, 256, 1, 1},
+                        {ST_TRACKER_SPECTRAL_MIS, E, R, 256, 0.6, 1.4}};
+  for (const Case& c : cases) {
+    RenderOptions o = quiet_options();
+    o.tracker = c.tracker;
+    o.absorption = c.absorption;
+    o.transmittance = c.transmittance;
+    o.iteration_budget = c.budget;
+    o.lookup = ST_LOOKUP_STOCHASTIC;
+    o.seed = 200;
+    RenderResult r = Renderer(scene_from_json(comparison_scene(dir, c.majorant_scale, c.minorant_scale), dir), o).render();
+    std::string what = std::string(tracker_name(c.tracker)) + ", absorption " + absorption_name(c.absorption) + ", " +
+                       transmittance_name(c.transmittance) + ", budget " + std::to_string(c.budget) +
+                       ", majorant scale " + std::to_string(c.majorant_scale);
+    EXPECT_EQ(r.lookup, ST_LOOKUP_STOCHASTIC) << what;
+    EXPECT_TRUE(r.features & ST_FEATURE_STOCHASTIC_LOOKUP) << what;
+    EXPECT_EQ(r.stats.nonfinite_samples, 0u) << what;
+    EXPECT_LT(max_z(r, ref), 4.0) << what;
+    if (&c == &cases[3]) EXPECT_GT(max_z(r, ref, 1.03), 4.0) << "the comparison must detect a 3% error, " << what;
+  }
+}
+
 // The choice probabilities the kernels get: 1 each with "all" and for a single light (whose image
 // then does not depend on the mode), 1/n with "uniform", power / total with "power" (a directional
 // light's mean irradiance against 4 pi times an environment's mean radiance).

@@ -6,7 +6,9 @@
 //   - absorbing slab, white furnace, emissive furnace;
 //   - device lookups against host OpenVDB, majorant/minorant bounds against device lookups;
 //   - a constant VDB against the homogeneous box it fills;
-//   - bit-identical renders for one seed, whatever the number of paths in flight.
+//   - bit-identical renders for one seed, whatever the number of paths in flight;
+//   - stochastic one-voxel lookups (docs/stochastic-lookup.md): the free-path KS test, ratio
+//     tracking, the furnaces and the constant VDB again, with the same analytic answers.
 #include <openvdb/tools/Interpolation.h>
 
 #include <algorithm>
@@ -95,6 +97,20 @@ class ProfileVolume : public ::testing::Test {
     double crit = 1.95 / std::sqrt(double(u.size()));  // KS at alpha = 0.001
     EXPECT_LT(D, crit) << "KS statistic of the free-path distribution (" << u.size() << " collisions)";
   }
+  // Transmittance through the whole profile by the renderer's estimator, per channel (sigma_t 0.4,
+  // 1, 2.5), against the closed form; the twin: a 3% error is seen on channel 0.
+  void check_transmittance(Renderer& r) {
+    auto res = Probe(r).transmittance({-1.0f, 3.5f / 16.0f, 3.5f / 16.0f}, {1, 0, 0}, 20000);
+    double sig[3] = {0.4, 1.0, 2.5};
+    for (int c = 0; c < 3; ++c) {
+      std::vector<double> v;
+      for (auto& x : res) v.push_back(x[c]);
+      Stats s = mean_se(v);
+      double T = std::exp(-profile_tau(5.0, sig[c]));
+      EXPECT_NEAR(s.mean, T, 4.0 * s.se + 1e-7) << "channel " << c;
+      if (c == 0) EXPECT_GT(std::abs(s.mean - 1.03 * T), 4.0 * s.se) << "a 3% error must be detectable";
+    }
+  }
 };
 
 TEST_F(ProfileVolume, DeltaTrackingDistancesFollowOpticalDepth) {
@@ -121,15 +137,7 @@ TEST_F(ProfileVolume, WrongOpticalDepthIsDetected) {
 
 TEST_F(ProfileVolume, RatioTrackingTransmittanceMatchesOpticalDepth) {
   Renderer r(scene_from_json(scene("delta-per-channel", {0.4, 1.0, 2.5}), dir), quiet_options());
-  auto res = Probe(r).transmittance({-1.0f, 3.5f / 16.0f, 3.5f / 16.0f}, {1, 0, 0}, 20000);
-  double sig[3] = {0.4, 1.0, 2.5};
-  for (int c = 0; c < 3; ++c) {
-    std::vector<double> v;
-    for (auto& x : res) v.push_back(x[c]);
-    Stats s = mean_se(v);
-    double T = std::exp(-profile_tau(5.0, sig[c]));
-    EXPECT_NEAR(s.mean, T, 4.0 * s.se + 1e-7) << "channel " << c;
-  }
+  check_transmittance(r);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -237,6 +245,44 @@ TEST(Render, EmissiveFurnace) {
         Stats s = mean_se(channel(res, ch));
         EXPECT_GT(std::abs(s.mean - 1.03 * c[ch]), 4.0 * s.se) << m.name() << ": a 3% error must be detectable, channel " << ch;
       }
+  }
+}
+
+// Stochastic one-voxel lookups: each tentative collision reads one voxel of the trilinear support,
+// chosen with its trilinear weight, so its acceptance probability has the trilinear density as its
+// expectation: the free-path distribution and the transmittance are those of the trilinear
+// density, to the same KS and 4-SE checks.
+TEST_F(ProfileVolume, StochasticLookupsKeepFreePathsAndTransmittance) {
+  json s = scene("delta", {1.0, 1.0, 1.0});
+  s["render"]["lookup"] = "stochastic";
+  Renderer r(scene_from_json(s, dir), quiet_options());
+  check_distances(r, -1, 1.0);
+  json t = scene("delta-per-channel", {0.4, 1.0, 2.5});
+  t["render"]["lookup"] = "stochastic";
+  Renderer q(scene_from_json(t, dir), quiet_options());
+  check_distances(q, 2, 2.5);
+  check_transmittance(q);
+}
+
+// The furnaces with stochastic lookups: the analog baseline, spectral tracking and spectral MIS.
+TEST(Render, FurnacesWithStochasticLookups) {
+  std::string dir = temp_dir("furnace_stochastic");
+  const double one[3] = {1, 1, 1}, c[3] = {0.3, 0.6, 0.9};
+  const TrackerMode modes[] = {{"delta-per-channel", ST_ABSORPTION_EVENT},
+                               {"spectral-decomposition", ST_ABSORPTION_WEIGHT},
+                               {"spectral-mis", ST_ABSORPTION_WEIGHT}};
+  for (const TrackerMode& m : modes) {
+    RenderOptions o = mode_options(m);
+    o.lookup = ST_LOOKUP_STOCHASTIC;
+    RenderResult white = Renderer(scene_from_json(furnace_scene(m.tracker, dir, false), dir), o).render();
+    EXPECT_EQ(white.stats.nonfinite_samples, 0u);
+    EXPECT_GT(white.stats.scatter_events, 1000u);
+    expect_channels(white, one, "white furnace, stochastic lookups, " + m.name());
+    if (m.tracker == "spectral-mis") o.spp = 192;  // as in EmissiveFurnace
+    RenderResult hot = Renderer(scene_from_json(furnace_scene(m.tracker, dir, true), dir), o).render();
+    EXPECT_EQ(hot.stats.nonfinite_samples, 0u);
+    EXPECT_GT(hot.stats.lookups_track, 1000u);
+    expect_channels(hot, c, "emissive furnace, stochastic lookups, " + m.name());
   }
 }
 
@@ -368,10 +414,16 @@ TEST(Render, ConstantVdbEqualsHomogeneousBox) {
   json box = {{"type", "homogeneous"}, {"bounds", {{-xy, -xy, z0}, {xy, xy, z1}}}};
   RenderResult a = Renderer(scene_from_json(scene_with(vdb), dir), quiet_options()).render();
   RenderResult b = Renderer(scene_from_json(scene_with(box), dir), quiet_options()).render();
+  // stochastic lookups: inside, every voxel is 1; at the faces a voxel of 0 or 1 is read with the
+  // ramp's weights, whose expectation is the same half voxel
+  RenderOptions so = quiet_options();
+  so.lookup = ST_LOOKUP_STOCHASTIC;
+  RenderResult st = Renderer(scene_from_json(scene_with(vdb), dir), so).render();
   double sig[3] = {0.3, 0.8, 1.6}, Le[3] = {1.0, 0.7, 0.2}, env[3] = {0.2, 0.5, 1.0};
   for (int c = 0; c < 3; ++c) {
-    Stats sa = mean_se(channel(a, c)), sb = mean_se(channel(b, c));
+    Stats sa = mean_se(channel(a, c)), sb = mean_se(channel(b, c)), ss = mean_se(channel(st, c));
     EXPECT_NEAR(sa.mean, sb.mean, 4.0 * std::hypot(sa.se, sb.se) + 1e-6) << "channel " << c;
+    EXPECT_NEAR(ss.mean, sb.mean, 4.0 * std::hypot(ss.se, sb.se) + 1e-6) << "stochastic lookups, channel " << c;
     double T = std::exp(-sig[c] * (z1 - z0));
     EXPECT_NEAR(sb.mean, Le[c] * (1 - T) + T * env[c], 4.0 * sb.se + 1e-6) << "analytic, channel " << c;
   }
@@ -529,6 +581,42 @@ TEST(Render, SameSeedIsBitIdenticalWhateverTheSchedule) {
   o3.seed = 99;
   RenderResult d = Renderer(scene_from_json(s, dir), o3).render();
   EXPECT_FALSE(a.rgb == d.rgb) << "another seed must give another image";
+}
+
+// The shadow-ray ring (RenderOptions::shadow_ring, queues.h): a path scatters again while the
+// shadow rays of its last R - 1 bounces run, and each light's accumulator adds them in bounce
+// order, so the image does not depend on when they finish nor on R. Two lights, and a budget of 2
+// steps per launch, so that shadow rays of several bounces of one path are in flight at once and
+// paths wait for a ring entry; rings 1, 2 and 3 under three schedules (paths in flight) give the
+// same image bit for bit, and a deeper ring waits less.
+TEST(Render, ShadowRaysOfSeveralBouncesInFlightKeepTheImageBitIdentical) {
+  std::string dir = temp_dir("shadow_ring");
+  json s = furnace_scene("spectral", dir, true);
+  s["film"]["spp"] = 4;
+  s["lights"].push_back({{"type", "directional"}, {"to_light", {-1, 1, -0.5}}, {"irradiance", {3, 2.5, 2}}, {"angle_deg", 5}});
+  auto render = [&](int ring, int slots) {
+    RenderOptions o = quiet_options();
+    o.iteration_budget = 2;
+    o.path_slots = slots;
+    o.shadow_ring = ring;
+    return Renderer(scene_from_json(s, dir), o).render();
+  };
+  RenderResult a = render(1, 0);
+  EXPECT_GT(a.stats.waits, 0u) << "no path ever waited: the test does not reach that code";
+  EXPECT_EQ(a.stats.nonfinite_samples, 0u);
+  for (int ring : {1, 2, 3})
+    for (int slots : {0, 777, 61}) {
+      if (ring == 1 && slots == 0) continue;
+      RenderResult b = render(ring, slots);
+      EXPECT_TRUE(a.rgb == b.rgb) << "the image depends on the shadow ring (" << ring << ") or the schedule (" << slots
+                                  << " paths in flight)";
+      if (slots == 0) EXPECT_LT(b.stats.waits, a.stats.waits) << "ring " << ring << " waits as often as ring 1";
+    }
+  // and it is the image: the same scene at the full budget agrees within 4 SE
+  RenderOptions o = quiet_options();
+  o.seed = 5;
+  RenderResult ref = Renderer(scene_from_json(s, dir), o).render();
+  EXPECT_LT(max_z(a, ref), 4.0);
 }
 
 TEST(Render, StatisticsCountPathsAndLookups) {

@@ -551,7 +551,7 @@ TEST_F(SceneTest, UnknownFieldInSections) {
   EXPECT_SCENE_ERROR(j, "/film/samples", "unknown field");
   j = example();
   j["render"]["scheme"] = "max";
-  EXPECT_SCENE_ERROR(j, "/render/scheme", "unknown field (expected one of: tracker, spectral_scheme, absorption, light_sampling, transmittance, max_depth, seed, time_limit)");
+  EXPECT_SCENE_ERROR(j, "/render/scheme", "unknown field (expected one of: tracker, spectral_scheme, absorption, light_sampling, transmittance, lookup, max_depth, seed, time_limit)");
 }
 
 TEST_F(SceneTest, UnknownFieldInArrays) {
@@ -726,6 +726,13 @@ TEST_F(SceneTest, UnknownTypeNames) {
   j["render"]["light_sampling"] = "power";
   EXPECT_EQ(parse(j).render.light_sampling, ST_LIGHT_SAMPLING_POWER);
   EXPECT_EQ(parse(example()).render.light_sampling, -1) << "not given: the default (settings.h)";
+  j = example();
+  j["render"]["lookup"] = "nearest";
+  EXPECT_SCENE_ERROR(j, "/render/lookup",
+                     "unknown density lookup mode \"nearest\" (expected one of: trilinear, stochastic)");
+  j["render"]["lookup"] = "stochastic";
+  EXPECT_EQ(parse(j).render.lookup, ST_LOOKUP_STOCHASTIC);
+  EXPECT_EQ(parse(example()).render.lookup, -1) << "not given: the default (settings.h)";
   j = example();
   j["camera"]["type"] = "fisheye";
   EXPECT_SCENE_ERROR(j, "/camera/type", "unknown camera type \"fisheye\"");

@@ -213,6 +213,7 @@ TEST(CliMerge, RefusesInputsOfDifferentRendersOverlapsAndGaps) {
   std::string other_seed = piece("seed.exr", {"--spp-range", "2:4", "--seed", "99"});
   std::string other_tracker = dir + "/tracker.exr";
   render_ok({scene, "--tracker", "delta-per-channel", "--spp-range", "2:4", "-o", other_tracker});
+  std::string other_lookup = piece("lookup.exr", {"--spp-range", "2:4", "--lookup", "stochastic"});
   std::string other_scene = piece("scene2.exr", {"--spp-range", "2:4"},
                                   shard_scene(dir, "scene2.json", [](json& s) { s["media"][0]["sigma_a"][0] = 0.06; }));
   std::string other_res = piece("res.exr", {"--spp-range", "2:4"},
@@ -230,6 +231,7 @@ TEST(CliMerge, RefusesInputsOfDifferentRendersOverlapsAndGaps) {
 
   expect_merge_refused(dir, {a, other_seed}, {"seed", "a.exr", "seed.exr"});
   expect_merge_refused(dir, {a, other_tracker}, {"tracker", "delta-per-channel"});
+  expect_merge_refused(dir, {a, other_lookup}, {"density lookup mode", "trilinear", "stochastic"});
   expect_merge_refused(dir, {a, other_scene}, {"scene", "scene2.exr"});
   expect_merge_refused(dir, {a, other_res}, {"resolution", "24x16", "26x16"});
   expect_merge_refused(dir, {a, b, ab}, {"overlap", "ab.exr", "samples 1:2"});

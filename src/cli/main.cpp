@@ -94,7 +94,7 @@ int cmd_devices() {
 
 struct RenderArgs {
   std::string scene, output, stats_json, preview, device, tracker, scheme, absorption, light_sampling, transmittance,
-      spp_range, pixel_bounds, frames;
+      lookup, spp_range, pixel_bounds, frames;
   double march_spacing = 0, pilot_spacing = 0;  // 0: not given
   int spp = -1;
   int64_t seed = -1;
@@ -104,6 +104,7 @@ struct RenderArgs {
   int majorant_cell = RenderOptions().majorant_cell;
   int majorant_block = RenderOptions().majorant_block;
   int batches_in_flight = 0;
+  int shadow_ring = 0;
   uint32_t feature_floor = 0;  // RenderOptions::feature_floor (frame sequences)
   double time_limit = 0;
   bool generic_kernels = false;
@@ -198,6 +199,7 @@ void write_stats_json(const std::string& path, const MultiDeviceResult& r, doubl
   j["absorption"] = absorption_name(r.absorption);
   j["light_sampling"] = light_sampling_name(r.light_sampling);
   j["transmittance"] = transmittance_name(r.transmittance);
+  j["lookup"] = lookup_name(r.lookup);
   j["device"] = join(r.devices, ", ");
   j["devices"] = r.devices;
   j["samples_per_device"] = r.samples_per_device;
@@ -242,6 +244,7 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
   opt.majorant_block = a.majorant_block;
   opt.generic_kernels = a.generic_kernels;
   opt.batches_in_flight = a.batches_in_flight;
+  opt.shadow_ring = a.shadow_ring;
   opt.feature_floor = a.feature_floor;
   if (!a.tracker.empty()) {
     opt.tracker = tracker_from_name(a.tracker);
@@ -262,6 +265,11 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
     if (*opt.transmittance < 0)
       throw Error(fmt::format("--transmittance {}: unknown transmittance estimator (one of: {})", a.transmittance,
                               transmittance_names()));
+  }
+  if (!a.lookup.empty()) {
+    opt.lookup = lookup_from_name(a.lookup);
+    if (*opt.lookup < 0)
+      throw Error(fmt::format("--lookup {}: unknown density lookup mode (one of: {})", a.lookup, lookup_names()));
   }
   if (a.march_spacing > 0) opt.march_spacing = a.march_spacing;
   if (a.pilot_spacing > 0) opt.pilot_spacing = a.pilot_spacing;
@@ -306,9 +314,7 @@ MultiDeviceResult render_share(const SceneDesc& scene, const RenderOptions& opt,
     r = render_multi_device(scene, opt, set, devices, my_begin, int(my_end - my_begin), chunk_spp);
   } else {
     r.piece = empty_piece(render_identity(set), set.window, "render");
-    r.tracker = set.tracker, r.scheme = set.scheme, r.absorption = set.absorption, r.seed = set.seed;
-    r.light_sampling = set.light_sampling;
-    r.transmittance = set.transmittance;
+    r.record_settings(set);
   }
   r.spp_requested = set.spp;
   r.piece.interrupted = r.piece.interrupted || r.piece.samples() < my_end - my_begin;
@@ -538,6 +544,11 @@ CLI::App* add_render_command(CLI::App& app, RenderArgs& ra) {
                      "transmittance estimator of shadow rays (overrides render.transmittance): ratio ((residual) ratio "
                      "tracking) or ray-marching (the unbiased ray-marching estimator of Kettunen et al. 2021)")
       ->check(one_of("transmittance", transmittance_name_list()));
+  render->add_option("--lookup", ra.lookup,
+                     "how density lookups read a VDB grid (overrides render.lookup): trilinear (the blend of the 8 "
+                     "voxels around the point; default) or stochastic (one of them, chosen with its trilinear weight: "
+                     "the same expectation, cheaper lookups, more noise)")
+      ->check(one_of("lookup", lookup_name_list()));
   render->add_option("--march-spacing", ra.march_spacing,
                      "ray-marching transmittance: majorant optical depth between the samples of one estimate (default 1)")
       ->check(finite_range(1e-3, 1e3));
@@ -564,6 +575,11 @@ CLI::App* add_render_command(CLI::App& app, RenderArgs& ra) {
   render->add_option("--batches-in-flight", ra.batches_in_flight,
                      "batches of samples in flight, 1-" + std::to_string(ST_MAX_BATCHES_IN_FLIGHT) + " (default: the maximum)")
       ->check(CLI::Range(1, ST_MAX_BATCHES_IN_FLIGHT));
+  render->add_option("--shadow-ring", ra.shadow_ring,
+                     "shadow-ray entries per path and light, 1-" + std::to_string(ST_MAX_SHADOW_RING) +
+                         ": a path scatters again while the shadow rays of its last N-1 bounces run (default 2; "
+                         "the image is the same)")
+      ->check(CLI::Range(1, ST_MAX_SHADOW_RING));
   render->add_option("--time-limit", ra.time_limit,
                      "stop cleanly after this many seconds from the start (the finished samples are written, "
                      "exit 0; overrides render.time_limit)")

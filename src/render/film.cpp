@@ -92,7 +92,7 @@ std::string scene_hash(const SceneDesc& scene) {
       j["film"].erase("spp");
     }
     if (j.contains("render") && j["render"].is_object())
-      for (const char* k : {"seed", "tracker", "spectral_scheme", "absorption", "light_sampling", "transmittance"})
+      for (const char* k : {"seed", "tracker", "spectral_scheme", "absorption", "light_sampling", "transmittance", "lookup"})
         j["render"].erase(k);
     // file names stand for their contents, hashed below: a scene whose assets moved is the same scene
     for (const char* list : {"media", "lights"})
@@ -120,6 +120,7 @@ RenderIdentity render_identity(const RenderSettings& s) {
   id.absorption = absorption_name(s.absorption);
   id.light_sampling = light_sampling_name(s.light_sampling);
   id.transmittance = transmittance_name(s.transmittance);
+  id.lookup = lookup_name(s.lookup);
   id.version = SPECTRACK_VERSION;
   return id;
 }
@@ -180,6 +181,7 @@ void check_one_render(const std::vector<FilmPiece>& pieces) {
       differ("the light sampling", a.id.light_sampling, p.id.light_sampling);
     if (p.id.transmittance != a.id.transmittance)
       differ("the transmittance estimator", a.id.transmittance, p.id.transmittance);
+    if (p.id.lookup != a.id.lookup) differ("the density lookup mode", a.id.lookup, p.id.lookup);
     if (p.id.version != a.id.version) differ("the spectrack version", a.id.version, p.id.version);
     if (p.id.scene_hash != a.id.scene_hash) differ("the scene (spectrack:scene_hash)", a.id.scene_hash, p.id.scene_hash);
     if (p.width <= 0 || p.height <= 0 || p.x0 < 0 || p.y0 < 0 || p.x0 + p.width > p.id.full_width ||
@@ -286,6 +288,7 @@ Metadata piece_metadata(const FilmPiece& p) {
   m["absorption"] = p.id.absorption;
   m["light_sampling"] = p.id.light_sampling;
   m["transmittance"] = p.id.transmittance;
+  m["lookup"] = p.id.lookup;
   m["version"] = p.id.version;
   m["scene_hash"] = p.id.scene_hash;
   m["pixel_bounds"] = fmt::format("{},{},{},{}", p.x0, p.x0 + p.width, p.y0, p.y0 + p.height);
@@ -329,6 +332,7 @@ FilmPiece read_piece(const std::string& path, Metadata* meta) {
   if (img.meta.count("absorption")) p.id.absorption = str("absorption");
   if (img.meta.count("light_sampling")) p.id.light_sampling = str("light_sampling");
   if (img.meta.count("transmittance")) p.id.transmittance = str("transmittance");
+  if (img.meta.count("lookup")) p.id.lookup = str("lookup");
   p.id.version = str("version");
   try {
     p.id.seed = std::stoll(str("seed"));

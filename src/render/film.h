@@ -41,11 +41,12 @@ struct RenderIdentity {
   std::string absorption = "event";  // st_absorption name (pieces written before the option: event)
   std::string light_sampling = "all";  // st_light_sampling name (pieces written before the option: all)
   std::string transmittance = "ratio";  // st_transmittance_mode name (pieces written before the option: ratio)
+  std::string lookup = "trilinear";  // st_lookup_mode name (pieces written before the option: trilinear)
 };
 
 // A SHA-1 of the scene as it shapes the image: the scene file's JSON (keys sorted, whitespace
 // dropped; without film.output, film.spp, the render fields that are recorded on their own:
-// seed, tracker, spectral_scheme, absorption, light_sampling, transmittance, and the names of referenced files) and the contents of every
+// seed, tracker, spectral_scheme, absorption, light_sampling, transmittance, lookup, and the names of referenced files) and the contents of every
 // file it references (VDB files, environment maps), so a scene moved to another folder or
 // machine keeps its hash.
 std::string scene_hash(const SceneDesc& scene);

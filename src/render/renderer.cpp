@@ -38,7 +38,8 @@ static_assert(sizeof(kStages) / sizeof(kStages[0]) == ST_Q_COUNT, "one stage per
 // How one render's paths are cut into batches of whole samples per pixel.
 struct BatchPlan {
   uint64_t Q = 0;            // path slots
-  uint64_t NL = 0;           // shadow-ray slots per path (one per light)
+  uint64_t shadow_ring = 1;  // shadow-ray entries per (path slot, light), types.h
+  uint64_t NL = 0;           // shadow-ray entries per path slot (lights * shadow_ring)
   uint64_t npix = 0, nch = 0;  // window pixels, paths per (pixel, sample)
   uint64_t spp = 0, total_paths = 0;
   uint64_t samples_per_batch = 0, batch_paths = 0, n_batches = 0;
@@ -167,7 +168,13 @@ void Renderer::Impl::warm_kernels() {
 
 BatchPlan Renderer::Impl::plan_batches(int spp) const {
   BatchPlan p;
-  p.NL = uint64_t(ds.packed.st.n_lights);
+  // the shadow ring (types.h): 2 by default, which removes most waiting where shadow rays take
+  // several launches and costs nothing measurable where they do not (bench/RESULTS.md, "No
+  // waiting paths")
+  p.shadow_ring = opt.shadow_ring > 0 ? uint64_t(opt.shadow_ring) : uint64_t(kDefaultShadowRing);
+  if (p.shadow_ring > ST_MAX_SHADOW_RING)
+    throw Error(fmt::format("shadow ring {} is above the maximum of {}", p.shadow_ring, ST_MAX_SHADOW_RING));
+  p.NL = uint64_t(ds.packed.st.n_lights) * p.shadow_ring;
   p.npix = settings.window.pixels();
   p.nch = uint64_t(settings.channels_per_sample);
   p.spp = uint64_t(spp);
@@ -212,6 +219,11 @@ RenderBuffers Renderer::Impl::allocate(const BatchPlan& p) {
   RenderBuffers b;
   b.paths = ds.buffer(CL_MEM_READ_WRITE, p.Q * sizeof(st_path), nullptr, "path states");
   b.shadows = ds.buffer(CL_MEM_READ_WRITE, p.Q * p.NL * sizeof(st_shadow), nullptr, "shadow rays");
+  // every entry starts empty (st_shadow.state 0); a path leaves its entries empty when it finishes
+  if (p.Q * p.NL > 0)
+    ST_CL_CHECK(ds.queue.enqueueFillBuffer(b.shadows, cl_uint(ST_SHADOW_EMPTY), 0, p.Q * p.NL * sizeof(st_shadow)),
+                "clear the shadow-ray entries");
+  ST_CL_CHECK(ds.queue.finish(), "allocate render buffers");  // set-up, not seconds_render
   // two parities of: the path-slot queues (Q each), then the shadow queue (Q * NL)
   const uint64_t per_parity = ST_Q_PATH_QUEUES * p.Q + p.Q * p.NL;
   std::vector<uint32_t> init_queue(2 * per_parity, 0u);

@@ -414,6 +414,7 @@ uint32_t Packer::scene_features() const {
   }
   if (st_tracker_decomposes(st.tracker)) f |= ST_FEATURE_DECOMPOSITION;
   if (st.tracker == ST_TRACKER_SPECTRAL_MIS) f |= ST_FEATURE_SPECTRAL_MIS;
+  if (st.lookup == ST_LOOKUP_STOCHASTIC && (f & ST_FEATURE_VDB)) f |= ST_FEATURE_STOCHASTIC_LOOKUP;
   return f;
 }
 
@@ -440,6 +441,7 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
   st.transmittance = s.transmittance;
   st.march_spacing = float(s.march_spacing);
   st.pilot_spacing = float(s.pilot_spacing);
+  st.lookup = s.lookup;
   st.max_depth = scene.render.max_depth;
   st.seed = s.seed;
   st.n_channels_per_sample = s.channels_per_sample;

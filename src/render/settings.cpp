@@ -46,6 +46,8 @@ RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) 
                                                                            : kDefaultTransmittance);
   if (s.transmittance < 0 || s.transmittance >= ST_TRANSMITTANCE_COUNT)
     throw Error(fmt::format("transmittance estimator {} does not exist", s.transmittance));
+  s.lookup = o.lookup.value_or(scene.render.lookup >= 0 ? scene.render.lookup : kDefaultLookup);
+  if (s.lookup < 0 || s.lookup >= ST_LOOKUP_COUNT) throw Error(fmt::format("density lookup mode {} does not exist", s.lookup));
   s.march_spacing = o.march_spacing.value_or(kDefaultMarchSpacing);
   s.pilot_spacing = o.pilot_spacing.value_or(kDefaultPilotSpacing);
   // below 1e-3 a sample per thousandth of an optical depth; above 1e3 one sample per ray

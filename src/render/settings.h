@@ -28,6 +28,11 @@ constexpr int kDefaultLightSampling = ST_LIGHT_SAMPLING_ALL;
 constexpr int kDefaultTransmittance = ST_TRANSMITTANCE_RATIO;
 constexpr double kDefaultMarchSpacing = 1.0;
 constexpr double kDefaultPilotSpacing = 2.0;
+// Density lookups when neither the command line nor the scene chooses (bench/RESULTS.md,
+// "Stochastic one-voxel lookups": on PoCL the variance it adds outweighs the time it saves).
+constexpr int kDefaultLookup = ST_LOOKUP_TRILINEAR;
+// Shadow-ray entries per (path, light) (types.h; bench/RESULTS.md, "No waiting paths").
+constexpr int kDefaultShadowRing = 2;
 
 struct RenderOptions {
   std::optional<int> spp;               // samples per pixel (else film.spp)
@@ -42,6 +47,7 @@ struct RenderOptions {
   std::optional<int> transmittance;     // st_transmittance_mode, else render.transmittance, else kDefaultTransmittance
   std::optional<double> march_spacing;  // ray marching: majorant optical depth between samples (kDefaultMarchSpacing)
   std::optional<double> pilot_spacing;  // ray marching: the same for the pilot (kDefaultPilotSpacing)
+  std::optional<int> lookup;            // st_lookup_mode, else render.lookup, else kDefaultLookup
   std::string device;                   // "P:D", name substring, or "" (SPECTRACK_DEVICE, then default)
   int path_slots = 0;                   // paths in flight; 0 = by device type
   int iteration_budget = 256;           // tentative collisions + DDA steps per item and launch
@@ -49,6 +55,7 @@ struct RenderOptions {
   int majorant_block = 4;               // fine cells per coarse-block edge of a two-level majorant grid; 0 or 1 = one level
   bool generic_kernels = false;         // the generic kernel (every feature) instead of one specialised to the scene
   int batches_in_flight = 0;            // batch result buffers in the ring (0: ST_MAX_BATCHES_IN_FLIGHT; 2: the old scheme)
+  int shadow_ring = 0;                  // shadow-ray entries per (path, light), 1..ST_MAX_SHADOW_RING (types.h); 0: kDefaultShadowRing
   // st_feature bits compiled in whatever the scene needs (a kernel with more features renders the
   // same image): a frame sequence asks for the bits that depend on a frame's grid data, so every
   // frame uses the one kernel build
@@ -78,6 +85,7 @@ struct RenderSettings {
   int light_sampling = 0;       // st_light_sampling
   int transmittance = 0;        // st_transmittance_mode
   double march_spacing = kDefaultMarchSpacing, pilot_spacing = kDefaultPilotSpacing;  // ray marching
+  int lookup = 0;               // st_lookup_mode
   uint32_t seed = 0;
   int spp = 0;                  // samples per pixel to render
   int64_t sample_begin = 0;     // samples sample_begin .. sample_begin + spp - 1
@@ -93,6 +101,7 @@ struct RenderChoices {
   int absorption = 0;           // st_absorption
   int light_sampling = 0;       // st_light_sampling
   int transmittance = 0;        // st_transmittance_mode
+  int lookup = 0;               // st_lookup_mode
   uint32_t seed = 0;
 
   void record_settings(const RenderSettings& s) {
@@ -101,6 +110,7 @@ struct RenderChoices {
     absorption = s.absorption;
     light_sampling = s.light_sampling;
     transmittance = s.transmittance;
+    lookup = s.lookup;
     seed = s.seed;
   }
 };

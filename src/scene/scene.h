@@ -102,6 +102,7 @@ struct RenderDesc {
   int absorption = -1;      // st_absorption; -1: the tracker's default (ST_TRACKERS)
   int light_sampling = -1;  // st_light_sampling; -1: the default (kDefaultLightSampling, settings.h)
   int transmittance = -1;   // st_transmittance_mode; -1: the default (kDefaultTransmittance, settings.h)
+  int lookup = -1;          // st_lookup_mode; -1: the default (kDefaultLookup, settings.h)
   int max_depth = -1;
   uint32_t seed = 0;
   double time_limit = 0;  // seconds from the start of the command after which the render stops cleanly; 0: none
@@ -152,5 +153,10 @@ const char* transmittance_name(int mode);
 int transmittance_from_name(const std::string& name);  // -1 when unknown
 std::string transmittance_names();
 std::vector<std::string> transmittance_name_list();
+// Names of the density lookup modes (st_lookup_mode): "trilinear", "stochastic".
+const char* lookup_name(int mode);
+int lookup_from_name(const std::string& name);  // -1 when unknown
+std::string lookup_names();
+std::vector<std::string> lookup_name_list();
 
 }  // namespace spectrack
