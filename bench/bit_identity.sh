@@ -21,6 +21,12 @@ done
 for sch in max average history-max; do run cloud_s_$sch data/scenes/cloud.json --tracker spectral --scheme $sch --spp 2 --pixel-bounds 176,208,112,144; done
 run smoke_delta bench/scenes/smoke_thin.json --tracker delta --spp 1 --pixel-bounds 36,60,52,76
 run cloud_shard data/scenes/cloud.json --spp-range 3:5 --pixel-bounds 180,200,120,140
+# shadow rays: the other estimators, one light per scatter, and a tiny budget (shadow rays of
+# several bounces of a path in flight at once)
+run cloud_mis data/scenes/cloud.json --tracker spectral-mis --spp 2 --pixel-bounds 176,208,112,144
+run cloud_rm data/scenes/cloud.json --transmittance ray-marching --spp 2 --pixel-bounds 176,208,112,144
+run dense_uniform bench/scenes/dense_chromatic.json --light-sampling uniform --spp 1 --pixel-bounds 20,44,20,44
+run cloud_budget3 data/scenes/cloud.json --budget 3 --spp 2 --pixel-bounds 176,208,112,144
 # control: a different seed must differ
 $NEW render data/scenes/cloud.json --spp 1 --pixel-bounds 180,200,120,140 -o $out/c1.exr --quiet; $NEW render data/scenes/cloud.json --spp 1 --seed 9 --pixel-bounds 180,200,120,140 -o $out/c2.exr --quiet
 cmp -s <(oiiotool --dumpdata $out/c1.exr | tail -n +2) <(oiiotool --dumpdata $out/c2.exr | tail -n +2) && { echo "CONTROL FAILED: comparison is blind"; fail=1; } || echo "control ok: seeds differ"

@@ -9,7 +9,7 @@
 // work-group functions of each kernel at first launch). Run it once with an empty
 // SPECTRACK_KERNEL_CACHE_DIR (and POCL_KERNEL_CACHE=0) for the cold figure and again for the warm
 // one. (2) Density lookups/s: N points uniform in the world box of the active voxels, one
-// trilinear NanoVDB lookup each (k_probe_density), and the same lookups on the host with NanoVDB's
+// trilinear NanoVDB lookup each (k_probe_density; and one stochastic one-voxel lookup each), and the same lookups on the host with NanoVDB's
 // ReadAccessor on 1 and 2 threads (the ratio the kernels are judged by). (3) DDA cell steps/s: free-path sampling along
 // the camera's central ray through a copy of the medium with density_scale 1e-9, so T_maj is ~1
 // everywhere and the walk is nothing but majorant-grid cell steps. (4) Tracked free paths/s per
@@ -165,6 +165,23 @@ int main(int argc, char** argv) {
     });
     j["density"] = {{"points", n_points}, {"seconds", t_density}, {"lookups_per_second", double(n_points) / t_density},
                     {"mean_density", sum / double(n_points)}};
+    // The same points with stochastic one-voxel lookups (--lookup stochastic, issue 18 item 7): one
+    // accessor walk and one read instead of eight, and one random draw; the mean density agrees
+    // with the trilinear one within its noise.
+    {
+      RenderOptions so = opt;
+      so.lookup = ST_LOOKUP_STOCHASTIC;
+      Renderer rs(scene, so);
+      Probe ps(rs);
+      double ssum = 0;
+      const double t_sto = best_time([&] {
+        auto d = ps.density(medium, pts);
+        ssum = 0;
+        for (float x : d) ssum += x;
+      });
+      j["density"]["stochastic"] = {{"seconds", t_sto}, {"lookups_per_second", double(n_points) / t_sto},
+                                    {"mean_density", ssum / double(n_points)}};
+    }
     // The same trilinear lookups on the host with NanoVDB's ReadAccessor (one per thread), on 1
     // and 2 threads: the figure the kernels' PNanoVDB lookups are compared with (issue 18 item 4).
     // The device figure includes the points' upload and the read-back; the host one does not.

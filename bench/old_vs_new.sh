@@ -2,7 +2,8 @@
 # bench/old_vs_new.sh: paths/s of two spectrack binaries, interleaved (A B A B ...), both kernel
 # caches warmed first (a 1-spp render each). OLD=... NEW=... [SCENES="a.json b.json"] [SPP=4]
 # [ROUNDS=3] [OUTDIR=...]. Prints per render: scene round binary paths_per_second seconds_render
-# cpu_seconds (user + sys of the process, /usr/bin/time) paths; the stats JSON of each render is
+# cpu_seconds (user + sys of the process, /usr/bin/time) paths waiting_requeues (paths re-queued
+# waiting for their shadow rays; '-' for a binary without the counter); the stats JSON of each render is
 # kept in OUTDIR (per-kernel device times). Used for issue 18 (bench/RESULTS.md).
 set -u
 cd "$(dirname "$0")/.."
@@ -18,7 +19,7 @@ for s in $scenes; do
       /usr/bin/time -f "%U %S" -o $out/time.txt $bin render $s -q --spp $spp -o $out/$n.$b.exr --stats-json $out/$n.$b.$round.json >/dev/null 2>&1
       python3 -c "
 import json;j=json.load(open('$out/$n.$b.$round.json'));u,s=map(float,open('$out/time.txt').read().split()[-2:])
-print('$n',$round,'$b',round(j['paths_per_second']),round(j['seconds_render'],3),round(u+s,2),j['paths'],flush=True)"
+print('$n',$round,'$b',round(j['paths_per_second']),round(j['seconds_render'],3),round(u+s,2),j['paths'],j.get('waiting_requeues','-'),flush=True)"
     done
   done
 done
