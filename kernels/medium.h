@@ -26,13 +26,7 @@ inline int medium_box_contains(__constant const st_medium* m, float3 pi) {
   return all(pi >= lo) && all(pi < hi);
 }
 
-/* Trilinear value of a NanoVDB float grid at continuous index point pi.
- * Fast path (7 in 8 points per axis, 67% of all): when the lower corner lies in a leaf node and
- * the 2x2x2 block does not cross that leaf's faces, the eight values are read at fixed offsets
- * from the first one (a float leaf stores all 512 values densely, voxel (x, y, z) & 7 at index
- * x * 64 + y * 8 + z, 4 bytes each: PNanoVDB's pnanovdb_leaf_coord_to_offset and
- * leaf_get_table_address), instead of seven more accessor walks. The same values, so the same
- * image, either way. */
+/* A read accessor of the NanoVDB float grid at word offset `offset` of the grid buffer. */
 inline pnanovdb_readaccessor_t grid_accessor(__global const uint* grids, uint offset, pnanovdb_buf_t* buf) {
   buf->data = grids + offset;
   pnanovdb_grid_handle_t grid = {pnanovdb_address_null()};
@@ -43,6 +37,13 @@ inline pnanovdb_readaccessor_t grid_accessor(__global const uint* grids, uint of
   return acc;
 }
 
+/* Trilinear value of a NanoVDB float grid at continuous index point pi.
+ * Fast path (7 in 8 points per axis, 67% of all): when the lower corner lies in a leaf node and
+ * the 2x2x2 block does not cross that leaf's faces, the eight values are read at fixed offsets
+ * from the first one (a float leaf stores all 512 values densely, voxel (x, y, z) & 7 at index
+ * x * 64 + y * 8 + z, 4 bytes each: PNanoVDB's pnanovdb_leaf_coord_to_offset and
+ * leaf_get_table_address), instead of seven more accessor walks. The same values, so the same
+ * image, either way. */
 inline float grid_trilinear(__global const uint* grids, uint offset, float3 pi) {
   pnanovdb_buf_t buf;
   pnanovdb_readaccessor_t acc = grid_accessor(grids, offset, &buf);
@@ -83,17 +84,22 @@ inline float grid_trilinear(__global const uint* grids, uint offset, float3 pi) 
  * value. One uniform u makes the three binary choices in turn: each compares u with the axis'
  * weight and rescales it onto the chosen side, which is a partition of [0, 1) into the 8 weights'
  * intervals, so each voxel's probability is its weight to the uniform's resolution (2^-24) and
- * float rounding, as exact as the trilinear blend itself. One accessor walk, one read. */
+ * float rounding, as exact as the trilinear blend itself. A rescaled u that rounds up to 1 is
+ * kept below 1 (with f = 1.0f on the next axis, 1 - f = 0 would otherwise give 0/0). One accessor
+ * walk, one read. */
 inline float grid_stochastic(__global const uint* grids, uint offset, float3 pi, float u) {
   pnanovdb_buf_t buf;
   pnanovdb_readaccessor_t acc = grid_accessor(grids, offset, &buf);
   float3 fl = floor(pi);
   float3 f = pi - fl;
   int3 i = convert_int3(fl);
+  const float below_one = 0.99999994f; /* the float below 1 */
   if (u < f.x) i.x += 1, u = u / f.x;
   else u = (u - f.x) / (1.0f - f.x);
+  u = fmin(u, below_one);
   if (u < f.y) i.y += 1, u = u / f.y;
   else u = (u - f.y) / (1.0f - f.y);
+  u = fmin(u, below_one);
   if (u < f.z) i.z += 1;
   pnanovdb_coord_t ijk;
   ijk.x = i.x;

@@ -99,6 +99,7 @@ struct Renderer::Impl {
   // is on the film early), then the whole ring.
   static uint64_t batches_ahead(uint64_t accumulated, uint64_t ring) { return accumulated == 0 ? 1 : ring; }
   BatchPlan plan_batches(int spp) const;
+  double memory_need(const BatchPlan& plan) const;  // bytes of device memory a render with this plan takes
   void check_memory(const BatchPlan& plan) const;
   void set_ring_size(uint64_t ring);
   RenderBuffers allocate(const BatchPlan& plan);
@@ -195,11 +196,15 @@ BatchPlan Renderer::Impl::plan_batches(int spp) const {
   return p;
 }
 
-void Renderer::Impl::check_memory(const BatchPlan& p) const {
+double Renderer::Impl::memory_need(const BatchPlan& p) const {
   const PackedScene& ps = ds.packed;
-  const double need = double(p.Q) * (sizeof(st_path) + p.NL * sizeof(st_shadow) + 2 * (ST_Q_PATH_QUEUES + p.NL) * 4) +
-                      double(p.ring) * p.batch_paths * sizeof(st_float4) + 2.0 * p.npix * sizeof(st_float4) +
-                      ps.grid_words.size() * 4.0 + ps.maj_cells.size() * 4.0 + ps.env_data.size() * 4.0;
+  return double(p.Q) * (sizeof(st_path) + p.NL * sizeof(st_shadow) + 2 * (ST_Q_PATH_QUEUES + p.NL) * 4) +
+         double(p.ring) * p.batch_paths * sizeof(st_float4) + 2.0 * p.npix * sizeof(st_float4) +
+         ps.grid_words.size() * 4.0 + ps.maj_cells.size() * 4.0 + ps.env_data.size() * 4.0;
+}
+
+void Renderer::Impl::check_memory(const BatchPlan& p) const {
+  const double need = memory_need(p);
   if (need > double(ds.dev.global_mem))
     throw Error(fmt::format("this render needs about {:.1f} MiB of device memory ({}x{} film, {} paths in flight) "
                             "but device '{}' has {:.1f} MiB; use a smaller film, --path-slots, or another device "
@@ -383,7 +388,13 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
                             sample_begin, sample_begin + spp));
   RenderResult res = result_header(sample_begin, spp);
   launcher->times().clear();
-  const BatchPlan plan = plan_batches(spp);
+  BatchPlan plan = plan_batches(spp);
+  // the default shadow ring falls back to one entry per (path, light) where two would not fit (the
+  // image is the same; paths may wait for their shadow rays)
+  if (opt.shadow_ring == 0 && plan.shadow_ring > 1 && memory_need(plan) > double(ds.dev.global_mem)) {
+    plan.shadow_ring = 1;
+    plan.NL = uint64_t(ds.packed.st.n_lights);
+  }
   check_memory(plan);  // refuse what cannot fit before allocating anything
   set_ring_size(plan.ring);
   RenderBuffers buf = allocate(plan);
