@@ -172,6 +172,7 @@ def main():
                "wall": wall, "var_x_wall": var * wall}
         if stats[label] and stats[label][0]:
             row["density_lookups"] = float(np.mean([s.get("density_lookups", 0) for s in stats[label]]))
+            row["dda_steps"] = float(np.mean([s.get("dda_steps", 0) for s in stats[label]]))
         rows.append(row)
         cmp = f"{ref / (var * t):8.2f}x" if ref else ""
         print(f"{label:30s} {row['mean']:7.4f} {var:10.4e} {t:8.2f} {var * t:10.4e} {cmp:>9s} {wall:7.2f} {var * wall:10.4e}")

@@ -8,12 +8,14 @@
  * control coefficients and the residual bound (segments_current). Cells with dmax = 0 give
  * segments with zero majorant, which tracking crosses with no lookup.
  *
- * Two-level grids (sparse volumes): with maj_block = B > 0 a coarse grid of B^3-cell blocks
- * holds the max dmax (min dmin) of each block. When the DDA enters a cell whose block is empty it
- * jumps to the block's exit face in one step: the segment up to the exit has zero majorant and
- * the fine DDA resumes in the exit cell, with its face crossings recomputed from the ray (not
- * accumulated). Non-empty blocks are walked cell by cell as before. Zero-majorant segments draw
- * no random numbers, so the skip changes no estimate, only the step count.
+ * The adaptive hierarchy (maj_block = B > 1, docs/majorant-hierarchy.md): the fine grid is cut
+ * into blocks of B^3 cells and each block has its own level, chosen at load by a cost model: it
+ * is walked in groups of r^3 fine cells (r = 1, 2, 4, .. B, dividing B), each group with the max
+ * dmax and min dmin of its cells; r = B walks the block in one step (empty blocks always). Fine
+ * groups where the density changes keep the bounds (above all the minorant) tight; coarse groups
+ * where it is empty or nearly uniform save DDA steps and free flights. The DDA steps by r; on
+ * entering a block of another level it recomputes the group holding the ray and its face
+ * crossings from the ray (not accumulated). Zero-majorant segments draw no random numbers.
  *
  * The walker (st_walker, walker_step) owns the merged DDA, the exponential flights and the
  * iteration budget; tracking.h keeps only the bodies run at each tentative collision.
@@ -32,11 +34,13 @@
 
 typedef struct {
   float3 o, d;       /* ray in index space (same t as in world space) */
-  float3 t_next, dt; /* next crossing per axis, crossing spacing */
-  int3 cell, step;
+  float3 t_next, dt; /* next crossing per axis, crossing spacing of the current group */
+  int3 cell, step;   /* cell: the current group's first fine cell */
+  int r;             /* group edge in fine cells: 1 (one-level grids, the finest level) .. maj_block */
+  uint pool_base;    /* hierarchy: the current refined block's first group in maj */
   float t_enter, t_exit;
   float seg_end;     /* where this medium's current segment ends */
-  float dmax, dmin;  /* current cell (0 outside) */
+  float dmax, dmin;  /* current group (0 outside) */
   int state;
 } st_dda;
 
@@ -49,42 +53,92 @@ inline int dda_min_axis(float3 t) {
   return (t.x <= t.y) ? ((t.x <= t.z) ? 0 : 2) : ((t.y <= t.z) ? 1 : 2);
 }
 
-/* The current cell lies in an empty coarse block [lo_c, hi_c] (fine cells): move the DDA to the
- * block's exit cell, with t_next of the exit axis at the block's exit face. */
-inline void dda_skip_block(__constant const st_medium* m, st_dda* s, int3 lo_c, int3 hi_c) {
-  float cs = m->maj_origin.w;
-  float3 org = m->maj_origin.xyz;
-  float3 face = org + convert_float3(select(lo_c, hi_c + 1, s->step > 0)) * cs;
-  float3 tf = select((face - s->o) / s->d, (float3)(INFINITY), s->d == 0.0f);
-  int axis = dda_min_axis(tf);
-  float t_out = axis == 0 ? tf.x : (axis == 1 ? tf.y : tf.z);
-  float3 p = s->o + t_out * s->d;
-  int3 c = clamp(convert_int3_rtn((p - org) / cs), lo_c, hi_c);
-  int3 edge = select(lo_c, hi_c, s->step > 0);
-  if (axis == 0) c.x = edge.x; else if (axis == 1) c.y = edge.y; else c.z = edge.z;
-  s->cell = c;
-  float3 lo = org + convert_float3(c) * cs;
-  float3 bound = select(lo, lo + cs, s->d > 0.0f);
-  float3 tn = select((bound - s->o) / s->d, (float3)(INFINITY), s->d == 0.0f);
-  if (axis == 0) tn.x = t_out; else if (axis == 1) tn.y = t_out; else tn.z = t_out;
-  s->t_next = tn;
+/* ---- the adaptive hierarchy (maj_block = B > 1; docs/majorant-hierarchy.md) ----
+ * Blocks of B^3 fine cells. Each block's entry (at maj_coarse_offset, x fastest) is either
+ * (dmax, dmin) >= 0: the block is walked whole, as one group of B^3 cells; or (-r, pool offset):
+ * the block is walked in groups of r^3 fine cells (r divides B), whose (B/r)^3 bounds lie at
+ * maj_offset + pool offset (the offset's bits stored in the float), x fastest. */
+inline float2 majorant_block_entry(__constant const st_medium* m, __global const float2* maj, int3 c) {
+  int B = m->maj_block;
+  int3 dims = (int3)(m->maj_dims[0], m->maj_dims[1], m->maj_dims[2]);
+  int3 cdims = (dims + B - 1) / B;
+  int3 blk = c / B;
+  return maj[m->maj_coarse_offset + (uint)(blk.x + cdims.x * (blk.y + cdims.y * blk.z))];
 }
 
-/* Loads (dmax, dmin) of the DDA's cell, first skipping an empty coarse block if there is one.
- * new_block: the cell may lie in another block than the previous one (only then is the coarse
- * level read). */
-inline void dda_load_cell(__constant const st_medium* m, __global const float2* maj, st_dda* s, int new_block) {
-  if (ST_HAS_COARSE_MAJORANT && m->maj_block > 0 && new_block) {
-    int B = m->maj_block;
+inline int majorant_entry_group(__constant const st_medium* m, float2 e) {
+  return e.x >= 0.0f ? m->maj_block : (int)(-e.x);
+}
+
+/* Bounds of the group of edge r holding fine cell c, in a refined block whose groups start at base. */
+inline float2 majorant_group(__constant const st_medium* m, __global const float2* maj, uint base, int r, int3 c) {
+  int B = m->maj_block, n = B / r;
+  int3 l = (c - (c / B) * B) / r;
+  return maj[base + (uint)(l.x + n * (l.y + n * l.z))];
+}
+
+/* The bounds the walk uses at fine cell c: its group's. */
+inline float2 majorant_bounds_at(__constant const st_medium* m, __global const float2* maj, int3 c) {
+  if (ST_HAS_COARSE_MAJORANT && m->maj_block > 1) {
+    float2 e = majorant_block_entry(m, maj, c);
+    if (e.x >= 0.0f) return e;
+    return majorant_group(m, maj, m->maj_offset + as_uint(e.y), majorant_entry_group(m, e), c);
+  }
+  return majorant_cell(m, maj, c);
+}
+
+/* The DDA entered a block of another level (group edge s->r) at parameter t, across a face of
+ * axis `axis` (-1: s->cell is the fine cell holding the ray at t, the start of a walk). The group
+ * is the one holding the ray at t: the fine cell is recomputed from the ray and clamped into the
+ * block (the crossed axis: the cell next to the face), and so are the crossings (not
+ * accumulated), never before t. */
+inline void dda_set_group(__constant const st_medium* m, st_dda* s, float t, int axis) {
+  int B = m->maj_block, r = s->r;
+  float cs = m->maj_origin.w;
+  float3 org = m->maj_origin.xyz;
+  int3 lo_c = (s->cell / B) * B;
+  if (axis >= 0) {
     int3 dims = (int3)(m->maj_dims[0], m->maj_dims[1], m->maj_dims[2]);
-    int3 cdims = (dims + B - 1) / B;
-    int3 blk = s->cell / B;
-    float2 cv = maj[m->maj_coarse_offset + (uint)(blk.x + cdims.x * (blk.y + cdims.y * blk.z))];
-    if (cv.x == 0.0f) {
-      dda_skip_block(m, s, blk * B, min(blk * B + B, dims) - 1);
-      s->dmax = s->dmin = 0.0f;
-      return;
+    int3 hi_c = min(lo_c + B, dims) - 1;
+    int3 fc = clamp(convert_int3_rtn((s->o + t * s->d - org) / cs), lo_c, hi_c);
+    int3 face = select(hi_c, lo_c, s->step > 0);
+    if (axis == 0) fc.x = face.x; else if (axis == 1) fc.y = face.y; else fc.z = face.z;
+    s->cell = fc;
+  }
+  s->cell = lo_c + ((s->cell - lo_c) / r) * r;
+  float gs = cs * (float)r;
+  float3 lo = org + convert_float3(s->cell) * cs;
+  float3 bound = select(lo, lo + gs, s->d > 0.0f);
+  float3 tn = fmax((bound - s->o) / s->d, (float3)(t));
+  s->t_next = select(tn, (float3)(INFINITY), s->d == 0.0f);
+  s->dt = select(gs / fabs(s->d), (float3)(INFINITY), s->d == 0.0f);
+}
+
+/* Loads (dmax, dmin) of the DDA's group, entered at t across a face of `axis` (-1: the walk
+ * starts there). new_block: the group may lie in another
+ * block than the previous one (only then is the block's entry read: its level, and a refined
+ * block's pool base, stay in s->r and s->pool_base). */
+inline void dda_load_cell(__constant const st_medium* m, __global const float2* maj, st_dda* s, int new_block,
+                          float t, int axis) {
+  if (ST_HAS_COARSE_MAJORANT && m->maj_block > 1) {
+    if (new_block) {
+      float2 e = majorant_block_entry(m, maj, s->cell);
+      int r = majorant_entry_group(m, e);
+      if (r != s->r) {
+        s->r = r;
+        dda_set_group(m, s, t, axis);
+      }
+      if (e.x >= 0.0f) {
+        s->dmax = e.x;
+        s->dmin = e.y;
+        return;
+      }
+      s->pool_base = m->maj_offset + as_uint(e.y);
     }
+    float2 v = majorant_group(m, maj, s->pool_base, s->r, s->cell);
+    s->dmax = v.x;
+    s->dmin = v.y;
+    return;
   }
   float2 v = majorant_cell(m, maj, s->cell);
   s->dmax = v.x;
@@ -103,8 +157,9 @@ inline void dda_enter_cell(__constant const st_medium* m, __global const float2*
   s->t_next = select(tn, (float3)(INFINITY), s->d == 0.0f);
   s->dt = select(cs / fabs(s->d), (float3)(INFINITY), s->d == 0.0f);
   s->step = select((int3)(-1), (int3)(1), s->d > 0.0f);
+  s->r = 1;
   s->state = ST_DDA_INSIDE;
-  dda_load_cell(m, maj, s, 1);
+  dda_load_cell(m, maj, s, 1, t, -1);
   s->seg_end = fmin(fmin(fmin(s->t_next.x, s->t_next.y), s->t_next.z), s->t_exit);
 }
 
@@ -127,6 +182,8 @@ inline void dda_init(__constant const st_medium* m, __global const float2* maj, 
   s->t_exit = fmin(fmin(tmax.x, tmax.y), tmax.z);
   s->dmax = 0.0f;
   s->dmin = 0.0f;
+  s->pool_base = 0u;
+  s->r = 1;
   if (!(s->t_exit > fmax(t, s->t_enter))) {
     s->state = ST_DDA_DONE;
     s->seg_end = INFINITY;
@@ -152,19 +209,21 @@ inline void dda_advance(__constant const st_medium* m, __global const float2* ma
   }
   int axis = dda_min_axis(s->t_next);
   int3 dims = (int3)(m->maj_dims[0], m->maj_dims[1], m->maj_dims[2]);
-  int c_axis, step_axis;
-  if (axis == 0) { s->cell.x += s->step.x; s->t_next.x += s->dt.x; c_axis = s->cell.x; step_axis = s->step.x; }
-  else if (axis == 1) { s->cell.y += s->step.y; s->t_next.y += s->dt.y; c_axis = s->cell.y; step_axis = s->step.y; }
-  else { s->cell.z += s->step.z; s->t_next.z += s->dt.z; c_axis = s->cell.z; step_axis = s->step.z; }
+  int r = s->r, c_axis, step_axis;
+  float t_cross;
+  if (axis == 0) { t_cross = s->t_next.x; s->cell.x += s->step.x * r; s->t_next.x += s->dt.x; c_axis = s->cell.x; step_axis = s->step.x; }
+  else if (axis == 1) { t_cross = s->t_next.y; s->cell.y += s->step.y * r; s->t_next.y += s->dt.y; c_axis = s->cell.y; step_axis = s->step.y; }
+  else { t_cross = s->t_next.z; s->cell.z += s->step.z * r; s->t_next.z += s->dt.z; c_axis = s->cell.z; step_axis = s->step.z; }
   if (any(s->cell < 0) || any(s->cell >= dims)) {
     s->state = ST_DDA_DONE;
     s->seg_end = INFINITY;
     s->dmax = s->dmin = 0.0f;
     return;
   }
-  /* a step enters another block only across a block face */
+  /* a step enters another block only across a block face: the group [c, c + r) was entered at
+   * plane c (stepping up) or c + r (stepping down) */
   int B = max(m->maj_block, 1);
-  dda_load_cell(m, maj, s, (step_axis > 0) ? (c_axis % B == 0) : (c_axis % B == B - 1));
+  dda_load_cell(m, maj, s, (step_axis > 0) ? (c_axis % B == 0) : ((c_axis + r) % B == 0), t_cross, axis);
   s->seg_end = fmax(s->seg_end, fmin(fmin(fmin(s->t_next.x, s->t_next.y), s->t_next.z), s->t_exit));
 }
 

@@ -12,7 +12,8 @@ __kernel void k_probe_density(__constant const st_scene* scene, __global const u
   out[i] = medium_density(scene, &scene->media[medium], grids, points[i].xyz, &lookups, &rng);
 }
 
-/* (dmax, dmin) of the majorant cell of `medium` containing each world point ((-1,-1) outside). */
+/* (dmax, dmin) the walk uses at each world point: its fine cell's, or its block's where the
+ * hierarchy walks the block whole ((-1,-1) outside the majorant box). */
 __kernel void k_probe_majorant(__constant const st_scene* scene, __global const float2* maj,
                                __global const float4* points, __global float2* out, int medium, uint n) {
   uint i = get_global_id(0);
@@ -25,7 +26,28 @@ __kernel void k_probe_majorant(__constant const st_scene* scene, __global const 
   }
   int3 c = convert_int3_rtn((pi - m->maj_origin.xyz) / m->maj_origin.w);
   c = clamp(c, (int3)(0), (int3)(m->maj_dims[0], m->maj_dims[1], m->maj_dims[2]) - 1);
-  out[i] = majorant_cell(m, maj, c);
+  out[i] = majorant_bounds_at(m, maj, c);
+}
+
+/* The majorant segments of medium `medium`'s DDA along the world ray (o, d) from t = 0: item 0
+ * writes (t0, t1, dmax, dmin) of each segment inside the majorant box, in order (zero-length
+ * ones at edges and corners included), then (-1, -1, -1, -1) up to n. */
+__kernel void k_probe_segments(__constant const st_scene* scene, __global const float2* maj, float4 o, float4 d,
+                               int medium, __global float4* out, uint n) {
+  if (get_global_id(0) != 0) return;
+  __constant const st_medium* m = &scene->media[medium];
+  st_dda s;
+  dda_init(m, maj, &s, o.xyz, d.xyz, 0.0f);
+  float t0 = s.state == ST_DDA_INSIDE ? 0.0f : s.seg_end;
+  uint k = 0;
+  while (s.state != ST_DDA_DONE && k < n) {
+    if (s.state == ST_DDA_INSIDE) {
+      out[k++] = (float4)(t0, s.seg_end, s.dmax, s.dmin);
+      t0 = s.seg_end;
+    }
+    dda_advance(m, maj, &s);
+  }
+  for (; k < n; ++k) out[k] = (float4)(-1.0f);
 }
 
 /* Free-path sampling from (o, d) through the scene: out[i] = (t of the first real collision or

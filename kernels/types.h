@@ -139,7 +139,7 @@ enum st_feature {
   ST_FEATURE_VDB = 1 << 5,            /* some medium is a NanoVDB grid (else homogeneous boxes only) */
   ST_FEATURE_MULTI_MEDIUM = 1 << 6,   /* more than one medium (overlaps possible) */
   ST_FEATURE_DECOMPOSITION = 1 << 7,  /* tracker decomposes (control + residual) */
-  ST_FEATURE_COARSE_MAJORANT = 1 << 8, /* two-level majorant grid (empty blocks skipped) */
+  ST_FEATURE_COARSE_MAJORANT = 1 << 8, /* the adaptive majorant hierarchy (kernels/majorant.h) */
   ST_FEATURE_COLOR = 1 << 9,          /* some medium has a per-voxel colour grid (st_color_mode) */
   ST_FEATURE_SPECTRAL_MIS = 1 << 10,  /* tracker spectral-mis (hero-channel sampling, MIS over channels) */
   ST_FEATURE_STOCHASTIC_LOOKUP = 1 << 11, /* density lookups read one voxel chosen at random (st_lookup_mode) */
@@ -209,7 +209,9 @@ enum st_stage_arg {
 /* One participating medium as the kernels see it. Coefficients are per unit density and already
  * multiplied by density_scale. The majorant grid is in the medium's index space: cell (i,j,k)
  * spans [maj_origin + (i,j,k) * cell, maj_origin + (i,j,k,+1) * cell) and stores (dmax, dmin)
- * of the trilinearly interpolated density over that box (interpolation support included). */
+ * of the trilinearly interpolated density over that box (interpolation support included). With
+ * maj_block > 1 the cells form the adaptive hierarchy (kernels/majorant.h): block entries at
+ * maj_coarse_offset, the refined blocks' group bounds in a pool at maj_offset. */
 typedef struct {
   st_float4 world_to_index[3]; /* rows of the affine map world -> grid index space */
   st_float4 sigma_a;           /* rgb, per unit density */
@@ -217,7 +219,7 @@ typedef struct {
   st_float4 Le;                /* emitted radiance rgb (radiance * scale); 0 when not emissive */
   st_float4 maj_origin;        /* xyz: index-space origin of the majorant grid; w: cell size */
   st_int maj_dims[4];          /* xyz: cells per axis; w unused */
-  st_uint maj_offset;          /* first cell of this medium in the majorant buffer (float2 cells) */
+  st_uint maj_offset;          /* first cell (hierarchy: first pool group) of this medium in the majorant buffer (float2) */
   st_uint density_grid;        /* word offset of the NanoVDB density grid, or ST_NO_GRID */
   st_uint emission_grid;       /* word offset of the NanoVDB emission grid, or ST_NO_GRID */
   st_int type;                 /* st_medium_type */
@@ -226,8 +228,8 @@ typedef struct {
   float majorant_scale;        /* testing: < 1 under-estimates the majorant (weighted tracking stays exact) */
   float minorant_scale;        /* testing: > 1 over-estimates the minorant */
   st_int emissive;             /* 1 if Le != 0 */
-  st_int maj_block;            /* fine cells per coarse-block edge of the two-level grid; 0: one level */
-  st_uint maj_coarse_offset;   /* first coarse block in the majorant buffer (float2: dmax, dmin over the block) */
+  st_int maj_block;            /* fine cells per block edge of the hierarchy; 0: one level */
+  st_uint maj_coarse_offset;   /* first block entry in the majorant buffer (float2, kernels/majorant.h) */
   st_int color_mode;           /* st_color_mode; ST_COLOR_NONE: no colour grid */
   st_float4 sigma_t_maj;       /* colour grid: per unit density, an upper bound of sigma_t over the medium (rgb) */
   st_uint color_grid[4];       /* colour grid: word offsets of its x, y, z component float grids; w unused */

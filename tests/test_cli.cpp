@@ -134,7 +134,7 @@ TEST_F(CliFlags, SppZeroAndNonNumberAreUsageErrors) {
 
 TEST_F(CliFlags, BadMajorantAndBatchFlagsAreUsageErrors) {
   const std::vector<std::pair<const char*, const char*>> bad = {
-      {"--majorant-cell", "0"}, {"--majorant-cell", "x"}, {"--majorant-block", "-1"},
+      {"--majorant-cell", "-1"}, {"--majorant-cell", "x"}, {"--majorant-block", "-1"},
       {"--batches-in-flight", "0"}, {"--batches-in-flight", "9"}, {"--shadow-ring", "0"}, {"--shadow-ring", "9"}};
   for (auto& [flag, value] : bad) {
     SCOPED_TRACE(std::string(flag) + " " + value);

@@ -103,6 +103,7 @@ struct RenderArgs {
   int chunk_spp = 0;
   int majorant_cell = RenderOptions().majorant_cell;
   int majorant_block = RenderOptions().majorant_block;
+  double majorant_step_cost = RenderOptions().majorant_step_cost;
   int batches_in_flight = 0;
   int shadow_ring = 0;
   uint32_t feature_floor = 0;  // RenderOptions::feature_floor (frame sequences)
@@ -218,6 +219,14 @@ void write_stats_json(const std::string& path, const MultiDeviceResult& r, doubl
   j["seconds_first_pass_from_start"] = seconds_to_renderer + r.seconds_first_pass;  // scene loading included
   j["features"] = r.features;
   j["generic_kernels"] = r.features == uint32_t(ST_FEATURES_ALL);
+  // each VDB medium's majorant structure (docs/majorant-hierarchy.md)
+  nlohmann::json maj = nlohmann::json::array();
+  for (const MajorantInfo& m : r.majorants)
+    maj.push_back({{"cell", m.cell}, {"block", m.block}, {"levels", m.levels}, {"blocks_per_level", m.blocks_per_level}, {"fine_cells", m.fine_cells},
+                   {"blocks_empty", m.blocks_empty}, {"blocks_whole", m.blocks_whole},
+                   {"blocks_refined", m.blocks_refined}, {"bytes", m.bytes}, {"seconds_build", m.seconds_build}});
+  j["majorant_grids"] = maj;
+  j["dda_steps_per_nonempty_cell"] = r.stats.dda_nonempty > 0 ? double(r.stats.dda_steps) / double(r.stats.dda_nonempty) : 0.0;
   j["seconds_total"] = seconds_total;
   j["paths_per_second"] = r.seconds_render > 0 ? double(r.stats.paths) / r.seconds_render : 0.0;
   std::ofstream f(path);
@@ -242,6 +251,7 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
   opt.iteration_budget = a.budget;
   opt.majorant_cell = a.majorant_cell;
   opt.majorant_block = a.majorant_block;
+  opt.majorant_step_cost = a.majorant_step_cost;
   opt.generic_kernels = a.generic_kernels;
   opt.batches_in_flight = a.batches_in_flight;
   opt.shadow_ring = a.shadow_ring;
@@ -436,8 +446,8 @@ int cmd_render(const RenderArgs& a, MpiArg& mpi) {
     SceneDesc frame = scene;
     for (MediumDesc& m : frame.media) m.file = expand_frame(m.file, f);
     RenderArgs fa = a;
-    // the two-level majorant grid is used or not by the size of each frame's grid: compile it in
-    // for every frame, so that the frames share one kernel build
+    // the majorant hierarchy is compiled in for every frame (an empty frame has none), so that the
+    // frames share one kernel build
     if (a.majorant_block > 1) fa.feature_floor = ST_FEATURE_COARSE_MAJORANT;
     fa.preview = expand_frame(a.preview, f);
     fa.stats_json = expand_frame(a.stats_json, f);
@@ -565,12 +575,19 @@ CLI::App* add_render_command(CLI::App& app, RenderArgs& ra) {
   render->add_option("--preview", ra.preview, "also write a PNG preview")->check(png_file());
   render->add_option("--path-slots", ra.path_slots, "paths in flight (default: 65536 on CPUs, 1M on GPUs)")->check(CLI::Range(1, 1 << 24));
   render->add_option("--budget", ra.budget, "tracking iterations per path and kernel launch")->check(CLI::Range(1, 1 << 20));
-  render->add_option("--majorant-cell", ra.majorant_cell, "voxels per majorant-grid cell edge")
-      ->check(CLI::Range(1, 1024))
+  render->add_option("--majorant-cell", ra.majorant_cell,
+                     "voxels per fine majorant-cell edge (0: automatic, 2 voxels or coarser for huge grids)")
+      ->check(CLI::Range(0, 1024))
       ->capture_default_str();
   render->add_option("--majorant-block", ra.majorant_block,
-                     "cells per coarse-block edge of a two-level majorant grid (0 or 1: one level)")
+                     "fine cells per block edge of the adaptive majorant hierarchy, each block walked whole or "
+                     "refined by a cost model (0 or 1: one level, every fine cell walked)")
       ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
+  render->add_option("--majorant-step-cost", ra.majorant_step_cost,
+                     "the majorant hierarchy's cost model: one DDA step in density lookups; lower refines more, "
+                     "higher walks more blocks whole (default -1: automatic, 0.6, or 2 for spectral-decomposition)")
+      ->check(CLI::Range(-1.0, 1e6))
       ->capture_default_str();
   render->add_option("--batches-in-flight", ra.batches_in_flight,
                      "batches of samples in flight, 1-" + std::to_string(ST_MAX_BATCHES_IN_FLIGHT) + " (default: the maximum)")

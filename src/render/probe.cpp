@@ -69,6 +69,23 @@ std::vector<std::array<float, 2>> Probe::majorant(int medium, const std::vector<
   return per_point<std::array<float, 2>>("k_probe_majorant", ds().b_maj, medium, world_points);
 }
 
+std::vector<std::array<float, 4>> Probe::segments(int medium, std::array<float, 3> o, std::array<float, 3> d,
+                                                  int max_segments) {
+  if (medium < 0 || medium >= ds().packed.st.n_media) throw Error(fmt::format("k_probe_segments: no such medium {}", medium));
+  auto out = run_probe<std::array<float, 4>>(ds(), *launcher_, "k_probe_segments", size_t(max_segments),
+                                             [&](cl::Kernel& k, cl::Buffer& out) {
+                                               k.setArg(0, ds().b_scene);
+                                               k.setArg(1, ds().b_maj);
+                                               k.setArg(2, cl_float4{{o[0], o[1], o[2], 0}});
+                                               k.setArg(3, cl_float4{{d[0], d[1], d[2], 0}});
+                                               k.setArg(4, cl_int(medium));
+                                               k.setArg(5, out);
+                                               k.setArg(6, cl_uint(max_segments));
+                                             });
+  while (!out.empty() && out.back()[0] == -1.0f && out.back()[1] == -1.0f) out.pop_back();
+  return out;
+}
+
 std::vector<std::array<float, 4>> Probe::track(std::array<float, 3> o, std::array<float, 3> d, int channel, int n,
                                                         std::vector<std::array<float, 4>>* beta) {
   cl::Buffer b_beta = ds().buffer(CL_MEM_READ_WRITE, size_t(std::max(1, n)) * 16, nullptr, "probe beta");

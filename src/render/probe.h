@@ -33,6 +33,10 @@ class Probe {
   std::vector<float> density(int medium, const std::vector<std::array<float, 3>>& world_points);
   // (dmax, dmin) of the majorant cell holding each point ((-1, -1) outside the medium's box).
   std::vector<std::array<float, 2>> majorant(int medium, const std::vector<std::array<float, 3>>& world_points);
+  // The majorant segments of medium `medium`'s DDA along the world ray (o, d) from t = 0, at most
+  // max_segments: (t0, t1, dmax, dmin) each, in order (zero-length ones at edges and corners too).
+  std::vector<std::array<float, 4>> segments(int medium, std::array<float, 3> o, std::array<float, 3> d,
+                                             int max_segments = 4096);
   // Per item: (t of first real collision or +inf, event, lookups, dda steps); channel -1 = rgb.
   std::vector<std::array<float, 4>> track(std::array<float, 3> o, std::array<float, 3> d, int channel, int n,
                                           std::vector<std::array<float, 4>>* beta = nullptr);

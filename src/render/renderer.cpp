@@ -119,7 +119,7 @@ struct Renderer::Impl {
 void Renderer::Impl::setup() {
   auto t0 = Clock::now();
   settings = resolve_settings(scene, opt);
-  PackedScene packed = pack_scene(scene, settings, {opt.majorant_cell, opt.majorant_block, opt.iteration_budget});
+  PackedScene packed = pack_scene(scene, settings, {opt.majorant_cell, opt.majorant_block, opt.iteration_budget, opt.majorant_step_cost});
   // the feature mask is in the source, hence in the kernel-cache key
   if (opt.generic_kernels) packed.features = ST_FEATURES_ALL;
   packed.features |= opt.feature_floor & uint32_t(ST_FEATURES_ALL);
@@ -360,6 +360,7 @@ RenderResult Renderer::Impl::result_header(int64_t sample_begin, int spp) const 
   res.seconds_build = seconds_build;
   res.kernels_from_cache = from_cache;
   res.features = ds.packed.features;
+  res.majorants = ds.packed.majorants;
   return res;
 }
 

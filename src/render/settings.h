@@ -10,10 +10,12 @@
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "scene/scene.h"
 
@@ -51,8 +53,9 @@ struct RenderOptions {
   std::string device;                   // "P:D", name substring, or "" (SPECTRACK_DEVICE, then default)
   int path_slots = 0;                   // paths in flight; 0 = by device type
   int iteration_budget = 256;           // tentative collisions + DDA steps per item and launch
-  int majorant_cell = 8;                // voxels per majorant-grid cell edge
-  int majorant_block = 4;               // fine cells per coarse-block edge of a two-level majorant grid; 0 or 1 = one level
+  int majorant_cell = 0;                // voxels per fine majorant-cell edge; 0: automatic (2, coarser for huge grids)
+  int majorant_block = 8;               // fine cells per block edge of the adaptive majorant hierarchy; 0 or 1 = one level
+  double majorant_step_cost = -1;       // the hierarchy's cost model: one DDA step, in density lookups; < 0: automatic
   bool generic_kernels = false;         // the generic kernel (every feature) instead of one specialised to the scene
   int batches_in_flight = 0;            // batch result buffers in the ring (0: ST_MAX_BATCHES_IN_FLIGHT; 2: the old scheme)
   int shadow_ring = 0;                  // shadow-ray entries per (path, light), 1..ST_MAX_SHADOW_RING (types.h); 0: kDefaultShadowRing
@@ -119,5 +122,17 @@ struct RenderChoices {
 // scene: pixel bounds outside the film, a tracker that needs achromatic media on chromatic ones,
 // an empty or out-of-range sample range.
 RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& options);
+
+// One VDB medium's majorant structure, for the render statistics.
+struct MajorantInfo {
+  int cell = 0;                 // voxels per fine-cell edge
+  int block = 0;                // fine cells per block edge (0: one level, every cell stored)
+  size_t fine_cells = 0;        // cells of the fine grid over the medium's box
+  size_t blocks_empty = 0, blocks_whole = 0, blocks_refined = 0;
+  std::vector<int> levels;               // group edges (fine cells) of the hierarchy, finest first
+  std::vector<size_t> blocks_per_level;  // blocks walked at each level
+  size_t bytes = 0;             // device memory of the structure
+  double seconds_build = 0;
+};
 
 }  // namespace spectrack

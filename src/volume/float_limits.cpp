@@ -11,29 +11,6 @@
 namespace spectrack {
 namespace {
 
-// Longest world-space edge of one index-space unit: the column norms of index -> world, the
-// inverse of the packed world -> index rows.
-double longest_voxel_edge(const st_medium& m) {
-  double a[3][3];
-  for (int r = 0; r < 3; ++r) {
-    a[r][0] = m.world_to_index[r].x;
-    a[r][1] = m.world_to_index[r].y;
-    a[r][2] = m.world_to_index[r].z;
-  }
-  const double det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
-                     a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
-                     a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
-  double inv[3][3];
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) {
-      // cofactor of a[c][r] over det (adjugate: transposed cofactors)
-      const int r1 = (c + 1) % 3, r2 = (c + 2) % 3, c1 = (r + 1) % 3, c2 = (r + 2) % 3;
-      inv[r][c] = (a[r1][c1] * a[r2][c2] - a[r1][c2] * a[r2][c1]) / det;
-    }
-  double edge = 0;
-  for (int c = 0; c < 3; ++c) edge = std::max(edge, std::sqrt(inv[0][c] * inv[0][c] + inv[1][c] * inv[1][c] + inv[2][c] * inv[2][c]));
-  return edge;
-}
 
 // " at voxel (i, j, k)" of an active voxel holding the grid's largest value ("" when that value
 // sits in a tile). Walks the leaves; only called to word a refusal.
@@ -95,6 +72,30 @@ void check_homogeneous(const MediumDesc& md, double mu, const std::string& conte
 
 }  // namespace
 
+// Longest world-space edge of one index-space unit: the column norms of index -> world, the
+// inverse of the packed world -> index rows.
+double longest_voxel_edge(const st_medium& m) {
+  double a[3][3];
+  for (int r = 0; r < 3; ++r) {
+    a[r][0] = m.world_to_index[r].x;
+    a[r][1] = m.world_to_index[r].y;
+    a[r][2] = m.world_to_index[r].z;
+  }
+  const double det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
+                     a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+                     a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+  double inv[3][3];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) {
+      // cofactor of a[c][r] over det (adjugate: transposed cofactors)
+      const int r1 = (c + 1) % 3, r2 = (c + 2) % 3, c1 = (r + 1) % 3, c2 = (r + 2) % 3;
+      inv[r][c] = (a[r1][c1] * a[r2][c2] - a[r1][c2] * a[r2][c1]) / det;
+    }
+  double edge = 0;
+  for (int c = 0; c < 3; ++c) edge = std::max(edge, std::sqrt(inv[0][c] * inv[0][c] + inv[1][c] * inv[1][c] + inv[2][c] * inv[2][c]));
+  return edge;
+}
+
 void check_float_limits(const MediumDesc& md, const st_medium& packed, const GridData* grid,
                         const std::string& context) {
   check_coefficient(context, "sigma_a", md.sigma_a, md.density_scale, packed.sigma_a);
@@ -138,6 +139,17 @@ int majorant_cell_for(const st_medium& packed, const GridData& grid, double majo
   };
   int cell = requested;
   while (cell > 1 && depth_per_voxel * cell > kMaxOpticalDepthPerCell && cells(cell / 2) <= kMaxMajorantCells) cell /= 2;
+  return cell;
+}
+
+int auto_majorant_cell(const GridData& grid) {
+  auto cells = [&](int c) {
+    double n = 1;
+    for (int a = 0; a < 3; ++a) n *= double((int64_t(grid.index_max[a]) - grid.index_min[a] + 2) / c + 1);
+    return n;
+  };
+  int cell = 2;
+  while (cell < 1024 && cells(cell) > kAutoMajorantCells) cell *= 2;
   return cell;
 }
 

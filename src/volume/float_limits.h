@@ -50,4 +50,15 @@ constexpr double kMaxOpticalDepthPerCell = 65536.0;  // 2^16
 constexpr double kMaxMajorantCells = 33554432.0;     // 2^25 cells (256 MiB of (dmax, dmin))
 int majorant_cell_for(const st_medium& packed, const GridData& grid, double majorant_scale, int requested);
 
+// The automatic fine-cell edge of the majorant hierarchy (--majorant-cell 0, the default): 2
+// voxels, doubled while the fine grid over the grid's active box would exceed kAutoMajorantCells
+// (its build reads about (1 + 1/cell)^3 voxels per voxel of the box; the stored hierarchy keeps
+// only the refined blocks, docs/majorant-hierarchy.md).
+constexpr double kAutoMajorantCells = 4194304.0;  // 2^22
+int auto_majorant_cell(const GridData& grid);
+
+// Longest world-space edge of one index-space unit: the column norms of index -> world, the
+// inverse of the packed world -> index rows.
+double longest_voxel_edge(const st_medium& m);
+
 }  // namespace spectrack

@@ -2,7 +2,9 @@
 //
 // Design: the grid follows ALGORITHMS.md 7.2: cell boundaries sit on voxel centres, so a cell of
 // B voxels reads the (B+1)^3 voxels of its trilinear support and bounds the interpolated density
-// anywhere inside it. The coarse level of a two-level grid is the max (min) over blocks of cells.
+// anywhere inside it. The adaptive hierarchy (build_majorant_hierarchy, docs/majorant-hierarchy.md)
+// walks each block of fine cells at the level its cost model picks: groups of r^3 cells bounded
+// by the max (min) over them.
 // sample_index_trilinear is the host reference of the device lookup (kernels/medium.h).
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
@@ -10,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include <nanovdb/NanoVDB.h>
@@ -26,7 +29,7 @@ using Leaf = nanovdb::NanoLeaf<float>;
 // value. The cost is thus about (1 + 1/cell)^3 reads per voxel of allocated leaves plus a probe
 // per empty block; the Disney cloud (16x11x20 cells) takes a few ms. A grid with huge active
 // tiles still costs one probe per 8^3 block of its bbox (512^3 cells for a root tile at cell 8),
-// where a two-level grid (ALGORITHMS.md 7.1) would be the fix.
+// where a sparse build over the hierarchy's non-empty blocks would be the fix.
 MajorantGrid build_majorant_grid(const GridData& grid, int cell) {
   if (cell < 1) throw Error("build_majorant_grid: cell size must be >= 1, got " + std::to_string(cell));
   MajorantGrid mg;
@@ -129,6 +132,86 @@ MajorantGrid coarsen_majorant_grid(const MajorantGrid& fine, int block) {
         c.dmin[b] = std::min(c.dmin[b], fine.dmin[f]);
       }
   return c;
+}
+
+MajorantHierarchy build_majorant_hierarchy(const MajorantGrid& fine, int block, const MajorantCostModel& cost) {
+  if (block < 2) throw Error("majorant hierarchy: blocks must be at least 2 cells per edge, got " + std::to_string(block));
+  MajorantHierarchy h;
+  h.block = block;
+  for (int a = 0; a < 3; ++a) h.block_dims[a] = (fine.dims[a] + block - 1) / block;
+  // the levels: group edges r = 1, 2, 4, .. dividing the block edge, and the block itself
+  std::vector<int> levels;
+  for (int r = 1; r < block; r *= 2)
+    if (block % r == 0) levels.push_back(r);
+  levels.push_back(block);
+  h.blocks_per_level.assign(levels.size(), 0);
+  const size_t nb = size_t(h.block_dims[0]) * h.block_dims[1] * h.block_dims[2];
+  h.blocks.resize(2 * nb);
+  auto residual = [&](float dmax, float dmin) { return std::max(0.0, double(dmax) - (cost.decompose ? dmin : 0.0f)); };
+  auto at = [&](int i, int j, int k) { return size_t(i) + size_t(fine.dims[0]) * (size_t(j) + size_t(fine.dims[1]) * k); };
+  std::vector<std::vector<std::array<float, 2>>> groups(levels.size());
+  for (size_t b = 0; b < nb; ++b) {
+    const int bx = int(b % size_t(h.block_dims[0])), by = int((b / size_t(h.block_dims[0])) % size_t(h.block_dims[1]));
+    const int bz = int(b / (size_t(h.block_dims[0]) * size_t(h.block_dims[1])));
+    const int x0 = bx * block, y0 = by * block, z0 = bz * block;
+    // each level's group bounds (groups past the grid's far faces: (0, 0), never walked) and cost
+    size_t best = levels.size() - 1;
+    double best_cost = std::numeric_limits<double>::infinity();
+    for (size_t L = levels.size(); L-- > 0;) {
+      const int r = levels[L], n = block / r;
+      auto& g = groups[L];
+      g.assign(size_t(n) * n * n, {0.0f, 0.0f});
+      double sum = 0.0;
+      int walked = 0, nonempty = 0;
+      for (int gz = 0; gz < n; ++gz)
+        for (int gy = 0; gy < n; ++gy)
+          for (int gx = 0; gx < n; ++gx) {
+            const int i0 = x0 + gx * r, j0 = y0 + gy * r, k0 = z0 + gz * r;
+            if (i0 >= fine.dims[0] || j0 >= fine.dims[1] || k0 >= fine.dims[2]) continue;
+            float hi = 0.0f, lo = std::numeric_limits<float>::infinity();
+            for (int k = k0; k < std::min(k0 + r, fine.dims[2]); ++k)
+              for (int j = j0; j < std::min(j0 + r, fine.dims[1]); ++j)
+                for (int i = i0; i < std::min(i0 + r, fine.dims[0]); ++i) {
+                  hi = std::max(hi, fine.dmax[at(i, j, k)]);
+                  lo = std::min(lo, fine.dmin[at(i, j, k)]);
+                }
+            g[size_t(gx) + size_t(n) * (size_t(gy) + size_t(n) * gz)] = {hi, lo};
+            sum += residual(hi, lo);
+            ++walked;
+            nonempty += hi > 0.0f;
+          }
+      // per unit length of ray: DDA steps (into empty groups: a quarter of the cost, no flight)
+      // plus density lookups
+      const double f = walked ? double(nonempty) / walked : 0.0;
+      const double c = cost.step_cost * 1.5 / (double(r) * fine.cell) * (f + 0.25 * (1.0 - f)) +
+                       cost.lookups_per_density * sum / std::max(walked, 1);
+      if (c < best_cost * (1.0 - 1e-9)) {  // ties: the coarser level
+        best_cost = c;
+        best = L;
+      }
+    }
+    const int r = levels[best];
+    ++h.blocks_per_level[best];
+    if (r == block) {
+      const auto& v = groups[best][0];
+      h.blocks[2 * b] = v[0];
+      h.blocks[2 * b + 1] = v[1];
+      ++(v[0] > 0.0f ? h.blocks_whole : h.blocks_empty);
+      continue;
+    }
+    ++h.blocks_refined;
+    const size_t offset = h.pool.size() / 2;
+    if (offset > 0xffffffffu) throw Error("majorant hierarchy: more than 2^32 groups");
+    const uint32_t bits = uint32_t(offset);
+    h.blocks[2 * b] = -float(r);
+    std::memcpy(&h.blocks[2 * b + 1], &bits, 4);  // the kernels read it back with as_uint
+    for (const auto& v : groups[best]) {
+      h.pool.push_back(v[0]);
+      h.pool.push_back(v[1]);
+    }
+  }
+  for (size_t L = 0; L < levels.size(); ++L) h.levels.push_back(levels[L]);
+  return h;
 }
 
 }  // namespace spectrack

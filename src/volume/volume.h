@@ -62,10 +62,41 @@ struct MajorantGrid {
 // gives a single cell with dmax = dmin = 0.
 MajorantGrid build_majorant_grid(const GridData& grid, int cell = 8);
 
-// The coarse level of a two-level majorant grid: blocks of `block`^3 cells of `fine` (partial
+// The blocks of a majorant grid walked whole (the coarsest level of the hierarchy below): blocks of `block`^3 cells of `fine` (partial
 // blocks at the far faces), each with the max dmax and min dmin of its cells, so a block with
 // dmax = 0 has only empty cells and the DDA can cross it in one step.
 MajorantGrid coarsen_majorant_grid(const MajorantGrid& fine, int block);
+
+// The adaptive majorant hierarchy the kernels walk (kernels/majorant.h, docs/majorant-hierarchy.md):
+// blocks of `block`^3 fine cells, each walked at its own level: in groups of r^3 fine cells (r =
+// 1, 2, 4, .. dividing the block edge, or the block edge itself: the block walked whole), each
+// group bounded by the max dmax and min dmin of its cells. The level of each block is the
+// cheapest under a cost model of DDA steps and density lookups per unit length of ray.
+struct MajorantCostModel {
+  // density lookups per unit index length per unit density: the largest channel's sigma_t (per
+  // unit density, density_scale included) times the voxel's world length
+  double lookups_per_density = 1.0;
+  bool decompose = false;   // the tracker's residual is dmax - dmin (else dmax)
+  double step_cost = 0.6;   // one DDA step into a non-empty group (with its new free flight), in lookups
+};
+struct MajorantHierarchy {
+  int block = 8;                        // fine cells per block edge (>= 2)
+  std::array<int, 3> block_dims{1, 1, 1};
+  // per block: (dmax, dmin) of a block walked whole; (-r, offset) of a block walked in groups of
+  // r^3 cells, the offset (in pairs, into pool; its uint32 bits in the float) of its (block/r)^3
+  // group bounds, x fastest (groups past the grid's far faces: (0, 0))
+  std::vector<float> blocks;
+  std::vector<float> pool;
+  std::vector<int> levels;              // the group edges, finest first
+  std::vector<size_t> blocks_per_level; // blocks walked at each level
+  size_t blocks_empty = 0, blocks_whole = 0, blocks_refined = 0;
+};
+
+// Chooses each block's level: the least step_cost * 1.5 / edge * (f + (1 - f) / 4) (1.5: the
+// mean DDA crossings per unit length of an isotropic ray through cubes of unit edge; f: the
+// fraction of non-empty groups) plus lookups_per_density times the mean residual of its groups;
+// ties go to the coarser level. Throws spectrack::Error for block < 2.
+MajorantHierarchy build_majorant_hierarchy(const MajorantGrid& fine, int block, const MajorantCostModel& cost);
 
 // Host-side trilinear density at a continuous index point (the reference for device lookups).
 float sample_index_trilinear(const GridData& grid, double x, double y, double z);

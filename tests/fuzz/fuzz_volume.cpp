@@ -6,7 +6,8 @@
 // that obeys volume.h (a float fog grid, a consistent active box, finite non-negative values, a
 // finite invertible transform) or throw spectrack::Error whose message names the file (for .vdb
 // files, load_color_grid() too: three float grids with finite non-negative values); the
-// majorant grid of an accepted grid bounds its host-side trilinear samples. Anything else (another
+// majorant grid of an accepted grid bounds its host-side trilinear samples, and its adaptive hierarchy
+// gives every block an entry. Anything else (another
 // exception, a sanitizer report, a timeout, more than 2 GiB) is a finding.
 #include <unistd.h>
 
@@ -90,6 +91,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
             check(v <= mg.dmax[c] && v >= mg.dmin[c], "majorant cell does not bound a trilinear sample");
           }
         }
+        // the adaptive hierarchy over it: every block has an entry, every refined block its groups
+        spectrack::MajorantCostModel cost;
+        cost.decompose = true;
+        spectrack::MajorantHierarchy h = spectrack::build_majorant_hierarchy(mg, 4, cost);
+        const size_t nb = size_t(h.block_dims[0]) * h.block_dims[1] * h.block_dims[2];
+        check(h.blocks.size() == 2 * nb, "hierarchy: a block without an entry");
+        size_t per_level = 0;
+        for (size_t n : h.blocks_per_level) per_level += n;
+        check(per_level == nb && h.blocks_empty + h.blocks_whole + h.blocks_refined == nb, "hierarchy: blocks miscounted");
       } catch (const spectrack::Error&) {
         // a box too large for a majorant grid is refused with an Error, which is the contract
       }
