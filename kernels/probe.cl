@@ -12,8 +12,8 @@ __kernel void k_probe_density(__constant const st_scene* scene, __global const u
   out[i] = medium_density(scene, &scene->media[medium], grids, points[i].xyz, &lookups, &rng);
 }
 
-/* (dmax, dmin) the walk uses at each world point: its fine cell's, or its block's where the
- * hierarchy walks the block whole ((-1,-1) outside the majorant box). */
+/* (dmax, dmin) the walk uses at each world point: its fine cell's (one level), or in the
+ * hierarchy its group's at its block's level ((-1,-1) outside the majorant box). */
 __kernel void k_probe_majorant(__constant const st_scene* scene, __global const float2* maj,
                                __global const float4* points, __global float2* out, int medium, uint n) {
   uint i = get_global_id(0);

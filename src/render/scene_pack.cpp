@@ -98,10 +98,10 @@ bool achromatic(const Vec3& v) { return v[0] == v[1] && v[1] == v[2]; }
 // The hierarchy's automatic step cost (docs/majorant-hierarchy.md, bench/RESULTS.md "Adaptive
 // majorant hierarchy"): 0.6 density lookups per DDA step, measured on PoCL, where the render time
 // stays level while lookups fall; 2 for spectral trackers that decompose, whose variance grows by
-// about 10% with the tighter control of finer levels (the control's per-channel collision weights
+// about 10% with the tighter control of finer levels (media with a control: not colour media) (the control's per-channel collision weights
 // replace the residual's history-aware probabilities), which the lookup-only model does not see.
-double auto_majorant_step_cost(int tracker) {
-  return (st_tracker_decomposes(tracker) && st_tracker_channels(tracker) == 1) ? 2.0 : 0.6;
+double auto_majorant_step_cost(int tracker, bool has_control) {
+  return (has_control && st_tracker_decomposes(tracker) && st_tracker_channels(tracker) == 1) ? 2.0 : 0.6;
 }
 
 // Fills a PackedScene; member names follow st_scene's buffers.
@@ -184,6 +184,8 @@ void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::strin
   Mat4 w2i = inverse_affine(user_transform(md.transform) * i2w, ctx_name + "/transform");
   for (int r = 0; r < 3; ++r) m.world_to_index[r] = f4(w2i.m[r][0], w2i.m[r][1], w2i.m[r][2], w2i.m[r][3]);
   check_float_limits(md, m, &g, ctx_name);
+  m.density_grid = upload_grid(ctx_name, g);
+  if (md.color.present) add_color_grid(m, md, g, ctx_name);  // sets sigma_t_maj, which the cost model uses
   const auto t_build = std::chrono::steady_clock::now();
   const int cell = opt.majorant_cell > 0 ? opt.majorant_cell : auto_majorant_cell(g);
   MajorantGrid mg = build_majorant_grid(g, majorant_cell_for(m, g, md.majorant_scale, cell));
@@ -196,11 +198,13 @@ void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::strin
   if (B > 1) {
     // the adaptive hierarchy: each block of B^3 cells walked whole or refined, by the cost model
     MajorantCostModel cost;
-    const double sigma_t = std::max({double(m.sigma_a.x) + m.sigma_s.x, double(m.sigma_a.y) + m.sigma_s.y,
-                                     double(m.sigma_a.z) + m.sigma_s.z});
+    // a colour medium's flights run at its extinction bound sigma_t_maj, and it has no control
+    const bool color = m.color_mode != ST_COLOR_NONE;
+    const st_float4 st = color ? m.sigma_t_maj : f4(m.sigma_a.x + m.sigma_s.x, m.sigma_a.y + m.sigma_s.y, m.sigma_a.z + m.sigma_s.z);
+    const double sigma_t = std::max({double(st.x), double(st.y), double(st.z)});
     cost.lookups_per_density = sigma_t * std::max(1.0, md.majorant_scale) * longest_voxel_edge(m);
-    cost.decompose = st_tracker_decomposes(tracker) && !md.color.present;
-    cost.step_cost = opt.majorant_step_cost >= 0 ? opt.majorant_step_cost : auto_majorant_step_cost(tracker);
+    cost.decompose = st_tracker_decomposes(tracker) && !color;
+    cost.step_cost = opt.majorant_step_cost >= 0 ? opt.majorant_step_cost : auto_majorant_step_cost(tracker, !color);
     MajorantHierarchy h = build_majorant_hierarchy(mg, B, cost);
     m.maj_block = B;
     m.maj_coarse_offset = uint32_t(maj_cells.size() / 2);
@@ -223,8 +227,6 @@ void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::strin
   }
   info.seconds_build = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_build).count();
   majorants.push_back(info);
-  m.density_grid = upload_grid(ctx_name, g);
-  if (md.color.present) add_color_grid(m, md, g, ctx_name);
   if (md.emission.grid.empty()) check_emission_bounds(ctx_name, md, g.value_max, 1.0);
   if (md.emission.present && !md.emission.grid.empty() && m.emissive) {
     GridData e = load_float_grid(md.file, md.emission.grid, -1, ctx_name + "/emission");
