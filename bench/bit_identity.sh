@@ -3,10 +3,13 @@
 # schemes, generic kernels, a shard) with both binaries and compares EXR pixels and counters bit for
 # bit; a control pair (another seed) must differ. OLD and NEW are absolute paths of spectrack binaries.
 OLD=$1; NEW=$2; cd "$(dirname "$0")/.."; out=$(mktemp -d); fail=0
+# --no-alpha where a binary has film layers (docs/aov.md: EXRs get alpha by default): the beauty alone
+noalpha() { "$1" render --help 2>/dev/null | grep -q -- --no-alpha && echo --no-alpha; }
+NA_OLD=$(noalpha $OLD); NA_NEW=$(noalpha $NEW)
 run() { # name scene args...
   local name=$1; shift
-  $OLD render "$@" -o $out/$name.old.exr --quiet --stats-json $out/$name.old.json >/dev/null 2>&1 || { echo "OLD FAIL $name"; }
-  $NEW render "$@" -o $out/$name.new.exr --quiet --stats-json $out/$name.new.json >/dev/null 2>&1 || { echo "NEW FAIL $name"; }
+  $OLD render "$@" $NA_OLD -o $out/$name.old.exr --quiet --stats-json $out/$name.old.json >/dev/null 2>&1 || { echo "OLD FAIL $name"; }
+  $NEW render "$@" $NA_NEW -o $out/$name.new.exr --quiet --stats-json $out/$name.new.json >/dev/null 2>&1 || { echo "NEW FAIL $name"; }
   if cmp -s <(oiiotool --dumpdata $out/$name.old.exr 2>/dev/null | tail -n +2) <(oiiotool --dumpdata $out/$name.new.exr 2>/dev/null | tail -n +2); then
     a=$(python3 -c "import json;j=json.load(open('$out/$name.old.json'));print(j['density_lookups'],j['real_collisions'],j['dda_steps'])")
     b=$(python3 -c "import json;j=json.load(open('$out/$name.new.json'));print(j['density_lookups'],j['real_collisions'],j['dda_steps'])")

@@ -86,7 +86,7 @@ def render(scene_path, tracker, scheme, spp, seed, out_dir, tag, device):
     exr = os.path.join(out_dir, f"{tag}.exr")
     stats = os.path.join(out_dir, f"{tag}.json")
     cmd = [BIN, "render", scene_path, "--spp", str(spp), "--seed", str(seed), "--tracker", tracker,
-           "-o", exr, "--stats-json", stats, "--quiet"]
+           "-o", exr, "--stats-json", stats, "--quiet", "--no-alpha"]  # the whole image, no layers (docs/aov.md)
     if scheme:
         cmd += ["--scheme", scheme]
     if device:

@@ -61,7 +61,7 @@ def main():
                 out = os.path.join(work, "o.exr")
                 st = os.path.join(work, "o.json")
                 subprocess.run([a.spectrack, "render", scene_path, "--spp", str(a.spp), "--seed", str(seed), "-o", out,
-                                "--quiet", "--stats-json", st] + ours[label], check=True, capture_output=True)
+                                "--quiet", "--no-alpha", "--stats-json", st] + ours[label], check=True, capture_output=True)
                 return read_exr(out), json.load(open(st))["seconds_render"]
 
             def run_theirs(integ, seed):

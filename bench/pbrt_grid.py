@@ -67,12 +67,25 @@ def read_rgb(path):
     return np.asarray(px, dtype=np.float64)[:, :, :3]
 
 
+_no_alpha = {}
+
+
+def no_alpha(binary):
+    """--no-alpha where the binary has film layers (issue 14: EXRs get a transparent film and an
+    alpha estimate by default): the benchmarks compare whole images and the cost of the beauty,
+    as pbrt-v4 and Mitsuba render it; bench/film_layers.sh measures the layers' cost"""
+    if binary not in _no_alpha:
+        h = subprocess.run([binary, "render", "--help"], capture_output=True, text=True).stdout
+        _no_alpha[binary] = ["--no-alpha"] if "--no-alpha" in h else []
+    return _no_alpha[binary]
+
+
 def render_spectrack(binary, scene, flags, spp, seed, work, tag):
     """image, seconds_render, wall-clock seconds of the whole command, stats"""
     out = os.path.join(work, f"{tag}_{seed}.exr")
     stats = out + ".json"
     cmd = [binary, "render", scene, "-o", out, "--spp", str(spp), "--seed", str(seed), "--quiet",
-           "--stats-json", stats] + flags
+           "--stats-json", stats] + no_alpha(binary) + flags
     t0 = time.monotonic()
     subprocess.run(cmd, check=True)
     wall = time.monotonic() - t0

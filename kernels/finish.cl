@@ -19,39 +19,66 @@ __kernel void k_finish(ST_STAGE_ARGS) {
     if (bounce < 0) continue;
     for (int l = 0; l < scene->n_lights; ++l) {
       __global st_shadow* e = &shadows[shadow_entry(slot, NL, scene->n_lights, bounce, l)];
-      if (e->state == ST_SHADOW_DONE) shadow_fold(&shadows[slot * NL + (uint)l], e);
+      if (e->state == ST_SHADOW_DONE)
+        shadow_fold(scene, &shadows[slot * NL + (uint)l], e, bounce, &results[p.result_index * (uint)scene->result_layers]);
     }
   }
   float4 r = p.L;
   for (uint l = 0; l < (uint)scene->n_lights; ++l) r += shadows[slot * NL + l].Ls;
   r.w = 0.0f;
-  if (!(isfinite(r.x) && isfinite(r.y) && isfinite(r.z))) {
+  const uint L = (uint)scene->result_layers;
+  __global float4* out = &results[p.result_index * L];
+  int finite = isfinite(r.x) && isfinite(r.y) && isfinite(r.z);
+  if (ST_HAS_AOV && L > 1u) /* the layers raygen and escape wrote: a non-finite one drops the whole sample */
+    for (uint k = 1u; k < L; ++k) finite = finite && isfinite(out[k].x) && isfinite(out[k].y) && isfinite(out[k].z);
+  if (!finite) {
     atomic_inc(&counters[ST_C_NONFINITE]);
     r = (float4)(0.0f);
+    if (ST_HAS_AOV)
+      for (uint k = 1u; k < L; ++k) out[k] = (float4)(0.0f);
   }
-  results[p.result_index] = r;
+  out[ST_RESULT_BEAUTY] = r;
   atomic_inc(&counters[ST_C_BATCH_DONE + p.batch]);
   free_push(queues, counters, Q, free_base(it.n_queue[ST_Q_FREE], it.n_new), slot);
 }
 
+/* Compensated (Kahan) addition of y to the sum *f with compensation *c. */
+inline void kahan_add(float4* f, float4* c, float4 y) {
+  float4 v = y - *c;
+  float4 t = *f + v;
+  *c = (t - *f) - v;
+  *f = t;
+}
+
 /* Adds the n_samples samples (times channels) of each window pixel of one batch to the film.
- * film[pix] is the running sum and film[npix + pix] its Kahan compensation, so a pixel's sum is
- * exact to a few float roundings of its terms whatever the sample count: sample-range shards
- * merged on the host (in double) then agree with one long render to float precision. */
+ * The film holds `layers` float4 sums per pixel, layer l at film[2 * l * npix + pix] with its
+ * Kahan compensation at film[(2 * l + 1) * npix + pix], so a pixel's sum is exact to a few float
+ * roundings of its terms whatever the sample count: sample-range shards merged on the host (in
+ * double) then agree with one long render to float precision. Layers 0 .. L - 1 are the batch
+ * results' layers (st_result_layer); with `moments`, layer L sums the square of each sample's
+ * whole beauty (the beauty and environment layers, over its channels' paths): the variance layer. */
 __kernel void k_accumulate(__global const float4* results, __global float4* film, uint base, uint n_samples,
-                           uint npix, uint nch) {
+                           uint npix, uint nch, uint L, uint moments) {
   uint pix = get_global_id(0);
   if (pix >= npix) return;
   /* one sample at a time, in sample order: the sum does not depend on how samples were batched */
-  float4 f = film[pix];
-  float4 c = film[npix + pix];
-  for (uint s = 0; s < n_samples; ++s)
-    for (uint k = 0; k < nch; ++k) {
-      float4 y = results[base + (s * npix + pix) * nch + k] - c;
-      float4 t = f + y;
-      c = (t - f) - y;
-      f = t;
+  for (uint l = 0; l < L + moments; ++l) {
+    float4 f = film[2u * l * npix + pix];
+    float4 c = film[(2u * l + 1u) * npix + pix];
+    for (uint s = 0; s < n_samples; ++s) {
+      if (l < L) {
+        for (uint k = 0; k < nch; ++k) kahan_add(&f, &c, results[(base + (s * npix + pix) * nch + k) * L + l]);
+      } else {
+        float4 x = (float4)(0.0f);
+        for (uint k = 0; k < nch; ++k) {
+          uint i = (base + (s * npix + pix) * nch + k) * L;
+          x += results[i + ST_RESULT_BEAUTY];
+          if (L > 1u) x += results[i + ST_RESULT_ENVIRONMENT];
+        }
+        kahan_add(&f, &c, x * x);
+      }
     }
-  film[pix] = f;
-  film[npix + pix] = c;
+    film[2u * l * npix + pix] = f;
+    film[(2u * l + 1u) * npix + pix] = c;
+  }
 }

@@ -3,6 +3,40 @@
  * slot it lands in never changes the image. The launch covers the n_new slots it fills, the top
  * of the free stack (queues.h: places n_free - n_new .. n_free - 1); the free slots below them are
  * not touched and stay free. */
+
+/* The alpha and environment layers of a new camera path (types.h ST_AOVS): the environment
+ * (and the emission and direct passes) start at 0 (k_escape, k_track and the shadow folds add to them), the alpha value is 1 - T per channel with T the scene's
+ * transmittance estimator along the whole camera ray (ratio tracking or ray marching, through
+ * every medium, the three channels at once), on the stream ST_STREAM_CAMERA_T so the path's own stream is unchanged. It runs to the end here
+ * (roulette bounds it); its lookups are counted on their own (density_lookups_alpha). */
+inline void camera_layers_begin(__constant const st_scene* scene, __global const uint* grids,
+                                __global const float2* maj, __global uint* counters, __global float4* results,
+                                const st_path* p) {
+  const uint L = (uint)scene->result_layers;
+  __global float4* r = &results[p->result_index * L];
+  r[ST_RESULT_ENVIRONMENT] = (float4)(0.0f);
+  if (L > ST_RESULT_LAYERS_AOV) r[ST_RESULT_EMISSION] = r[ST_RESULT_DIRECT] = (float4)(0.0f);
+  float4 alpha = (float4)(0.0f);
+  /* one estimate per sample, for every channel: the per-channel trackers' channel-0 path makes it
+   * (the sample's other paths add 0), the others carry every channel already */
+  if ((scene->aovs & ST_AOV_BIT(ALPHA)) && (scene->n_channels_per_sample == 1 || p->channel == 0u)) {
+    const float4 all = (float4)(1.0f, 1.0f, 1.0f, 0.0f);
+    st_rng rng = path_rng(scene, p, ST_STREAM_CAMERA_T, 0u);
+    st_track_stats st;
+    track_stats_clear(&st);
+    st_trans tr;
+    transmittance_begin(&tr, all);
+    float t = 0.0f;
+    while (!transmittance_estimate(scene, grids, maj, p->o.xyz, p->d.xyz, &t, &tr, all, &rng,
+                                   scene->iteration_budget, &st)) {
+    }
+    alpha = all - tr.T;
+    alpha.w = 0.0f;
+    counter_add(counters, ST_C_LOOKUPS_ALPHA, st.lookups);
+  }
+  r[ST_RESULT_ALPHA] = alpha;
+}
+
 __kernel void k_raygen(ST_STAGE_ARGS) {
   const uint cur = it.cur, n_new = it.n_new;
   uint gid = get_global_id(0);
@@ -57,6 +91,7 @@ __kernel void k_raygen(ST_STAGE_ARGS) {
   p.medium = 0;
   p.r_u[0] = p.r_u[1] = p.r_u[2] = 1.0f;
   paths[slot] = p;
+  if (ST_HAS_AOV && scene->result_layers > 1) camera_layers_begin(scene, grids, maj, counters, results, &p);
   for (uint l = 0; l < (uint)scene->n_lights; ++l) shadows[slot * NL + l].Ls = (float4)(0.0f);
   queue_push(queues, counters, Q, NL, cur, ST_Q_TRACK, slot);
 }

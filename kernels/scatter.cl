@@ -22,7 +22,9 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
   for (int l = 0; l < scene->n_lights; ++l) {
     __global st_shadow* e = &shadows[shadow_entry(slot, NL, scene->n_lights, p.depth, l)];
     if (e->state == ST_SHADOW_PENDING) busy = 1;
-    else if (e->state == ST_SHADOW_DONE) shadow_fold(&shadows[slot * NL + (uint)l], e);
+    else if (e->state == ST_SHADOW_DONE)  /* the entry of bounce depth - R (R: the shadow ring) */
+      shadow_fold(scene, &shadows[slot * NL + (uint)l], e, p.depth - shadow_ring(NL, scene->n_lights),
+                  &results[p.result_index * (uint)scene->result_layers]);
   }
   if (busy) {
     atomic_inc(&counters[ST_C_WAITS]);

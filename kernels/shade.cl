@@ -1,7 +1,8 @@
 /* shade.cl: paths that left every medium see the lights at infinity (environment, sun discs),
  * weighted by MIS against next-event estimation when the direction came from phase sampling
  * (d.w holds that pdf; 0 for camera rays, which take the full radiance). Next-event estimation
- * reaches a light with its pdf times select_pmf (1 when every light gets a shadow ray). */
+ * reaches a light with its pdf times select_pmf (1 when every light gets a shadow ray). With the
+ * alpha or environment layer, what a camera ray sees before any scattering goes to that layer. */
 __kernel void k_escape(ST_STAGE_ARGS) {
   const uint cur = it.cur, n = it.n_queue[ST_Q_ESCAPE];
   uint gid = get_global_id(0);
@@ -18,7 +19,16 @@ __kernel void k_escape(ST_STAGE_ARGS) {
     float w = pdf_phase > 0.0f ? power_heuristic(pdf_phase, light->select_pmf * light_pdf(light, env, d)) : 1.0f;
     L += Le * w;
   }
-  p.L += p.beta * p.mask * L;
-  paths[slot].L = p.L;
+  /* the alpha / environment layers: lights at infinity seen straight from the camera go to the
+   * environment layer (a transparent film, types.h ST_AOVS) */
+  if (ST_HAS_AOV && scene->result_layers > 1 && p.depth == 0) {
+    results[p.result_index * (uint)scene->result_layers + ST_RESULT_ENVIRONMENT] = p.beta * p.mask * L;
+  } else {
+    p.L += p.beta * p.mask * L;
+    paths[slot].L = p.L;
+    /* the direct pass: the lights that the first scattering event's phase-sampled ray reaches */
+    if (ST_HAS_AOV && scene->result_layers > ST_RESULT_LAYERS_AOV && p.depth == 1)
+      results[p.result_index * (uint)scene->result_layers + ST_RESULT_DIRECT] += p.beta * p.mask * L;
+  }
   queue_push(queues, counters, Q, NL, cur, ST_Q_FINISH, slot);
 }

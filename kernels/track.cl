@@ -20,6 +20,9 @@ __kernel void k_track(ST_STAGE_ARGS) {
   p.r_u[1] = r_u.y;
   p.r_u[2] = r_u.z;
   p.beta = beta;
+  /* the emission pass: what the camera segment (before any scattering) scored */
+  if (ST_HAS_AOV && ST_HAS_EMISSION && scene->result_layers > ST_RESULT_LAYERS_AOV && p.depth == 0)
+    results[p.result_index * (uint)scene->result_layers + ST_RESULT_EMISSION] += L - p.L;
   p.L = L;
   p.rng_draw = rng_draw_index(&rng);
   int q;

@@ -123,6 +123,37 @@ enum st_medium_type { ST_MEDIUM_VDB = 0, ST_MEDIUM_HOMOGENEOUS = 1 };
 enum st_color_mode { ST_COLOR_NONE = 0, ST_COLOR_ALBEDO = 1, ST_COLOR_SCATTERING = 2 };
 enum st_phase_type { ST_PHASE_ISOTROPIC = 0, ST_PHASE_HG = 1 };
 
+/* Layers of the film beyond the beauty (docs/aov.md; issue 14): X(ENUM suffix, --aov / film.aovs name).
+ *   alpha:       A = 1 - the camera ray's transmittance through every medium (its channel mean; AR,
+ *                AG, AB per channel), from a transmittance estimate along the camera ray (its own
+ *                random stream, ST_STREAM_CAMERA_T); the film becomes transparent: the lights at
+ *                infinity seen straight from the camera go to the environment layer, not into RGB;
+ *   environment: the lights at infinity seen straight from the camera (escape before any scattering);
+ *   variance:    the variance of each pixel's mean, from per-sample second moments (k_accumulate);
+ *   emission:    emission scored before the first scattering event (the medium's glow seen directly);
+ *   direct:      light of the first scattering event: its next-event estimation and the lights its
+ *                phase-sampled ray reaches;
+ *   indirect:    everything else (the host takes it as the beauty minus environment, emission and
+ *                direct, so the passes add up to the beauty sample by sample).
+ * The bits are 1 << index (st_scene.aovs). Per path, alpha and environment take two more float4
+ * of the batch result buffer (st_result_layer), the passes two more; variance takes nothing per path. */
+#define ST_AOVS(X)                                                                       \
+  X(ALPHA, "alpha") X(ENVIRONMENT, "environment") X(VARIANCE, "variance") X(EMISSION, "emission") \
+  X(DIRECT, "direct") X(INDIRECT, "indirect")
+#define ST_X_AOV_ENUM(E, name) ST_AOV_INDEX_##E,
+enum st_aov_index { ST_AOVS(ST_X_AOV_ENUM) ST_AOV_COUNT };
+#define ST_AOV_BIT(E) (1 << ST_AOV_INDEX_##E)
+/* The float4 values a path writes to the batch result buffer (result_index * result_layers + layer). */
+enum st_result_layer {
+  ST_RESULT_BEAUTY = 0,      /* everything but what the environment layer takes */
+  ST_RESULT_ALPHA = 1,       /* 1 - the camera ray's transmittance estimate, per channel (raygen.cl) */
+  ST_RESULT_ENVIRONMENT = 2, /* lights at infinity seen straight from the camera */
+  ST_RESULT_LAYERS_AOV = 3,  /* result_layers when alpha or environment is on, not the passes (else 1) */
+  ST_RESULT_EMISSION = 3,    /* the emission pass (its part of the beauty) */
+  ST_RESULT_DIRECT = 4,      /* the direct pass (its part of the beauty) */
+  ST_RESULT_LAYERS_PASSES = 5 /* result_layers with the emission, direct or indirect pass */
+};
+
 /* Scene features, as one mask: the kernels are compiled with ST_FEATURES = the scene's mask
  * (specialised) or ST_FEATURES_ALL (the generic kernel, which renders any scene). A feature the
  * mask lacks is code the compiler removes (kernels/features.h maps each bit to one macro); the
@@ -143,7 +174,8 @@ enum st_feature {
   ST_FEATURE_COLOR = 1 << 9,          /* some medium has a per-voxel colour grid (st_color_mode) */
   ST_FEATURE_SPECTRAL_MIS = 1 << 10,  /* tracker spectral-mis (hero-channel sampling, MIS over channels) */
   ST_FEATURE_STOCHASTIC_LOOKUP = 1 << 11, /* density lookups read one voxel chosen at random (st_lookup_mode) */
-  ST_FEATURES_ALL = (1 << 12) - 1
+  ST_FEATURE_AOV = 1 << 12,           /* the alpha or environment layer (st_scene.aovs): per-path layer work */
+  ST_FEATURES_ALL = (1 << 13) - 1
 };
 
 /* Queues of the wavefront. Each stage reads the current buffer of its queue and pushes into the
@@ -167,6 +199,7 @@ enum st_queue {
   X(LOOKUPS_TRACK, lookups_track, "density_lookups_tracking")      \
   X(LOOKUPS_SHADOW, lookups_shadow, "density_lookups_shadow")      \
   X(LOOKUPS_EMISSION, lookups_emission, "emission_lookups")        \
+  X(LOOKUPS_ALPHA, lookups_alpha, "density_lookups_alpha")         \
   X(REAL_COLLISIONS, real_collisions, "real_collisions")           \
   X(NULL_COLLISIONS, null_collisions, "null_collisions")           \
   X(CONTROL_COLLISIONS, control_collisions, "control_collisions")  \
@@ -286,7 +319,9 @@ typedef struct {
   float march_spacing;          /* ray-marching: majorant optical depth between the samples of one estimate */
   float pilot_spacing;          /* ray-marching: the same for the pilot estimate (the expansion point) */
   st_int lookup;                /* st_lookup_mode of density lookups */
-  st_int pad[3];
+  st_int aovs;                  /* st_aov_index bits of the layers asked for */
+  st_int result_layers;         /* float4 per path in the batch result buffer: 1, or ST_RESULT_LAYERS_AOV */
+  st_int pad;
 } st_scene;
 
 /* Path state, one slot per path in flight. */

@@ -26,7 +26,8 @@ echo "sanitize: built build-asan/ in $(( $(date +%s) - start )) s"
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 HOST='^(SceneTest|SceneNames|VolumeLoad|VolumeErrors|VolumeSample|VolumeMajorant|VolumeNanoVdb)\.'
-DEVICE='^(Render|ProfileVolume|Estimators|Volume|CliSceneErrors|CliFlags|CliDevices|CliRender|CliInterrupt|CliHostileImages|CliHostileRadiance|CliHostileFiles|CliHostileOutputs|CliShards|CliShardFlags|CliMerge|CliMultiDevice|OpenCL)\.'
+# the film layers' quick tests (EXR channels, merging every layer, scene fields) beside them
+DEVICE='^((Render|ProfileVolume|Estimators|Volume|CliSceneErrors|CliFlags|CliDevices|CliRender|CliInterrupt|CliHostileImages|CliHostileRadiance|CliHostileFiles|CliHostileOutputs|CliShards|CliShardFlags|CliMerge|CliMultiDevice|OpenCL)\.|Aov\.(ShardsAndTiles|ExrChannels|SceneFields|PassesOnATransparentFilm))'
 cd build-asan
 status=0
 start=$(date +%s)

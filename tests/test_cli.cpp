@@ -672,7 +672,9 @@ TEST(CliHostileImages, GrayMapIsReplicatedToRgb) {
   std::string dir = test_dir();
   write_test_image(dir + "/gray.exr", 8, 4, 1, 0.5f);
   std::string scene = write_scene(dir, "gray.json", env_map_scene(dir + "/gray.exr"));
-  Proc p = run({"render", scene, "-o", dir + "/out.exr", "--quiet"}, slow_ok());
+  // --no-alpha: R, G, B hold the map seen straight from the camera (a transparent film would put
+  // it in the environment layer, docs/aov.md)
+  Proc p = run({"render", scene, "-o", dir + "/out.exr", "--quiet", "--no-alpha"}, slow_ok());
   ASSERT_TRUE(p.exited && p.code == 0) << p.describe();
   auto in = OIIO::ImageInput::open(dir + "/out.exr");
   ASSERT_TRUE(in);
@@ -912,3 +914,52 @@ TEST(CliRender, SceneSchemeWithATrackerThatIgnoresItWarnsAndRecordsMax) {
 }
 
 }  // namespace
+
+// Film layers on the command line (docs/aov.md): an EXR gets A (and the environment layer) by
+// default, --no-alpha and a PNG do not, --aov adds layers, wrong names and layers on a PNG exit
+// non-zero naming the reason, and merge refuses inputs with different layers.
+TEST(CliFilmLayers, DefaultsFlagsAndRefusals) {
+  std::string dir = test_dir();
+  std::string scene = write_scene(dir, "s.json", homogeneous_scene(8, 6, 4, 1.0, 0.5));
+  auto channels = [](const std::string& f) {
+    auto in = OIIO::ImageInput::open(f);
+    std::vector<std::string> c;
+    if (in) c.assign(in->spec().channelnames.begin(), in->spec().channelnames.end());
+    std::sort(c.begin(), c.end());
+    return c;
+  };
+  Proc a = run({"render", scene, "-o", dir + "/a.exr", "--quiet"}, slow_ok());
+  ASSERT_TRUE(a.exited && a.code == 0) << a.describe();
+  EXPECT_EQ(channels(dir + "/a.exr"), (std::vector<std::string>{"A", "AB", "AG", "AR", "B", "G", "R", "environment.B",
+                                                                "environment.G", "environment.R"}));
+  Proc b = run({"render", scene, "-o", dir + "/b.exr", "--no-alpha", "--aov", "variance", "--half", "--compression",
+                "piz", "--quiet"},
+               slow_ok());
+  ASSERT_TRUE(b.exited && b.code == 0) << b.describe();
+  EXPECT_EQ(channels(dir + "/b.exr"), (std::vector<std::string>{"B", "G", "R", "variance.B", "variance.G", "variance.R"}));
+  auto in = OIIO::ImageInput::open(dir + "/b.exr");
+  ASSERT_TRUE(in);
+  EXPECT_EQ(in->spec().format, OIIO::TypeDesc::HALF);
+  EXPECT_EQ(in->spec().get_string_attribute("compression"), "piz");
+  in->close();
+  Proc png = run({"render", scene, "-o", dir + "/c.png", "--aov", "variance", "--quiet"}, slow_ok());
+  EXPECT_TRUE(png.exited && png.code != 0) << png.describe();
+  EXPECT_THAT(png.out, HasSubstr("need an EXR output")) << png.describe();
+  Proc bad = run({"render", scene, "-o", dir + "/d.exr", "--aov", "depth", "--quiet"}, slow_ok());
+  EXPECT_TRUE(bad.exited && bad.code != 0) << bad.describe();
+  EXPECT_THAT(bad.out, HasSubstr("unknown layer 'depth'")) << bad.describe();
+  Proc both = run({"render", scene, "-o", dir + "/e.exr", "--alpha", "--no-alpha", "--quiet"}, slow_ok());
+  EXPECT_TRUE(both.exited && both.code != 0) << both.describe();
+  // shards with different layers: refused by merge, naming the layers
+  Proc s1 = run({"render", scene, "-o", dir + "/s1.exr", "--spp-range", "0:2", "--quiet"}, slow_ok());
+  Proc s2 = run({"render", scene, "-o", dir + "/s2.exr", "--spp-range", "2:4", "--no-alpha", "--quiet"}, slow_ok());
+  ASSERT_TRUE(s1.code == 0 && s2.code == 0) << s1.describe() << s2.describe();
+  Proc m = run({"merge", dir + "/m.exr", dir + "/s1.exr", dir + "/s2.exr"}, slow_ok());
+  EXPECT_TRUE(m.exited && m.code != 0) << m.describe();
+  EXPECT_THAT(m.out, HasSubstr("film layers")) << m.describe();
+  // the same layers merge, and keep them
+  Proc s3 = run({"render", scene, "-o", dir + "/s3.exr", "--spp-range", "2:4", "--quiet"}, slow_ok());
+  Proc ok = run({"merge", dir + "/ok.exr", dir + "/s1.exr", dir + "/s3.exr", "--quiet"}, slow_ok());
+  ASSERT_TRUE(ok.exited && ok.code == 0) << ok.describe();
+  EXPECT_EQ(channels(dir + "/ok.exr"), channels(dir + "/a.exr"));
+}

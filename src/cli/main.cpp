@@ -28,6 +28,7 @@
 #include <functional>
 #include <future>
 #include <memory>
+#include <sstream>
 #include <tuple>
 #include <iostream>
 #include <unistd.h>
@@ -94,7 +95,8 @@ int cmd_devices() {
 
 struct RenderArgs {
   std::string scene, output, stats_json, preview, device, tracker, scheme, absorption, light_sampling, transmittance,
-      lookup, spp_range, pixel_bounds, frames;
+      lookup, spp_range, pixel_bounds, frames, aov, compression;
+  bool alpha = false, no_alpha = false, half = false;
   double march_spacing = 0, pilot_spacing = 0;  // 0: not given
   int spp = -1;
   int64_t seed = -1;
@@ -114,7 +116,8 @@ struct RenderArgs {
 };
 
 struct MergeArgs {
-  std::string output, preview;
+  std::string output, preview, compression;
+  bool half = false;
   std::vector<std::string> inputs;
   bool quiet = false;
 };
@@ -201,6 +204,9 @@ void write_stats_json(const std::string& path, const MultiDeviceResult& r, doubl
   j["light_sampling"] = light_sampling_name(r.light_sampling);
   j["transmittance"] = transmittance_name(r.transmittance);
   j["lookup"] = lookup_name(r.lookup);
+  j["film_layers"] = nlohmann::json::array();
+  for (int k = 0; k < ST_AOV_COUNT; ++k)
+    if (r.aovs & (1u << k)) j["film_layers"].push_back(aov_name(k));
   j["device"] = join(r.devices, ", ");
   j["devices"] = r.devices;
   j["samples_per_device"] = r.samples_per_device;
@@ -335,6 +341,40 @@ MultiDeviceResult render_share(const SceneDesc& scene, const RenderOptions& opt,
   return r;
 }
 
+// The film layers of a render to `output` (docs/aov.md): film.aovs and --aov; alpha from --alpha /
+// --no-alpha, else film.alpha, else on for an EXR output. Layers need an EXR (a PNG holds the beauty).
+uint32_t film_layers(const RenderArgs& a, const SceneDesc& scene, const std::string& output) {
+  uint32_t aovs = scene.film.aovs & ~uint32_t(ST_AOV_BIT(ALPHA));
+  std::stringstream list(a.aov);
+  std::string name;
+  bool alpha_listed = false;
+  while (std::getline(list, name, ',')) {
+    const int k = aov_from_name(name);
+    if (k < 0) throw Error(fmt::format("--aov {}: unknown layer '{}' (one of: {})", a.aov, name, aov_names()));
+    if (k == ST_AOV_INDEX_ALPHA) alpha_listed = true;
+    else aovs |= 1u << k;
+  }
+  std::string ext = std::filesystem::path(output).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  const bool exr = ext == ".exr";
+  if (a.alpha && a.no_alpha) throw Error("--alpha and --no-alpha: choose one");
+  if (alpha_listed && a.no_alpha) throw Error(fmt::format("--aov {} lists alpha, which --no-alpha turns off", a.aov));
+  bool alpha = a.alpha || alpha_listed ? true : a.no_alpha ? false : scene.film.alpha.value_or(exr);
+  if (!exr && (aovs || ((a.alpha || alpha_listed || scene.film.alpha.value_or(false)) && !a.no_alpha)))
+    throw Error(fmt::format("{}: film layers ({}) need an EXR output; a PNG holds the beauty only (write an EXR and add "
+                            "--preview for a PNG)",
+                            output, a.aov.empty() ? std::string("film.aovs / film.alpha of ") + scene.path : "--aov " + a.aov));
+  if (!exr) alpha = false;
+  return aovs | (alpha ? uint32_t(ST_AOV_BIT(ALPHA)) : 0u);
+}
+
+ExrOptions exr_options(bool half, const std::string& compression, const FilmDesc& film) {
+  ExrOptions o;
+  o.half = half || film.half;
+  o.compression = compression.empty() ? film.compression : compression;
+  return o;
+}
+
 // Rank 0: the image, the preview, the statistics, and the summary line.
 void write_render_outputs(const RenderArgs& a, const std::string& output, const SceneDesc& scene,
                           const MultiDeviceResult& r, double seconds_total, double seconds_to_renderer, int mpi_ranks,
@@ -348,7 +388,7 @@ void write_render_outputs(const RenderArgs& a, const std::string& output, const 
   meta["render_seconds"] = float(r.seconds_render);
   meta["scene"] = scene.path;
   if (a.mpi) meta["mpi_ranks"] = mpi_ranks;
-  write_piece(output, r.piece, meta);
+  write_piece(output, r.piece, meta, exr_options(a.half, a.compression, scene.film));
   if (!a.preview.empty()) write_piece(a.preview, r.piece, meta);
   if (!a.stats_json.empty()) write_stats_json(a.stats_json, r, seconds_total, seconds_to_renderer, mpi_ranks, meta);
   if (!a.quiet) {
@@ -366,6 +406,7 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   const bool root = mpi.rank == 0;
   const bool quiet = a.quiet || !root;
   RenderOptions opt = render_options(a, quiet);
+  opt.aovs = film_layers(a, scene, output);
   check_tracker_scheme(scene, opt, a.scheme, a.tracker);  // --scheme with a tracker that ignores it: exit 2
   const RenderSettings set = resolve_settings(scene, opt);
   const double time_limit = a.time_limit > 0 ? a.time_limit : scene.render.time_limit;
@@ -494,7 +535,7 @@ int cmd_merge(const MergeArgs& a) {
   meta["device"] = join(devices, ", ");
   meta["scene"] = scene;
   meta["merged_inputs"] = int(pieces.size());
-  write_piece(a.output, m, meta);
+  write_piece(a.output, m, meta, exr_options(a.half, a.compression, FilmDesc{}));
   if (!a.preview.empty()) write_piece(a.preview, m, meta);
   if (!a.quiet)
     std::cerr << fmt::format("merged {} inputs: samples {} of pixels {},{},{},{} (x0,x1,y0,y1) of the {}x{} film -> {}\n",
@@ -601,6 +642,17 @@ CLI::App* add_render_command(CLI::App& app, RenderArgs& ra) {
                      "stop cleanly after this many seconds from the start (the finished samples are written, "
                      "exit 0; overrides render.time_limit)")
       ->check(finite_range(1e-3, 1e9));
+  render->add_flag("--alpha", ra.alpha,
+                   "write A = 1 - the camera ray's transmittance (and AR, AG, AB) with a transparent, premultiplied "
+                   "R, G, B; the environment seen straight from the camera goes to the environment layer (default for "
+                   "EXR outputs; film.alpha)");
+  render->add_flag("--no-alpha", ra.no_alpha, "no alpha: R, G, B hold the whole image, background included");
+  render->add_option("--aov", ra.aov,
+                     "film layers to add, comma-separated: " + aov_names() +
+                         " (film.aovs; docs/aov.md; EXR outputs only)");
+  render->add_flag("--half", ra.half, "16-bit half-float EXR channels (film.half; such files cannot be merged)");
+  render->add_option("--compression", ra.compression, "EXR compression (film.compression; default zip)")
+      ->check(one_of("compression", exr_compressions()));
   render->add_flag("--generic-kernels", ra.generic_kernels, "use the generic kernels instead of ones specialised to the scene");
   render->add_flag("-q,--quiet", ra.quiet, "no progress output");
   return render;
@@ -620,6 +672,9 @@ int main(int argc, char** argv) {
   merge->add_option("inputs", ma.inputs, "EXR outputs of `spectrack render` (shards and/or tiles)")->required()->expected(1, -1);
   merge->add_option("--preview", ma.preview, "also write a PNG preview")->check(png_file());
   merge->add_flag("-q,--quiet", ma.quiet, "no summary line");
+  merge->add_flag("--half", ma.half, "16-bit half-float EXR channels (the result cannot be merged again)");
+  merge->add_option("--compression", ma.compression, "EXR compression (default zip)")
+      ->check(one_of("compression", exr_compressions()));
   app.add_subcommand("devices", "list OpenCL platforms and devices");
   std::vector<std::string> info_files;
   bool info_json = false;

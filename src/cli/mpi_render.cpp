@@ -88,6 +88,11 @@ void mpi_reduce_to_root(const MpiWorld& w, MultiDeviceResult& r) {
   mpi_check(MPI_Reduce(p.sum.data(), w.rank == 0 ? total_sum.data() : nullptr, int(p.sum.size()), MPI_DOUBLE,
                        MPI_SUM, 0, MPI_COMM_WORLD),
             "MPI_Reduce");
+  std::vector<double> total_aov(w.rank == 0 ? p.aov_sum.size() : 0);
+  if (!p.aov_sum.empty())  // the film layers: every rank has the same (ranks run with the same options)
+    mpi_check(MPI_Reduce(p.aov_sum.data(), w.rank == 0 ? total_aov.data() : nullptr, int(p.aov_sum.size()), MPI_DOUBLE,
+                         MPI_SUM, 0, MPI_COMM_WORLD),
+              "MPI_Reduce");
   if (w.rank != 0) return;
 
   MultiDeviceResult out = r;
@@ -121,6 +126,7 @@ void mpi_reduce_to_root(const MpiWorld& w, MultiDeviceResult& r) {
   if (count_samples(out.piece.ranges) != count)
     throw Error("--mpi: the ranks' sample ranges overlap (ranks must run with the same options)");
   out.piece.sum = std::move(total_sum);
+  out.piece.aov_sum = std::move(total_aov);
   r = std::move(out);
 }
 

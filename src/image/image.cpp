@@ -49,40 +49,75 @@ static float srgb_encode(float v) {
   return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
 }
 
-void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb, const Metadata& meta,
-                 const PixelWindow& window) {
-  check_output_path(path);
-  if (rgb.size() != size_t(width) * size_t(height) * 3) throw Error(fmt::format("{}: internal: image size mismatch", path));
-  bool png = extension(path) == ".png";
-  auto out = OIIO::ImageOutput::create(path);
-  if (!out) throw Error(fmt::format("{}: cannot create image writer: {}", path, OIIO::geterror()));
-  OIIO::ImageSpec spec(width, height, 3, png ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::FLOAT);
+static void set_exr_spec(OIIO::ImageSpec& spec, const Metadata& meta, const PixelWindow& window, const ExrOptions& exr) {
   for (auto& [k, v] : meta) {
     std::string key = "spectrack:" + k;
     if (auto s = std::get_if<std::string>(&v)) spec.attribute(key, *s);
     else if (auto i = std::get_if<int>(&v)) spec.attribute(key, *i);
     else if (auto f = std::get_if<float>(&v)) spec.attribute(key, *f);
   }
-  if (!png) {
-    spec.attribute("compression", "zip");
-    if (window.full_width > 0) {
-      spec.x = window.x0;
-      spec.y = window.y0;
-      spec.full_x = spec.full_y = 0;
-      spec.full_width = window.full_width;
-      spec.full_height = window.full_height;
-    }
+  spec.attribute("compression", exr.compression);
+  if (window.full_width > 0) {
+    spec.x = window.x0;
+    spec.y = window.y0;
+    spec.full_x = spec.full_y = 0;
+    spec.full_width = window.full_width;
+    spec.full_height = window.full_height;
+  }
+}
+
+void write_exr_channels(const std::string& path, int width, int height, const std::vector<std::string>& names,
+                        const std::vector<float>& px, const Metadata& meta, const PixelWindow& window,
+                        const ExrOptions& exr) {
+  check_output_path(path);
+  if (extension(path) != ".exr") throw Error(fmt::format("{}: internal: film layers need an EXR", path));
+  if (names.empty() || px.size() != size_t(width) * size_t(height) * names.size())
+    throw Error(fmt::format("{}: internal: image size mismatch", path));
+  auto out = OIIO::ImageOutput::create(path);
+  if (!out) throw Error(fmt::format("{}: cannot create image writer: {}", path, OIIO::geterror()));
+  OIIO::ImageSpec spec(width, height, int(names.size()), exr.half ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT);
+  spec.channelnames = names;
+  spec.alpha_channel = -1;
+  for (size_t c = 0; c < names.size(); ++c)
+    if (names[c] == "A") spec.alpha_channel = int(c);
+  set_exr_spec(spec, meta, window, exr);
+  if (!out->open(path, spec)) throw Error(fmt::format("{}: cannot open for writing: {}", path, out->geterror()));
+  if (!out->write_image(OIIO::TypeDesc::FLOAT, px.data()) || !out->close())
+    throw Error(fmt::format("{}: write failed: {}", path, out->geterror()));
+}
+
+void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb, const Metadata& meta,
+                 const PixelWindow& window, const ExrOptions& exr) {
+  check_output_path(path);
+  if (rgb.size() != size_t(width) * size_t(height) * 3) throw Error(fmt::format("{}: internal: image size mismatch", path));
+  if (extension(path) != ".png") {
+    write_exr_channels(path, width, height, {"R", "G", "B"}, rgb, meta, window, exr);
+    return;
+  }
+  auto out = OIIO::ImageOutput::create(path);
+  if (!out) throw Error(fmt::format("{}: cannot create image writer: {}", path, OIIO::geterror()));
+  OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
+  for (auto& [k, v] : meta) {
+    std::string key = "spectrack:" + k;
+    if (auto s = std::get_if<std::string>(&v)) spec.attribute(key, *s);
+    else if (auto i = std::get_if<int>(&v)) spec.attribute(key, *i);
+    else if (auto f = std::get_if<float>(&v)) spec.attribute(key, *f);
   }
   if (!out->open(path, spec)) throw Error(fmt::format("{}: cannot open for writing: {}", path, out->geterror()));
-  bool ok;
-  if (png) {
-    std::vector<unsigned char> px(rgb.size());
-    for (size_t i = 0; i < rgb.size(); ++i) px[i] = (unsigned char)std::lround(srgb_encode(rgb[i]) * 255.0f);
-    ok = out->write_image(OIIO::TypeDesc::UINT8, px.data());
-  } else {
-    ok = out->write_image(OIIO::TypeDesc::FLOAT, rgb.data());
-  }
-  if (!ok || !out->close()) throw Error(fmt::format("{}: write failed: {}", path, out->geterror()));
+  std::vector<unsigned char> px(rgb.size());
+  for (size_t i = 0; i < rgb.size(); ++i) px[i] = (unsigned char)std::lround(srgb_encode(rgb[i]) * 255.0f);
+  if (!out->write_image(OIIO::TypeDesc::UINT8, px.data()) || !out->close())
+    throw Error(fmt::format("{}: write failed: {}", path, out->geterror()));
+}
+
+bool film_layer_channel(const std::string& name) {
+  static const char* const known[] = {"A", "AR", "AG", "AB", "environment.R", "environment.G", "environment.B",
+                                      "variance.R", "variance.G", "variance.B", "emission.R", "emission.G",
+                                      "emission.B", "direct.R", "direct.G", "direct.B", "indirect.R", "indirect.G",
+                                      "indirect.B"};
+  for (const char* k : known)
+    if (name == k) return true;
+  return false;
 }
 
 static float srgb_decode(float v) {
@@ -263,8 +298,16 @@ RgbImage read_image(const std::string& path, ImageUse use) {
       fail(fmt::format("a {} image cannot be merged: only spectrack's EXR outputs hold the float pixels and sample "
                        "ranges a merge needs",
                        img.format));
-    if (nc != 3 || !rgb_named)
-      fail(fmt::format("has {} channel(s) ({}); spectrack's EXR outputs have exactly R, G, B", nc, channel_list(spec)));
+    // R, G, B first (OpenImageIO orders an EXR's R, G, B, A first), then film layers only
+    bool layers_known = rgb_named && spec.channelnames.size() == size_t(nc);
+    for (int c = 3; c < nc && layers_known; ++c) layers_known = film_layer_channel(spec.channelnames[c]);
+    if (!layers_known)
+      fail(fmt::format("has {} channel(s) ({}); spectrack's EXR outputs have R, G, B and its film layers only (A, AR, "
+                       "AG, AB, environment.*, variance.*, emission.*, direct.*, indirect.*)",
+                       nc, channel_list(spec)));
+    if (size_t(spec.width) * size_t(spec.height) * size_t(nc) > 3 * max_pixels)
+      fail(fmt::format("{}x{} pixels of {} channels are more than a merge input can hold (3 * 2^28 values)", spec.width,
+                       spec.height, nc));
     bool all_float = spec.format == OIIO::TypeDesc::FLOAT;
     for (auto& t : spec.channelformats) all_float = all_float && t == OIIO::TypeDesc::FLOAT;
     if (!all_float)
@@ -277,13 +320,22 @@ RgbImage read_image(const std::string& path, ImageUse use) {
                        img.height, img.window.x0, img.window.y0, img.window.full_width, img.window.full_height));
   }
   const size_t n = size_t(img.width) * size_t(img.height);
-  const int nread = gray >= 0 ? 1 : 3;
+  const int nread = gray >= 0 ? 1 : (env ? 3 : nc);  // a film piece: every channel (its layers)
   img.rgb.resize(n * 3);
   std::vector<float> g;
-  if (gray >= 0) g.resize(n);
-  float* dst = gray >= 0 ? g.data() : img.rgb.data();
+  if (gray >= 0 || nread > 3) g.resize(n * size_t(nread));
+  float* dst = !g.empty() ? g.data() : img.rgb.data();
   if (!in->read_image(0, 0, gray >= 0 ? gray : 0, (gray >= 0 ? gray : 0) + nread, OIIO::TypeDesc::FLOAT, dst))
     fail(fmt::format("cannot read pixels: {}", in->geterror()));
+  if (gray < 0 && nread > 3) {
+    const size_t ne = size_t(nread) - 3;
+    img.extra_names.assign(spec.channelnames.begin() + 3, spec.channelnames.begin() + nread);
+    img.extra.resize(n * ne);
+    for (size_t i = 0; i < n; ++i) {
+      for (int c = 0; c < 3; ++c) img.rgb[i * 3 + c] = g[i * nread + c];
+      for (size_t c = 0; c < ne; ++c) img.extra[i * ne + c] = g[i * nread + 3 + c];
+    }
+  }
   if (gray >= 0)
     for (size_t i = 0; i < n; ++i) img.rgb[i * 3] = img.rgb[i * 3 + 1] = img.rgb[i * 3 + 2] = g[i];
   if (env) {
@@ -299,6 +351,10 @@ RgbImage read_image(const std::string& path, ImageUse use) {
       for (float& v : img.rgb) v = v > 0.0f ? std::pow(v, gamma) : 0.0f;
     }
   } else {
+    for (size_t i = 0; i < img.extra.size(); ++i)
+      if (!std::isfinite(img.extra[i]))
+        fail(fmt::format("channel {} holds a non-finite value ({}); spectrack writes finite pixels only",
+                         img.extra_names[i % img.extra_names.size()], img.extra[i]));
     for (size_t i = 0; i < img.rgb.size(); ++i)
       if (!std::isfinite(img.rgb[i]))
         fail(fmt::format("pixel {},{} holds a non-finite value ({}); spectrack writes finite pixels only",

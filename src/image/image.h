@@ -25,27 +25,45 @@ struct PixelWindow {
   int x0 = 0, y0 = 0;
 };
 
+// How an EXR is stored: 16-bit half or 32-bit float channels, and the OpenEXR compression
+// (exr_compressions() of scene.h).
+struct ExrOptions {
+  bool half = false;
+  std::string compression = "zip";
+};
+
 // Writes width x height linear RGB floats (row 0 at the top). PNG previews hold the pixels only.
 void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb, const Metadata& meta,
-                 const PixelWindow& window = {});
+                 const PixelWindow& window = {}, const ExrOptions& exr = {});
+// Writes an EXR with the named channels (pixel-major: px[pixel * names.size() + c]); a channel
+// named "A" is marked as the alpha channel.
+void write_exr_channels(const std::string& path, int width, int height, const std::vector<std::string>& names,
+                        const std::vector<float>& px, const Metadata& meta, const PixelWindow& window,
+                        const ExrOptions& exr);
 
 struct RgbImage {
   int width = 0, height = 0;    // the pixels held (EXR data window)
   PixelWindow window;           // their place in the display window (full size always set)
   std::string format;           // OIIO's format name: "openexr", "png", ...
   std::vector<float> rgb;  // linear, row 0 at the top
+  // kFilmPiece: the channels besides R, G, B (film layers, docs/aov.md), pixel-major
+  std::vector<std::string> extra_names;
+  std::vector<float> extra;
   Metadata meta;
 };
 // What an image is read for; the checks and conversions differ (image.cpp, README "Scenes").
 enum class ImageUse {
   kEnvironmentMap,  // 1 channel (gray, replicated), gray + alpha, or R, G, B (+ more, ignored);
                     // sRGB / gamma-encoded files are decoded to linear; the whole display window
-  kFilmPiece,       // a spectrack EXR: exactly float R, G, B, finite, its data window inside the display window
+  kFilmPiece,       // a spectrack EXR: float R, G, B and spectrack's layers only (film_layer_channel), finite,
+                    // its data window inside the display window
 };
 // Reads one 2-D image (subimage 0, MIP level 0) as linear float RGB. Throws Error naming the
 // file and the reason for anything it cannot read as `use` says: not a regular file, volumes
 // (depth > 1), deep images, several subimages, no pixels or more than 2^28, channels it would
 // have to guess, tiles bigger than that bound.
 RgbImage read_image(const std::string& path, ImageUse use = ImageUse::kEnvironmentMap);
+// The channel names a film piece may hold besides R, G, B (the EXR layers of docs/aov.md).
+bool film_layer_channel(const std::string& name);
 
 }  // namespace spectrack

@@ -6,11 +6,16 @@
 
 #include <OpenImageIO/hash.h>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cctype>
+#include <filesystem>
 #include <fstream>
+#include <cmath>
 #include <sstream>
+#include <tuple>
 
 namespace spectrack {
 
@@ -121,6 +126,7 @@ RenderIdentity render_identity(const RenderSettings& s) {
   id.light_sampling = light_sampling_name(s.light_sampling);
   id.transmittance = transmittance_name(s.transmittance);
   id.lookup = lookup_name(s.lookup);
+  id.aovs = s.aovs;
   id.version = SPECTRACK_VERSION;
   return id;
 }
@@ -131,6 +137,7 @@ FilmPiece empty_piece(const RenderIdentity& id, const FilmWindow& w, const std::
   p.id = id;
   p.x0 = w.x0, p.y0 = w.y0, p.width = w.width, p.height = w.height;
   p.sum.assign(size_t(w.pixels()) * 3, 0.0);
+  p.aov_sum.assign(size_t(w.pixels()) * aov_sum_channels(id.aovs).size(), 0.0);
   return p;
 }
 
@@ -152,8 +159,16 @@ FilmPiece piece_from_result(const RenderResult& r, const RenderIdentity& id, con
   p.height = r.height;
   if (r.spp_done > 0) p.ranges = {{r.sample_begin, r.sample_begin + r.spp_done}};
   p.sum = r.sum;
+  p.aov_sum = r.aov_sum;
   p.interrupted = r.interrupted;
   return p;
+}
+
+static std::string layer_list(uint32_t aovs) {
+  std::string s;
+  for (int k = 0; k < ST_AOV_COUNT; ++k)
+    if (aovs & (1u << k)) s += (s.empty() ? "" : ",") + std::string(aov_name(k));
+  return s.empty() ? "none" : s;
 }
 
 static std::string window_text(int x0, int x1, int y0, int y1) {
@@ -182,10 +197,12 @@ void check_one_render(const std::vector<FilmPiece>& pieces) {
     if (p.id.transmittance != a.id.transmittance)
       differ("the transmittance estimator", a.id.transmittance, p.id.transmittance);
     if (p.id.lookup != a.id.lookup) differ("the density lookup mode", a.id.lookup, p.id.lookup);
+    if (p.id.aovs != a.id.aovs) differ("the film layers", layer_list(a.id.aovs), layer_list(p.id.aovs));
     if (p.id.version != a.id.version) differ("the spectrack version", a.id.version, p.id.version);
     if (p.id.scene_hash != a.id.scene_hash) differ("the scene (spectrack:scene_hash)", a.id.scene_hash, p.id.scene_hash);
     if (p.width <= 0 || p.height <= 0 || p.x0 < 0 || p.y0 < 0 || p.x0 + p.width > p.id.full_width ||
-        p.y0 + p.height > p.id.full_height || p.sum.size() != size_t(p.width) * p.height * 3)
+        p.y0 + p.height > p.id.full_height || p.sum.size() != size_t(p.width) * p.height * 3 ||
+        p.aov_sum.size() != size_t(p.width) * p.height * aov_sum_channels(p.id.aovs).size())
       throw Error(fmt::format("merge: {}: pixel window {} is not inside the {}x{} film", p.source,
                               window_text(p.x0, p.x0 + p.width, p.y0, p.y0 + p.height), p.id.full_width,
                               p.id.full_height));
@@ -260,14 +277,17 @@ FilmPiece merge_pieces(const std::vector<FilmPiece>& pieces) {
                                 cell, format_ranges(rs), first_cell_text, format_ranges(out.ranges)));
       }
     }
+  const size_t na = aov_sum_channels(a.id.aovs).size();
   out.sum.assign(size_t(out.width) * out.height * 3, 0.0);
+  out.aov_sum.assign(size_t(out.width) * out.height * na, 0.0);
   for (auto& p : pieces) {
     out.interrupted |= p.interrupted;
-    for (int y = 0; y < p.height; ++y) {
-      const double* src = &p.sum[size_t(y) * p.width * 3];
-      double* dst = &out.sum[(size_t(p.y0 - out.y0 + y) * out.width + (p.x0 - out.x0)) * 3];
-      for (int i = 0; i < p.width * 3; ++i) dst[i] += src[i];
-    }
+    for (auto [from, to, nc] : {std::tuple{&p.sum, &out.sum, size_t(3)}, std::tuple{&p.aov_sum, &out.aov_sum, na}})
+      for (int y = 0; y < p.height && nc > 0; ++y) {
+        const double* src = &(*from)[size_t(y) * p.width * nc];
+        double* dst = &(*to)[(size_t(p.y0 - out.y0 + y) * out.width + (p.x0 - out.x0)) * nc];
+        for (size_t i = 0; i < size_t(p.width) * nc; ++i) dst[i] += src[i];
+      }
   }
   return out;
 }
@@ -297,7 +317,53 @@ Metadata piece_metadata(const FilmPiece& p) {
   return m;
 }
 
-void write_piece(const std::string& path, const FilmPiece& p, const Metadata& extra) {
+// The EXR channels of a piece (docs/aov.md) from its sums, n samples: R, G, B (with alpha the
+// transparent film's: premultiplied, without the environment layer), A
+// (the mean of AR, AG, AB) and AR, AG, AB, environment.R/G/B, variance.R/G/B (the variance of the
+// pixel's mean: (S2 - S1^2 / n) / (n (n - 1)), 0 below 2 samples), emission.R/G/B, direct.R/G/B,
+// indirect.R/G/B (means).
+static std::vector<std::string> exr_channels(const FilmPiece& p, std::vector<float>* px) {
+  const uint32_t aovs = p.id.aovs;
+  const bool alpha = aovs & ST_AOV_BIT(ALPHA);
+  std::vector<std::string> names = {"R", "G", "B"};
+  if (alpha) names.insert(names.end(), {"A", "AR", "AG", "AB"});
+  if (aovs & ST_AOV_BIT(ENVIRONMENT)) names.insert(names.end(), {"environment.R", "environment.G", "environment.B"});
+  if (aovs & ST_AOV_BIT(VARIANCE)) names.insert(names.end(), {"variance.R", "variance.G", "variance.B"});
+  const std::vector<std::string> sums = aov_sum_channels(aovs);
+  const size_t passes = names.size();  // the passes' channels: their sums' names, means of them
+  for (const std::string& c : sums)
+    if (c.rfind("emission.", 0) == 0 || c.rfind("direct.", 0) == 0 || c.rfind("indirect.", 0) == 0) names.push_back(c);
+  auto at = [&](const std::string& name) { return size_t(std::find(sums.begin(), sums.end(), name) - sums.begin()); };
+  const size_t na = sums.size(), nc = names.size(), npix = size_t(p.width) * p.height;
+  const double n = double(p.samples());
+  px->assign(npix * nc, 0.0f);
+  if (n <= 0) return names;
+  const char* rgb[3] = {"R", "G", "B"};
+  for (size_t i = 0; i < npix; ++i) {
+    const double* a = na ? &p.aov_sum[i * na] : nullptr;
+    float* o = &(*px)[i * nc];
+    size_t c = 0;
+    for (int k = 0; k < 3; ++k) o[c++] = float(p.sum[i * 3 + k] / n);
+    if (alpha) {
+      double sa = 0;
+      for (int k = 0; k < 3; ++k) sa += a[at(std::string("A") + rgb[k])];
+      o[c++] = float(sa / (3.0 * n));
+      for (int k = 0; k < 3; ++k) o[c++] = float(a[at(std::string("A") + rgb[k])] / n);
+    }
+    if (aovs & ST_AOV_BIT(ENVIRONMENT))
+      for (int k = 0; k < 3; ++k) o[c++] = float(a[at(std::string("environment.") + rgb[k])] / n);
+    if (aovs & ST_AOV_BIT(VARIANCE))
+      for (int k = 0; k < 3; ++k) {
+        const double s1 = p.sum[i * 3 + k] + (alpha ? a[at(std::string("environment.") + rgb[k])] : 0.0);  // whole beauty
+        const double s2 = a[at(std::string("moment2.") + rgb[k])];
+        o[c++] = n >= 2 ? float(std::max(0.0, (s2 - s1 * s1 / n) / (n * (n - 1)))) : 0.0f;
+      }
+    for (size_t k = passes; k < nc; ++k) o[c++] = float(a[at(names[k])] / n);
+  }
+  return names;
+}
+
+void write_piece(const std::string& path, const FilmPiece& p, const Metadata& extra, const ExrOptions& exr) {
   Metadata m = extra;
   for (auto& [k, v] : piece_metadata(p)) m[k] = v;
   PixelWindow w;
@@ -305,7 +371,22 @@ void write_piece(const std::string& path, const FilmPiece& p, const Metadata& ex
   w.full_height = p.id.full_height;
   w.x0 = p.x0;
   w.y0 = p.y0;
-  write_image(path, p.width, p.height, p.mean(), m, w);
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  if (ext != ".exr") {  // a PNG preview: the whole beauty (a transparent film's environment added back)
+    std::vector<float> rgb = p.mean();
+    const std::vector<std::string> sums = aov_sum_channels(p.id.aovs);
+    const size_t na = sums.size();
+    const size_t e = size_t(std::find(sums.begin(), sums.end(), "environment.R") - sums.begin());
+    if ((p.id.aovs & ST_AOV_BIT(ALPHA)) && p.samples() > 0)
+      for (size_t i = 0; i < rgb.size(); ++i)
+        rgb[i] = float((p.sum[i] + p.aov_sum[(i / 3) * na + e + i % 3]) / double(p.samples()));
+    write_image(path, p.width, p.height, rgb, m, w);
+    return;
+  }
+  std::vector<float> px;
+  std::vector<std::string> names = exr_channels(p, &px);
+  write_exr_channels(path, p.width, p.height, names, px, m, w, exr);
 }
 
 FilmPiece read_piece(const std::string& path, Metadata* meta) {
@@ -347,9 +428,55 @@ FilmPiece read_piece(const std::string& path, Metadata* meta) {
   p.y0 = img.window.y0;
   p.width = img.width;
   p.height = img.height;
-  double n = double(p.samples());
-  p.sum.resize(img.rgb.size());
-  for (size_t i = 0; i < img.rgb.size(); ++i) p.sum[i] = double(img.rgb[i]) * n;
+  // the layers: each one whole, or the file is not one of ours
+  const std::vector<std::string>& have = img.extra_names;
+  auto has = [&](const std::string& c) { return std::find(have.begin(), have.end(), c) != have.end(); };
+  const std::vector<std::pair<int, std::vector<std::string>>> groups = {
+      {ST_AOV_INDEX_ALPHA, {"A", "AR", "AG", "AB"}},
+      {ST_AOV_INDEX_ENVIRONMENT, {"environment.R", "environment.G", "environment.B"}},
+      {ST_AOV_INDEX_VARIANCE, {"variance.R", "variance.G", "variance.B"}},
+      {ST_AOV_INDEX_EMISSION, {"emission.R", "emission.G", "emission.B"}},
+      {ST_AOV_INDEX_DIRECT, {"direct.R", "direct.G", "direct.B"}},
+      {ST_AOV_INDEX_INDIRECT, {"indirect.R", "indirect.G", "indirect.B"}}};
+  for (auto& [k, chans] : groups) {
+    size_t found = 0;
+    for (auto& c : chans) found += has(c);
+    if (found == chans.size()) p.id.aovs |= 1u << k;
+    else if (found > 0)
+      throw Error(fmt::format("{}: the {} layer is incomplete (it needs channels {}); a merge needs every channel of "
+                              "a layer",
+                              path, aov_name(k), fmt::join(chans, ", ")));
+  }
+  if ((p.id.aovs & ST_AOV_BIT(ALPHA)) && !(p.id.aovs & ST_AOV_BIT(ENVIRONMENT)))
+    throw Error(fmt::format("{}: has an alpha layer without the environment layer that its transparent R, G, B leave "
+                            "out; a merge cannot restore the beauty",
+                            path));
+  const double n = double(p.samples());
+  const size_t npix = size_t(p.width) * p.height, ne = have.size();
+  auto channel = [&](size_t i, const std::string& c) {
+    return double(img.extra[i * ne + size_t(std::find(have.begin(), have.end(), c) - have.begin())]);
+  };
+  const std::vector<std::string> sums = aov_sum_channels(p.id.aovs);
+  const size_t na = sums.size();
+  p.sum.resize(npix * 3);
+  p.aov_sum.resize(npix * na);
+  const char* rgb[3] = {"R", "G", "B"};
+  for (size_t i = 0; i < npix; ++i) {
+    for (int k = 0; k < 3; ++k) p.sum[i * 3 + k] = double(img.rgb[i * 3 + k]) * n;
+    for (size_t c = 0; c < na; ++c) {
+      const std::string& name = sums[c];
+      double v;
+      if (name.rfind("moment2.", 0) == 0) {  // back from the variance of the mean (exr_channels)
+        const int k = name.back() == 'R' ? 0 : name.back() == 'G' ? 1 : 2;
+        double s1 = p.sum[i * 3 + k];  // the whole beauty's sum
+        if (p.id.aovs & ST_AOV_BIT(ALPHA)) s1 += channel(i, std::string("environment.") + rgb[k]) * n;
+        v = channel(i, std::string("variance.") + rgb[k]) * n * (n - 1) + (n > 0 ? s1 * s1 / n : 0.0);
+      } else {
+        v = channel(i, name) * n;  // AR, AG, AB, environment.*
+      }
+      p.aov_sum[i * na + c] = v;
+    }
+  }
   return p;
 }
 

@@ -10,7 +10,9 @@
 // refuses pieces of different renders, sample ranges that overlap on any pixel, pixels of the
 // bounding box that no piece covers, and pixels that would end with different sample sets.
 // On disk a piece is an EXR: the mean (sum / samples) as pixels, the tile as the data window of
-// the full film's display window, and the identity and ranges as spectrack:* metadata.
+// the full film's display window, and the identity and ranges as spectrack:* metadata. Film
+// layers (alpha, environment, variance: docs/aov.md) are sums too (variance as second moments),
+// merged the same way; pieces with different layers are refused.
 #pragma once
 #include <cstdint>
 #include <string>
@@ -42,6 +44,7 @@ struct RenderIdentity {
   std::string light_sampling = "all";  // st_light_sampling name (pieces written before the option: all)
   std::string transmittance = "ratio";  // st_transmittance_mode name (pieces written before the option: ratio)
   std::string lookup = "trilinear";  // st_lookup_mode name (pieces written before the option: trilinear)
+  uint32_t aovs = 0;  // the film layers (ST_AOV_BIT bits; pieces written before them: none)
 };
 
 // A SHA-1 of the scene as it shapes the image: the scene file's JSON (keys sorted, whitespace
@@ -60,7 +63,8 @@ struct FilmPiece {
   RenderIdentity id;
   int x0 = 0, y0 = 0, width = 0, height = 0;
   std::vector<SampleRange> ranges;  // sorted, disjoint, joined
-  std::vector<double> sum;          // width * height * 3
+  std::vector<double> sum;          // width * height * 3: R, G, B (with alpha the transparent film's, renderer.h)
+  std::vector<double> aov_sum;      // width * height * aov_sum_channels(id.aovs).size() (renderer.h)
   bool interrupted = false;
   int64_t samples() const { return count_samples(ranges); }
   // Mean per pixel (0 where no sample).
@@ -77,7 +81,10 @@ FilmPiece merge_pieces(const std::vector<FilmPiece>& pieces);
 // spp, spp_ranges (and spp_begin / spp_end when contiguous), seed, tracker, scheme, version,
 // scene_hash, pixel_bounds, full_resolution, interrupted.
 Metadata piece_metadata(const FilmPiece& p);
-void write_piece(const std::string& path, const FilmPiece& p, const Metadata& extra);
+// An EXR gets the layers of docs/aov.md: R, G, B (with alpha: transparent, premultiplied), A, AR,
+// AG, AB, environment.R/G/B, variance.R/G/B; `exr` says half or float and the compression. A PNG
+// gets the whole beauty (a transparent film's environment added back; no layers).
+void write_piece(const std::string& path, const FilmPiece& p, const Metadata& extra, const ExrOptions& exr = {});
 // Reads a piece written by write_piece; throws Error for PNGs and images without the metadata.
 // `meta`, when given, gets the file's other spectrack:* metadata (device, render_seconds, ...).
 FilmPiece read_piece(const std::string& path, Metadata* meta = nullptr);

@@ -121,6 +121,7 @@ void MultiDeviceRun::add_chunk(size_t i, int64_t begin, const RenderResult& res)
   if (p.sum.empty()) {
     p.x0 = res.x0, p.y0 = res.y0, p.width = res.width, p.height = res.height;
     p.sum.assign(res.sum.size(), 0.0);
+    p.aov_sum.assign(res.aov_sum.size(), 0.0);
     d.setup = res.seconds_setup;
     d.build = res.seconds_build;
     d.from_cache = res.kernels_from_cache;
@@ -130,6 +131,7 @@ void MultiDeviceRun::add_chunk(size_t i, int64_t begin, const RenderResult& res)
   }
   d.render += res.seconds_render;
   for (size_t k = 0; k < res.sum.size(); ++k) p.sum[k] += res.sum[k];
+  for (size_t k = 0; k < res.aov_sum.size(); ++k) p.aov_sum[k] += res.aov_sum[k];
   if (res.spp_done > 0) p.ranges.push_back({begin, begin + res.spp_done});
   p.ranges = join_ranges(p.ranges);
   p.interrupted |= res.interrupted;

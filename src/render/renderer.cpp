@@ -44,6 +44,9 @@ struct BatchPlan {
   uint64_t spp = 0, total_paths = 0;
   uint64_t samples_per_batch = 0, batch_paths = 0, n_batches = 0;
   uint64_t ring = 0;         // batches in flight (result buffers)
+  uint64_t L = 1;            // float4 per path in the result buffer (st_scene.result_layers)
+  uint64_t moments = 0;      // 1: the film sums the beauty's squared samples too (the variance layer)
+  uint64_t film_layers() const { return L + moments; }
   uint64_t batch_samples(uint64_t b) const { return std::min<uint64_t>(samples_per_batch, spp - b * samples_per_batch); }
 };
 
@@ -162,7 +165,7 @@ void Renderer::Impl::warm_kernels() {
   cl::Kernel& acc = launcher->kernel("k_accumulate");
   acc.setArg(0, none);
   acc.setArg(1, none);
-  for (int a = 2; a < 6; ++a) acc.setArg(a, cl_uint(0));
+  for (int a = 2; a < 8; ++a) acc.setArg(a, cl_uint(0));
   launcher->warm("k_accumulate");
   ST_CL_CHECK(ds.queue.finish(), "kernel warm-up");
 }
@@ -193,13 +196,15 @@ BatchPlan Renderer::Impl::plan_batches(int spp) const {
   k = std::min<uint64_t>({k, uint64_t(ST_MAX_BATCHES_IN_FLIGHT), std::max<uint64_t>(1, p.n_batches)});
   while (k > 1 && k * p.batch_paths >= (uint64_t(1) << 32)) --k;
   p.ring = k;
+  p.L = uint64_t(ds.packed.st.result_layers);
+  p.moments = (settings.aovs & ST_AOV_BIT(VARIANCE)) ? 1 : 0;
   return p;
 }
 
 double Renderer::Impl::memory_need(const BatchPlan& p) const {
   const PackedScene& ps = ds.packed;
   return double(p.Q) * (sizeof(st_path) + p.NL * sizeof(st_shadow) + 2 * (ST_Q_PATH_QUEUES + p.NL) * 4) +
-         double(p.ring) * p.batch_paths * sizeof(st_float4) + 2.0 * p.npix * sizeof(st_float4) +
+         double(p.ring) * p.batch_paths * p.L * sizeof(st_float4) + 2.0 * p.npix * p.film_layers() * sizeof(st_float4) +
          ps.grid_words.size() * 4.0 + ps.maj_cells.size() * 4.0 + ps.env_data.size() * 4.0;
 }
 
@@ -236,9 +241,9 @@ RenderBuffers Renderer::Impl::allocate(const BatchPlan& p) {
   b.queues = ds.buffer(CL_MEM_READ_WRITE, init_queue.size() * 4, init_queue.data(), "queues");
   std::vector<uint32_t> counters(ST_C_COUNT, 0u);
   b.counters = ds.buffer(CL_MEM_READ_WRITE, counters.size() * 4, counters.data(), "counters");
-  b.results = ds.buffer(CL_MEM_READ_WRITE, p.ring * p.batch_paths * sizeof(st_float4), nullptr, "batch results");
-  // film: per pixel the running sum, then (second half) its Kahan compensation term
-  std::vector<st_float4> film(2 * p.npix, st_float4{0, 0, 0, 0});
+  b.results = ds.buffer(CL_MEM_READ_WRITE, p.ring * p.batch_paths * p.L * sizeof(st_float4), nullptr, "batch results");
+  // film: per layer, per pixel the running sum, then its Kahan compensation terms (finish.cl)
+  std::vector<st_float4> film(2 * p.npix * p.film_layers(), st_float4{0, 0, 0, 0});
   b.film = ds.buffer(CL_MEM_READ_WRITE, film.size() * sizeof(st_float4), film.data(), "film");
   return b;
 }
@@ -335,6 +340,8 @@ void Renderer::Impl::accumulate_finished(LoopState& s, const BatchPlan& p, Rende
     acc.setArg(3, cl_uint(p.batch_samples(b)));
     acc.setArg(4, cl_uint(p.npix));
     acc.setArg(5, cl_uint(p.nch));
+    acc.setArg(6, cl_uint(p.L));
+    acc.setArg(7, cl_uint(p.moments));
     launcher->launch("k_accumulate", p.npix);
     s.batch_done[b % p.ring] -= expected;
     s.samples_done += p.batch_samples(b);
@@ -365,21 +372,47 @@ RenderResult Renderer::Impl::result_header(int64_t sample_begin, int spp) const 
 }
 
 void Renderer::Impl::read_film(const RenderBuffers& b, const BatchPlan& p, const LoopState& s, RenderResult& res) {
-  std::vector<st_float4> film(2 * p.npix);
+  std::vector<st_float4> film(2 * p.npix * p.film_layers());
   ST_CL_CHECK(ds.queue.enqueueReadBuffer(b.film, CL_TRUE, 0, film.size() * sizeof(st_float4), film.data()), "read film");
   res.spp_done = int(s.samples_done);
   res.interrupted = s.samples_done < p.spp;
   res.time_limit_reached = s.time_limit_reached;
+  // Kahan: the exact sum of layer l is (to float rounding of the terms) sum - compensation
+  auto layer = [&](uint64_t l, uint64_t i, int k) {
+    const st_float4& f = film[2 * l * p.npix + i];
+    const st_float4& c = film[(2 * l + 1) * p.npix + i];
+    const float* fv = &f.x;
+    const float* cv = &c.x;
+    return double(fv[k]) - double(cv[k]);
+  };
+  res.aov_channels = aov_sum_channels(settings.aovs);
+  const size_t na = res.aov_channels.size();
   res.rgb.assign(p.npix * 3, 0.0f);
   res.sum.assign(p.npix * 3, 0.0);
+  res.aov_sum.assign(p.npix * na, 0.0);
   for (uint64_t i = 0; i < p.npix; ++i) {
-    // Kahan: the exact sum is (to float rounding of the terms) sum - compensation
-    const st_float4& f = film[i];
-    const st_float4& c = film[p.npix + i];
-    res.sum[i * 3 + 0] = double(f.x) - double(c.x);
-    res.sum[i * 3 + 1] = double(f.y) - double(c.y);
-    res.sum[i * 3 + 2] = double(f.z) - double(c.z);
-    for (int k = 0; k < 3 && s.samples_done > 0; ++k) res.rgb[i * 3 + k] = float(res.sum[i * 3 + k] / double(s.samples_done));
+    size_t a = 0;  // next aov channel, in aov_sum_channels order: alpha, environment, variance
+    for (int k = 0; k < 3; ++k) {
+      // the environment layer is the part of the beauty the paths did not keep (shade.cl): a
+      // transparent film (alpha) leaves it out of R, G, B, an opaque one adds it back
+      const double env = p.L > 1 && !(settings.aovs & ST_AOV_BIT(ALPHA)) ? layer(ST_RESULT_ENVIRONMENT, i, k) : 0.0;
+      res.sum[i * 3 + k] = layer(ST_RESULT_BEAUTY, i, k) + env;
+      if (s.samples_done > 0) res.rgb[i * 3 + k] = float(res.sum[i * 3 + k] / double(s.samples_done));
+    }
+    if (settings.aovs & ST_AOV_BIT(ALPHA))
+      for (int k = 0; k < 3; ++k) res.aov_sum[i * na + a++] = layer(ST_RESULT_ALPHA, i, k);
+    if (settings.aovs & ST_AOV_BIT(ENVIRONMENT))
+      for (int k = 0; k < 3; ++k) res.aov_sum[i * na + a++] = layer(ST_RESULT_ENVIRONMENT, i, k);
+    if (settings.aovs & ST_AOV_BIT(VARIANCE))
+      for (int k = 0; k < 3; ++k) res.aov_sum[i * na + a++] = layer(p.L, i, k);
+    if (settings.aovs & ST_AOV_BIT(EMISSION))
+      for (int k = 0; k < 3; ++k) res.aov_sum[i * na + a++] = layer(ST_RESULT_EMISSION, i, k);
+    if (settings.aovs & ST_AOV_BIT(DIRECT))
+      for (int k = 0; k < 3; ++k) res.aov_sum[i * na + a++] = layer(ST_RESULT_DIRECT, i, k);
+    if (settings.aovs & ST_AOV_BIT(INDIRECT))  // the rest of what the paths kept: the passes add up
+      for (int k = 0; k < 3; ++k)
+        res.aov_sum[i * na + a++] =
+            layer(ST_RESULT_BEAUTY, i, k) - layer(ST_RESULT_EMISSION, i, k) - layer(ST_RESULT_DIRECT, i, k);
   }
 }
 
@@ -447,6 +480,17 @@ uint32_t Renderer::features() const { return impl_->ds.packed.features; }
 const SceneDesc& Renderer::scene() const { return impl_->scene; }
 const RenderSettings& Renderer::settings() const { return impl_->settings; }
 DeviceScene& Renderer::device_scene() { return impl_->ds; }
+
+std::vector<std::string> aov_sum_channels(uint32_t aovs) {
+  std::vector<std::string> c;
+  if (aovs & ST_AOV_BIT(ALPHA)) c.insert(c.end(), {"AR", "AG", "AB"});
+  if (aovs & ST_AOV_BIT(ENVIRONMENT)) c.insert(c.end(), {"environment.R", "environment.G", "environment.B"});
+  if (aovs & ST_AOV_BIT(VARIANCE)) c.insert(c.end(), {"moment2.R", "moment2.G", "moment2.B"});
+  for (int k : {ST_AOV_INDEX_EMISSION, ST_AOV_INDEX_DIRECT, ST_AOV_INDEX_INDIRECT})
+    if (aovs & (1u << k))
+      for (const char* ch : {".R", ".G", ".B"}) c.push_back(aov_name(k) + std::string(ch));
+  return c;
+}
 
 const std::vector<std::pair<const char*, RenderStats::Counter>>& RenderStats::counters() {
 #define ST_X_DEVICE_ENTRY(E, field, key) {key, &RenderStats::field},

@@ -59,6 +59,13 @@ struct RenderResult : RenderChoices {
   // width * height * 3: the sum of the spp_done samples of each pixel (compensated float sums on
   // the device, read back in double) for combining shards without losing precision
   std::vector<double> sum;
+  // The film layers beyond the beauty (settings aovs, docs/aov.md), as sums like `sum`: the
+  // channels of aov_sum_channels(aovs), width * height * aov_channels.size() values, pixel-major.
+  // With alpha, `sum` and `rgb` are the transparent film's R, G, B: the beauty without the lights
+  // at infinity seen straight from the camera, which the environment layer holds (their sum is the
+  // whole beauty); without alpha they are the whole beauty.
+  std::vector<std::string> aov_channels;
+  std::vector<double> aov_sum;
   int64_t sample_begin = 0;            // samples sample_begin .. sample_begin + spp_done - 1
   int spp_requested = 0, spp_done = 0;
   bool interrupted = false;         // fewer samples done than requested (a stop or the time limit)
@@ -71,6 +78,13 @@ struct RenderResult : RenderChoices {
   std::vector<MajorantInfo> majorants;  // each VDB medium's majorant structure
   RenderStats stats;
 };
+
+// The channels a render with film layers `aovs` (ST_AOV_BIT bits) sums per pixel besides the
+// beauty: alpha "AR", "AG", "AB" (1 - T per channel); environment "environment.R", ".G", ".B";
+// variance "moment2.R", ".G", ".B" (the beauty's squared samples); the passes "emission.R", ...,
+// "direct.R", ..., "indirect.R", ... (in that order). Film pieces hold these sums;
+// the EXR writer turns them into the layers users see (film.h).
+std::vector<std::string> aov_sum_channels(uint32_t aovs);
 
 struct DeviceScene;
 

@@ -450,6 +450,7 @@ uint32_t Packer::scene_features() const {
   if (st_tracker_decomposes(st.tracker)) f |= ST_FEATURE_DECOMPOSITION;
   if (st.tracker == ST_TRACKER_SPECTRAL_MIS) f |= ST_FEATURE_SPECTRAL_MIS;
   if (st.lookup == ST_LOOKUP_STOCHASTIC && (f & ST_FEATURE_VDB)) f |= ST_FEATURE_STOCHASTIC_LOOKUP;
+  if (st.result_layers > 1) f |= ST_FEATURE_AOV;
   return f;
 }
 
@@ -479,6 +480,10 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
   st.march_spacing = float(s.march_spacing);
   st.pilot_spacing = float(s.pilot_spacing);
   st.lookup = s.lookup;
+  st.aovs = int(s.aovs);
+  st.result_layers = (s.aovs & (ST_AOV_BIT(EMISSION) | ST_AOV_BIT(DIRECT) | ST_AOV_BIT(INDIRECT)))
+                         ? ST_RESULT_LAYERS_PASSES
+                         : (s.aovs & (ST_AOV_BIT(ALPHA) | ST_AOV_BIT(ENVIRONMENT))) ? ST_RESULT_LAYERS_AOV : 1;
   st.max_depth = scene.render.max_depth;
   st.seed = s.seed;
   st.n_channels_per_sample = s.channels_per_sample;

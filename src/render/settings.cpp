@@ -55,6 +55,12 @@ RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) 
     if (!(v >= 1e-3 && v <= 1e3))
       throw Error(fmt::format("{} {}: the majorant optical depth between ray-marching samples must be in [0.001, 1000]",
                               name, v));
+  // film layers: the option, else film.aovs with film.alpha (library default: no alpha; the CLI
+  // turns it on for EXR outputs); alpha makes the film transparent, so the environment layer
+  // holds what RGB leaves out
+  s.aovs = o.aovs ? *o.aovs : (scene.film.aovs | (scene.film.alpha.value_or(false) ? uint32_t(ST_AOV_BIT(ALPHA)) : 0u));
+  if (s.aovs >= (1u << ST_AOV_COUNT)) throw Error(fmt::format("film layer mask 0x{:x} names layers that do not exist", s.aovs));
+  if (s.aovs & ST_AOV_BIT(ALPHA)) s.aovs |= ST_AOV_BIT(ENVIRONMENT);
   s.seed = o.seed ? uint32_t(*o.seed) : scene.render.seed;
   s.spp = o.spp.value_or(scene.film.spp);
   s.sample_begin = o.sample_begin;

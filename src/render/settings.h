@@ -50,6 +50,7 @@ struct RenderOptions {
   std::optional<double> march_spacing;  // ray marching: majorant optical depth between samples (kDefaultMarchSpacing)
   std::optional<double> pilot_spacing;  // ray marching: the same for the pilot (kDefaultPilotSpacing)
   std::optional<int> lookup;            // st_lookup_mode, else render.lookup, else kDefaultLookup
+  std::optional<uint32_t> aovs;         // film layers, ST_AOV_BIT bits; else film.aovs (+ alpha if film.alpha)
   std::string device;                   // "P:D", name substring, or "" (SPECTRACK_DEVICE, then default)
   int path_slots = 0;                   // paths in flight; 0 = by device type
   int iteration_budget = 256;           // tentative collisions + DDA steps per item and launch
@@ -89,6 +90,7 @@ struct RenderSettings {
   int transmittance = 0;        // st_transmittance_mode
   double march_spacing = kDefaultMarchSpacing, pilot_spacing = kDefaultPilotSpacing;  // ray marching
   int lookup = 0;               // st_lookup_mode
+  uint32_t aovs = 0;            // film layers (ST_AOV_BIT bits; alpha implies environment)
   uint32_t seed = 0;
   int spp = 0;                  // samples per pixel to render
   int64_t sample_begin = 0;     // samples sample_begin .. sample_begin + spp - 1
@@ -105,9 +107,11 @@ struct RenderChoices {
   int light_sampling = 0;       // st_light_sampling
   int transmittance = 0;        // st_transmittance_mode
   int lookup = 0;               // st_lookup_mode
+  uint32_t aovs = 0;            // film layers (ST_AOV_BIT bits)
   uint32_t seed = 0;
 
   void record_settings(const RenderSettings& s) {
+    aovs = s.aovs;
     tracker = s.tracker;
     scheme = s.scheme;
     absorption = s.absorption;

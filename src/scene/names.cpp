@@ -18,12 +18,15 @@ namespace {
 #define ST_X_LIGHT_SAMPLING_NAME(E, name) name,
 #define ST_X_TRANSMITTANCE_NAME(E, name) name,
 #define ST_X_LOOKUP_NAME(E, name) name,
+#define ST_X_AOV_NAME(E, name) name,
 const char* const kTrackerNames[] = {ST_TRACKERS(ST_X_TRACKER_NAME)};
 const char* const kSchemeNames[] = {ST_SCHEMES(ST_X_SCHEME_NAME)};
 const char* const kAbsorptionNames[] = {ST_ABSORPTIONS(ST_X_ABSORPTION_NAME)};
 const char* const kLightSamplingNames[] = {ST_LIGHT_SAMPLINGS(ST_X_LIGHT_SAMPLING_NAME)};
 const char* const kTransmittanceNames[] = {ST_TRANSMITTANCES(ST_X_TRANSMITTANCE_NAME)};
 const char* const kLookupNames[] = {ST_LOOKUPS(ST_X_LOOKUP_NAME)};
+const char* const kAovNames[] = {ST_AOVS(ST_X_AOV_NAME)};
+static_assert(sizeof(kAovNames) / sizeof(kAovNames[0]) == ST_AOV_COUNT, "aov names");
 static_assert(sizeof(kLookupNames) / sizeof(kLookupNames[0]) == ST_LOOKUP_COUNT, "lookup names");
 static_assert(sizeof(kTransmittanceNames) / sizeof(kTransmittanceNames[0]) == ST_TRANSMITTANCE_COUNT, "transmittance names");
 static_assert(sizeof(kLightSamplingNames) / sizeof(kLightSamplingNames[0]) == ST_LIGHT_SAMPLING_COUNT, "light sampling names");
@@ -80,6 +83,15 @@ const char* lookup_name(int mode) { return name_of(kLookupNames, mode); }
 int lookup_from_name(const std::string& name) { return value_of(kLookupNames, name); }
 std::string lookup_names() { return list_of(kLookupNames); }
 std::vector<std::string> lookup_name_list() { return {std::begin(kLookupNames), std::end(kLookupNames)}; }
+const char* aov_name(int index) { return name_of(kAovNames, index); }
+int aov_from_name(const std::string& name) { return value_of(kAovNames, name); }
+std::string aov_names() { return list_of(kAovNames); }
+std::vector<std::string> aov_name_list() { return {std::begin(kAovNames), std::end(kAovNames)}; }
+const std::vector<std::string>& exr_compressions() {
+  // OpenEXR's compressions as OpenImageIO names them (its "compression" attribute)
+  static const std::vector<std::string> names = {"none", "rle", "zips", "zip", "piz", "pxr24", "b44", "b44a", "dwaa", "dwab"};
+  return names;
+}
 bool tracker_uses_scheme(int tracker) { return st_tracker_uses_scheme(tracker) != 0; }
 
 }  // namespace spectrack

@@ -326,13 +326,44 @@ void Parser::camera_framing(const json& j, const std::string& path, CameraDesc& 
 
 void Parser::film(const json& j, const std::string& path, FilmDesc& f) {
   expect_object(j, path);
-  fields(j, path, {"width", "height", "spp", "output"});
+  fields(j, path, {"width", "height", "spp", "output", "alpha", "aovs", "half", "compression"});
   f.width = static_cast<int>(integer(j, path, "width", f.width, 1, 65536));
   f.height = static_cast<int>(integer(j, path, "height", f.height, 1, 65536));
   if (static_cast<long long>(f.width) * f.height > (1ll << 28))
     fail(path, "width * height = " + std::to_string(static_cast<long long>(f.width) * f.height) +
                    " pixels is too many (at most 2^28)");
   f.spp = static_cast<int>(integer(j, path, "spp", f.spp, 1, 1 << 24));
+  auto boolean = [&](const char* key) -> std::optional<bool> {
+    const json* v = find(j, key);
+    if (!v) return std::nullopt;
+    if (!v->is_boolean()) fail(path + "/" + key, std::string("expected true or false, got ") + v->type_name());
+    return v->get<bool>();
+  };
+  f.alpha = boolean("alpha");
+  f.half = boolean("half").value_or(false);
+  if (const json* a = find(j, "aovs")) {
+    if (!a->is_array()) fail(path + "/aovs", std::string("expected an array of layer names, got ") + a->type_name());
+    for (size_t i = 0; i < a->size(); ++i) {
+      const json& v = (*a)[i];
+      const std::string at = child(path + "/aovs", i);
+      if (!v.is_string()) fail(at, std::string("expected a layer name, got ") + v.type_name());
+      const int k = aov_from_name(v.get<std::string>());
+      if (k < 0) fail(at, "unknown layer " + in_quotes(v.get<std::string>()) + " (expected one of: " + aov_names() + ")");
+      f.aovs |= 1u << k;
+    }
+    if ((f.aovs & ST_AOV_BIT(ALPHA)) && f.alpha == false)
+      fail(path + "/aovs", "lists \"alpha\" but film.alpha is false");
+    if (f.aovs & ST_AOV_BIT(ALPHA)) f.alpha = true;
+  }
+  if (find(j, "compression")) {
+    f.compression = string(j, path, "compression", "");
+    const auto& names = exr_compressions();
+    if (std::find(names.begin(), names.end(), f.compression) == names.end()) {
+      std::string list;
+      for (auto& n : names) list += (list.empty() ? "" : ", ") + n;
+      fail(path + "/compression", "unknown EXR compression " + in_quotes(f.compression) + " (expected one of: " + list + ")");
+    }
+  }
   if (!find(j, "output")) {
     f.output = normalized(dir_ / f.output).string();
     return;

@@ -6,6 +6,7 @@
 // the scene file's folder. Enum values are the ones of kernels/types.h.
 #pragma once
 #include <array>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -93,6 +94,10 @@ struct FilmDesc {
   int height = 512;
   int spp = 64;
   std::string output = "out.exr";  // resolved against the scene folder when relative
+  std::optional<bool> alpha;       // film.alpha; not given: on for EXR outputs (the CLI decides, docs/aov.md)
+  uint32_t aovs = 0;               // film.aovs: ST_AOV_BIT bits (alpha given here counts as film.alpha = true)
+  bool half = false;               // film.half: 16-bit float EXR channels
+  std::string compression = "zip"; // film.compression: an EXR compression (exr_compressions())
 };
 
 struct RenderDesc {
@@ -158,5 +163,14 @@ const char* lookup_name(int mode);
 int lookup_from_name(const std::string& name);  // -1 when unknown
 std::string lookup_names();
 std::vector<std::string> lookup_name_list();
+// Names of the film layers beyond the beauty (ST_AOVS, indices st_aov_index): "alpha",
+// "environment", "variance".
+const char* aov_name(int index);
+int aov_from_name(const std::string& name);  // -1 when unknown
+std::string aov_names();
+std::vector<std::string> aov_name_list();
+// OpenEXR compressions (film.compression, --compression): none, rle, zips, zip, piz, pxr24, b44,
+// b44a, dwaa, dwab. The lossy ones (pxr24 on floats, b44*, dwa*) lose what a merge needs.
+const std::vector<std::string>& exr_compressions();
 
 }  // namespace spectrack

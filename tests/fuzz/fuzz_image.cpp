@@ -69,6 +69,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       check(img.rgb.size() == size_t(img.width) * size_t(img.height) * 3, "pixel buffer size");
       if (use == spectrack::ImageUse::kFilmPiece) {
         for (float v : img.rgb) check(std::isfinite(v), "merge input with a non-finite pixel accepted");
+        check(img.extra.size() == size_t(img.width) * size_t(img.height) * img.extra_names.size(), "layer buffer size");
+        for (auto& n : img.extra_names) check(spectrack::film_layer_channel(n), "merge input with an unknown channel accepted");
+        for (float v : img.extra) check(std::isfinite(v), "merge input with a non-finite layer value accepted");
         check(img.window.x0 >= 0 && img.window.y0 >= 0 && img.window.x0 + int64_t(img.width) <= img.window.full_width &&
                   img.window.y0 + int64_t(img.height) <= img.window.full_height,
               "merge input window outside its display window");

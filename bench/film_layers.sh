@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# bench/film_layers.sh [SPP] [ROUNDS]: the cost of the film layers (issue 14, docs/aov.md) per
+# scene, in one run: the same binary with --no-alpha (the beauty alone), --no-alpha --aov variance
+# (no per-path work: one more film layer), the EXR default (alpha: a transmittance estimate along
+# every camera ray, and the environment layer) and every layer, interleaved round by round after a
+# warm-up render of each (both kernel builds cached). Prints per scene seconds_render of each and
+# its ratio to the beauty alone, and the alpha estimates' density lookups per camera path beside the
+# tracking's lookups per path.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+SPP=${1:-4}; ROUNDS=${2:-3}
+BIN=${BIN:-./build/spectrack}
+out=$(mktemp -d)
+declare -A cfg=([beauty]="--no-alpha" [variance]="--no-alpha --aov variance" [alpha]="--alpha" [all]="--alpha --aov variance")
+order="beauty variance alpha all"
+echo "film layers: $BIN, $SPP spp, $ROUNDS interleaved rounds, $(date -u +%F) on $(nproc) cores"
+for s in bench/scenes/*.json data/scenes/cloud.json; do
+  n=$(basename "$s" .json)
+  for c in $order; do $BIN render "$s" -q --spp 1 ${cfg[$c]} -o "$out/w.exr" >/dev/null; done
+  for r in $(seq "$ROUNDS"); do
+    for c in $order; do
+      $BIN render "$s" -q --spp "$SPP" ${cfg[$c]} -o "$out/$n.$c.exr" --stats-json "$out/$n.$c.$r.json" >/dev/null
+    done
+  done
+  /usr/bin/python3 - "$out" "$n" "$ROUNDS" $order <<'PY'
+import json, sys
+out, n, rounds, order = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4:]
+sec = {c: sum(json.load(open(f"{out}/{n}.{c}.{r}.json"))["seconds_render"] for r in range(1, rounds + 1)) / rounds for c in order}
+st = json.load(open(f"{out}/{n}.all.1.json"))
+paths = max(st["paths"], 1)
+print(f"{n:18s} " + " ".join(f"{c} {sec[c]:6.3f}s ({sec[c] / sec['beauty']:.3f}x)" for c in order) +
+      f"  lookups/path: tracking {st['density_lookups_tracking'] / paths:.2f} alpha {st['density_lookups_alpha'] / paths:.2f}")
+PY
+done
+rm -rf "$out"
