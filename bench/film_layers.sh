@@ -2,8 +2,9 @@
 # bench/film_layers.sh [SPP] [ROUNDS]: the cost of the film layers (issue 14, docs/aov.md) per
 # scene, in one run: the same binary with --no-alpha (the beauty alone), --no-alpha --aov variance
 # (no per-path work: one more film layer), the EXR default (alpha: a transmittance estimate along
-# every camera ray, and the environment layer) and every layer, interleaved round by round after a
-# warm-up render of each (both kernel builds cached). Prints per scene seconds_render of each and
+# every camera ray, and the environment layer) and every layer (alpha, environment, variance and the
+# emission, direct and indirect passes), interleaved round by round after a
+# warm-up render of each (both kernel builds cached), the order rotated every round. Prints per scene seconds_render of each and
 # its ratio to the beauty alone, and the alpha estimates' density lookups per camera path beside the
 # tracking's lookups per path.
 set -euo pipefail
@@ -11,14 +12,17 @@ cd "$(dirname "$0")/.."
 SPP=${1:-4}; ROUNDS=${2:-3}
 BIN=${BIN:-./build/spectrack}
 out=$(mktemp -d)
-declare -A cfg=([beauty]="--no-alpha" [variance]="--no-alpha --aov variance" [alpha]="--alpha" [all]="--alpha --aov variance")
+declare -A cfg=([beauty]="--no-alpha" [variance]="--no-alpha --aov variance" [alpha]="--alpha"
+                [all]="--alpha --aov variance,emission,direct,indirect")
 order="beauty variance alpha all"
 echo "film layers: $BIN, $SPP spp, $ROUNDS interleaved rounds, $(date -u +%F) on $(nproc) cores"
 for s in bench/scenes/*.json data/scenes/cloud.json; do
   n=$(basename "$s" .json)
   for c in $order; do $BIN render "$s" -q --spp 1 ${cfg[$c]} -o "$out/w.exr" >/dev/null; done
   for r in $(seq "$ROUNDS"); do
-    for c in $order; do
+    # the order rotates every round, so no configuration always runs first
+    set -- $order; k=$(( (r - 1) % $# )); rot="${*:k+1} ${*:1:k}"
+    for c in $rot; do
       $BIN render "$s" -q --spp "$SPP" ${cfg[$c]} -o "$out/$n.$c.exr" --stats-json "$out/$n.$c.$r.json" >/dev/null
     done
   done

@@ -60,9 +60,9 @@ if step 5; then
   printf 'scene\tlookup\tpaths_per_second\tseconds_render\tdensity_lookups\tdevice\n' > "$OUT/paths.tsv"
   for s in bench/scenes/*.json data/scenes/cloud.json; do
     for lookup in trilinear stochastic; do
-      build/spectrack render "$s" --lookup $lookup --spp 1 -q -o "$OUT/warm.exr" >/dev/null 2>&1 ||
+      build/spectrack render "$s" --lookup $lookup --spp 1 -q --no-alpha -o "$OUT/warm.exr" >/dev/null 2>&1 ||
         { fail "render $s ($lookup)"; continue; }
-      build/spectrack render "$s" --lookup $lookup --spp 16 -q -o "$OUT/render.exr" --stats-json "$OUT/stats.json" ||
+      build/spectrack render "$s" --lookup $lookup --spp 16 -q --no-alpha -o "$OUT/render.exr" --stats-json "$OUT/stats.json" ||
         { fail "render $s ($lookup)"; continue; }
       python3 -c "
 import json; j = json.load(open('$OUT/stats.json'))

@@ -29,7 +29,7 @@ def render(scene, *args, spp=4, environ=None):
     out = os.path.join(tmp, "stats.json")
     t0 = time.time()
     p = subprocess.run(["./build/spectrack", "render", scene, "--spp", str(spp), "-o", os.path.join(tmp, "out.exr"),
-                        "--stats-json", out, "--quiet", *args], env=environ or env, stderr=subprocess.PIPE, text=True)
+                        "--stats-json", out, "--quiet", "--no-alpha", *args], env=environ or env, stderr=subprocess.PIPE, text=True)
     if p.returncode != 0:  # the compiler's warnings stay quiet unless the render fails
         sys.exit(f"render {scene} {' '.join(args)} failed ({p.returncode}):\n{p.stderr}")
     j = json.load(open(out))

@@ -10,7 +10,7 @@ spp=${2:-16}
 out=$(mktemp -d)
 trackers=(delta-per-channel spectral decomposition spectral-decomposition)
 for t in "${trackers[@]}"; do
-  ./build/spectrack render "$scene" --spp "$spp" --tracker "$t" -o "$out/$t.exr" --stats-json "$out/$t.json" --quiet
+  ./build/spectrack render "$scene" --spp "$spp" --tracker "$t" --no-alpha -o "$out/$t.exr" --stats-json "$out/$t.json" --quiet
 done
 python3 - "$out" "$scene" "$spp" "${trackers[@]}" <<'PY'
 import json, sys

@@ -29,7 +29,8 @@ __kernel void k_finish(ST_STAGE_ARGS) {
   const uint L = (uint)scene->result_layers;
   __global float4* out = &results[p.result_index * L];
   int finite = isfinite(r.x) && isfinite(r.y) && isfinite(r.z);
-  if (ST_HAS_AOV && L > 1u) /* the layers raygen and escape wrote: a non-finite one drops the whole sample */
+  if (ST_HAS_AOV && L > 1u) /* the layers the path wrote: a non-finite one drops all of this path's values
+                             * (delta-per-channel: one of a sample's three paths, as for the beauty) */
     for (uint k = 1u; k < L; ++k) finite = finite && isfinite(out[k].x) && isfinite(out[k].y) && isfinite(out[k].z);
   if (!finite) {
     atomic_inc(&counters[ST_C_NONFINITE]);

@@ -174,7 +174,7 @@ enum st_feature {
   ST_FEATURE_COLOR = 1 << 9,          /* some medium has a per-voxel colour grid (st_color_mode) */
   ST_FEATURE_SPECTRAL_MIS = 1 << 10,  /* tracker spectral-mis (hero-channel sampling, MIS over channels) */
   ST_FEATURE_STOCHASTIC_LOOKUP = 1 << 11, /* density lookups read one voxel chosen at random (st_lookup_mode) */
-  ST_FEATURE_AOV = 1 << 12,           /* the alpha or environment layer (st_scene.aovs): per-path layer work */
+  ST_FEATURE_AOV = 1 << 12,           /* film layers with per-path work: alpha, environment, the passes (st_scene.aovs) */
   ST_FEATURES_ALL = (1 << 13) - 1
 };
 
@@ -320,7 +320,7 @@ typedef struct {
   float pilot_spacing;          /* ray-marching: the same for the pilot estimate (the expansion point) */
   st_int lookup;                /* st_lookup_mode of density lookups */
   st_int aovs;                  /* st_aov_index bits of the layers asked for */
-  st_int result_layers;         /* float4 per path in the batch result buffer: 1, or ST_RESULT_LAYERS_AOV */
+  st_int result_layers;         /* float4 per path in the batch result buffer: 1, ST_RESULT_LAYERS_AOV or _PASSES */
   st_int pad;
 } st_scene;
 

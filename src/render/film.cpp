@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <tuple>
 
@@ -93,8 +94,8 @@ std::string scene_hash(const SceneDesc& scene) {
   }
   if (j.is_object()) {
     if (j.contains("film") && j["film"].is_object()) {
-      j["film"].erase("output");
-      j["film"].erase("spp");
+      // how the film is stored, not what it holds (the layers are compared on their own: id.aovs)
+      for (const char* k : {"output", "spp", "alpha", "aovs", "half", "compression"}) j["film"].erase(k);
     }
     if (j.contains("render") && j["render"].is_object())
       for (const char* k : {"seed", "tracker", "spectral_scheme", "absorption", "light_sampling", "transmittance", "lookup"})
@@ -356,7 +357,11 @@ static std::vector<std::string> exr_channels(const FilmPiece& p, std::vector<flo
       for (int k = 0; k < 3; ++k) {
         const double s1 = p.sum[i * 3 + k] + (alpha ? a[at(std::string("environment.") + rgb[k])] : 0.0);  // whole beauty
         const double s2 = a[at(std::string("moment2.") + rgb[k])];
-        o[c++] = n >= 2 ? float(std::max(0.0, (s2 - s1 * s1 / n) / (n * (n - 1)))) : 0.0f;
+        // finite always: a sum of squares that overflowed float (samples above ~1e19) is written
+        // as the largest float, not inf, which no reader (nor merge) would accept
+        const double var = n >= 2 ? std::max(0.0, (s2 - s1 * s1 / n) / (n * (n - 1))) : 0.0;
+        o[c++] = std::isfinite(var) ? float(std::min(var, double(std::numeric_limits<float>::max())))
+                                    : std::numeric_limits<float>::max();
       }
     for (size_t k = passes; k < nc; ++k) o[c++] = float(a[at(names[k])] / n);
   }

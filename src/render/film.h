@@ -48,7 +48,8 @@ struct RenderIdentity {
 };
 
 // A SHA-1 of the scene as it shapes the image: the scene file's JSON (keys sorted, whitespace
-// dropped; without film.output, film.spp, the render fields that are recorded on their own:
+// dropped; without film.output, film.spp, the film's storage and layer fields (alpha, aovs, half,
+// compression: the layers are compared on their own), the render fields that are recorded on their own:
 // seed, tracker, spectral_scheme, absorption, light_sampling, transmittance, lookup, and the names of referenced files) and the contents of every
 // file it references (VDB files, environment maps), so a scene moved to another folder or
 // machine keeps its hash.

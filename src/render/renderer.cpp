@@ -188,16 +188,23 @@ BatchPlan Renderer::Impl::plan_batches(int spp) const {
   p.samples_per_batch = std::max<uint64_t>(1, (batch_target_paths(p.Q) + p.npix * p.nch - 1) / (p.npix * p.nch));
   p.samples_per_batch = std::min<uint64_t>(p.samples_per_batch, p.spp);
   p.batch_paths = p.samples_per_batch * p.npix * p.nch;
-  if (p.batch_paths >= (uint64_t(1) << 32)) throw Error("film too large: one sample of every pixel exceeds 2^32 paths");
-  p.n_batches = (p.spp + p.samples_per_batch - 1) / p.samples_per_batch;
-  // A ring of result buffers: more than two batches in flight keep the slots busy while a batch's
-  // longest paths finish; capped by ST_MAX_BATCHES_IN_FLIGHT, the batch count and 32-bit indices.
-  uint64_t k = opt.batches_in_flight > 0 ? uint64_t(opt.batches_in_flight) : uint64_t(ST_MAX_BATCHES_IN_FLIGHT);
-  k = std::min<uint64_t>({k, uint64_t(ST_MAX_BATCHES_IN_FLIGHT), std::max<uint64_t>(1, p.n_batches)});
-  while (k > 1 && k * p.batch_paths >= (uint64_t(1) << 32)) --k;
-  p.ring = k;
   p.L = uint64_t(ds.packed.st.result_layers);
   p.moments = (settings.aovs & ST_AOV_BIT(VARIANCE)) ? 1 : 0;
+  // the kernels index the result buffer (L float4 per path) with 32-bit integers
+  if (p.batch_paths * p.L >= (uint64_t(1) << 32))
+    throw Error(fmt::format("film too large: one sample of every pixel is {} paths of {} result layers, more than "
+                            "2^32 values (fewer film layers, or a tile with --pixel-bounds)",
+                            p.batch_paths, p.L));
+  p.n_batches = (p.spp + p.samples_per_batch - 1) / p.samples_per_batch;
+  // A ring of result buffers: more than two batches in flight keep the slots busy while a batch's
+  // longest paths finish; capped by ST_MAX_BATCHES_IN_FLIGHT, the batch count, 32-bit indices and
+  // the device's largest buffer (film layers make each path's result L float4).
+  uint64_t k = opt.batches_in_flight > 0 ? uint64_t(opt.batches_in_flight) : uint64_t(ST_MAX_BATCHES_IN_FLIGHT);
+  k = std::min<uint64_t>({k, uint64_t(ST_MAX_BATCHES_IN_FLIGHT), std::max<uint64_t>(1, p.n_batches)});
+  while (k > 1 && (k * p.batch_paths * p.L >= (uint64_t(1) << 32) ||
+                   k * p.batch_paths * p.L * sizeof(st_float4) > uint64_t(ds.dev.max_alloc)))
+    --k;
+  p.ring = k;
   return p;
 }
 

@@ -164,7 +164,7 @@ int lookup_from_name(const std::string& name);  // -1 when unknown
 std::string lookup_names();
 std::vector<std::string> lookup_name_list();
 // Names of the film layers beyond the beauty (ST_AOVS, indices st_aov_index): "alpha",
-// "environment", "variance".
+// "environment", "variance", "emission", "direct", "indirect".
 const char* aov_name(int index);
 int aov_from_name(const std::string& name);  // -1 when unknown
 std::string aov_names();
