@@ -339,31 +339,38 @@ static std::vector<std::string> exr_channels(const FilmPiece& p, std::vector<flo
   const double n = double(p.samples());
   px->assign(npix * nc, 0.0f);
   if (n <= 0) return names;
-  const char* rgb[3] = {"R", "G", "B"};
+  // each layer channel's column in aov_sum, found once (not per pixel)
+  size_t a_col[3] = {}, env_col[3] = {}, m2_col[3] = {};
+  for (int k = 0; k < 3; ++k) {
+    const std::string ch(1, "RGB"[k]);
+    a_col[k] = at("A" + ch);
+    env_col[k] = at("environment." + ch);
+    m2_col[k] = at("moment2." + ch);
+  }
+  std::vector<size_t> pass_col;
+  for (size_t k = passes; k < nc; ++k) pass_col.push_back(at(names[k]));
   for (size_t i = 0; i < npix; ++i) {
     const double* a = na ? &p.aov_sum[i * na] : nullptr;
     float* o = &(*px)[i * nc];
     size_t c = 0;
     for (int k = 0; k < 3; ++k) o[c++] = float(p.sum[i * 3 + k] / n);
     if (alpha) {
-      double sa = 0;
-      for (int k = 0; k < 3; ++k) sa += a[at(std::string("A") + rgb[k])];
-      o[c++] = float(sa / (3.0 * n));
-      for (int k = 0; k < 3; ++k) o[c++] = float(a[at(std::string("A") + rgb[k])] / n);
+      o[c++] = float((a[a_col[0]] + a[a_col[1]] + a[a_col[2]]) / (3.0 * n));
+      for (int k = 0; k < 3; ++k) o[c++] = float(a[a_col[k]] / n);
     }
     if (aovs & ST_AOV_BIT(ENVIRONMENT))
-      for (int k = 0; k < 3; ++k) o[c++] = float(a[at(std::string("environment.") + rgb[k])] / n);
+      for (int k = 0; k < 3; ++k) o[c++] = float(a[env_col[k]] / n);
     if (aovs & ST_AOV_BIT(VARIANCE))
       for (int k = 0; k < 3; ++k) {
-        const double s1 = p.sum[i * 3 + k] + (alpha ? a[at(std::string("environment.") + rgb[k])] : 0.0);  // whole beauty
-        const double s2 = a[at(std::string("moment2.") + rgb[k])];
+        const double s1 = p.sum[i * 3 + k] + (alpha ? a[env_col[k]] : 0.0);  // the whole beauty
+        const double s2 = a[m2_col[k]];
         // finite always: a sum of squares that overflowed float (samples above ~1e19) is written
         // as the largest float, not inf, which no reader (nor merge) would accept
         const double var = n >= 2 ? std::max(0.0, (s2 - s1 * s1 / n) / (n * (n - 1))) : 0.0;
         o[c++] = std::isfinite(var) ? float(std::min(var, double(std::numeric_limits<float>::max())))
                                     : std::numeric_limits<float>::max();
       }
-    for (size_t k = passes; k < nc; ++k) o[c++] = float(a[at(names[k])] / n);
+    for (size_t col : pass_col) o[c++] = float(a[col] / n);
   }
   return names;
 }
@@ -458,26 +465,43 @@ FilmPiece read_piece(const std::string& path, Metadata* meta) {
                             path));
   const double n = double(p.samples());
   const size_t npix = size_t(p.width) * p.height, ne = have.size();
-  auto channel = [&](size_t i, const std::string& c) {
-    return double(img.extra[i * ne + size_t(std::find(have.begin(), have.end(), c) - have.begin())]);
-  };
+  auto column = [&](const std::string& c) { return size_t(std::find(have.begin(), have.end(), c) - have.begin()); };
   const std::vector<std::string> sums = aov_sum_channels(p.id.aovs);
   const size_t na = sums.size();
+  // each sum's columns in the file, found once (not per pixel): the channel itself, or for a
+  // second moment its variance.* channel and (alpha: transparent R, G, B) its environment.* one
+  struct Source {
+    size_t col = 0;
+    int moment_of = -1;  // second moments: the beauty channel 0..2
+    size_t env_col = 0;
+  };
+  const bool alpha = p.id.aovs & ST_AOV_BIT(ALPHA);
+  std::vector<Source> src(na);
+  for (size_t c = 0; c < na; ++c) {
+    const std::string& name = sums[c];
+    if (name.rfind("moment2.", 0) == 0) {
+      const std::string ch(1, name.back());
+      src[c].moment_of = int(std::string("RGB").find(name.back()));
+      src[c].col = column("variance." + ch);
+      if (alpha) src[c].env_col = column("environment." + ch);
+    } else {
+      src[c].col = column(name);  // AR, AG, AB, environment.*, the passes
+    }
+  }
   p.sum.resize(npix * 3);
   p.aov_sum.resize(npix * na);
-  const char* rgb[3] = {"R", "G", "B"};
   for (size_t i = 0; i < npix; ++i) {
+    const float* e = ne ? &img.extra[i * ne] : nullptr;
     for (int k = 0; k < 3; ++k) p.sum[i * 3 + k] = double(img.rgb[i * 3 + k]) * n;
     for (size_t c = 0; c < na; ++c) {
-      const std::string& name = sums[c];
-      double v;
-      if (name.rfind("moment2.", 0) == 0) {  // back from the variance of the mean (exr_channels)
-        const int k = name.back() == 'R' ? 0 : name.back() == 'G' ? 1 : 2;
-        double s1 = p.sum[i * 3 + k];  // the whole beauty's sum
-        if (p.id.aovs & ST_AOV_BIT(ALPHA)) s1 += channel(i, std::string("environment.") + rgb[k]) * n;
-        v = channel(i, std::string("variance.") + rgb[k]) * n * (n - 1) + (n > 0 ? s1 * s1 / n : 0.0);
+      const Source& sc = src[c];
+      double v = double(e[sc.col]);
+      if (sc.moment_of >= 0) {  // back from the variance of the mean (exr_channels)
+        double s1 = p.sum[i * 3 + size_t(sc.moment_of)];  // the whole beauty's sum
+        if (alpha) s1 += double(e[sc.env_col]) * n;
+        v = v * n * (n - 1) + (n > 0 ? s1 * s1 / n : 0.0);
       } else {
-        v = channel(i, name) * n;  // AR, AG, AB, environment.*
+        v *= n;
       }
       p.aov_sum[i * na + c] = v;
     }
