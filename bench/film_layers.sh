@@ -2,19 +2,21 @@
 # bench/film_layers.sh [SPP] [ROUNDS]: the cost of the film layers (issue 14, docs/aov.md) per
 # scene, in one run: the same binary with --no-alpha (the beauty alone), --no-alpha --aov variance
 # (no per-path work: one more film layer), the EXR default (alpha: a transmittance estimate along
-# every camera ray, and the environment layer) and every layer (alpha, environment, variance and the
-# emission, direct and indirect passes), interleaved round by round after a
+# every camera ray, and the environment layer), the denoiser's albedo and depth buffers alone
+# (--no-alpha --aov albedo,depth: one delta-tracking flight per camera ray) and every layer (alpha,
+# environment, variance, the emission, direct and indirect passes, albedo and depth), interleaved round by round after a
 # warm-up render of each (both kernel builds cached), the order rotated every round. Prints per scene seconds_render of each and
-# its ratio to the beauty alone, and the alpha estimates' density lookups per camera path beside the
-# tracking's lookups per path.
+# its ratio to the beauty alone, and the camera-ray layers' density lookups per camera path (every
+# layer: the alpha estimate's and the albedo/depth flight's) beside the tracking's lookups per path.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 SPP=${1:-4}; ROUNDS=${2:-3}
 BIN=${BIN:-./build/spectrack}
 out=$(mktemp -d)
 declare -A cfg=([beauty]="--no-alpha" [variance]="--no-alpha --aov variance" [alpha]="--alpha"
-                [all]="--alpha --aov variance,emission,direct,indirect")
-order="beauty variance alpha all"
+                [aux]="--no-alpha --aov albedo,depth"
+                [all]="--alpha --aov variance,emission,direct,indirect,albedo,depth")
+order="beauty variance alpha aux all"
 echo "film layers: $BIN, $SPP spp, $ROUNDS interleaved rounds, $(date -u +%F) on $(nproc) cores"
 for s in bench/scenes/*.json data/scenes/cloud.json; do
   n=$(basename "$s" .json)

@@ -4,11 +4,52 @@
  * of the free stack (queues.h: places n_free - n_new .. n_free - 1); the free slots below them are
  * not touched and stay free. */
 
-/* The alpha and environment layers of a new camera path (types.h ST_AOVS): the environment
+/* The camera ray's first collision for the albedo and depth layers (types.h ST_AOVS): a delta-tracking
+ * free flight whose collision density is sigma_t T with sigma_t the mean of the three channels'
+ * extinction (every medium, no decomposition), on its own stream ST_STREAM_CAMERA_COLLISION. A
+ * tentative collision of the walker (rate mu_bar, the channels' majorant) is real with probability
+ * sigma_t / mu_bar. Returns 1 with *aux = (sigma_s / sigma_t per channel, distance) there (a channel
+ * with sigma_t = 0 has albedo 0), or 0 when the ray leaves every medium. Lookups count as the
+ * camera layers' (density_lookups_alpha). */
+inline float camera_first_collision(__constant const st_scene* scene, __global const uint* grids,
+                                    __global const float2* maj, __global uint* counters, const st_path* p,
+                                    float4* aux) {
+  const float4 all = (float4)(1.0f, 1.0f, 1.0f, 0.0f);
+  const float3 o = p->o.xyz, d = p->d.xyz;
+  st_rng rng = path_rng(scene, p, ST_STREAM_CAMERA_COLLISION, 0u);
+  st_track_stats st;
+  track_stats_clear(&st);
+  st_walker w;
+  walker_begin(scene, maj, &w, o, d, 0.0f, all, 0, ST_WALK_SAMPLE_CONTROL, scene->iteration_budget);
+  float hit = 0.0f;
+  for (;;) {
+    int step = walker_step(scene, maj, &w, &rng, &st.dda_steps, &st.dda_nonempty);
+    if (step == ST_WALK_DONE) break;
+    if (step == ST_WALK_BUDGET) {
+      walker_begin(scene, maj, &w, o, d, w.t, all, 0, ST_WALK_SAMPLE_CONTROL, scene->iteration_budget);
+      continue;
+    }
+    if (step != ST_WALK_COLLISION) continue;
+    st_coeffs c = scene_coeffs(scene, grids, o + w.t * d, &st.lookups, 0, &rng);
+    float4 sigma_t = c.sigma_a + c.sigma_s;
+    float sigma_t_mean = (sigma_t.x + sigma_t.y + sigma_t.z) * (1.0f / 3.0f);
+    if (rng_uniform(&rng) * w.mu_bar < sigma_t_mean) {
+      float4 albedo = select((float4)(0.0f), c.sigma_s / sigma_t, sigma_t > 0.0f);
+      *aux = (float4)(albedo.xyz, w.t);
+      hit = 1.0f;
+      break;
+    }
+  }
+  counter_add(counters, ST_C_LOOKUPS_ALPHA, st.lookups);
+  return hit;
+}
+
+/* The camera layers of a new camera path (types.h ST_AOVS): the environment
  * (and the emission and direct passes) start at 0 (k_escape, k_track and the shadow folds add to them), the alpha value is 1 - T per channel with T the scene's
  * transmittance estimator along the whole camera ray (ratio tracking or ray marching, through
  * every medium, the three channels at once), on the stream ST_STREAM_CAMERA_T so the path's own stream is unchanged. It runs to the end here
- * (roulette bounds it); its lookups are counted on their own (density_lookups_alpha). */
+ * (roulette bounds it); its lookups are counted on their own (density_lookups_alpha). The albedo
+ * and depth layers take the ray's first collision (camera_first_collision). */
 inline void camera_layers_begin(__constant const st_scene* scene, __global const uint* grids,
                                 __global const float2* maj, __global uint* counters, __global float4* results,
                                 const st_path* p) {
@@ -33,6 +74,16 @@ inline void camera_layers_begin(__constant const st_scene* scene, __global const
     alpha = all - tr.T;
     alpha.w = 0.0f;
     counter_add(counters, ST_C_LOOKUPS_ALPHA, st.lookups);
+  }
+  /* albedo and depth: one analog free flight of the channel-mean extinction along the camera ray
+   * (delta tracking against the channels' majorant; budget-spent walks restart where they are,
+   * which the memoryless flights allow), scored at its first real collision */
+  if (L > ST_RESULT_LAYERS_PASSES) {
+    float4 aux = (float4)(0.0f);
+    if ((scene->aovs & (ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH))) &&
+        (scene->n_channels_per_sample == 1 || p->channel == 0u))
+      alpha.w = camera_first_collision(scene, grids, maj, counters, p, &aux);
+    r[ST_RESULT_AUX] = aux;
   }
   r[ST_RESULT_ALPHA] = alpha;
 }

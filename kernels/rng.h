@@ -8,8 +8,9 @@
  * st_shadow) and a resumed generator (rng_make(..., k)) recomputes the block k / 4 when it first
  * draws, so the stream is the same whatever the launch/queue schedule and device, and an image is
  * reproducible per seed. Stream 0 is the path itself; shadow rays use 1 + bounce * ST_MAX_LIGHTS
- * + light; the camera ray's transmittance estimate of the alpha layer uses ST_STREAM_CAMERA_T (a
- * shadow stream would need 2^29 bounces to reach it).
+ * + light; the camera ray's transmittance estimate of the alpha layer uses ST_STREAM_CAMERA_T and
+ * the albedo/depth layers' free flight ST_STREAM_CAMERA_COLLISION (a shadow stream would need
+ * 2^29 bounces to reach them).
  *
  * Why this generator, used this way: Philox4x32-10 passes TestU01's BigCrush with a safety margin
  * (Salmon et al. 2011, "Parallel random numbers: as easy as 1, 2, 3", SC11: 7 rounds already
@@ -31,6 +32,7 @@
 #define SPECTRACK_RNG_H
 
 #define ST_STREAM_CAMERA_T 0xffffffffu /* the alpha layer's camera-ray transmittance (raygen.cl) */
+#define ST_STREAM_CAMERA_COLLISION 0xfffffffeu /* the albedo and depth layers' camera-ray free flight */
 #define ST_RNG_NO_BLOCK 0xffffffffu /* ctr.w when no block is cached (never a block: k / 4 < 2^30) */
 
 typedef struct {

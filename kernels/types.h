@@ -135,23 +135,32 @@ enum st_phase_type { ST_PHASE_ISOTROPIC = 0, ST_PHASE_HG = 1 };
  *                phase-sampled ray reaches;
  *   indirect:    everything else (the host takes it as the beauty minus environment, emission and
  *                direct, so the passes add up to the beauty sample by sample).
+ *   albedo:      the scattering albedo sigma_s / sigma_t per channel at the camera ray's first
+ *                collision (a delta-tracking free flight of the channel-mean extinction along the
+ *                camera ray, stream ST_STREAM_CAMERA_COLLISION), averaged over the samples whose
+ *                ray collided: a denoiser's albedo buffer (docs/aov.md);
+ *   depth:       the distance along the camera ray to that collision, averaged the same way.
  * The bits are 1 << index (st_scene.aovs). Per path, alpha and environment take two more float4
- * of the batch result buffer (st_result_layer), the passes two more; variance takes nothing per path. */
+ * of the batch result buffer (st_result_layer), the passes two more, albedo and depth one more
+ * (ST_RESULT_AUX; the collision count rides in ST_RESULT_ALPHA's w); variance takes nothing per path. */
 #define ST_AOVS(X)                                                                       \
   X(ALPHA, "alpha") X(ENVIRONMENT, "environment") X(VARIANCE, "variance") X(EMISSION, "emission") \
-  X(DIRECT, "direct") X(INDIRECT, "indirect")
+  X(DIRECT, "direct") X(INDIRECT, "indirect") X(ALBEDO, "albedo") X(DEPTH, "depth")
 #define ST_X_AOV_ENUM(E, name) ST_AOV_INDEX_##E,
 enum st_aov_index { ST_AOVS(ST_X_AOV_ENUM) ST_AOV_COUNT };
 #define ST_AOV_BIT(E) (1 << ST_AOV_INDEX_##E)
 /* The float4 values a path writes to the batch result buffer (result_index * result_layers + layer). */
 enum st_result_layer {
   ST_RESULT_BEAUTY = 0,      /* everything but what the environment layer takes */
-  ST_RESULT_ALPHA = 1,       /* 1 - the camera ray's transmittance estimate, per channel (raygen.cl) */
+  ST_RESULT_ALPHA = 1,       /* xyz: 1 - the camera ray's transmittance estimate, per channel (raygen.cl);
+                              * w: 1 when the albedo/depth free flight collided, else 0 */
   ST_RESULT_ENVIRONMENT = 2, /* lights at infinity seen straight from the camera */
   ST_RESULT_LAYERS_AOV = 3,  /* result_layers when alpha or environment is on, not the passes (else 1) */
   ST_RESULT_EMISSION = 3,    /* the emission pass (its part of the beauty) */
   ST_RESULT_DIRECT = 4,      /* the direct pass (its part of the beauty) */
-  ST_RESULT_LAYERS_PASSES = 5 /* result_layers with the emission, direct or indirect pass */
+  ST_RESULT_LAYERS_PASSES = 5, /* result_layers with the emission, direct or indirect pass */
+  ST_RESULT_AUX = 5,         /* xyz: sigma_s / sigma_t at the camera ray's first collision, w: its distance (or 0) */
+  ST_RESULT_LAYERS_AUX = 6   /* result_layers with the albedo or depth layer */
 };
 
 /* Scene features, as one mask: the kernels are compiled with ST_FEATURES = the scene's mask

@@ -332,7 +332,7 @@ TEST(Aov, SceneFieldsAndTheirErrors) {
       EXPECT_NE(std::string(err.what()).find(word), std::string::npos) << err.what();
     }
   };
-  expect_error([](json& e) { e["film"]["aovs"] = {"depth"}; }, "/film/aovs/0", "unknown layer");
+  expect_error([](json& e) { e["film"]["aovs"] = {"normal"}; }, "/film/aovs/0", "unknown layer");
   expect_error([](json& e) { e["film"]["aovs"] = "alpha"; }, "/film/aovs", "array");
   expect_error([](json& e) { e["film"]["alpha"] = 1; }, "/film/alpha", "true or false");
   expect_error([](json& e) { e["film"]["compression"] = "jpeg"; }, "/film/compression", "dwaa");
@@ -418,6 +418,119 @@ TEST(Aov, PassesOnATransparentFilmAndThroughEveryLayerOfAnExr) {
     EXPECT_NEAR(q.aov_sum[i], p.aov_sum[i], 1e-5 * std::max(1.0, std::abs(p.aov_sum[i]))) << res.aov_channels[i % na];
   auto in = OIIO::ImageInput::open(dir + "/all.exr");
   ASSERT_TRUE(in);
-  EXPECT_EQ(in->spec().nchannels, 22);
-  for (const char* n : {"emission.G", "direct.B", "indirect.R"}) EXPECT_GE(in->spec().channelindex(n), 0) << n;
+  EXPECT_EQ(in->spec().nchannels, 27);
+  for (const char* n : {"emission.G", "direct.B", "indirect.R", "albedo.G", "depth.Z", "collision.A"}) EXPECT_GE(in->spec().channelindex(n), 0) << n;
+}
+
+// A scattering, absorbing chromatic box [-1, 1]^3 seen along z from z = -3: sigma_t = (1.5, 1.5, 2.25).
+static json scattering_box(const std::string& tracker, int spp, double cam_height) {
+  json s = base(16, 16, spp, tracker, cam_height);
+  s["media"].push_back({{"type", "homogeneous"}, {"bounds", {{-1, -1, -1}, {1, 1, 1}}},
+                        {"sigma_a", {0.5, 1.0, 2.0}}, {"sigma_s", {1.0, 0.5, 0.25}}});
+  return s;
+}
+
+TEST(Aov, AlbedoIsTheBoxAlbedoExactlyWhereItIsSeenAndDepthTheMeanCollisionDistance) {
+  const std::string dir = temp_dir("aov_albedo");
+  const double albedo[3] = {1.0 / 1.5, 0.5 / 1.5, 0.25 / 2.25};
+  const double sigma = (1.5 + 1.5 + 2.25) / 3.0, len = 2.0, q = std::exp(-sigma * len);
+  // the collision distance of a flight of the channel-mean extinction, given that it collides:
+  // 2 (to the box) + a truncated exponential on [0, len]
+  const double expected_depth = 2.0 + 1.0 / sigma - len * q / (1.0 - q);
+  for (const char* tracker : {"delta-per-channel", "spectral-decomposition"}) {
+    SCOPED_TRACE(tracker);
+    const uint32_t aux = ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH);
+    // the frame (height 3) is wider than the box: its border rays meet nothing
+    const SceneDesc scene = scene_from_json(scattering_box(tracker, 16, 3.0), dir);
+    Renderer r(scene, with_layers(aux));
+    EXPECT_TRUE(r.features() & ST_FEATURE_AOV);
+    RenderResult res = r.render();
+    ASSERT_EQ(res.aov_channels, (std::vector<std::string>{"albedo.R", "albedo.G", "albedo.B", "depth.Z", "collision.A"}));
+    const size_t na = res.aov_channels.size();
+    int seen = 0, missed = 0;
+    std::vector<double> depths;
+    for (int y = 0; y < res.height; ++y)
+      for (int x = 0; x < res.width; ++x) {
+        const size_t i = size_t(y) * res.width + x;
+        const double* a = &res.aov_sum[i * na];
+        const double px = -1.5 + 3.0 * (x + 0.5) / res.width, py = 1.5 - 3.0 * (y + 0.5) / res.height;
+        const bool inside = std::abs(px) < 0.95 && std::abs(py) < 0.95, outside = std::abs(px) > 1.05 || std::abs(py) > 1.05;
+        if (outside) {  // nothing on the ray: no collision, every layer 0 exactly
+          ++missed;
+          for (size_t c = 0; c < na; ++c) EXPECT_EQ(a[c], 0.0) << "pixel " << x << "," << y << " " << res.aov_channels[c];
+        }
+        if (!inside || a[4] <= 0) continue;
+        ++seen;
+        EXPECT_LE(a[4], 16.0);  // one flight per sample (delta-per-channel: the channel-0 path's)
+        for (int c = 0; c < 3; ++c) EXPECT_NEAR(a[c] / a[4], albedo[c], 1e-6) << "pixel " << x << "," << y;
+        depths.push_back(a[3] / a[4]);
+        EXPECT_GE(a[3] / a[4], 2.0 - 1e-5);
+        EXPECT_LE(a[3] / a[4], 4.0 + 1e-5);
+      }
+    EXPECT_GT(seen, 90);  // 10 x 10 pixel centres inside the box's silhouette
+    EXPECT_GT(missed, 90);
+    // each seen pixel's depth is the mean of its collided samples' distances: unbiased given how
+    // many collided, so the pixels' mean estimates expected_depth with their spread as its error
+    Stats st = mean_se(depths);
+    EXPECT_LT(std::abs(st.mean - expected_depth), 4 * st.se) << st.mean << " vs " << expected_depth << " se " << st.se;
+    EXPECT_GT(std::abs(st.mean - 1.05 * expected_depth), 4 * st.se) << "the test cannot see a 5% error";
+    // the beauty is the paths' own (the layers draw from their own stream): as without layers
+    RenderResult plain = Renderer(scene, quiet_options()).render();
+    for (size_t i = 0; i < plain.sum.size(); ++i)
+      EXPECT_NEAR(res.sum[i], plain.sum[i], 1e-5 * std::max(1.0, std::abs(plain.sum[i]))) << i;
+  }
+}
+
+TEST(Aov, AlbedoAndDepthLayersThroughExrShardsAndMerge) {
+  const std::string dir = temp_dir("aov_albedo_merge");
+  const SceneDesc scene = scene_from_json(lumpy(dir, "spectral", 8), dir);
+  const uint32_t aovs = kAll | ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH) | ST_AOV_BIT(DIRECT);
+  Renderer r(scene, with_layers(aovs));
+  RenderIdentity id = render_identity(r.settings());
+  id.scene_hash = "h";
+  RenderResult all = r.render();
+  FilmPiece full = piece_from_result(all, id, "full");
+  // a heterogeneous, chromatic medium: albedo within [0, 1], depth within the camera ray's reach
+  const std::vector<double> hits = layer(all, "collision.A");
+  for (int c = 0; c < 3; ++c) {
+    const std::vector<double> a = layer(all, std::string("albedo.") + "RGB"[c]);
+    for (size_t i = 0; i < a.size(); ++i) {
+      EXPECT_GE(a[i], 0.0);
+      EXPECT_LE(a[i], hits[i] * (1 + 1e-6));
+    }
+  }
+  EXPECT_GT(all.stats.lookups_alpha, 0u);  // the alpha estimate's and the albedo/depth flight's
+  int some = 0;
+  for (double h : hits) some += h > 0;
+  EXPECT_GT(some, int(hits.size()) / 4);
+  // EXR channels and their values: means over the collided samples, the collided fraction
+  const std::string exr = dir + "/all.exr";
+  write_piece(exr, full, {});
+  auto in = OIIO::ImageInput::open(exr);
+  ASSERT_TRUE(in);
+  const OIIO::ImageSpec spec = in->spec();
+  std::vector<float> px(hits.size() * size_t(spec.nchannels));
+  ASSERT_TRUE(in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, px.data()));
+  const int cz = spec.channelindex("depth.Z"), ca = spec.channelindex("collision.A"), cr = spec.channelindex("albedo.R");
+  ASSERT_GE(cz, 0);
+  ASSERT_GE(ca, 0);
+  ASSERT_GE(cr, 0);
+  const std::vector<double> dsum = layer(all, "depth.Z"), rsum = layer(all, "albedo.R");
+  for (size_t i = 0; i < hits.size(); ++i) {
+    EXPECT_NEAR(px[i * spec.nchannels + ca], hits[i], 1e-6);
+    EXPECT_NEAR(px[i * spec.nchannels + cz], hits[i] > 0 ? dsum[i] / hits[i] : 0.0, 1e-5 * 3);
+    EXPECT_NEAR(px[i * spec.nchannels + cr], hits[i] > 0 ? rsum[i] / hits[i] : 0.0, 1e-6);
+  }
+  // shards through EXR files merge to the full render's sums in every layer
+  std::vector<FilmPiece> read;
+  for (auto [b, e] : {std::pair{0, 3}, std::pair{3, 8}}) {
+    const std::string f = dir + "/shard" + std::to_string(b) + ".exr";
+    write_piece(f, piece_from_result(r.render(b, e - b), id, "shard"), {});
+    read.push_back(read_piece(f));
+    EXPECT_EQ(read.back().id.aovs, aovs);
+  }
+  FilmPiece m = merge_pieces(read);
+  ASSERT_EQ(m.aov_sum.size(), full.aov_sum.size());
+  for (size_t i = 0; i < full.aov_sum.size(); ++i)
+    EXPECT_NEAR(m.aov_sum[i], full.aov_sum[i], 1e-4 * std::max(1.0, std::abs(full.aov_sum[i]))) << i;
 }

@@ -1,6 +1,7 @@
 // image.cpp: see image.h. sRGB encoding for PNG previews is done here (the OETF of IEC 61966-2-1)
 // so that the preview matches what an EXR viewer shows for the same linear values.
 #include "image/image.h"
+#include "scene/scene.h"
 #include "util/files.h"
 
 #include <OpenImageIO/imageio.h>
@@ -111,12 +112,10 @@ void write_image(const std::string& path, int width, int height, const std::vect
 }
 
 bool film_layer_channel(const std::string& name) {
-  static const char* const known[] = {"A", "AR", "AG", "AB", "environment.R", "environment.G", "environment.B",
-                                      "variance.R", "variance.G", "variance.B", "emission.R", "emission.G",
-                                      "emission.B", "direct.R", "direct.G", "direct.B", "indirect.R", "indirect.G",
-                                      "indirect.B"};
-  for (const char* k : known)
-    if (name == k) return true;
+  if (name == kCollisionChannel) return true;
+  for (int k = 0; k < ST_AOV_COUNT; ++k)
+    for (const std::string& c : aov_exr_channels(k))
+      if (name == c) return true;
   return false;
 }
 
@@ -303,7 +302,7 @@ RgbImage read_image(const std::string& path, ImageUse use) {
     for (int c = 3; c < nc && layers_known; ++c) layers_known = film_layer_channel(spec.channelnames[c]);
     if (!layers_known)
       fail(fmt::format("has {} channel(s) ({}); spectrack's EXR outputs have R, G, B and its film layers only (A, AR, "
-                       "AG, AB, environment.*, variance.*, emission.*, direct.*, indirect.*)",
+                       "AG, AB, environment.*, variance.*, emission.*, direct.*, indirect.*, albedo.*, depth.Z, collision.A)",
                        nc, channel_list(spec)));
     if (size_t(spec.width) * size_t(spec.height) * size_t(nc) > 3 * max_pixels)
       fail(fmt::format("{}x{} pixels of {} channels are more than a merge input can hold (3 * 2^28 values)", spec.width,

@@ -322,55 +322,70 @@ Metadata piece_metadata(const FilmPiece& p) {
 // transparent film's: premultiplied, without the environment layer), A
 // (the mean of AR, AG, AB) and AR, AG, AB, environment.R/G/B, variance.R/G/B (the variance of the
 // pixel's mean: (S2 - S1^2 / n) / (n (n - 1)), 0 below 2 samples), emission.R/G/B, direct.R/G/B,
-// indirect.R/G/B (means).
+// indirect.R/G/B (means), albedo.R/G/B and depth.Z (means over the samples whose camera ray
+// collided, 0 where none did) and collision.A (the fraction that collided, their weight in a merge).
 static std::vector<std::string> exr_channels(const FilmPiece& p, std::vector<float>* px) {
   const uint32_t aovs = p.id.aovs;
   const bool alpha = aovs & ST_AOV_BIT(ALPHA);
-  std::vector<std::string> names = {"R", "G", "B"};
-  if (alpha) names.insert(names.end(), {"A", "AR", "AG", "AB"});
-  if (aovs & ST_AOV_BIT(ENVIRONMENT)) names.insert(names.end(), {"environment.R", "environment.G", "environment.B"});
-  if (aovs & ST_AOV_BIT(VARIANCE)) names.insert(names.end(), {"variance.R", "variance.G", "variance.B"});
   const std::vector<std::string> sums = aov_sum_channels(aovs);
-  const size_t passes = names.size();  // the passes' channels: their sums' names, means of them
-  for (const std::string& c : sums)
-    if (c.rfind("emission.", 0) == 0 || c.rfind("direct.", 0) == 0 || c.rfind("indirect.", 0) == 0) names.push_back(c);
   auto at = [&](const std::string& name) { return size_t(std::find(sums.begin(), sums.end(), name) - sums.begin()); };
+  // each channel's recipe, decided once (not per pixel), in the table's order (aov_exr_channels)
+  enum Kind { kBeauty, kAlphaMean, kMean, kVariance, kPerCollision, kCollisionFraction };
+  struct Channel {
+    Kind kind;
+    size_t col = 0;      // its sum's column in aov_sum (kVariance: the second moment's)
+    int k = 0;           // kBeauty, kVariance: the colour channel
+    size_t env_col = 0;  // kVariance with alpha: the environment's column (the whole beauty)
+  };
+  std::vector<std::string> names = {"R", "G", "B"};
+  std::vector<Channel> recipe = {{kBeauty, 0, 0}, {kBeauty, 0, 1}, {kBeauty, 0, 2}};
+  for (int k = 0; k < ST_AOV_COUNT; ++k) {
+    if (!(aovs & (1u << k))) continue;
+    const std::vector<std::string>& chans = aov_exr_channels(k);
+    for (size_t c = 0; c < chans.size(); ++c) {
+      names.push_back(chans[c]);
+      if (k == ST_AOV_INDEX_ALPHA) recipe.push_back(c == 0 ? Channel{kAlphaMean} : Channel{kMean, at(chans[c])});
+      else if (k == ST_AOV_INDEX_VARIANCE)
+        recipe.push_back({kVariance, at("moment2." + chans[c].substr(chans[c].size() - 1)), int(c),
+                          alpha ? at("environment." + chans[c].substr(chans[c].size() - 1)) : 0});
+      else if (k == ST_AOV_INDEX_ALBEDO || k == ST_AOV_INDEX_DEPTH) recipe.push_back({kPerCollision, at(chans[c])});
+      else recipe.push_back({kMean, at(chans[c])});
+    }
+  }
+  const bool collisions = aovs & (ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH));
+  if (collisions) {
+    names.push_back(kCollisionChannel);
+    recipe.push_back({kCollisionFraction, at(kCollisionChannel)});
+  }
+  const size_t hits_col = collisions ? at(kCollisionChannel) : 0;
+  const size_t a_col[3] = {at("AR"), at("AG"), at("AB")};
   const size_t na = sums.size(), nc = names.size(), npix = size_t(p.width) * p.height;
   const double n = double(p.samples());
   px->assign(npix * nc, 0.0f);
   if (n <= 0) return names;
-  // each layer channel's column in aov_sum, found once (not per pixel)
-  size_t a_col[3] = {}, env_col[3] = {}, m2_col[3] = {};
-  for (int k = 0; k < 3; ++k) {
-    const std::string ch(1, "RGB"[k]);
-    a_col[k] = at("A" + ch);
-    env_col[k] = at("environment." + ch);
-    m2_col[k] = at("moment2." + ch);
-  }
-  std::vector<size_t> pass_col;
-  for (size_t k = passes; k < nc; ++k) pass_col.push_back(at(names[k]));
   for (size_t i = 0; i < npix; ++i) {
     const double* a = na ? &p.aov_sum[i * na] : nullptr;
     float* o = &(*px)[i * nc];
-    size_t c = 0;
-    for (int k = 0; k < 3; ++k) o[c++] = float(p.sum[i * 3 + k] / n);
-    if (alpha) {
-      o[c++] = float((a[a_col[0]] + a[a_col[1]] + a[a_col[2]]) / (3.0 * n));
-      for (int k = 0; k < 3; ++k) o[c++] = float(a[a_col[k]] / n);
-    }
-    if (aovs & ST_AOV_BIT(ENVIRONMENT))
-      for (int k = 0; k < 3; ++k) o[c++] = float(a[env_col[k]] / n);
-    if (aovs & ST_AOV_BIT(VARIANCE))
-      for (int k = 0; k < 3; ++k) {
-        const double s1 = p.sum[i * 3 + k] + (alpha ? a[env_col[k]] : 0.0);  // the whole beauty
-        const double s2 = a[m2_col[k]];
-        // finite always: a sum of squares that overflowed float (samples above ~1e19) is written
-        // as the largest float, not inf, which no reader (nor merge) would accept
-        const double var = n >= 2 ? std::max(0.0, (s2 - s1 * s1 / n) / (n * (n - 1))) : 0.0;
-        o[c++] = std::isfinite(var) ? float(std::min(var, double(std::numeric_limits<float>::max())))
+    for (size_t c = 0; c < nc; ++c) {
+      const Channel& ch = recipe[c];
+      switch (ch.kind) {
+        case kBeauty: o[c] = float(p.sum[i * 3 + size_t(ch.k)] / n); break;
+        case kAlphaMean: o[c] = float((a[a_col[0]] + a[a_col[1]] + a[a_col[2]]) / (3.0 * n)); break;
+        case kMean: o[c] = float(a[ch.col] / n); break;
+        case kVariance: {
+          const double s1 = p.sum[i * 3 + size_t(ch.k)] + (alpha ? a[ch.env_col] : 0.0);  // the whole beauty
+          const double s2 = a[ch.col];
+          // finite always: a sum of squares that overflowed float (samples above ~1e19) is written
+          // as the largest float, not inf, which no reader (nor merge) would accept
+          const double var = n >= 2 ? std::max(0.0, (s2 - s1 * s1 / n) / (n * (n - 1))) : 0.0;
+          o[c] = std::isfinite(var) ? float(std::min(var, double(std::numeric_limits<float>::max())))
                                     : std::numeric_limits<float>::max();
+          break;
+        }
+        case kPerCollision: o[c] = a[hits_col] > 0 ? float(a[ch.col] / a[hits_col]) : 0.0f; break;
+        case kCollisionFraction: o[c] = float(a[ch.col] / n); break;
       }
-    for (size_t col : pass_col) o[c++] = float(a[col] / n);
+    }
   }
   return names;
 }
@@ -443,14 +458,8 @@ FilmPiece read_piece(const std::string& path, Metadata* meta) {
   // the layers: each one whole, or the file is not one of ours
   const std::vector<std::string>& have = img.extra_names;
   auto has = [&](const std::string& c) { return std::find(have.begin(), have.end(), c) != have.end(); };
-  const std::vector<std::pair<int, std::vector<std::string>>> groups = {
-      {ST_AOV_INDEX_ALPHA, {"A", "AR", "AG", "AB"}},
-      {ST_AOV_INDEX_ENVIRONMENT, {"environment.R", "environment.G", "environment.B"}},
-      {ST_AOV_INDEX_VARIANCE, {"variance.R", "variance.G", "variance.B"}},
-      {ST_AOV_INDEX_EMISSION, {"emission.R", "emission.G", "emission.B"}},
-      {ST_AOV_INDEX_DIRECT, {"direct.R", "direct.G", "direct.B"}},
-      {ST_AOV_INDEX_INDIRECT, {"indirect.R", "indirect.G", "indirect.B"}}};
-  for (auto& [k, chans] : groups) {
+  for (int k = 0; k < ST_AOV_COUNT; ++k) {
+    const std::vector<std::string>& chans = aov_exr_channels(k);
     size_t found = 0;
     for (auto& c : chans) found += has(c);
     if (found == chans.size()) p.id.aovs |= 1u << k;
@@ -463,6 +472,10 @@ FilmPiece read_piece(const std::string& path, Metadata* meta) {
     throw Error(fmt::format("{}: has an alpha layer without the environment layer that its transparent R, G, B leave "
                             "out; a merge cannot restore the beauty",
                             path));
+  if ((p.id.aovs & (ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH))) && !has(kCollisionChannel))
+    throw Error(fmt::format("{}: has an albedo or depth layer without its collision.A channel (how many samples' "
+                            "camera rays collided), which a merge needs to weigh it",
+                            path));
   const double n = double(p.samples());
   const size_t npix = size_t(p.width) * p.height, ne = have.size();
   auto column = [&](const std::string& c) { return size_t(std::find(have.begin(), have.end(), c) - have.begin()); };
@@ -474,6 +487,7 @@ FilmPiece read_piece(const std::string& path, Metadata* meta) {
     size_t col = 0;
     int moment_of = -1;  // second moments: the beauty channel 0..2
     size_t env_col = 0;
+    bool per_collision = false;  // albedo, depth: a mean over the collided samples (collision.A n of them)
   };
   const bool alpha = p.id.aovs & ST_AOV_BIT(ALPHA);
   std::vector<Source> src(na);
@@ -485,9 +499,12 @@ FilmPiece read_piece(const std::string& path, Metadata* meta) {
       src[c].col = column("variance." + ch);
       if (alpha) src[c].env_col = column("environment." + ch);
     } else {
-      src[c].col = column(name);  // AR, AG, AB, environment.*, the passes
+      src[c].col = column(name);  // AR, AG, AB, environment.*, the passes, albedo, depth, collision.A
+      for (int k : {ST_AOV_INDEX_ALBEDO, ST_AOV_INDEX_DEPTH})
+        for (const std::string& a : aov_exr_channels(k)) src[c].per_collision = src[c].per_collision || name == a;
     }
   }
+  const size_t hits_col = column(kCollisionChannel);
   p.sum.resize(npix * 3);
   p.aov_sum.resize(npix * na);
   for (size_t i = 0; i < npix; ++i) {
@@ -500,6 +517,8 @@ FilmPiece read_piece(const std::string& path, Metadata* meta) {
         double s1 = p.sum[i * 3 + size_t(sc.moment_of)];  // the whole beauty's sum
         if (alpha) s1 += double(e[sc.env_col]) * n;
         v = v * n * (n - 1) + (n > 0 ? s1 * s1 / n : 0.0);
+      } else if (sc.per_collision) {
+        v *= double(e[hits_col]) * n;
       } else {
         v *= n;
       }

@@ -420,6 +420,11 @@ void Renderer::Impl::read_film(const RenderBuffers& b, const BatchPlan& p, const
       for (int k = 0; k < 3; ++k)
         res.aov_sum[i * na + a++] =
             layer(ST_RESULT_BEAUTY, i, k) - layer(ST_RESULT_EMISSION, i, k) - layer(ST_RESULT_DIRECT, i, k);
+    if (settings.aovs & ST_AOV_BIT(ALBEDO))  // sums over the samples whose camera ray collided
+      for (int k = 0; k < 3; ++k) res.aov_sum[i * na + a++] = layer(ST_RESULT_AUX, i, k);
+    if (settings.aovs & ST_AOV_BIT(DEPTH)) res.aov_sum[i * na + a++] = layer(ST_RESULT_AUX, i, 3);
+    if (settings.aovs & (ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH)))
+      res.aov_sum[i * na + a++] = layer(ST_RESULT_ALPHA, i, 3);  // how many of them collided
   }
 }
 
@@ -490,12 +495,13 @@ DeviceScene& Renderer::device_scene() { return impl_->ds; }
 
 std::vector<std::string> aov_sum_channels(uint32_t aovs) {
   std::vector<std::string> c;
-  if (aovs & ST_AOV_BIT(ALPHA)) c.insert(c.end(), {"AR", "AG", "AB"});
-  if (aovs & ST_AOV_BIT(ENVIRONMENT)) c.insert(c.end(), {"environment.R", "environment.G", "environment.B"});
-  if (aovs & ST_AOV_BIT(VARIANCE)) c.insert(c.end(), {"moment2.R", "moment2.G", "moment2.B"});
-  for (int k : {ST_AOV_INDEX_EMISSION, ST_AOV_INDEX_DIRECT, ST_AOV_INDEX_INDIRECT})
-    if (aovs & (1u << k))
-      for (const char* ch : {".R", ".G", ".B"}) c.push_back(aov_name(k) + std::string(ch));
+  for (int k = 0; k < ST_AOV_COUNT; ++k) {
+    if (!(aovs & (1u << k))) continue;
+    if (k == ST_AOV_INDEX_ALPHA) c.insert(c.end(), {"AR", "AG", "AB"});  // A is their mean
+    else if (k == ST_AOV_INDEX_VARIANCE) c.insert(c.end(), {"moment2.R", "moment2.G", "moment2.B"});
+    else c.insert(c.end(), aov_exr_channels(k).begin(), aov_exr_channels(k).end());
+  }
+  if (aovs & (ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH))) c.push_back(kCollisionChannel);
   return c;
 }
 

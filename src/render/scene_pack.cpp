@@ -481,7 +481,8 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
   st.pilot_spacing = float(s.pilot_spacing);
   st.lookup = s.lookup;
   st.aovs = int(s.aovs);
-  st.result_layers = (s.aovs & (ST_AOV_BIT(EMISSION) | ST_AOV_BIT(DIRECT) | ST_AOV_BIT(INDIRECT)))
+  st.result_layers = (s.aovs & (ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH)))  ? ST_RESULT_LAYERS_AUX
+                     : (s.aovs & (ST_AOV_BIT(EMISSION) | ST_AOV_BIT(DIRECT) | ST_AOV_BIT(INDIRECT)))
                          ? ST_RESULT_LAYERS_PASSES
                          : (s.aovs & (ST_AOV_BIT(ALPHA) | ST_AOV_BIT(ENVIRONMENT))) ? ST_RESULT_LAYERS_AOV : 1;
   st.max_depth = scene.render.max_depth;

@@ -87,6 +87,20 @@ const char* aov_name(int index) { return name_of(kAovNames, index); }
 int aov_from_name(const std::string& name) { return value_of(kAovNames, name); }
 std::string aov_names() { return list_of(kAovNames); }
 std::vector<std::string> aov_name_list() { return {std::begin(kAovNames), std::end(kAovNames)}; }
+const std::vector<std::string>& aov_exr_channels(int index) {
+  static const std::vector<std::vector<std::string>> table = [] {
+    std::vector<std::vector<std::string>> t;
+    for (int k = 0; k < ST_AOV_COUNT; ++k) {
+      const std::string n = kAovNames[k];
+      if (k == ST_AOV_INDEX_ALPHA) t.push_back({"A", "AR", "AG", "AB"});
+      else if (k == ST_AOV_INDEX_DEPTH) t.push_back({n + ".Z"});
+      else t.push_back({n + ".R", n + ".G", n + ".B"});
+    }
+    return t;
+  }();
+  static const std::vector<std::string> none;
+  return index >= 0 && index < ST_AOV_COUNT ? table[size_t(index)] : none;
+}
 const std::vector<std::string>& exr_compressions() {
   // OpenEXR's compressions as OpenImageIO names them (its "compression" attribute)
   static const std::vector<std::string> names = {"none", "rle", "zips", "zip", "piz", "pxr24", "b44", "b44a", "dwaa", "dwab"};

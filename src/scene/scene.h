@@ -164,11 +164,16 @@ int lookup_from_name(const std::string& name);  // -1 when unknown
 std::string lookup_names();
 std::vector<std::string> lookup_name_list();
 // Names of the film layers beyond the beauty (ST_AOVS, indices st_aov_index): "alpha",
-// "environment", "variance", "emission", "direct", "indirect".
+// "environment", "variance", "emission", "direct", "indirect", "albedo", "depth".
 const char* aov_name(int index);
 int aov_from_name(const std::string& name);  // -1 when unknown
 std::string aov_names();
 std::vector<std::string> aov_name_list();
+// The one table of the film layers' EXR channels (docs/aov.md), what a render writes, merge reads and
+// read_image accepts: alpha "A", "AR", "AG", "AB"; depth "depth.Z"; the others "<name>.R", ".G",
+// ".B". The albedo and depth layers also write kCollisionChannel, their shared weight.
+const std::vector<std::string>& aov_exr_channels(int index);
+inline constexpr const char* kCollisionChannel = "collision.A";
 // OpenEXR compressions (film.compression, --compression): none, rle, zips, zip, piz, pxr24, b44,
 // b44a, dwaa, dwab. The lossy ones (pxr24 on floats, b44*, dwa*) lose what a merge needs.
 const std::vector<std::string>& exr_compressions();
