@@ -8,9 +8,13 @@
  * free flight whose collision density is sigma_t T with sigma_t the mean of the three channels'
  * extinction (every medium, no decomposition), on its own stream ST_STREAM_CAMERA_COLLISION. A
  * tentative collision of the walker (rate mu_bar, the channels' majorant) is real with probability
- * sigma_t / mu_bar. Returns 1 with *aux = (sigma_s / sigma_t per channel, distance) there (a channel
- * with sigma_t = 0 has albedo 0), or 0 when the ray leaves every medium. Lookups count as the
- * camera layers' (density_lookups_alpha). */
+ * sigma_t / (sigma_t + |mu_bar - sigma_t|), and the flight's weight w takes the ratio of
+ * probabilities (weighted delta tracking, as the trackers handle majorant_scale < 1): w stays 1
+ * wherever mu_bar bounds sigma_t, the usual case. Returns w at the first real collision, with *aux =
+ * w (sigma_s / sigma_t per channel, distance) there (a channel with sigma_t = 0 has albedo 0), or 0
+ * when the ray leaves every medium. One walk, its budget unbounded (it ends at the first real
+ * collision or at the last medium; the walker's exact position sum keeps it moving). Lookups count
+ * as the camera layers' (density_lookups_alpha). */
 inline float camera_first_collision(__constant const st_scene* scene, __global const uint* grids,
                                     __global const float2* maj, __global uint* counters, const st_path* p,
                                     float4* aux) {
@@ -20,25 +24,25 @@ inline float camera_first_collision(__constant const st_scene* scene, __global c
   st_track_stats st;
   track_stats_clear(&st);
   st_walker w;
-  walker_begin(scene, maj, &w, o, d, 0.0f, all, 0, ST_WALK_SAMPLE_CONTROL, scene->iteration_budget);
-  float hit = 0.0f;
+  walker_begin(scene, maj, &w, o, d, 0.0f, all, 0, ST_WALK_SAMPLE_CONTROL, INT_MAX);
+  float weight = 1.0f, hit = 0.0f;
   for (;;) {
     int step = walker_step(scene, maj, &w, &rng, &st.dda_steps, &st.dda_nonempty);
-    if (step == ST_WALK_DONE) break;
-    if (step == ST_WALK_BUDGET) {
-      walker_begin(scene, maj, &w, o, d, w.t, all, 0, ST_WALK_SAMPLE_CONTROL, scene->iteration_budget);
-      continue;
-    }
+    if (step == ST_WALK_DONE || step == ST_WALK_BUDGET) break;
     if (step != ST_WALK_COLLISION) continue;
     st_coeffs c = scene_coeffs(scene, grids, o + w.t * d, &st.lookups, 0, &rng);
     float4 sigma_t = c.sigma_a + c.sigma_s;
-    float sigma_t_mean = (sigma_t.x + sigma_t.y + sigma_t.z) * (1.0f / 3.0f);
-    if (rng_uniform(&rng) * w.mu_bar < sigma_t_mean) {
+    float sigma_t_mean = fmax((sigma_t.x + sigma_t.y + sigma_t.z) * (1.0f / 3.0f), 0.0f);
+    float sigma_n = w.mu_bar - sigma_t_mean;
+    float P_real = sigma_t_mean / (sigma_t_mean + fabs(sigma_n));
+    if (rng_uniform(&rng) < P_real) {
+      if (sigma_n < 0.0f) weight *= sigma_t_mean / (w.mu_bar * P_real); /* else exactly 1 */
       float4 albedo = select((float4)(0.0f), c.sigma_s / sigma_t, sigma_t > 0.0f);
-      *aux = (float4)(albedo.xyz, w.t);
-      hit = 1.0f;
+      *aux = weight * (float4)(albedo.xyz, w.t);
+      hit = weight;
       break;
     }
+    if (sigma_n < 0.0f) weight *= sigma_n / (w.mu_bar * (1.0f - P_real)); /* else exactly 1 */
   }
   counter_add(counters, ST_C_LOOKUPS_ALPHA, st.lookups);
   return hit;

@@ -27,7 +27,7 @@ export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 HOST='^(SceneTest|SceneNames|VolumeLoad|VolumeErrors|VolumeSample|VolumeMajorant|VolumeNanoVdb)\.'
 # the film layers' quick tests (EXR channels, merging every layer, scene fields) beside them
-DEVICE='^((Render|ProfileVolume|Estimators|Volume|CliSceneErrors|CliFlags|CliDevices|CliRender|CliInterrupt|CliHostileImages|CliHostileRadiance|CliHostileFiles|CliHostileOutputs|CliShards|CliShardFlags|CliMerge|CliMultiDevice|OpenCL)\.|Aov\.(ShardsAndTiles|ExrChannels|SceneFields|PassesOnATransparentFilm))'
+DEVICE='^((Render|ProfileVolume|Estimators|Volume|CliSceneErrors|CliFlags|CliDevices|CliRender|CliInterrupt|CliHostileImages|CliHostileRadiance|CliHostileFiles|CliHostileOutputs|CliShards|CliShardFlags|CliMerge|CliMultiDevice|OpenCL)\.|Aov\.(ShardsAndTiles|ExrChannels|SceneFields|PassesOnATransparentFilm|AlbedoAndDepthLayersThroughExr))'
 cd build-asan
 status=0
 start=$(date +%s)

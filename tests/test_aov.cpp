@@ -419,7 +419,7 @@ TEST(Aov, PassesOnATransparentFilmAndThroughEveryLayerOfAnExr) {
   auto in = OIIO::ImageInput::open(dir + "/all.exr");
   ASSERT_TRUE(in);
   EXPECT_EQ(in->spec().nchannels, 27);
-  for (const char* n : {"emission.G", "direct.B", "indirect.R", "albedo.G", "depth.Z", "collision.A"}) EXPECT_GE(in->spec().channelindex(n), 0) << n;
+  for (const char* n : {"emission.G", "direct.B", "indirect.R", "albedo.G", "depth.Z", "collision.fraction"}) EXPECT_GE(in->spec().channelindex(n), 0) << n;
 }
 
 // A scattering, absorbing chromatic box [-1, 1]^3 seen along z from z = -3: sigma_t = (1.5, 1.5, 2.25).
@@ -445,7 +445,7 @@ TEST(Aov, AlbedoIsTheBoxAlbedoExactlyWhereItIsSeenAndDepthTheMeanCollisionDistan
     Renderer r(scene, with_layers(aux));
     EXPECT_TRUE(r.features() & ST_FEATURE_AOV);
     RenderResult res = r.render();
-    ASSERT_EQ(res.aov_channels, (std::vector<std::string>{"albedo.R", "albedo.G", "albedo.B", "depth.Z", "collision.A"}));
+    ASSERT_EQ(res.aov_channels, (std::vector<std::string>{"albedo.R", "albedo.G", "albedo.B", "depth.Z", "collision.fraction"}));
     const size_t na = res.aov_channels.size();
     int seen = 0, missed = 0;
     std::vector<double> depths;
@@ -491,7 +491,7 @@ TEST(Aov, AlbedoAndDepthLayersThroughExrShardsAndMerge) {
   RenderResult all = r.render();
   FilmPiece full = piece_from_result(all, id, "full");
   // a heterogeneous, chromatic medium: albedo within [0, 1], depth within the camera ray's reach
-  const std::vector<double> hits = layer(all, "collision.A");
+  const std::vector<double> hits = layer(all, "collision.fraction");
   for (int c = 0; c < 3; ++c) {
     const std::vector<double> a = layer(all, std::string("albedo.") + "RGB"[c]);
     for (size_t i = 0; i < a.size(); ++i) {
@@ -511,7 +511,7 @@ TEST(Aov, AlbedoAndDepthLayersThroughExrShardsAndMerge) {
   const OIIO::ImageSpec spec = in->spec();
   std::vector<float> px(hits.size() * size_t(spec.nchannels));
   ASSERT_TRUE(in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, px.data()));
-  const int cz = spec.channelindex("depth.Z"), ca = spec.channelindex("collision.A"), cr = spec.channelindex("albedo.R");
+  const int cz = spec.channelindex("depth.Z"), ca = spec.channelindex("collision.fraction"), cr = spec.channelindex("albedo.R");
   ASSERT_GE(cz, 0);
   ASSERT_GE(ca, 0);
   ASSERT_GE(cr, 0);

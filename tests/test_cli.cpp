@@ -937,7 +937,7 @@ TEST(CliFilmLayers, DefaultsFlagsAndRefusals) {
                slow_ok());
   ASSERT_TRUE(b.exited && b.code == 0) << b.describe();
   EXPECT_EQ(channels(dir + "/b.exr"),
-            (std::vector<std::string>{"B", "G", "R", "albedo.B", "albedo.G", "albedo.R", "collision.A", "depth.Z",
+            (std::vector<std::string>{"B", "G", "R", "albedo.B", "albedo.G", "albedo.R", "collision.fraction", "depth.Z",
                                       "variance.B", "variance.G", "variance.R"}));
   auto in = OIIO::ImageInput::open(dir + "/b.exr");
   ASSERT_TRUE(in);

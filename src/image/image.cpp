@@ -302,7 +302,7 @@ RgbImage read_image(const std::string& path, ImageUse use) {
     for (int c = 3; c < nc && layers_known; ++c) layers_known = film_layer_channel(spec.channelnames[c]);
     if (!layers_known)
       fail(fmt::format("has {} channel(s) ({}); spectrack's EXR outputs have R, G, B and its film layers only (A, AR, "
-                       "AG, AB, environment.*, variance.*, emission.*, direct.*, indirect.*, albedo.*, depth.Z, collision.A)",
+                       "AG, AB, environment.*, variance.*, emission.*, direct.*, indirect.*, albedo.*, depth.Z, collision.fraction)",
                        nc, channel_list(spec)));
     if (size_t(spec.width) * size_t(spec.height) * size_t(nc) > 3 * max_pixels)
       fail(fmt::format("{}x{} pixels of {} channels are more than a merge input can hold (3 * 2^28 values)", spec.width,

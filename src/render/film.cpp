@@ -323,7 +323,7 @@ Metadata piece_metadata(const FilmPiece& p) {
 // (the mean of AR, AG, AB) and AR, AG, AB, environment.R/G/B, variance.R/G/B (the variance of the
 // pixel's mean: (S2 - S1^2 / n) / (n (n - 1)), 0 below 2 samples), emission.R/G/B, direct.R/G/B,
 // indirect.R/G/B (means), albedo.R/G/B and depth.Z (means over the samples whose camera ray
-// collided, 0 where none did) and collision.A (the fraction that collided, their weight in a merge).
+// collided, 0 where none did) and collision.fraction (the fraction that collided, their weight in a merge).
 static std::vector<std::string> exr_channels(const FilmPiece& p, std::vector<float>* px) {
   const uint32_t aovs = p.id.aovs;
   const bool alpha = aovs & ST_AOV_BIT(ALPHA);
@@ -382,7 +382,7 @@ static std::vector<std::string> exr_channels(const FilmPiece& p, std::vector<flo
                                     : std::numeric_limits<float>::max();
           break;
         }
-        case kPerCollision: o[c] = a[hits_col] > 0 ? float(a[ch.col] / a[hits_col]) : 0.0f; break;
+        case kPerCollision: o[c] = a[hits_col] != 0 ? float(a[ch.col] / a[hits_col]) : 0.0f; break;
         case kCollisionFraction: o[c] = float(a[ch.col] / n); break;
       }
     }
@@ -473,7 +473,7 @@ FilmPiece read_piece(const std::string& path, Metadata* meta) {
                             "out; a merge cannot restore the beauty",
                             path));
   if ((p.id.aovs & (ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH))) && !has(kCollisionChannel))
-    throw Error(fmt::format("{}: has an albedo or depth layer without its collision.A channel (how many samples' "
+    throw Error(fmt::format("{}: has an albedo or depth layer without its collision.fraction channel (how many samples' "
                             "camera rays collided), which a merge needs to weigh it",
                             path));
   const double n = double(p.samples());
@@ -487,7 +487,7 @@ FilmPiece read_piece(const std::string& path, Metadata* meta) {
     size_t col = 0;
     int moment_of = -1;  // second moments: the beauty channel 0..2
     size_t env_col = 0;
-    bool per_collision = false;  // albedo, depth: a mean over the collided samples (collision.A n of them)
+    bool per_collision = false;  // albedo, depth: a mean over the collided samples (collision.fraction n of them)
   };
   const bool alpha = p.id.aovs & ST_AOV_BIT(ALPHA);
   std::vector<Source> src(na);
@@ -499,7 +499,7 @@ FilmPiece read_piece(const std::string& path, Metadata* meta) {
       src[c].col = column("variance." + ch);
       if (alpha) src[c].env_col = column("environment." + ch);
     } else {
-      src[c].col = column(name);  // AR, AG, AB, environment.*, the passes, albedo, depth, collision.A
+      src[c].col = column(name);  // AR, AG, AB, environment.*, the passes, albedo, depth, collision.fraction
       for (int k : {ST_AOV_INDEX_ALBEDO, ST_AOV_INDEX_DEPTH})
         for (const std::string& a : aov_exr_channels(k)) src[c].per_collision = src[c].per_collision || name == a;
     }

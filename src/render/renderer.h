@@ -83,7 +83,7 @@ struct RenderResult : RenderChoices {
 // beauty: alpha "AR", "AG", "AB" (1 - T per channel); environment "environment.R", ".G", ".B";
 // variance "moment2.R", ".G", ".B" (the beauty's squared samples); the passes "emission.R", ...,
 // "direct.R", ..., "indirect.R", ...; albedo "albedo.R", ".G", ".B" and depth "depth.Z" (sums
-// over the samples whose camera ray collided) with "collision.A" (how many collided; in that
+// over the samples whose camera ray collided) with "collision.fraction" (how many collided; in that
 // order). Film pieces hold these sums;
 // the EXR writer turns them into the layers users see (film.h).
 std::vector<std::string> aov_sum_channels(uint32_t aovs);

@@ -173,7 +173,7 @@ std::vector<std::string> aov_name_list();
 // read_image accepts: alpha "A", "AR", "AG", "AB"; depth "depth.Z"; the others "<name>.R", ".G",
 // ".B". The albedo and depth layers also write kCollisionChannel, their shared weight.
 const std::vector<std::string>& aov_exr_channels(int index);
-inline constexpr const char* kCollisionChannel = "collision.A";
+inline constexpr const char* kCollisionChannel = "collision.fraction";
 // OpenEXR compressions (film.compression, --compression): none, rle, zips, zip, piz, pxr24, b44,
 // b44a, dwaa, dwab. The lossy ones (pxr24 on floats, b44*, dwa*) lose what a merge needs.
 const std::vector<std::string>& exr_compressions();
