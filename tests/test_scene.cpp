@@ -1062,6 +1062,13 @@ TEST_F(SceneTest, DamagedExrHeaderIsRefusedBeforeOpenExrReadsIt) {
   b = bytes;
   b[5] |= 0x10;  // the multi-part flag on a single-part file: refused, by the walk or by OpenEXR
   EXPECT_THAT(image_error("parts.exr", b), StartsWith((dir_ / "parts.exr").string() + ": "));
+  // a fixed-size attribute claiming another size (a fuzz finding: a v2f claiming 0 bytes; OpenEXR
+  // reads its 8 bytes anyway, so the walk and OpenEXR parted ways and OpenEXR read a 2 GB string)
+  const size_t v2f_at = bytes.find("v2f");
+  ASSERT_NE(v2f_at, std::string::npos);
+  b = bytes;
+  b[v2f_at + 4] = '\x00';  // its size 8 -> 0
+  EXPECT_THAT(image_error("fixed.exr", b), HasSubstr("claims 0 bytes, but a v2f value has 8"));
 }
 
 // libpng allocates what a chunk's length claims before it reads the chunk: read_image walks the

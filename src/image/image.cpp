@@ -188,6 +188,18 @@ static void check_exr_header(const std::string& path, std::istream& f, uint64_t 
       if (size < 0 || at + uint64_t(size) > file_bytes)
         fail(fmt::format("attribute '{}' ({}) claims {} bytes, but only {} remain in the {}-byte file", name, type,
                          size, file_bytes - std::min<uint64_t>(at, file_bytes), file_bytes));
+      // OpenEXR reads a fixed-size type's value whatever size the attribute claims, so a claim
+      // that disagrees would make this walk and OpenEXR's part ways (the rest of the header read
+      // as other attributes, one of them a 2 GB string)
+      static const std::pair<const char*, int32_t> fixed[] = {
+          {"box2i", 16}, {"box2f", 16}, {"v2i", 8},   {"v2f", 8},        {"v2d", 16},          {"v3i", 12},
+          {"v3f", 12},   {"v3d", 24},   {"int", 4},   {"float", 4},      {"double", 8},        {"compression", 1},
+          {"lineOrder", 1}, {"envmap", 1}, {"m33f", 36}, {"m33d", 72}, {"m44f", 64},  {"m44d", 128},
+          {"chromaticities", 32}, {"keycode", 28}, {"timecode", 8}, {"rational", 8}, {"tiledesc", 9},
+          {"deepImageState", 1}};
+      for (const auto& [t, n] : fixed)
+        if (type == t && size != n)
+          fail(fmt::format("attribute '{}' claims {} bytes, but a {} value has {}", name, size, type, n));
       f.seekg(size, std::ios::cur);
       at += uint64_t(size);
     }
