@@ -1069,6 +1069,13 @@ TEST_F(SceneTest, DamagedExrHeaderIsRefusedBeforeOpenExrReadsIt) {
   b = bytes;
   b[v2f_at + 4] = '\x00';  // its size 8 -> 0
   EXPECT_THAT(image_error("fixed.exr", b), HasSubstr("claims 0 bytes, but a v2f value has 8"));
+  // a channel list shorter than its channels (OpenEXR reads the list to its end, not the claim)
+  b = bytes;
+  b[size_at + 7] = char(b[size_at + 7] - 2);
+  EXPECT_THAT(image_error("chlist.exr", b), HasSubstr("attribute 'channels' (chlist) runs past the"));
+  b = bytes;
+  b[size_at + 7] = char(b[size_at + 7] + 2);
+  EXPECT_THAT(image_error("chlist2.exr", b), HasSubstr("but its contents take"));
 }
 
 // libpng allocates what a chunk's length claims before it reads the chunk: read_image walks the

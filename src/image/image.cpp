@@ -200,6 +200,49 @@ static void check_exr_header(const std::string& path, std::istream& f, uint64_t 
       for (const auto& [t, n] : fixed)
         if (type == t && size != n)
           fail(fmt::format("attribute '{}' claims {} bytes, but a {} value has {}", name, size, type, n));
+      if (type == "chlist" || type == "preview") {
+        // OpenEXR reads these by their own structure, not by the claimed size: a channel list up to
+        // its empty name (each channel: name, then 16 bytes), a preview's width x height x 4 bytes.
+        // Walk them the same way; the structure must fill the claim exactly.
+        const std::streamoff value_at = f.tellg();
+        uint64_t used = 0;
+        auto need = [&](uint64_t n) {
+          if (used + n > uint64_t(size))
+            fail(fmt::format("attribute '{}' ({}) runs past the {} bytes it claims", name, type, size));
+          used += n;
+        };
+        if (type == "chlist") {
+          for (int channels = 0;; ++channels) {
+            if (channels > 4096) fail(fmt::format("attribute '{}' lists more than 4096 channels", name));
+            need(1);
+            const int c = f.get();
+            if (c == EOF) fail(fmt::format("the file ends inside attribute '{}'", name));
+            if (c == 0) break;  // the list's end
+            for (int k = 0;; ++k) {
+              need(1);
+              const int ch = f.get();
+              if (ch == EOF) fail(fmt::format("the file ends inside attribute '{}'", name));
+              if (ch == 0) break;
+              if (k >= int(max_name)) fail(fmt::format("attribute '{}' has a channel name over {} characters", name, max_name));
+            }
+            need(16);
+            f.seekg(16, std::ios::cur);
+          }
+        } else {
+          unsigned char wh[8];
+          need(8);
+          if (!f.read(reinterpret_cast<char*>(wh), 8)) fail(fmt::format("the file ends inside attribute '{}'", name));
+          const uint64_t pw = uint64_t(wh[0]) | uint64_t(wh[1]) << 8 | uint64_t(wh[2]) << 16 | uint64_t(wh[3]) << 24;
+          const uint64_t ph = uint64_t(wh[4]) | uint64_t(wh[5]) << 8 | uint64_t(wh[6]) << 16 | uint64_t(wh[7]) << 24;
+          if (ph != 0 && pw > uint64_t(size) / 4 / ph)  // (no overflow: checked before the product)
+            fail(fmt::format("attribute '{}' (preview) of {}x{} pixels runs past the {} bytes it claims", name, pw, ph, size));
+          need(pw * ph * 4);
+        }
+        if (used != uint64_t(size))
+          fail(fmt::format("attribute '{}' ({}) claims {} bytes but its contents take {}", name, type, size, used));
+        f.clear();
+        f.seekg(value_at);
+      }
       f.seekg(size, std::ios::cur);
       at += uint64_t(size);
     }
