@@ -79,9 +79,8 @@ inline void camera_layers_begin(__constant const st_scene* scene, __global const
     alpha.w = 0.0f;
     counter_add(counters, ST_C_LOOKUPS_ALPHA, st.lookups);
   }
-  /* albedo and depth: one analog free flight of the channel-mean extinction along the camera ray
-   * (delta tracking against the channels' majorant; budget-spent walks restart where they are,
-   * which the memoryless flights allow), scored at its first real collision */
+  /* albedo and depth: one free flight of the channel-mean extinction along the camera ray, scored
+   * at its first real collision (camera_first_collision); its weight goes to alpha's w */
   if (L > ST_RESULT_LAYERS_PASSES) {
     float4 aux = (float4)(0.0f);
     if ((scene->aovs & (ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH))) &&

@@ -153,7 +153,8 @@ enum st_aov_index { ST_AOVS(ST_X_AOV_ENUM) ST_AOV_COUNT };
 enum st_result_layer {
   ST_RESULT_BEAUTY = 0,      /* everything but what the environment layer takes */
   ST_RESULT_ALPHA = 1,       /* xyz: 1 - the camera ray's transmittance estimate, per channel (raygen.cl);
-                              * w: 1 when the albedo/depth free flight collided, else 0 */
+                              * w: the albedo/depth free flight's weight when it collided (1 unless
+                              * majorant_scale < 1), else 0 */
   ST_RESULT_ENVIRONMENT = 2, /* lights at infinity seen straight from the camera */
   ST_RESULT_LAYERS_AOV = 3,  /* result_layers when alpha or environment is on, not the passes (else 1) */
   ST_RESULT_EMISSION = 3,    /* the emission pass (its part of the beauty) */
