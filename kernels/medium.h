@@ -126,13 +126,31 @@ inline float medium_density(__constant const st_scene* scene, __constant const s
   return grid_trilinear(grids, m->density_grid, pi);
 }
 
-/* Emitted radiance Le of medium m at p (radiance * scale * emission grid value, or constant). */
+/* The blackbody colour (linear sRGB, unscaled) of a temperature grid value v: T = (v - offset) *
+ * scale, 0 at or below the cutoff, else the table (src/color/blackbody.h) interpolated linearly
+ * in 1/T between its two nearest entries. */
+inline float4 blackbody_rgb(__constant const st_medium* m, __global const uint* grids, float v) {
+  const float T = (v - m->temperature.x) * m->temperature.y;
+  if (!(T > m->temperature.z)) return (float4)(0.0f);
+  const float last = m->blackbody_table.z;
+  const float u = clamp((1.0f / T - m->blackbody_table.x) * m->blackbody_table.y, 0.0f, last);
+  const uint i = min((uint)u, (uint)last - 1u);
+  const float f = u - (float)i;
+  __global const float* t = (__global const float*)(grids + m->blackbody_offset) + 4u * i;
+  const float4 a = vload4(0, t), b = vload4(1, t);
+  return (float4)(mix(a.xyz, b.xyz, f), 0.0f);
+}
+
+/* Emitted radiance Le of medium m at p: radiance * scale (* the emission grid's value), or
+ * scale * the blackbody colour of the temperature grid's value (emission type "blackbody"). */
 inline float4 medium_Le(__constant const st_medium* m, __global const uint* grids, float3 p, uint* lookups) {
   if (!ST_HAS_EMISSION || !m->emissive) return (float4)(0.0f);
   if (m->emission_grid == ST_NO_GRID) return m->Le;
   float3 pi = medium_to_index(m, p);
   *lookups += 1u;
-  return m->Le * grid_trilinear(grids, m->emission_grid, pi);
+  const float v = grid_trilinear(grids, m->emission_grid, pi);
+  if (m->blackbody_offset != ST_NO_GRID) return m->Le * blackbody_rgb(m, grids, v);
+  return m->Le * v;
 }
 
 /* ---- colour grids (st_color_mode) ----

@@ -276,6 +276,14 @@ typedef struct {
   st_int color_mode;           /* st_color_mode; ST_COLOR_NONE: no colour grid */
   st_float4 sigma_t_maj;       /* colour grid: per unit density, an upper bound of sigma_t over the medium (rgb) */
   st_uint color_grid[4];       /* colour grid: word offsets of its x, y, z component float grids; w unused */
+  /* blackbody emission (emission_grid holds the temperature grid; Le = (scale, scale, scale)):
+   * T = (value - x) * y, nothing emits where T <= z; w unused */
+  st_float4 temperature;
+  /* its colour table in the grid buffer at blackbody_offset (ST_NO_GRID: none): float4 (linear
+   * sRGB, Y) entries at 1/T = x + i / y, i = 0 .. z (z = entries - 1); w unused */
+  st_float4 blackbody_table;
+  st_uint blackbody_offset;
+  st_uint pad_blackbody[3];
 } st_medium;
 
 typedef struct {
@@ -399,7 +407,7 @@ typedef struct {
   st_uint pad[3];
 } st_iteration;
 
-#define ST_SIZEOF_MEDIUM 208
+#define ST_SIZEOF_MEDIUM 256
 #define ST_SIZEOF_CAMERA 80
 #define ST_SIZEOF_LIGHT 80
 #define ST_SIZEOF_SCENE (ST_SIZEOF_CAMERA + ST_MAX_LIGHTS * ST_SIZEOF_LIGHT + ST_MAX_MEDIA * ST_SIZEOF_MEDIUM + 96)

@@ -1,6 +1,6 @@
 // make_cloud: writes the procedural cumulus cloud used by the default scene.
 //
-//   make_cloud OUT.vdb [--res N] [--style cumulus|dense] [--color]
+//   make_cloud OUT.vdb [--res N] [--style cumulus|dense|fire] [--color]
 //
 // Design: a handful of overlapping spheres (a flat-bottomed cumulus heap) give a smooth
 // "depth inside the cloud" field; fractal value noise displaces that field, so the surface
@@ -15,6 +15,10 @@
 // the heap's silhouette but makes it a solid: a sharp edge (a few voxels) and an interior that
 // varies only mildly (0.8 to 1.0 of the peak), so the per-cell minorant stays close to the
 // majorant, which is the regime decomposition tracking is built for.
+// --style fire (data/scenes/fire.json): a rising, turbulent plume, its density with a second float
+// grid "temperature" in kelvin on the same voxels: ~1900 K in the core at the base, cooling with
+// height and towards the plume's edge to ~500 K in the smoke at the top (a blackbody emission's
+// grid: docs/scene-format.md "Blackbody emission").
 // --color adds a vec3s grid "Cd" on the density's active voxels and transform: a single-scattering
 // albedo from a warm, absorbing base (0.9, 0.6, 0.35) to a near-white top (0.97, 0.95, 0.92),
 // blended by height and noise (docs/examples/colored_smoke.json; a medium's "color" field).
@@ -134,8 +138,29 @@ double dense_density(double x, double y, double z) {
   return std::clamp(body * interior, 0.0, 1.0);
 }
 
+// The fire style: density and temperature (K) at world point p in [-1,1]^3. The plume rises along
+// +y from y = -0.85, widening and slowed by noise; heat is highest on the axis near the base.
+double fire_density(double x, double y, double z, double* temperature) {
+  *temperature = 0;
+  const double h = (y + 0.85) / 1.7;  // 0 at the base, 1 at the top
+  if (h < -0.05 || h > 1.05) return 0.0;
+  const double swirl = fbm(x * 2.5 + 3.3, y * 2.5 - 4.0 * h, z * 2.5 + 1.1, 4, kSeed + 313u) - 0.5;
+  const double cx = 0.18 * swirl * h, cz = 0.18 * (fbm(x * 2.5, y * 2.5, z * 2.5, 3, kSeed + 929u) - 0.5) * h;
+  const double radius = 0.22 + 0.4 * h;
+  const double d = std::sqrt((x - cx) * (x - cx) + (z - cz) * (z - cz)) / radius;
+  const double billow = fbm(x * 5.0, y * 5.0 - 3.0 * h, z * 5.0, 4, kSeed + 55u) - 0.5;
+  const double shape = 1.0 - d + 0.6 * billow;
+  if (shape <= 0) return 0.0;
+  const double ends = smoothstep(-0.05, 0.06, h) * (1.0 - smoothstep(0.8, 1.05, h + 0.2 * billow));
+  const double density = std::clamp(smoothstep(0.0, 0.35, shape) * ends * (0.6 + 0.8 * (fbm(x * 8.0, y * 8.0, z * 8.0, 3, kSeed + 7u))), 0.0, 1.0);
+  const double core = smoothstep(0.05, 0.75, shape) * std::exp(-1.4 * h);
+  const double flicker = 0.75 + 0.5 * fbm(x * 6.0 + 9.0, y * 6.0 - 5.0 * h, z * 6.0, 3, kSeed + 1234u);
+  *temperature = 500.0 + 1400.0 * std::clamp(core * flicker, 0.0, 1.0);
+  return density;
+}
+
 int usage(const char* argv0) {
-  std::cerr << "usage: " << argv0 << " OUT.vdb [--res N] [--style cumulus|dense] [--color]   (N voxels across, 16..512, default 96)\n";
+  std::cerr << "usage: " << argv0 << " OUT.vdb [--res N] [--style cumulus|dense|fire] [--color]   (N voxels across, 16..512, default 96)\n";
   return 2;
 }
 
@@ -144,7 +169,7 @@ int usage(const char* argv0) {
 int main(int argc, char** argv) {
   std::string out;
   int res = 96;
-  bool dense_style = false, color = false;
+  bool dense_style = false, fire_style = false, color = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--res" && i + 1 < argc) {
@@ -154,8 +179,9 @@ int main(int argc, char** argv) {
       res = int(v);
     } else if (a == "--style" && i + 1 < argc) {
       const std::string v = argv[++i];
-      if (v != "cumulus" && v != "dense") return usage(argv[0]);
+      if (v != "cumulus" && v != "dense" && v != "fire") return usage(argv[0]);
       dense_style = v == "dense";
+      fire_style = v == "fire";
     } else if (a == "--color") {
       color = true;
     } else if (a == "-h" || a == "--help") {
@@ -171,6 +197,7 @@ int main(int argc, char** argv) {
   // Dense evaluation, one z-slice at a time across threads; then a serial copy into the tree.
   const double vs = 2.0 / res;
   std::vector<float> dense(size_t(res) * res * res, 0.0f);
+  std::vector<float> temperature(fire_style ? dense.size() : 0, 0.0f);
   std::atomic<int> next{0};
   auto worker = [&] {
     for (int k; (k = next.fetch_add(1)) < res;) {
@@ -178,7 +205,14 @@ int main(int argc, char** argv) {
       for (int j = 0; j < res; ++j)
         for (int i = 0; i < res; ++i) {
           const double x = -1.0 + (i + 0.5) * vs, y = -1.0 + (j + 0.5) * vs;
-          dense[(size_t(k) * res + j) * res + i] = float(dense_style ? dense_density(x, y, z) : cloud_density(x, y, z));
+          const size_t at = (size_t(k) * res + j) * res + i;
+          if (fire_style) {
+            double T = 0;
+            dense[at] = float(fire_density(x, y, z, &T));
+            temperature[at] = float(T);
+          } else {
+            dense[at] = float(dense_style ? dense_density(x, y, z) : cloud_density(x, y, z));
+          }
         }
     }
   };
@@ -204,9 +238,21 @@ int main(int argc, char** argv) {
     grid->setTransform(xf);
     grid->insertMeta("creator", openvdb::StringMetadata("spectrack make_cloud"));
     grid->insertMeta("make_cloud_res", openvdb::Int32Metadata(res));
-    grid->insertMeta("make_cloud_style", openvdb::StringMetadata(dense_style ? "dense" : "cumulus"));
+    grid->insertMeta("make_cloud_style", openvdb::StringMetadata(fire_style ? "fire" : dense_style ? "dense" : "cumulus"));
 
     openvdb::GridPtrVec grids{grid};
+    if (fire_style) {
+      openvdb::FloatGrid::Ptr tg = openvdb::FloatGrid::create(0.0f);
+      tg->setName("temperature");
+      tg->setGridClass(openvdb::GRID_FOG_VOLUME);
+      tg->setTransform(xf->copy());
+      auto tacc = tg->getAccessor();
+      for (auto it = grid->cbeginValueOn(); it; ++it) {
+        const openvdb::Coord q = it.getCoord();
+        tacc.setValue(q, temperature[(size_t(q.z()) * res + q.y()) * res + q.x()]);
+      }
+      grids.push_back(tg);
+    }
     if (color) {
       openvdb::Vec3SGrid::Ptr cd = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f));
       cd->setName("Cd");

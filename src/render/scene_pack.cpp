@@ -9,6 +9,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 
@@ -23,7 +24,18 @@ namespace spectrack {
 
 namespace {
 
+// Entries of a blackbody colour table (kernels/medium.h blackbody_rgb): spaced evenly in 1/T from
+// the cutoff to the hottest temperature, 16384 keep linear interpolation within ~1e-4 of the
+// integral for a 100 K cutoff (relative error ~ (c2 / lambda x the 1/T step)^2 / 8), at 256 KiB.
+constexpr int kBlackbodyEntries = 16384;
 
+// The emission bounds (scene/radiance.h) of a blackbody medium whose brightest colour component,
+// before `scale`, is `peak`: it stands for the radiance.
+void check_blackbody_bounds(const std::string& ctx, const MediumDesc& md, double peak, double density_max) {
+  MediumDesc c = md;
+  c.emission.radiance = Vec3{peak, peak, peak};
+  check_emission_bounds(ctx, c, density_max, 1.0);
+}
 
 st_float4 f4(double x, double y, double z, double w = 0) { return st_float4{float(x), float(y), float(z), float(w)}; }
 st_float4 f4(const Vec3& v, double w = 0) { return f4(v[0], v[1], v[2], w); }
@@ -123,6 +135,7 @@ struct Packer {
   void add_medium(int i, const MediumDesc& md);
   void add_vdb_medium(st_medium& m, const MediumDesc& md, const std::string& ctx_name);
   void add_color_grid(st_medium& m, const MediumDesc& md, const GridData& density, const std::string& ctx_name);
+  GridData add_temperature_grid(st_medium& m, const MediumDesc& md, const GridData& density, const std::string& ctx_name);
   uint32_t upload_grid(const std::string& ctx_name, const GridData& g);
   void add_light(int i, const LightDesc& ld);
   // both return the map's mean radiance over the sphere (before its scale)
@@ -146,9 +159,18 @@ void Packer::add_medium(int i, const MediumDesc& md) {
   m.sigma_s = f4(md.sigma_s[0] * md.density_scale, md.sigma_s[1] * md.density_scale, md.sigma_s[2] * md.density_scale);
   m.density_grid = ST_NO_GRID;
   m.emission_grid = ST_NO_GRID;
+  m.blackbody_offset = ST_NO_GRID;
   if (md.emission.present) {
-    Vec3 r = md.emission.radiance;
-    m.Le = f4(r[0] * md.emission.scale, r[1] * md.emission.scale, r[2] * md.emission.scale);
+    const EmissionDesc& e = md.emission;
+    Vec3 r = e.radiance;
+    if (e.blackbody && e.temperature > 0) {
+      // a constant temperature: its colour, exactly (no table)
+      r = e.temperature > e.temperature_cutoff ? blackbody_linear_srgb(e.temperature, e.normalization) : Vec3{0, 0, 0};
+      if (md.type == ST_MEDIUM_HOMOGENEOUS) check_blackbody_bounds(ctx_name, md, std::max({r[0], r[1], r[2]}), 1.0);
+    } else if (e.blackbody) {
+      r = Vec3{1, 1, 1};  // scale x the temperature grid's colour (add_vdb_medium)
+    }
+    m.Le = f4(r[0] * e.scale, r[1] * e.scale, r[2] * e.scale);
     m.emissive = (m.Le.x > 0 || m.Le.y > 0 || m.Le.z > 0) ? 1 : 0;
   }
   m.maj_offset = uint32_t(maj_cells.size() / 2);
@@ -227,18 +249,81 @@ void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::strin
   }
   info.seconds_build = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_build).count();
   majorants.push_back(info);
-  if (md.emission.grid.empty()) check_emission_bounds(ctx_name, md, g.value_max, 1.0);
-  if (md.emission.present && !md.emission.grid.empty() && m.emissive) {
-    GridData e = load_float_grid(md.file, md.emission.grid, -1, ctx_name + "/emission");
-    check_emission_bounds(ctx_name, md, g.value_max, e.value_max);
+  const EmissionDesc& em = md.emission;
+  auto same_transform = [&](const GridData& e, const std::string& field) {
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 4; ++c)
         if (std::abs(e.index_to_world[r][c] - g.index_to_world[r][c]) > 1e-6 * (1 + std::abs(g.index_to_world[r][c])))
-          throw Error(fmt::format("{}/emission/grid: grid '{}' has a different index-to-world transform than density "
+          throw Error(fmt::format("{}/emission/{}: grid '{}' has a different index-to-world transform than density "
                                   "grid '{}'; both grids must share one transform",
-                                  ctx_name, md.emission.grid, md.grid));
+                                  ctx_name, field, e.name, md.grid));
+  };
+  if (em.blackbody && em.temperature > 0) {
+    const Vec3 c = blackbody_linear_srgb(em.temperature, em.normalization);
+    check_blackbody_bounds(ctx_name, md, std::max({c[0], c[1], c[2]}), g.value_max);
+  } else if (em.blackbody && m.emissive) {
+    const GridData t = add_temperature_grid(m, md, g, ctx_name);
+    if (m.emissive) {
+      same_transform(t, "temperature_grid");
+      m.emission_grid = upload_grid(ctx_name, t);
+    }
+  } else if (em.grid.empty()) {
+    check_emission_bounds(ctx_name, md, g.value_max, 1.0);
+  } else if (em.present && m.emissive) {
+    GridData e = load_float_grid(md.file, em.grid, -1, ctx_name + "/emission");
+    check_emission_bounds(ctx_name, md, g.value_max, e.value_max);
+    same_transform(e, "grid");
     m.emission_grid = upload_grid(ctx_name, e);
   }
+}
+
+// The file's temperature grid (emission.temperature_grid, else the first of "temperature",
+// "heat", "flame"), the temperatures its values map to, and the blackbody colour table the
+// kernels interpolate (kernels/medium.h blackbody_rgb), appended to the grid buffer.
+GridData Packer::add_temperature_grid(st_medium& m, const MediumDesc& md, const GridData& density,
+                                      const std::string& ctx_name) {
+  const EmissionDesc& e = md.emission;
+  const std::string ctx = ctx_name + "/emission/temperature_grid";
+  std::string name = e.temperature_grid;
+  if (name.empty()) {
+    const std::vector<std::string> grids = list_grids(md.file);
+    for (const char* candidate : {"temperature", "heat", "flame"}) {
+      for (const std::string& entry : grids)
+        if (entry.substr(0, entry.find(" (")) == candidate) name = candidate;
+      if (!name.empty()) break;
+    }
+    if (name.empty()) {
+      std::string all;
+      for (const std::string& entry : grids) all += (all.empty() ? "" : ", ") + entry;
+      throw Error(fmt::format("{}: {} has no grid named temperature, heat or flame (its grids: {}); name the "
+                              "temperature grid with emission.temperature_grid",
+                              ctx, md.file, all));
+    }
+  }
+  GridData t = load_float_grid(md.file, name, -1, ctx);
+  // the values the kernels can read: the active values and the background 0 (trilinear blends stay within)
+  const double v_lo = std::min(double(t.value_min), 0.0), v_hi = std::max(double(t.value_max), 0.0);
+  const double T_hi = std::max((v_lo - e.temperature_offset) * e.temperature_scale,
+                               (v_hi - e.temperature_offset) * e.temperature_scale);
+  if (!(T_hi <= kMaxTemperature))
+    throw Error(fmt::format("{}: grid '{}' (values {} .. {}) maps to temperatures up to {} K with temperature_offset {} "
+                            "and temperature_scale {}; at most {:g} K",
+                            ctx, name, t.value_min, t.value_max, T_hi, e.temperature_offset, e.temperature_scale,
+                            kMaxTemperature));
+  m.temperature = f4(e.temperature_offset, e.temperature_scale, e.temperature_cutoff, 0);
+  if (!(T_hi > e.temperature_cutoff)) {
+    std::fprintf(stderr, "warning: %s: grid '%s' maps to temperatures of at most %g K, at or below the cutoff %g K: "
+                 "the medium does not emit\n", ctx.c_str(), name.c_str(), T_hi, e.temperature_cutoff);
+    m.emissive = 0;
+    return t;
+  }
+  const BlackbodyTable table = make_blackbody_table(e.temperature_cutoff, T_hi, e.normalization, kBlackbodyEntries);
+  check_blackbody_bounds(ctx_name, md, table.max_value, density.value_max);
+  m.blackbody_table = f4(table.inv_T_first, table.entries_per_inv_T, table.entries - 1, 0);
+  m.blackbody_offset = uint32_t(grid_words.size());
+  grid_words.resize(grid_words.size() + table.rgby.size());
+  std::memcpy(grid_words.data() + m.blackbody_offset, table.rgby.data(), table.rgby.size() * sizeof(float));
+  return t;
 }
 
 // A medium's colour grid (medium.h): three component grids in the density grid's index space, and

@@ -505,14 +505,50 @@ PhaseDesc Parser::phase(const json& j, const std::string& path) {
 
 EmissionDesc Parser::emission(const json& j, const std::string& path, bool vdb) {
   expect_object(j, path);
-  const Names all = {"grid", "radiance", "scale"};
-  fields(j, path, all);
-  if (!vdb) fields(j, path, {"radiance", "scale"}, "a homogeneous medium's emission", all);
   EmissionDesc e;
   e.present = true;
-  e.grid = string(j, path, "grid", "");
-  e.radiance = vec3_at(need(j, path, "radiance"), path + "/radiance", kNonNegative);
+  const std::string type = string(j, path, "type", "radiance");
+  if (type == "radiance") {
+    const Names all = {"type", "grid", "radiance", "scale"};
+    fields(j, path, all);
+    if (!vdb) fields(j, path, {"type", "radiance", "scale"}, "a homogeneous medium's emission", all);
+    e.grid = string(j, path, "grid", "");
+    e.radiance = vec3_at(need(j, path, "radiance"), path + "/radiance", kNonNegative);
+    e.scale = number(j, path, "scale", e.scale, kNonNegative);
+    return e;
+  }
+  if (type != "blackbody")
+    fail(path + "/type", "unknown emission type " + in_quotes(type) + " (expected one of: radiance, blackbody)");
+  const Names all = {"type",        "scale",           "temperature",        "temperature_grid", "temperature_scale",
+                     "temperature_offset", "temperature_cutoff", "normalization"};
+  fields(j, path, all);
+  const Names constant = {"type", "scale", "temperature", "temperature_cutoff", "normalization"};
+  if (!vdb) fields(j, path, constant, "a homogeneous medium's blackbody emission (a constant `temperature`)", all);
+  e.blackbody = true;
   e.scale = number(j, path, "scale", e.scale, kNonNegative);
+  e.temperature_cutoff = number(j, path, "temperature_cutoff", e.temperature_cutoff, Range{0, kMaxTemperature, true, true});
+  if (find(j, "temperature")) {
+    if (find(j, "temperature_grid") || find(j, "temperature_scale") || find(j, "temperature_offset"))
+      fail(path + "/temperature", "a constant temperature excludes temperature_grid, temperature_scale and "
+                                  "temperature_offset (they map a grid's values)");
+    e.temperature = number(j, path, "temperature", 0.0, Range{0, kMaxTemperature, true, false});
+  } else if (!vdb) {
+    fail(path + "/temperature", "required: a homogeneous medium's blackbody emission needs a constant temperature (K)");
+  } else {
+    e.temperature_grid = string(j, path, "temperature_grid", "");
+    e.temperature_scale = number(j, path, "temperature_scale", e.temperature_scale, kAny);
+    e.temperature_offset = number(j, path, "temperature_offset", e.temperature_offset, kAny);
+  }
+  const std::string norm = string(j, path, "normalization", "peak");
+  if (norm == "peak") {
+    e.normalization = BlackbodyNorm::Peak;
+  } else if (norm == "luminance") {
+    e.normalization = BlackbodyNorm::Luminance;
+  } else if (norm == "none") {
+    e.normalization = BlackbodyNorm::None;
+  } else {
+    fail(path + "/normalization", "unknown normalization " + in_quotes(norm) + " (expected one of: peak, luminance, none)");
+  }
   return e;
 }
 

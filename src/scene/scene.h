@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "color/blackbody.h"
 #include "kernels/types.h"
 #include "util/error.h"
 
@@ -28,11 +29,23 @@ struct PhaseDesc {
   double g = 0.0;  // (-1, 1) for hg
 };
 
+// A medium's emission (docs/scene-format.md "emission"): type "radiance", Le = radiance * scale
+// (* the grid's value), or type "blackbody", Le = scale * the blackbody colour of T (linear sRGB,
+// src/color/blackbody.h) with T = (temperature grid's value - temperature_offset) *
+// temperature_scale, or a constant `temperature`; nothing emits where T <= temperature_cutoff.
 struct EmissionDesc {
   bool present = false;
-  std::string grid;  // empty: Le = radiance * scale (constant where the medium is)
+  bool blackbody = false;
+  std::string grid;  // radiance: empty: Le = radiance * scale (constant where the medium is)
   Vec3 radiance{0, 0, 0};
   double scale = 1.0;
+  // blackbody only
+  std::string temperature_grid;  // empty: the file's first of "temperature", "heat", "flame"
+  double temperature = -1;       // > 0: a constant temperature (K) instead of a grid
+  double temperature_scale = 1.0;
+  double temperature_offset = 0.0;
+  double temperature_cutoff = 100.0;  // K, pbrt-v4's fixed cutoff
+  BlackbodyNorm normalization = BlackbodyNorm::Peak;
 };
 
 // A per-voxel colour (a vec3 grid of the medium's file, sharing the density grid's transform):

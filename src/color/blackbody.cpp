@@ -1,0 +1,130 @@
+// blackbody.cpp: see blackbody.h.
+#include "color/blackbody.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace spectrack {
+namespace {
+
+// CODATA 2018 (exact SI values for h, c, k)
+constexpr double kH = 6.62607015e-34;
+constexpr double kC = 299792458.0;
+constexpr double kK = 1.380649e-23;
+constexpr double kWienB = 2.897771955e-3;  // m K
+
+using Mat3 = std::array<Rgb, 3>;
+
+Rgb mul(const Mat3& m, const Rgb& v) {
+  Rgb r{};
+  for (int i = 0; i < 3; ++i) r[i] = m[i][0] * v[0] + m[i][1] * v[1] + m[i][2] * v[2];
+  return r;
+}
+
+Mat3 inverse(const Mat3& m) {
+  const double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+                     m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                     m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+  Mat3 r{};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const int a = (j + 1) % 3, b = (j + 2) % 3, c = (i + 1) % 3, d = (i + 2) % 3;
+      r[i][j] = (m[a][c] * m[b][d] - m[a][d] * m[b][c]) / det;
+    }
+  return r;
+}
+
+// Linear sRGB -> XYZ from the Rec.709 primaries and the D65 white (IEC 61966-2-1), Y of white = 1.
+Mat3 srgb_to_xyz_matrix() {
+  const double xy[4][2] = {{0.64, 0.33}, {0.30, 0.60}, {0.15, 0.06}, {0.3127, 0.3290}};
+  auto XYZ = [&](int k) { return Rgb{xy[k][0] / xy[k][1], 1.0, (1 - xy[k][0] - xy[k][1]) / xy[k][1]}; };
+  Mat3 P{};
+  for (int k = 0; k < 3; ++k) {
+    const Rgb c = XYZ(k);
+    for (int i = 0; i < 3; ++i) P[i][k] = c[i];
+  }
+  const Rgb S = mul(inverse(P), XYZ(3));
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 3; ++k) P[i][k] *= S[k];
+  return P;
+}
+
+const Mat3& to_xyz() {
+  static const Mat3 m = srgb_to_xyz_matrix();
+  return m;
+}
+const Mat3& from_xyz() {
+  static const Mat3 m = inverse(to_xyz());
+  return m;
+}
+
+}  // namespace
+
+double cie_y_integral() {
+  static const double s = [] {
+    double t = 0;
+    for (const CieSample& c : kCie1931) t += c.y;
+    return t;
+  }();
+  return s;
+}
+
+double planck(double lambda_nm, double T) {
+  if (!(T > 0) || !(lambda_nm > 0)) return 0;
+  const double l = lambda_nm * 1e-9;
+  const double x = kH * kC / (l * kK * T);
+  if (x > 700) return 0;  // exp overflows double; the radiance is below 1e-290
+  // W sr^-1 m^-3, per nm: x 1e-9
+  return 2 * kH * kC * kC / (l * l * l * l * l * std::expm1(x)) * 1e-9;
+}
+
+double planck_peak_nm(double T) { return kWienB / T * 1e9; }
+
+Rgb blackbody_xyz(double T, BlackbodyNorm norm) {
+  Rgb s{0, 0, 0};
+  if (!(T > 0)) return s;
+  const double k = norm == BlackbodyNorm::Peak ? 1.0 / planck(planck_peak_nm(T), T) : 1.0;
+  for (const CieSample& c : kCie1931) {
+    const double b = planck(c.lambda_nm, T) * k;
+    s[0] += b * c.x;
+    s[1] += b * c.y;
+    s[2] += b * c.z;
+  }
+  double n = 1.0 / cie_y_integral();
+  if (norm == BlackbodyNorm::Luminance) n = s[1] > 0 ? 1.0 / s[1] : 0.0;
+  for (double& v : s) v *= n;
+  return s;
+}
+
+Rgb xyz_to_linear_srgb(const Rgb& xyz) { return mul(from_xyz(), xyz); }
+Rgb linear_srgb_to_xyz(const Rgb& rgb) { return mul(to_xyz(), rgb); }
+
+Rgb blackbody_linear_srgb(double T, BlackbodyNorm norm) {
+  Rgb c = xyz_to_linear_srgb(blackbody_xyz(T, norm));
+  for (double& v : c) v = std::max(v, 0.0);
+  return c;
+}
+
+BlackbodyTable make_blackbody_table(double T_lo, double T_hi, BlackbodyNorm norm, int entries) {
+  BlackbodyTable t;
+  t.entries = std::max(entries, 2);
+  const double x0 = 1.0 / T_hi, x1 = 1.0 / T_lo;
+  t.inv_T_first = x0;
+  t.entries_per_inv_T = (t.entries - 1) / std::max(x1 - x0, 1e-300);
+  t.rgby.resize(size_t(t.entries) * 4);
+  for (int i = 0; i < t.entries; ++i) {
+    const double x = i == t.entries - 1 ? x1 : x0 + i / t.entries_per_inv_T;
+    const double T = 1.0 / x;
+    const Rgb xyz = blackbody_xyz(T, norm);
+    Rgb c = xyz_to_linear_srgb(xyz);
+    for (int k = 0; k < 3; ++k) {
+      c[k] = std::max(c[k], 0.0);
+      t.rgby[size_t(i) * 4 + k] = float(c[k]);
+      t.max_value = std::max(t.max_value, c[k]);
+    }
+    t.rgby[size_t(i) * 4 + 3] = float(xyz[1]);
+  }
+  return t;
+}
+
+}  // namespace spectrack

@@ -1,0 +1,58 @@
+// blackbody.h: the colour of thermal emission: Planck's law against the CIE 1931 observer.
+//
+// Design: a blackbody's spectral radiance B(lambda, T) (Planck's law, CODATA 2018 constants) is
+// integrated against the CIE 1931 2-degree colour-matching functions (data/cie/, embedded by
+// cmake/embed_cie.cmake) on their own 1 nm grid, 360-830 nm, with pbrt-v4's convention
+// Y = sum(S y-bar) / sum(y-bar), so a flat spectrum of 1 has Y = 1 and a pbrt scene's Lescale
+// means the same here. XYZ goes to linear sRGB (Rec.709 primaries, D65 white) by a matrix derived
+// from the primaries' chromaticities. Below about 1900 K the blackbody lies outside the sRGB gamut
+// (its blue, and below ~950 K its green, are negative); RGB mode sets those components to 0, the
+// only departure from the spectral integral (docs/scene-format.md "Blackbody emission").
+// The kernels read a table of these colours (make_blackbody_table) spaced evenly in 1/T, where
+// Wien's factor exp(-c2 / (lambda T)) is smooth, and interpolate it linearly (kernels/medium.h).
+#pragma once
+#include <array>
+#include <vector>
+
+namespace spectrack {
+
+struct CieSample {
+  int lambda_nm;
+  double x, y, z;
+};
+constexpr int kCieSamples = 471;  // 360..830 nm, 1 nm apart
+extern const CieSample kCie1931[kCieSamples];
+
+// How a blackbody spectrum is scaled before its colour is taken (emission.normalization):
+//   peak:      B(lambda, T) / B(lambda_max, T), the spectrum's maximum is 1 (pbrt-v4's BlackbodySpectrum);
+//   luminance: scaled to Y = 1 (colour only: temperature sets the hue, `scale` the brightness);
+//   none:      B itself in W sr^-1 m^-2 nm^-1 (brightness grows as ~T^4: physical fire).
+enum class BlackbodyNorm { Peak, Luminance, None };
+
+using Rgb = std::array<double, 3>;
+
+// The hottest temperature a scene may ask for (K): far above any flame (the Sun's core is 1.6e7 K)
+// and well inside double precision for Planck's law at the peak wavelength.
+constexpr double kMaxTemperature = 1e9;
+
+double cie_y_integral();                       // sum of y-bar over the table (1 nm steps): 106.857
+double planck(double lambda_nm, double T);     // W sr^-1 m^-2 nm^-1; 0 for T <= 0
+double planck_peak_nm(double T);               // Wien's displacement law: lambda_max = b / T
+Rgb blackbody_xyz(double T, BlackbodyNorm norm);  // CIE XYZ, Y = sum(S y-bar) / sum(y-bar)
+Rgb xyz_to_linear_srgb(const Rgb& xyz);
+Rgb linear_srgb_to_xyz(const Rgb& rgb);
+// blackbody_xyz in linear sRGB with negative components set to 0 (outside the gamut).
+Rgb blackbody_linear_srgb(double T, BlackbodyNorm norm);
+
+// The kernels' table: entries (r, g, b, Y) at 1/T = inv_T_first + i / entries_per_inv_T,
+// i = 0 .. entries-1: entry 0 is T_hi, the last is T_lo.
+struct BlackbodyTable {
+  double inv_T_first = 0;
+  double entries_per_inv_T = 0;
+  int entries = 0;
+  std::vector<float> rgby;  // 4 floats per entry
+  double max_value = 0;     // the largest r, g or b
+};
+BlackbodyTable make_blackbody_table(double T_lo, double T_hi, BlackbodyNorm norm, int entries);
+
+}  // namespace spectrack
