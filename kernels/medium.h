@@ -126,14 +126,16 @@ inline float medium_density(__constant const st_scene* scene, __constant const s
   return grid_trilinear(grids, m->density_grid, pi);
 }
 
-/* The blackbody colour (linear sRGB, unscaled) of a temperature grid value v: T = (v - offset) *
- * scale, 0 at or below the cutoff, else the table (src/color/blackbody.h) interpolated linearly
- * in 1/T between its two nearest entries. */
+/* The blackbody colour (linear sRGB, unscaled) of a temperature grid value v: T = v * a + b
+ * (a = temperature_scale, b = -temperature_offset * temperature_scale), 0 at or below the
+ * cutoff, else the table (src/color/blackbody.h) interpolated linearly in the warped temperature
+ * w = A / T - B ln T between its two nearest entries. */
 inline float4 blackbody_rgb(__constant const st_medium* m, __global const uint* grids, float v) {
-  const float T = (v - m->temperature.x) * m->temperature.y;
+  const float T = v * m->temperature.x + m->temperature.y;
   if (!(T > m->temperature.z)) return (float4)(0.0f);
+  const float w = m->temperature.w / T - m->blackbody_table.w * log(T);
   const float last = m->blackbody_table.z;
-  const float u = clamp((1.0f / T - m->blackbody_table.x) * m->blackbody_table.y, 0.0f, last);
+  const float u = clamp((w - m->blackbody_table.x) * m->blackbody_table.y, 0.0f, last);
   const uint i = min((uint)u, (uint)last - 1u);
   const float f = u - (float)i;
   __global const float* t = (__global const float*)(grids + m->blackbody_offset) + 4u * i;

@@ -277,10 +277,10 @@ typedef struct {
   st_float4 sigma_t_maj;       /* colour grid: per unit density, an upper bound of sigma_t over the medium (rgb) */
   st_uint color_grid[4];       /* colour grid: word offsets of its x, y, z component float grids; w unused */
   /* blackbody emission (emission_grid holds the temperature grid; Le = (scale, scale, scale)):
-   * T = (value - x) * y, nothing emits where T <= z; w unused */
+   * T = value * x + y, nothing emits where T <= z; w: the warp's A (below) */
   st_float4 temperature;
   /* its colour table in the grid buffer at blackbody_offset (ST_NO_GRID: none): float4 (linear
-   * sRGB, Y) entries at 1/T = x + i / y, i = 0 .. z (z = entries - 1); w unused */
+   * sRGB, Y) entries at warped temperatures A / T - w ln T = x + i / y, i = 0 .. z (z = entries - 1) */
   st_float4 blackbody_table;
   st_uint blackbody_offset;
   st_uint pad_blackbody[3];

@@ -133,23 +133,30 @@ TEST(Blackbody, LuminanceRatioIsPlancksLawAgainstTheObserver) {
 }
 
 TEST(Blackbody, TableInterpolatesTheIntegral) {
-  // the kernels' table: linear in 1/T between entries; within 2e-4 of the integral (relative to
-  // the brightest channel) at temperatures between entries
-  for (BlackbodyNorm norm : {BlackbodyNorm::Peak, BlackbodyNorm::Luminance, BlackbodyNorm::None}) {
-    const BlackbodyTable t = make_blackbody_table(100, 4000, norm, 16384);
-    ASSERT_EQ(t.rgby.size(), 16384u * 4);
-    for (double T : {150.3, 700.7, 1000.0, 1234.5, 1899.9, 2500.1, 3999.0}) {
-      const double u = (1 / T - t.inv_T_first) * t.entries_per_inv_T;
-      const int i = std::min(int(u), t.entries - 2);
-      const double f = u - i;
-      const Rgb exact = blackbody_linear_srgb(T, norm);
-      const double top = std::max({exact[0], exact[1], exact[2]});
-      for (int ch = 0; ch < 3; ++ch) {
-        const double v = (1 - f) * t.rgby[size_t(i) * 4 + ch] + f * t.rgby[size_t(i + 1) * 4 + ch];
-        EXPECT_NEAR(v, exact[ch], 2e-4 * top + 1e-30) << T << " K, channel " << ch;
+  // the kernels' table: linear in the warped temperature between entries; within 2e-4 of the
+  // integral (relative to the brightest channel) at temperatures between entries, from the
+  // table's 100 K floor to 1e9 K
+  for (BlackbodyNorm norm : {BlackbodyNorm::Peak, BlackbodyNorm::Luminance, BlackbodyNorm::None})
+    for (double T_hi : {4000.0, 1e9}) {
+      const BlackbodyTable t = make_blackbody_table(100, T_hi, norm, 16384);
+      ASSERT_EQ(t.rgby.size(), 16384u * 4);
+      for (double T : {150.3, 700.7, 1000.0, 1234.5, 1899.9, 2500.1, 3999.0, 12345.6, 1.1e5, 3.3e5, 7.7e6, 9.9e8}) {
+        if (T > T_hi) continue;
+        const double u = (blackbody_warp(T) - t.warp_first) * t.entries_per_warp;
+        const int i = std::min(int(u), t.entries - 2);
+        const double f = u - i;
+        const Rgb exact = blackbody_linear_srgb(T, norm);
+        const double top = std::max({exact[0], exact[1], exact[2]});
+        for (int ch = 0; ch < 3; ++ch) {
+          const double v = (1 - f) * t.rgby[size_t(i) * 4 + ch] + f * t.rgby[size_t(i + 1) * 4 + ch];
+          EXPECT_NEAR(v, exact[ch], 2e-4 * top + 1e-30) << T << " K (table to " << T_hi << " K), channel " << ch;
+        }
       }
     }
-  }
+  // cold blackbodies keep their colour when normalised by luminance (no underflow to 0)
+  const Rgb cold = blackbody_linear_srgb(20, BlackbodyNorm::Luminance);
+  EXPECT_GT(cold[0], 1.0);
+  EXPECT_TRUE(std::isfinite(cold[0]));
 }
 
 TEST(Blackbody, OutOfGamutComponentsAreClippedOnlyBelow1900K) {
@@ -171,7 +178,9 @@ TEST(BlackbodyRender, ThickSlabShowsTheBlackbodyColour) {
   const double v = 1.0 / 32.0;
   write_vdb_grids(dir + "/slab.vdb", openvdb::Coord(-49, -49, -33), openvdb::Coord(48, 48, 32),
                   {{"density", [](int i, int j, int k) { return (std::abs(i + 0.5) < 48 && std::abs(j + 0.5) < 48 && std::abs(k + 0.5) < 32) ? 1.0f : 0.0f; }},
-                   {"heat", [](int, int, int) { return 2.0f; }}},
+                   // heat 2 on the slab; one voxel of heat 3 at a corner out of view makes the table reach
+                   // higher, so the slab's temperature falls between entries
+                   {"heat", [](int i, int j, int k) { return (i == 48 && j == 48 && k == 32) ? 3.0f : 2.0f; }}},
                   v);
   for (const std::string tracker : {"delta-per-channel", "spectral-decomposition"})
     for (double T : {1000.0, 1900.0, 6500.0}) {
@@ -215,9 +224,14 @@ TEST(BlackbodyRender, HomogeneousBoxAtAConstantTemperatureMatchesItsRadianceTwin
     const auto pa = channel(a, ch), pb = channel(b, ch);
     for (size_t i = 0; i < pa.size(); ++i) EXPECT_NEAR(pa[i], pb[i], 1e-5 * (1 + std::abs(pb[i])));
   }
-  // below the cutoff nothing emits
+  // below the cutoff nothing emits: the image is that of the medium without emission
   RenderResult cold = Renderer(scene({{"type", "blackbody"}, {"temperature", 90}}), quiet_options()).render();
-  EXPECT_EQ(cold.stats.lookups_emission, 0u);
+  RenderResult dark = Renderer(scene({{"radiance", {0, 0, 0}}}), quiet_options()).render();
+  for (int ch = 0; ch < 3; ++ch) {
+    const auto pc = channel(cold, ch), pd = channel(dark, ch);
+    for (size_t i = 0; i < pc.size(); ++i) EXPECT_EQ(pc[i], pd[i]);
+  }
+  EXPECT_GT(mean_se(channel(a, 0)).mean, mean_se(channel(dark, 0)).mean + 0.005);  // 1500 K glows red
 }
 
 TEST(BlackbodyRender, FireSceneTrackersAgree) {
@@ -271,7 +285,9 @@ TEST(BlackbodyScene, FieldsAndErrors) {
   EXPECT_THAT(parse_error(with({{"emission", {{"type", "blackbody"}, {"temperature", -3}}}})),
               HasSubstr("/media/0/emission/temperature"));
   EXPECT_THAT(parse_error(with({{"emission", {{"type", "blackbody"}, {"temperature", 1500}, {"temperature_grid", "heat"}}}})),
-              HasSubstr("/media/0/emission"));
+              HasSubstr("/media/0/emission/temperature_grid: field not allowed"));
+  EXPECT_THAT(parse_error(with({{"emission", {{"type", "blackbody"}, {"temperature", 1500}, {"scale", 1e39}}}})),
+              HasSubstr("/media/0/emission/scale"));
   EXPECT_THAT(parse_error(with({{"emission", {{"type", "glow"}, {"radiance", {1, 1, 1}}}}})),
               HasSubstr("/media/0/emission/type: unknown emission type \"glow\""));
   EXPECT_THAT(parse_error(with({{"emission", {{"type", "blackbody"}, {"temperature", 1500}, {"radiance", {1, 1, 1}}}}})),
@@ -285,6 +301,10 @@ TEST(BlackbodyScene, FieldsAndErrors) {
   write_vdb(dir + "/smoke.vdb", "density", openvdb::Coord(-2), openvdb::Coord(2), [](int, int, int) { return 1.0f; });
   json v = s;
   v["media"].push_back({{"type", "vdb"}, {"file", "smoke.vdb"}, {"emission", {{"type", "blackbody"}}}});
+  // on a vdb medium, a constant temperature excludes the grid's mapping
+  json c = v;
+  c["media"][0]["emission"] = {{"type", "blackbody"}, {"temperature", 1500}, {"temperature_scale", 2}};
+  EXPECT_THAT(parse_error(c, dir), HasSubstr("/media/0/emission/temperature: a constant temperature excludes"));
   try {
     Renderer(scene_from_json(v, dir), quiet_options()).render();
     ADD_FAILURE() << "no error";

@@ -141,7 +141,9 @@ TEST(Framing, ShippedScenesFramed) {
       c.look_at_media = true;
       c.position_auto = auto_pos;
       c.fit = 1.1;
-      if (!auto_pos && camera_needs_framing(s.camera)) c.position = {0, 0, -1e4};  // the scene's own is "auto"
+      // the scene's own is "auto": a far point along -z, or -y for a z-up camera (as frame_camera's auto)
+      if (!auto_pos && camera_needs_framing(s.camera))
+        c.position = std::abs(c.up[2]) > 0.999 * std::hypot(c.up[0], c.up[1], c.up[2]) ? Vec3{0, -1e4, 0} : Vec3{0, 0, -1e4};
       const CameraDesc r = frame_camera(c, s.film.width, s.film.height, boxes, f);
       EXPECT_TRUE(all_in_view(r, s.film, boxes)) << auto_pos;
     }

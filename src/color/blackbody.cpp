@@ -69,13 +69,17 @@ double cie_y_integral() {
   return s;
 }
 
-double planck(double lambda_nm, double T) {
-  if (!(T > 0) || !(lambda_nm > 0)) return 0;
+// log of planck(), finite for every T > 0: log(expm1(x)) = x + log1p(-exp(-x)) for large x
+double log_planck(double lambda_nm, double T) {
   const double l = lambda_nm * 1e-9;
   const double x = kH * kC / (l * kK * T);
-  if (x > 700) return 0;  // exp overflows double; the radiance is below 1e-290
-  // W sr^-1 m^-3, per nm: x 1e-9
-  return 2 * kH * kC * kC / (l * l * l * l * l * std::expm1(x)) * 1e-9;
+  const double log_em1 = x > 30 ? x + std::log1p(-std::exp(-x)) : std::log(std::expm1(x));
+  return std::log(2 * kH * kC * kC * 1e-9) - 5 * std::log(l) - log_em1;
+}
+
+double planck(double lambda_nm, double T) {
+  if (!(T > 0) || !(lambda_nm > 0)) return 0;
+  return std::exp(log_planck(lambda_nm, T));  // W sr^-1 m^-3 x 1e-9 per nm; underflows to 0 when cold
 }
 
 double planck_peak_nm(double T) { return kWienB / T * 1e9; }
@@ -83,15 +87,22 @@ double planck_peak_nm(double T) { return kWienB / T * 1e9; }
 Rgb blackbody_xyz(double T, BlackbodyNorm norm) {
   Rgb s{0, 0, 0};
   if (!(T > 0)) return s;
-  const double k = norm == BlackbodyNorm::Peak ? 1.0 / planck(planck_peak_nm(T), T) : 1.0;
+  // sums of B(lambda) / exp(ref): ref = log B(lambda_max) for peak, the largest log B over the
+  // table for luminance (so a cold blackbody, far below double's range, keeps its colour)
+  double ref = 0;
+  if (norm == BlackbodyNorm::Peak) ref = log_planck(planck_peak_nm(T), T);
+  if (norm == BlackbodyNorm::Luminance) {
+    ref = -HUGE_VAL;
+    for (const CieSample& c : kCie1931) ref = std::max(ref, log_planck(c.lambda_nm, T));
+  }
   for (const CieSample& c : kCie1931) {
-    const double b = planck(c.lambda_nm, T) * k;
+    const double b = std::exp(log_planck(c.lambda_nm, T) - ref);
     s[0] += b * c.x;
     s[1] += b * c.y;
     s[2] += b * c.z;
   }
   double n = 1.0 / cie_y_integral();
-  if (norm == BlackbodyNorm::Luminance) n = s[1] > 0 ? 1.0 / s[1] : 0.0;
+  if (norm == BlackbodyNorm::Luminance) n = 1.0 / s[1];
   for (double& v : s) v *= n;
   return s;
 }
@@ -105,16 +116,26 @@ Rgb blackbody_linear_srgb(double T, BlackbodyNorm norm) {
   return c;
 }
 
+double blackbody_warp(double T) { return kBlackbodyWarpA / T - kBlackbodyWarpB * std::log(T); }
+
 BlackbodyTable make_blackbody_table(double T_lo, double T_hi, BlackbodyNorm norm, int entries) {
   BlackbodyTable t;
   t.entries = std::max(entries, 2);
-  const double x0 = 1.0 / T_hi, x1 = 1.0 / T_lo;
-  t.inv_T_first = x0;
-  t.entries_per_inv_T = (t.entries - 1) / std::max(x1 - x0, 1e-300);
+  T_lo = std::max(T_lo, kBlackbodyTableFloor);
+  T_hi = std::max(T_hi, T_lo * 1.001);
+  const double s0 = blackbody_warp(T_hi), s1 = blackbody_warp(T_lo);
+  t.warp_first = s0;
+  t.entries_per_warp = (t.entries - 1) / (s1 - s0);
   t.rgby.resize(size_t(t.entries) * 4);
   for (int i = 0; i < t.entries; ++i) {
-    const double x = i == t.entries - 1 ? x1 : x0 + i / t.entries_per_inv_T;
-    const double T = 1.0 / x;
+    // the entry's temperature: warp is decreasing in T; bisection on log T
+    const double target = s0 + i / t.entries_per_warp;
+    double lo = std::log(T_lo), hi = std::log(T_hi);
+    for (int k = 0; k < 100 && hi - lo > 1e-15 * std::abs(hi); ++k) {
+      const double mid = 0.5 * (lo + hi);
+      (blackbody_warp(std::exp(mid)) > target ? lo : hi) = mid;
+    }
+    const double T = i == 0 ? T_hi : i == t.entries - 1 ? T_lo : std::exp(0.5 * (lo + hi));
     const Rgb xyz = blackbody_xyz(T, norm);
     Rgb c = xyz_to_linear_srgb(xyz);
     for (int k = 0; k < 3; ++k) {

@@ -8,8 +8,8 @@
 // from the primaries' chromaticities. Below about 1900 K the blackbody lies outside the sRGB gamut
 // (its blue, and below ~950 K its green, are negative); RGB mode sets those components to 0, the
 // only departure from the spectral integral (docs/scene-format.md "Blackbody emission").
-// The kernels read a table of these colours (make_blackbody_table) spaced evenly in 1/T, where
-// Wien's factor exp(-c2 / (lambda T)) is smooth, and interpolate it linearly (kernels/medium.h).
+// The kernels read a table of these colours (make_blackbody_table) spaced evenly in a warped
+// temperature that is smooth in both of Planck's regimes, and interpolate it linearly.
 #pragma once
 #include <array>
 #include <vector>
@@ -37,6 +37,7 @@ constexpr double kMaxTemperature = 1e9;
 
 double cie_y_integral();                       // sum of y-bar over the table (1 nm steps): 106.857
 double planck(double lambda_nm, double T);     // W sr^-1 m^-2 nm^-1; 0 for T <= 0
+double log_planck(double lambda_nm, double T); // its log, finite for T > 0 (no underflow)
 double planck_peak_nm(double T);               // Wien's displacement law: lambda_max = b / T
 Rgb blackbody_xyz(double T, BlackbodyNorm norm);  // CIE XYZ, Y = sum(S y-bar) / sum(y-bar)
 Rgb xyz_to_linear_srgb(const Rgb& xyz);
@@ -44,11 +45,21 @@ Rgb linear_srgb_to_xyz(const Rgb& rgb);
 // blackbody_xyz in linear sRGB with negative components set to 0 (outside the gamut).
 Rgb blackbody_linear_srgb(double T, BlackbodyNorm norm);
 
-// The kernels' table: entries (r, g, b, Y) at 1/T = inv_T_first + i / entries_per_inv_T,
-// i = 0 .. entries-1: entry 0 is T_hi, the last is T_lo.
+// The kernels' table (kernels/medium.h blackbody_rgb): entries (r, g, b, Y) evenly spaced in the
+// warped temperature w(T) = A / T - B ln T (decreasing in T), entry i at
+// w = warp_first + i / entries_per_warp: entry 0 is T_hi, the last max(T_lo, kBlackbodyTableFloor).
+// Wien's regime (T << A) changes as exp(-c2 / (lambda T)), smooth in 1/T (the A / T term, A = c2 /
+// 400 nm); the Rayleigh-Jeans regime (hot) as powers of T, smooth in ln T (B = 4: the peak
+// normalisation's T^-4); with 16384 entries linear interpolation in w stays within ~1e-4 of the
+// integral from 100 K to 1e9 K. Below the floor, 100 K, the colour is that of 100 K to float
+// precision (0 for peak and none; the red end of the spectrum for luminance).
+constexpr double kBlackbodyWarpA = 36000.0;  // K
+constexpr double kBlackbodyWarpB = 4.0;
+constexpr double kBlackbodyTableFloor = 100.0;  // K
+double blackbody_warp(double T);
 struct BlackbodyTable {
-  double inv_T_first = 0;
-  double entries_per_inv_T = 0;
+  double warp_first = 0;
+  double entries_per_warp = 0;
   int entries = 0;
   std::vector<float> rgby;  // 4 floats per entry
   double max_value = 0;     // the largest r, g or b

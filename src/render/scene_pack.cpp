@@ -24,17 +24,30 @@ namespace spectrack {
 
 namespace {
 
-// Entries of a blackbody colour table (kernels/medium.h blackbody_rgb): spaced evenly in 1/T from
-// the cutoff to the hottest temperature, 16384 keep linear interpolation within ~1e-4 of the
-// integral for a 100 K cutoff (relative error ~ (c2 / lambda x the 1/T step)^2 / 8), at 256 KiB.
+// Entries of a blackbody colour table (kernels/medium.h blackbody_rgb, src/color/blackbody.h): 16384
+// keep linear interpolation within ~1e-4 of the integral from 100 K to 1e9 K, at 256 KiB.
 constexpr int kBlackbodyEntries = 16384;
 
-// The emission bounds (scene/radiance.h) of a blackbody medium whose brightest colour component,
-// before `scale`, is `peak`: it stands for the radiance.
-void check_blackbody_bounds(const std::string& ctx, const MediumDesc& md, double peak, double density_max) {
-  MediumDesc c = md;
-  c.emission.radiance = Vec3{peak, peak, peak};
-  check_emission_bounds(ctx, c, density_max, 1.0);
+const char* blackbody_norm_name(BlackbodyNorm n) {
+  return n == BlackbodyNorm::Peak ? "peak" : n == BlackbodyNorm::Luminance ? "luminance" : "none";
+}
+
+// The emission bounds (scene/radiance.h) of a blackbody medium whose brightest colour component
+// up to T_hi kelvin, before `scale`, is `peak`.
+void check_blackbody_bounds(const std::string& ctx, const MediumDesc& md, double peak, double T_hi, double density_max) {
+  const EmissionDesc& e = md.emission;
+  const double le = peak * e.scale;
+  const char* why = " (the kernels carry light in single-precision float: see README \"Limits\")";
+  if (le > kMaxRadiance)
+    throw Error(fmt::format("{}/emission/scale: scale ({}) x the brightest blackbody colour up to {} K ({}, "
+                            "normalization {}) = {} is more than {:g}{}, in medium \"{}\"",
+                            ctx, e.scale, T_hi, peak, blackbody_norm_name(e.normalization), le, kMaxRadiance, why,
+                            md.name));
+  const double mua = std::max({md.sigma_a[0], md.sigma_a[1], md.sigma_a[2]}) * md.density_scale * density_max;
+  if (mua * le > kMaxEmissionProduct)
+    throw Error(fmt::format("{}/emission/scale: sigma_a x density_scale x the density's largest value ({}) x the "
+                            "brightest blackbody radiance ({}) = {} is more than {:g}{}, in medium \"{}\"",
+                            ctx, density_max, le, mua * le, kMaxEmissionProduct, why, md.name));
 }
 
 st_float4 f4(double x, double y, double z, double w = 0) { return st_float4{float(x), float(y), float(z), float(w)}; }
@@ -166,7 +179,7 @@ void Packer::add_medium(int i, const MediumDesc& md) {
     if (e.blackbody && e.temperature > 0) {
       // a constant temperature: its colour, exactly (no table)
       r = e.temperature > e.temperature_cutoff ? blackbody_linear_srgb(e.temperature, e.normalization) : Vec3{0, 0, 0};
-      if (md.type == ST_MEDIUM_HOMOGENEOUS) check_blackbody_bounds(ctx_name, md, std::max({r[0], r[1], r[2]}), 1.0);
+      if (md.type == ST_MEDIUM_HOMOGENEOUS) check_blackbody_bounds(ctx_name, md, std::max({r[0], r[1], r[2]}), e.temperature, 1.0);
     } else if (e.blackbody) {
       r = Vec3{1, 1, 1};  // scale x the temperature grid's colour (add_vdb_medium)
     }
@@ -260,7 +273,7 @@ void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::strin
   };
   if (em.blackbody && em.temperature > 0) {
     const Vec3 c = blackbody_linear_srgb(em.temperature, em.normalization);
-    check_blackbody_bounds(ctx_name, md, std::max({c[0], c[1], c[2]}), g.value_max);
+    if (m.emissive) check_blackbody_bounds(ctx_name, md, std::max({c[0], c[1], c[2]}), em.temperature, g.value_max);
   } else if (em.blackbody && m.emissive) {
     const GridData t = add_temperature_grid(m, md, g, ctx_name);
     if (m.emissive) {
@@ -310,7 +323,11 @@ GridData Packer::add_temperature_grid(st_medium& m, const MediumDesc& md, const 
                             "and temperature_scale {}; at most {:g} K",
                             ctx, name, t.value_min, t.value_max, T_hi, e.temperature_offset, e.temperature_scale,
                             kMaxTemperature));
-  m.temperature = f4(e.temperature_offset, e.temperature_scale, e.temperature_cutoff, 0);
+  // T = value * a + b on the device: a and b in double, then float (their range checked)
+  const double ta = e.temperature_scale, tb = -e.temperature_offset * e.temperature_scale;
+  if (!(std::abs(ta) < 1e30) || !(std::abs(tb) < 1e30))
+    throw Error(fmt::format("{}: temperature_scale ({}) or temperature_offset x temperature_scale ({}) is beyond "
+                            "single precision's range (1e30)", ctx, ta, -tb));
   if (!(T_hi > e.temperature_cutoff)) {
     std::fprintf(stderr, "warning: %s: grid '%s' maps to temperatures of at most %g K, at or below the cutoff %g K: "
                  "the medium does not emit\n", ctx.c_str(), name.c_str(), T_hi, e.temperature_cutoff);
@@ -318,8 +335,9 @@ GridData Packer::add_temperature_grid(st_medium& m, const MediumDesc& md, const 
     return t;
   }
   const BlackbodyTable table = make_blackbody_table(e.temperature_cutoff, T_hi, e.normalization, kBlackbodyEntries);
-  check_blackbody_bounds(ctx_name, md, table.max_value, density.value_max);
-  m.blackbody_table = f4(table.inv_T_first, table.entries_per_inv_T, table.entries - 1, 0);
+  check_blackbody_bounds(ctx_name, md, table.max_value, T_hi, density.value_max);
+  m.temperature = f4(ta, tb, e.temperature_cutoff, kBlackbodyWarpA);
+  m.blackbody_table = f4(table.warp_first, table.entries_per_warp, table.entries - 1, kBlackbodyWarpB);
   m.blackbody_offset = uint32_t(grid_words.size());
   grid_words.resize(grid_words.size() + table.rgby.size());
   std::memcpy(grid_words.data() + m.blackbody_offset, table.rgby.data(), table.rgby.size() * sizeof(float));

@@ -525,7 +525,8 @@ EmissionDesc Parser::emission(const json& j, const std::string& path, bool vdb) 
   const Names constant = {"type", "scale", "temperature", "temperature_cutoff", "normalization"};
   if (!vdb) fields(j, path, constant, "a homogeneous medium's blackbody emission (a constant `temperature`)", all);
   e.blackbody = true;
-  e.scale = number(j, path, "scale", e.scale, kNonNegative);
+  // at most kMaxRadiance: the kernels hold scale x colour in float, colours <= ~1e6
+  e.scale = number(j, path, "scale", e.scale, Range{0, kMaxRadiance, false, false});
   e.temperature_cutoff = number(j, path, "temperature_cutoff", e.temperature_cutoff, Range{0, kMaxTemperature, true, true});
   if (find(j, "temperature")) {
     if (find(j, "temperature_grid") || find(j, "temperature_scale") || find(j, "temperature_offset"))
