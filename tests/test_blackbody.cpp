@@ -305,21 +305,23 @@ TEST(BlackbodyScene, FieldsAndErrors) {
   json c = v;
   c["media"][0]["emission"] = {{"type", "blackbody"}, {"temperature", 1500}, {"temperature_scale", 2}};
   EXPECT_THAT(parse_error(c, dir), HasSubstr("/media/0/emission/temperature: a constant temperature excludes"));
-  try {
-    Renderer(scene_from_json(v, dir), quiet_options()).render();
+  // the message of the error that loading a scene onto the device raises
+  auto render_error = [&](const json& scene) -> std::string {
+    try {
+      Renderer(scene_from_json(scene, dir), quiet_options()).render();
+    } catch (const Error& e) {
+      return e.what();
+    }
     ADD_FAILURE() << "no error";
-  } catch (const Error& e) {
-    EXPECT_THAT(std::string(e.what()), HasSubstr("/media/0/emission/temperature_grid"));
-    EXPECT_THAT(std::string(e.what()), HasSubstr("no grid named temperature, heat or flame"));
-    EXPECT_THAT(std::string(e.what()), HasSubstr("density"));
-  }
+    return "";
+  };
+  const std::string missing = render_error(v);
+  EXPECT_THAT(missing, HasSubstr("/media/0/emission/temperature_grid"));
+  EXPECT_THAT(missing, HasSubstr("no grid named temperature, heat or flame"));
+  EXPECT_THAT(missing, HasSubstr("density"));
   // a grid mapped beyond 1e9 K is refused, naming the grid and the fields
   v["media"][0]["emission"] = {{"type", "blackbody"}, {"temperature_grid", "density"}, {"temperature_scale", 1e38}};
-  try {
-    Renderer(scene_from_json(v, dir), quiet_options()).render();
-    ADD_FAILURE() << "no error";
-  } catch (const Error& e) {
-    EXPECT_THAT(std::string(e.what()), HasSubstr("/media/0/emission/temperature_grid: grid 'density'"));
-    EXPECT_THAT(std::string(e.what()), HasSubstr("at most 1e+09 K"));
-  }
+  const std::string hot = render_error(v);
+  EXPECT_THAT(hot, HasSubstr("/media/0/emission/temperature_grid: grid 'density'"));
+  EXPECT_THAT(hot, HasSubstr("at most 1e+09 K"));
 }

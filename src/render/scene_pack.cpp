@@ -272,8 +272,8 @@ void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::strin
                                   ctx_name, field, e.name, md.grid));
   };
   if (em.blackbody && em.temperature > 0) {
-    const Vec3 c = blackbody_linear_srgb(em.temperature, em.normalization);
-    if (m.emissive) check_blackbody_bounds(ctx_name, md, std::max({c[0], c[1], c[2]}), em.temperature, g.value_max);
+    // add_medium set Le = scale x the colour (emissive: scale > 0)
+    if (m.emissive) check_blackbody_bounds(ctx_name, md, std::max({m.Le.x, m.Le.y, m.Le.z}) / em.scale, em.temperature, g.value_max);
   } else if (em.blackbody && m.emissive) {
     const GridData t = add_temperature_grid(m, md, g, ctx_name);
     if (m.emissive) {
