@@ -19,12 +19,17 @@ ROOT=$PWD
 SETUP_PACKAGES_ONLY=1 bash scripts/setup.sh
 
 start=$(date +%s)
-cmake -S . -B build-asan -DSPECTRACK_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+# -O1 -g1 (ASan's recommended optimisation; line tables are enough for file:line in reports)
+# halves the compile time of -O2 -g. The test binary holds only the files of the suites below
+# (CMakeLists.txt, SPECTRACK_SANITIZE).
+cmake -S . -B build-asan -DSPECTRACK_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" >/dev/null
 cmake --build build-asan -j "${JOBS:-$(nproc)}" --target spectrack_tests spectrack
 echo "sanitize: built build-asan/ in $(( $(date +%s) - start )) s"
 
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
+# The files holding these suites are the sanitized binary's sources (CMakeLists.txt, SPECTRACK_SANITIZE).
 HOST='^(SceneTest|SceneNames|VolumeLoad|VolumeErrors|VolumeSample|VolumeMajorant|VolumeNanoVdb)\.'
 # the film layers' quick tests (EXR channels, merging every layer, scene fields) beside them
 DEVICE='^((Render|ProfileVolume|Estimators|Volume|CliSceneErrors|CliFlags|CliDevices|CliRender|CliInterrupt|CliHostileImages|CliHostileRadiance|CliHostileFiles|CliHostileOutputs|CliShards|CliShardFlags|CliMerge|CliMultiDevice|OpenCL)\.|Aov\.(ShardsAndTiles|ExrChannels|SceneFields|PassesOnATransparentFilm|AlbedoAndDepthLayersThroughExr))'
