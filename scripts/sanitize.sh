@@ -30,7 +30,7 @@ echo "sanitize: built build-asan/ in $(( $(date +%s) - start )) s"
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 # The files holding these suites are the sanitized binary's sources (CMakeLists.txt, SPECTRACK_SANITIZE).
-HOST='^(SceneTest|SceneNames|VolumeLoad|VolumeErrors|VolumeSample|VolumeMajorant|VolumeNanoVdb)\.'
+HOST='^(SceneTest|SceneNames|Spectrum|VolumeLoad|VolumeErrors|VolumeSample|VolumeMajorant|VolumeNanoVdb)\.'
 # the film layers' quick tests (EXR channels, merging every layer, scene fields) beside them
 DEVICE='^((Render|ProfileVolume|Estimators|Volume|CliSceneErrors|CliFlags|CliDevices|CliRender|CliInterrupt|CliHostileImages|CliHostileRadiance|CliHostileFiles|CliHostileOutputs|CliShards|CliShardFlags|CliMerge|CliMultiDevice|OpenCL)\.|Aov\.(ShardsAndTiles|ExrChannels|SceneFields|PassesOnATransparentFilm|AlbedoAndDepthLayersThroughExr))'
 cd build-asan

@@ -1,0 +1,119 @@
+// spectrum.h: smooth spectra from RGB colours (Jakob and Hanika 2019) and the CIE illuminant D65,
+// the colour side of spectral mode (issue 15).
+//
+// Design: a colour c in [0, 1]^3 (linear sRGB, a reflectance or an albedo) becomes the spectrum
+//   s(lambda) = scale * S(c0 u^2 + c1 u + c2),   u = (lambda - 360 nm) / 470 nm,
+//   S(x) = 1/2 + x / (2 sqrt(1 + x^2)),
+// the sigmoid-polynomial model of Jakob and Hanika, "A Low-Dimensional Function Space for
+// Efficient Spectral Upsampling" (Eurographics 2019): smooth, within [0, scale] at every
+// wavelength (with scale <= 1 an upsampled reflectance never gains energy), three coefficients
+// per colour. The coefficients of a colour are those whose spectrum, lit by CIE D65 and seen by
+// the CIE 1931 2-degree observer (sums over the observer's 1 nm grid, 360-830 nm), has that
+// colour's linear sRGB; Rgb2SpecFit finds them by Levenberg-Marquardt to 1e-7. The residual is
+// taken in linear sRGB, the quantity the renderer's film accumulates (the paper's CIELAB residual
+// weighs dark colours more; an RGB residual bounds the round-trip error the tests check).
+//
+// A table of coefficients over the RGB cube is generated at build time by
+// tools/rgb2spec_table.cpp with this file's fitter (make_rgb2spec_table) and embedded in the
+// library (rgb2spec_srgb). As in the paper, there are three tables, one per largest component
+// l; each is indexed by that component z = c[l] on a grid dense near 0 and 1 (smoothstep of
+// smoothstep) and by the other two divided by it, c[l+1] / z and c[l+2] / z, on a uniform grid.
+// The fit walks each (l, x, y) column in z from a dark level, every level starting from its
+// neighbour's coefficients (the first from the gray of the same z, by continuation), so
+// neighbouring entries lie on one branch of solutions and interpolate sensibly. Lookups
+// (rgb2spec) interpolate the coefficients trilinearly, as a kernel would: at res 64 the colour
+// comes back within 6e-4 for max component <= 0.8 and 9e-4 above on a 21^3 grid, but up to ~1e-2
+// for colours within a few percent of white, where the spectra saturate towards 1 and the
+// coefficients grow fast. Scene constants are upsampled once on the host (rgb2spec_fitted): the
+// table's coefficients refined by the fitter, exact to 1e-7. Two cases bypass the table, both
+// exact: gray colours (r = g = b) are flat, c = 0 and scale = 2 r; colours darker than the first
+// nonzero z level are that level's spectrum scaled down (RGB is linear in the spectrum).
+// Unbounded colours (scattering coefficients, radiances) are upsampled as pbrt-v4's
+// RGBUnboundedSpectrum: divided by twice their largest component, then scaled back
+// (rgb2spec_unbounded).
+//
+// White balance: the sRGB matrix comes from D65's standard chromaticity (0.3127, 0.3290), the
+// tabulated D65 through the 1 nm observer is 2e-5 away; the fitter scales each channel so that a
+// flat spectrum of 1 is exactly (1, 1, 1) (spectrum.cpp). A spectral film must use the same
+// weights for white to stay white.
+#pragma once
+#include <array>
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "color/blackbody.h"
+
+namespace spectrack {
+
+// CIE standard illuminant D65 (data/cie/cie_d65_5nm.csv, embedded by cmake/embed_cie.cmake):
+// relative spectral power, 300-830 nm in 5 nm steps, S(560 nm) = 100.
+struct IlluminantSample {
+  int lambda_nm;
+  double s;
+};
+constexpr int kCieD65Samples = 107;
+extern const IlluminantSample kCieD65[kCieD65Samples];
+double cie_d65(double lambda_nm);  // linear between the table's samples, 0 outside 300-830 nm
+
+constexpr double kSpectrumLambdaMin = 360.0;  // nm: the observer table's range, the model's u = 0..1
+constexpr double kSpectrumLambdaMax = 830.0;
+
+double sigmoid(double x);  // S(x) above; 0 and 1 at -inf and +inf
+
+// s(lambda) = scale * S(c0 u^2 + c1 u + c2)
+struct RgbSpectrum {
+  std::array<double, 3> c{};
+  double scale = 1;
+  double operator()(double lambda_nm) const;
+};
+
+// Finds the coefficients of colours; the weights W(lambda) = M (x-bar, y-bar, z-bar) D65 / sum(y-bar D65)
+// (M: XYZ to linear sRGB) are computed once per fitter.
+class Rgb2SpecFit {
+ public:
+  Rgb2SpecFit();
+  // the linear sRGB of s lit by D65: sum over the observer's 1 nm grid of s(lambda) W(lambda)
+  Rgb rgb_of(const RgbSpectrum& s) const;
+  // Levenberg-Marquardt from c towards the colour target (in [0, 1]^3); c holds the result. Returns
+  // the largest |rgb_of(c) - target| component reached: <= tolerance when it converged.
+  double fit(const Rgb& target, std::array<double, 3>& c, double tolerance = 1e-7, int max_iterations = 200) const;
+
+ private:
+  std::vector<double> u_;                  // (lambda - 360) / 470 per sample
+  std::vector<std::array<double, 3>> w_;   // W(lambda) per sample
+};
+
+struct Rgb2SpecTable {
+  int res = 0;                 // levels per axis
+  std::vector<float> z;        // res levels of the largest component, z[0] = 0, z[res - 1] = 1
+  std::vector<float> coeffs;   // [l][zi][yi][xi][3], l = the largest component's index
+  double max_residual = 0;     // the fit's worst |rgb - target| over the grid (the generator's report)
+};
+
+// The table for a grid of res levels, fitted on `threads` threads (tools/rgb2spec_table.cpp).
+// Throws std::runtime_error naming the colour if a fit does not converge.
+Rgb2SpecTable make_rgb2spec_table(int res, int threads);
+// The table's file format (the build writes it, the library embeds it): "spectrack-rgb2spec 1\n",
+// then int32 res, float32 max_residual, res float32 z levels, 9 res^3 float32 coefficients, little endian.
+std::vector<char> serialize_rgb2spec_table(const Rgb2SpecTable& t);
+// Parses `bytes`; on a damaged table returns false and says why in *error.
+bool parse_rgb2spec_table(const void* bytes, std::size_t size, Rgb2SpecTable& t, std::string* error);
+
+// The spectrum of a colour in [0, 1]^3 (components outside are clamped) from the table alone,
+// as a kernel would look it up: within ~1e-3 of the colour in most of the cube, up to ~1e-2 near
+// white (bench/RESULTS.md "RGB upsampling" has the measured figures).
+RgbSpectrum rgb2spec(const Rgb2SpecTable& t, const Rgb& rgb);
+// The same refined by the fitter from the table's coefficients: exact to the fit's 1e-7 (scene
+// constants are upsampled this way, once per colour on the host).
+RgbSpectrum rgb2spec_fitted(const Rgb2SpecFit& f, const Rgb2SpecTable& t, const Rgb& rgb);
+// The spectrum of a colour with components >= 0 of any size (a scattering coefficient, a
+// radiance): scale 2 max(rgb) times the fitted spectrum of rgb / (2 max(rgb)), whose largest
+// component is 1/2 (pbrt-v4's RGBUnboundedSpectrum).
+RgbSpectrum rgb2spec_unbounded(const Rgb2SpecFit& f, const Rgb2SpecTable& t, const Rgb& rgb);
+
+// The table generated at build time for linear sRGB under D65 (tools/rgb2spec_table.cpp), parsed
+// once from the library's embedded copy.
+const Rgb2SpecTable& rgb2spec_srgb();
+
+}  // namespace spectrack

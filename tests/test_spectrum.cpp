@@ -1,0 +1,209 @@
+// test_spectrum.cpp: RGB-to-spectrum upsampling (src/color/spectrum.h): the CIE D65 data, the
+// Jakob-Hanika fitter, the build-time table and its lookups, the table file's checks.
+//
+// Design: every check integrates spectra back to linear sRGB with the fitter's own weights (CIE
+// 1931 observer x D65 on the 1 nm grid), so a round trip measures the upsampling alone. Scene
+// constants go through rgb2spec_fitted (the table's coefficients refined by the fitter) and must
+// round-trip to the fit's tolerance; the table alone (what a kernel would read) is held to the
+// accuracy measured for it at res 64, per region of the cube.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "color/spectrum.h"
+
+namespace spectrack {
+namespace {
+
+double max_abs_diff(const Rgb& a, const Rgb& b) {
+  return std::max({std::fabs(a[0] - b[0]), std::fabs(a[1] - b[1]), std::fabs(a[2] - b[2])});
+}
+
+const Rgb2SpecFit& fitter() {
+  static const Rgb2SpecFit f;
+  return f;
+}
+
+TEST(Spectrum, D65TableIsTheCieIlluminant) {
+  EXPECT_EQ(kCieD65[0].lambda_nm, 300);
+  EXPECT_EQ(kCieD65[kCieD65Samples - 1].lambda_nm, 830);
+  EXPECT_DOUBLE_EQ(cie_d65(560), 100.0);
+  EXPECT_DOUBLE_EQ(cie_d65(562.5), 0.5 * (100.0 + 98.1671));  // linear between samples
+  EXPECT_EQ(cie_d65(299), 0.0);
+  EXPECT_EQ(cie_d65(831), 0.0);
+  // its chromaticity through the 1 nm observer: D65's (0.31272, 0.32903) (CIE 015:2018 table T.3)
+  double X = 0, Y = 0, Z = 0;
+  for (const CieSample& s : kCie1931) {
+    X += s.x * cie_d65(s.lambda_nm);
+    Y += s.y * cie_d65(s.lambda_nm);
+    Z += s.z * cie_d65(s.lambda_nm);
+  }
+  EXPECT_NEAR(X / (X + Y + Z), 0.31272, 2e-5);
+  EXPECT_NEAR(Y / (X + Y + Z), 0.32903, 2e-5);
+}
+
+TEST(Spectrum, SigmoidModel) {
+  EXPECT_DOUBLE_EQ(sigmoid(0), 0.5);
+  EXPECT_DOUBLE_EQ(sigmoid(INFINITY), 1.0);
+  EXPECT_DOUBLE_EQ(sigmoid(-INFINITY), 0.0);
+  EXPECT_DOUBLE_EQ(sigmoid(1e300), 1.0);
+  EXPECT_NEAR(sigmoid(1.0), 0.5 + 0.5 / std::sqrt(2.0), 1e-15);
+  EXPECT_NEAR(sigmoid(-3.0) + sigmoid(3.0), 1.0, 1e-15);
+  // u = 0 at 360 nm, 1 at 830 nm
+  const RgbSpectrum s{{2.0, -3.0, 0.5}, 0.8};
+  EXPECT_NEAR(s(360), 0.8 * sigmoid(0.5), 1e-15);
+  EXPECT_NEAR(s(830), 0.8 * sigmoid(2.0 - 3.0 + 0.5), 1e-15);
+  EXPECT_NEAR(s(595), 0.8 * sigmoid(2.0 * 0.25 - 3.0 * 0.5 + 0.5), 1e-15);
+}
+
+TEST(Spectrum, WhiteAndGraysAreFlat) {
+  const Rgb2SpecTable& t = rgb2spec_srgb();
+  for (double v : {1.0, 0.5, 0.18, 1e-4}) {
+    const RgbSpectrum s = rgb2spec(t, {v, v, v});
+    for (double lambda = 360; lambda <= 830; lambda += 10) EXPECT_DOUBLE_EQ(s(lambda), v) << "gray " << v;
+    const Rgb back = fitter().rgb_of(s);
+    EXPECT_LT(max_abs_diff(back, {v, v, v}), 1e-12 * std::max(v, 1.0)) << "gray " << v;
+  }
+  const RgbSpectrum black = rgb2spec(t, {0, 0, 0});
+  EXPECT_EQ(black(500), 0.0);
+  EXPECT_EQ(rgb2spec_unbounded(fitter(), t, {0, 0, 0})(500), 0.0);
+}
+
+// The criterion: every colour of a grid over [0, 1]^3 upsampled and integrated back
+// within 1e-3. Scene constants (rgb2spec_fitted) do far better: the fit's own tolerance.
+TEST(Spectrum, FittedRoundTripOnAGridOfColours) {
+  const Rgb2SpecTable& t = rgb2spec_srgb();
+  const int n = 11;
+  double worst = 0;
+  Rgb worst_colour{};
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      for (int k = 0; k < n; ++k) {
+        const Rgb c{i / (n - 1.0), j / (n - 1.0), k / (n - 1.0)};
+        const RgbSpectrum s = rgb2spec_fitted(fitter(), t, c);
+        const double e = max_abs_diff(fitter().rgb_of(s), c);
+        if (e > worst) worst = e, worst_colour = c;
+        // a reflectance: within [0, 1] at every wavelength (grays are S(0) = 1/2 with scale 2 v)
+        for (double lambda = 360; lambda <= 830; lambda += 47) {
+          EXPECT_GE(s(lambda), 0.0);
+          EXPECT_LE(s(lambda), 1.0 + 1e-12);
+        }
+      }
+  std::printf("fitted round trip on the %d^3 grid: worst %.2e\n", n, worst);
+  EXPECT_LT(worst, 1e-6) << "worst colour (" << worst_colour[0] << ", " << worst_colour[1] << ", " << worst_colour[2]
+                         << ")";
+}
+
+// The table alone (a kernel's lookup) against the accuracy measured for it at res 64: the
+// coefficients are interpolated, and near the cube's top the spectra saturate towards 1, where
+// the coefficients grow fast (spectrum.h).
+TEST(Spectrum, TableRoundTripAccuracy) {
+  const Rgb2SpecTable& t = rgb2spec_srgb();
+  const int n = 21;
+  double worst_low = 0, worst_high = 0;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      for (int k = 0; k < n; ++k) {
+        const Rgb c{i / (n - 1.0), j / (n - 1.0), k / (n - 1.0)};
+        const double e = max_abs_diff(fitter().rgb_of(rgb2spec(t, c)), c);
+        (std::max({c[0], c[1], c[2]}) <= 0.8 ? worst_low : worst_high) = std::max(
+            e, std::max({c[0], c[1], c[2]}) <= 0.8 ? worst_low : worst_high);
+      }
+  std::printf("table round trip on the %d^3 grid: max component <= 0.8: %.2e, above: %.2e\n", n, worst_low,
+              worst_high);
+  EXPECT_LT(worst_low, 1e-3);
+  EXPECT_LT(worst_high, 2e-3);
+  // at the table's own nodes the fit is exact (no interpolation)
+  const int res = t.res;
+  for (int l = 0; l < 3; ++l)
+    for (int zi : {1, res / 5, res / 2, res - 2, res - 1})
+      for (int yi : {0, res / 3, res - 1})
+        for (int xi : {0, res / 2, res - 2}) {
+          const float* c = &t.coeffs[((((static_cast<std::size_t>(l) * res + zi) * res + yi) * res + xi)) * 3];
+          Rgb colour;
+          colour[l] = t.z[zi];
+          colour[(l + 1) % 3] = t.z[zi] * (xi / double(res - 1));
+          colour[(l + 2) % 3] = t.z[zi] * (yi / double(res - 1));
+          const Rgb back = fitter().rgb_of(RgbSpectrum{{c[0], c[1], c[2]}, 1.0});
+          EXPECT_LT(max_abs_diff(back, colour), 2e-6) << "node " << l << " " << zi << " " << yi << " " << xi;
+        }
+}
+
+TEST(Spectrum, UnboundedColoursKeepTheirScale) {
+  const Rgb2SpecTable& t = rgb2spec_srgb();
+  for (const Rgb c : {Rgb{3.0, 1.5, 0.2}, Rgb{0.02, 0.5, 40.0}, Rgb{1e-3, 1e-3, 2e-3}, Rgb{7, 7, 7}}) {
+    const RgbSpectrum s = rgb2spec_unbounded(fitter(), t, c);
+    const double m = std::max({c[0], c[1], c[2]});
+    EXPECT_NEAR(s.scale, 2 * m, 1e-12 * m);
+    EXPECT_LT(max_abs_diff(fitter().rgb_of(s), c), 1e-6 * m);
+  }
+}
+
+TEST(Spectrum, DarkColoursScaleTheFirstLevel) {
+  // below the first z level the spectrum is that level's, scaled: RGB is linear in the spectrum
+  const Rgb2SpecTable& t = rgb2spec_srgb();
+  const Rgb c{t.z[1] * 0.5, t.z[1] * 0.1, t.z[1] * 0.3};
+  const RgbSpectrum s = rgb2spec(t, c);
+  EXPECT_NEAR(s.scale, 0.5, 1e-6);
+  const double e = max_abs_diff(fitter().rgb_of(rgb2spec_fitted(fitter(), t, c)), c);
+  EXPECT_LT(e, 1e-7 * 0.5 + 1e-12);
+}
+
+TEST(Spectrum, GeneratorAndTableFile) {
+  // a small table through the same generator the build runs, then its file format
+  const Rgb2SpecTable t = make_rgb2spec_table(6, 2);
+  EXPECT_EQ(t.res, 6);
+  EXPECT_LE(t.max_residual, 1e-6);
+  EXPECT_EQ(t.z.front(), 0.0f);
+  EXPECT_EQ(t.z.back(), 1.0f);
+  const std::vector<char> bytes = serialize_rgb2spec_table(t);
+  Rgb2SpecTable back;
+  std::string error;
+  ASSERT_TRUE(parse_rgb2spec_table(bytes.data(), bytes.size(), back, &error)) << error;
+  EXPECT_EQ(back.res, t.res);
+  EXPECT_EQ(back.z, t.z);
+  EXPECT_EQ(back.coeffs, t.coeffs);
+
+  auto refused = [&](std::vector<char> b, const std::string& why) {
+    Rgb2SpecTable x;
+    std::string e;
+    EXPECT_FALSE(parse_rgb2spec_table(b.data(), b.size(), x, &e)) << why;
+    EXPECT_NE(e.find(why), std::string::npos) << e;
+  };
+  refused(std::vector<char>(bytes.begin(), bytes.end() - 4), "bytes, expected");
+  refused(std::vector<char>(bytes.begin(), bytes.begin() + 10), "not a spectrack-rgb2spec 1 table");
+  std::vector<char> b = bytes;
+  b[0] = 'X';
+  refused(b, "not a spectrack-rgb2spec 1 table");
+  const std::size_t header = std::strlen("spectrack-rgb2spec 1\n");
+  b = bytes;
+  const std::int32_t huge = 1000;
+  std::memcpy(b.data() + header, &huge, 4);
+  refused(b, "outside [3, 256]");
+  b = bytes;
+  const float nan = NAN;
+  std::memcpy(b.data() + b.size() - 4, &nan, 4);
+  refused(b, "not finite");
+  b = bytes;
+  const float z = 0.9f;  // level 2 below level 1
+  std::memcpy(b.data() + header + 8 + 4 * 2, &z, 4);
+  std::memcpy(b.data() + header + 8 + 4 * 1, &z, 4);
+  refused(b, "not increasing");
+  EXPECT_THROW(make_rgb2spec_table(2, 1), std::runtime_error);
+}
+
+TEST(Spectrum, EmbeddedTableIsTheBuildsFit) {
+  const Rgb2SpecTable& t = rgb2spec_srgb();
+  EXPECT_EQ(t.res, 64);
+  EXPECT_LE(t.max_residual, 1e-6);
+  EXPECT_EQ(t.coeffs.size(), static_cast<std::size_t>(9) * 64 * 64 * 64);
+}
+
+}  // namespace
+}  // namespace spectrack
