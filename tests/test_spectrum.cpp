@@ -1,5 +1,7 @@
-// test_spectrum.cpp: RGB-to-spectrum upsampling (src/color/spectrum.h): the CIE D65 data, the
-// Jakob-Hanika fitter, the build-time table and its lookups, the table file's checks.
+// test_spectrum.cpp: spectral mode's colour side (src/color/spectrum.h, kernels/spectrum.h): the
+// CIE D65 data, the Jakob-Hanika fitter, the build-time table and its lookups, the table file's
+// checks, wavelength sampling and the spectral film's weights, and the device functions against
+// the host's (suite SpectrumDevice, which needs an OpenCL device; the rest is host-only).
 //
 // Design: every check integrates spectra back to linear sRGB with the fitter's own weights (CIE
 // 1931 observer x D65 on the 1 nm grid), so a round trip measures the upsampling alone. Scene
@@ -11,12 +13,16 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <cstdint>
 #include <cstring>
+#include <random>
 #include <string>
 #include <vector>
 
 #include "color/spectrum.h"
+#include "render/probe.h"
+#include "test_util.h"
 
 namespace spectrack {
 namespace {
@@ -203,6 +209,140 @@ TEST(Spectrum, EmbeddedTableIsTheBuildsFit) {
   EXPECT_EQ(t.res, 64);
   EXPECT_LE(t.max_residual, 1e-6);
   EXPECT_EQ(t.coeffs.size(), static_cast<std::size_t>(9) * 64 * 64 * 64);
+}
+
+// uniforms in [0, 1) from a fixed-seed engine (its bits, not a library distribution: reproducible everywhere)
+struct Uniforms {
+  std::mt19937_64 engine{20261203};
+  double operator()() { return (engine() >> 11) * 0x1.0p-53; }
+};
+
+TEST(Spectrum, VisibleWavelengthSampling) {
+  // the density integrates to 1 over [360, 830] nm and sample_visible_wavelength inverts its CDF
+  double cdf = 0;
+  const double h = 0.01;
+  std::vector<std::pair<double, double>> cdf_at;  // (lambda, CDF)
+  for (double lambda = 360; lambda < 830 - h / 2; lambda += h) {
+    cdf += h * (visible_wavelength_pdf(lambda) + 4 * visible_wavelength_pdf(lambda + h / 2) +
+                visible_wavelength_pdf(lambda + h)) / 6;
+    cdf_at.push_back({lambda + h, cdf});
+  }
+  EXPECT_NEAR(cdf, 1.0, 2e-4);  // pbrt-v4's constants are rounded to 8 digits
+  for (double u : {0.001, 0.1, 0.25, 0.5, 0.75, 0.9, 0.999}) {
+    const double lambda = sample_visible_wavelength(u);
+    auto it = std::lower_bound(cdf_at.begin(), cdf_at.end(), std::make_pair(lambda, 0.0));
+    ASSERT_NE(it, cdf_at.end());
+    EXPECT_NEAR(it->second, u, 3e-4) << "u " << u << " lambda " << lambda;
+  }
+  EXPECT_NEAR(sample_visible_wavelength(0), 360, 0.5);
+  EXPECT_NEAR(sample_visible_wavelength(1), 830, 0.5);
+  EXPECT_EQ(visible_wavelength_pdf(359), 0.0);
+  EXPECT_EQ(visible_wavelength_pdf(831), 0.0);
+  // the four wavelengths of a path: u, u + 1/4, u + 1/2, u + 3/4, wrapped
+  const auto l = sample_wavelengths(0.8);
+  EXPECT_DOUBLE_EQ(l[0], sample_visible_wavelength(0.8));
+  EXPECT_DOUBLE_EQ(l[1], sample_visible_wavelength(0.05));
+  EXPECT_DOUBLE_EQ(l[2], sample_visible_wavelength(0.3));
+  EXPECT_DOUBLE_EQ(l[3], sample_visible_wavelength(0.55));
+}
+
+// The spectral film's estimator, (1/4) sum_i L(lambda_i) F(lambda_i) / p(lambda_i), has the
+// expectation of the 1 nm sums the fitter uses: D65 gives white, a reflectance under D65 its colour.
+TEST(Spectrum, SpectralFilmEstimatesTheColour) {
+  const Rgb2SpecTable& t = rgb2spec_srgb();
+  const RgbSpectrum red = rgb2spec_fitted(fitter(), t, {0.7, 0.2, 0.1});
+  struct Case {
+    const char* name;
+    std::function<double(double)> L;
+    Rgb expect;
+  };
+  const Case cases[] = {{"D65", [](double l) { return cie_d65(l); }, {1, 1, 1}},
+                        {"red reflectance under D65", [&](double l) { return red(l) * cie_d65(l); }, {0.7, 0.2, 0.1}}};
+  for (const Case& c : cases) {
+    Uniforms u;
+    const int n = 20000;
+    double sum[3] = {0, 0, 0}, sum2[3] = {0, 0, 0};
+    for (int i = 0; i < n; ++i) {
+      const auto lambda = sample_wavelengths(u());
+      Rgb est{0, 0, 0};
+      for (double l : lambda) {
+        const Rgb F = film_rgb_weight(l);
+        for (int k = 0; k < 3; ++k) est[k] += 0.25 * c.L(l) * F[k] / visible_wavelength_pdf(l);
+      }
+      for (int k = 0; k < 3; ++k) sum[k] += est[k], sum2[k] += est[k] * est[k];
+    }
+    for (int k = 0; k < 3; ++k) {
+      const double mean = sum[k] / n, se = std::sqrt((sum2[k] / n - mean * mean) / (n - 1));
+      EXPECT_LT(std::fabs(mean - c.expect[k]), 4 * se + 2e-4) << c.name << " channel " << k << " mean " << mean
+                                                                << " se " << se;
+      EXPECT_LT(se, 0.02 * std::max(c.expect[k], 0.1)) << c.name;  // the estimator is a useful one
+    }
+  }
+}
+
+TEST(SpectrumDevice, DeviceFunctionsMatchTheHost) {
+  using namespace st_test;
+  const std::string dir = temp_dir("spectrum_device");
+  const nlohmann::json scene = {{"format", "spectrack-scene/1"},
+                                {"camera", {{"type", "orthographic"}, {"position", {0, 0, -3}}, {"look_at", {0, 0, 0}},
+                                            {"up", {0, 1, 0}}, {"height", 1.0}}},
+                                {"film", {{"width", 4}, {"height", 4}, {"spp", 1}}},
+                                {"lights", nlohmann::json::array()},
+                                {"media", nlohmann::json::array()}};
+  Renderer r(scene_from_json(scene, dir), quiet_options());
+  Probe probe(r);
+  const Rgb2SpecTable& t = rgb2spec_srgb();
+  Uniforms u;
+  std::vector<std::array<float, 4>> in;
+  // grays, black, white, dark colours below the first level, saturated and near-white ones, random
+  for (const Rgb c : {Rgb{0, 0, 0}, Rgb{1, 1, 1}, Rgb{0.18, 0.18, 0.18}, Rgb{1, 0, 0}, Rgb{0, 1, 0}, Rgb{0, 0, 1},
+                      Rgb{1, 1, 0}, Rgb{0.99, 0.98, 0.95}, Rgb{1e-6, 3e-7, 2e-6}, Rgb{0.3, 0.6, 0.6}})
+    in.push_back({float(c[0]), float(c[1]), float(c[2]), float(u())});
+  for (int i = 0; i < 4000; ++i) in.push_back({float(u()), float(u()), float(u()), float(u())});
+  const auto out = probe.spectrum(in);
+  ASSERT_EQ(out.size(), in.size());
+  double film_sum[3] = {0, 0, 0}, film_sum2[3] = {0, 0, 0}, expect_sum[3] = {0, 0, 0};
+  const int first_random = 10;
+  for (size_t i = 0; i < in.size(); ++i) {
+    const Rgb c{in[i][0], in[i][1], in[i][2]};
+    const RgbSpectrum h = rgb2spec(t, c);
+    const auto& d = out[i];
+    for (int k = 0; k < 3; ++k)
+      // float interpolation of neighbours up to ~100 in size (near white) against the host's double
+      ASSERT_NEAR(d.coeffs[k], h.c[k], 1e-4 * std::max(1.0, std::fabs(h.c[k]))) << "item " << i << " coefficient " << k;
+    ASSERT_NEAR(d.coeffs[3], h.scale, 1e-6 * std::max(1.0, h.scale)) << "item " << i;
+    const auto lambda = sample_wavelengths(in[i][3]);
+    Rgb film{0, 0, 0};
+    for (int k = 0; k < 4; ++k) {
+      ASSERT_NEAR(d.lambda[k], lambda[k], 2e-3) << "item " << i << " lane " << k;
+      const double l = d.lambda[k];  // the rest at the device's wavelength
+      ASSERT_NEAR(d.pdf[k], visible_wavelength_pdf(l), 1e-5 * visible_wavelength_pdf(l)) << "item " << i;
+      const RgbSpectrum hd{{d.coeffs[0], d.coeffs[1], d.coeffs[2]}, d.coeffs[3]};
+      ASSERT_NEAR(d.value[k], hd(l), 1e-5) << "item " << i << " lane " << k;
+      ASSERT_NEAR(d.value[k], h(l), 1e-4) << "item " << i << " lane " << k << " (host coefficients)";
+      const Rgb F = film_rgb_weight(l);
+      for (int j = 0; j < 3; ++j) film[j] += 0.25 * d.value[k] * F[j] / d.pdf[k];
+    }
+    for (int j = 0; j < 3; ++j) ASSERT_NEAR(d.film_rgb[j], film[j], 1e-4 * std::max(1.0, std::fabs(film[j]))) << "item " << i;
+    if (i >= size_t(first_random)) {
+      // the film's expectation: the 1 nm sum of s(lambda) F(lambda)
+      // (per item: estimate minus expectation, whose mean must be 0 within 4 SE)
+      const std::vector<Rgb>& F = film_rgb_weights();
+      for (int j = 0; j < 3; ++j) {
+        double expect = 0;
+        for (int s = 0; s < kCieSamples; ++s) expect += h(kCie1931[s].lambda_nm) * F[s][j];
+        const double diff = d.film_rgb[j] - expect;
+        film_sum[j] += diff;
+        film_sum2[j] += diff * diff;
+        expect_sum[j] += expect;
+      }
+    }
+  }
+  const double n = double(in.size() - first_random);
+  for (int j = 0; j < 3; ++j) {
+    const double mean = film_sum[j] / n, se = std::sqrt((film_sum2[j] / n - mean * mean) / (n - 1));
+    EXPECT_LT(std::fabs(mean), 4 * se) << "channel " << j << " (mean colour " << expect_sum[j] / n << ")";
+  }
 }
 
 }  // namespace

@@ -38,21 +38,68 @@ double RgbSpectrum::operator()(double lambda_nm) const {
   return scale * sigmoid(poly(c, u));
 }
 
-Rgb2SpecFit::Rgb2SpecFit() {
-  double norm = 0;
-  for (const CieSample& s : kCie1931) norm += s.y * cie_d65(s.lambda_nm);
-  for (const CieSample& s : kCie1931) {
-    const double d = cie_d65(s.lambda_nm) / norm;
-    u_.push_back((s.lambda_nm - kSpectrumLambdaMin) / (kSpectrumLambdaMax - kSpectrumLambdaMin));
-    w_.push_back(xyz_to_linear_srgb({s.x * d, s.y * d, s.z * d}));
+const std::vector<Rgb>& film_rgb_weights() {
+  static const std::vector<Rgb> weights = [] {
+    double norm = 0;  // sum of y-bar D65 over the 1 nm grid: D65 itself has Y = 1
+    for (const CieSample& s : kCie1931) norm += s.y * cie_d65(s.lambda_nm);
+    std::vector<Rgb> w;
+    Rgb white{0, 0, 0};
+    for (const CieSample& s : kCie1931) {
+      w.push_back(xyz_to_linear_srgb({s.x / norm, s.y / norm, s.z / norm}));
+      for (int k = 0; k < 3; ++k) white[k] += w.back()[k] * cie_d65(s.lambda_nm);
+    }
+    // White balance: the sRGB matrix is derived from D65's standard chromaticity (0.3127,
+    // 0.3290); the tabulated D65 seen by the 1 nm observer sits 2e-5 away, so D65 itself would
+    // come out as (1.00016, 0.99998, 0.99976). Scaling each channel by the inverse maps it to
+    // (1, 1, 1) exactly, so a white reflectance under D65 is white and reachable by a spectrum <= 1.
+    for (auto& v : w)
+      for (int k = 0; k < 3; ++k) v[k] /= white[k];
+    return w;
+  }();
+  return weights;
+}
+
+Rgb film_rgb_weight(double lambda_nm) {
+  const std::vector<Rgb>& w = film_rgb_weights();
+  if (!(lambda_nm >= kSpectrumLambdaMin && lambda_nm <= kSpectrumLambdaMax)) return {0, 0, 0};
+  const double f = lambda_nm - kSpectrumLambdaMin;
+  const int i = std::min(static_cast<int>(f), kCieSamples - 2);
+  const double t = f - i;
+  return {w[i][0] * (1 - t) + w[i + 1][0] * t, w[i][1] * (1 - t) + w[i + 1][1] * t,
+          w[i][2] * (1 - t) + w[i + 1][2] * t};
+}
+
+// pbrt-v4's visible-wavelength importance density (Radziszewski et al. 2009's fit, as pbrt-v4
+// SampleVisibleWavelengths / VisibleWavelengthsPdf): p(lambda) = 0.0039398042 /
+// cosh^2(0.0072 (lambda - 538)) on [360, 830] nm, sampled by inverting its CDF in closed form.
+double visible_wavelength_pdf(double lambda_nm) {
+  if (!(lambda_nm >= kSpectrumLambdaMin && lambda_nm <= kSpectrumLambdaMax)) return 0.0;
+  const double c = std::cosh(0.0072 * (lambda_nm - 538.0));
+  return 0.0039398042 / (c * c);
+}
+
+double sample_visible_wavelength(double u) {
+  return std::clamp(538.0 - 138.888889 * std::atanh(0.85691062 - 1.82750197 * u), kSpectrumLambdaMin,
+                    kSpectrumLambdaMax);
+}
+
+std::array<double, 4> sample_wavelengths(double u) {
+  std::array<double, 4> lambda;
+  for (int i = 0; i < 4; ++i) {
+    double ui = u + 0.25 * i;
+    if (ui >= 1) ui -= 1;
+    lambda[i] = sample_visible_wavelength(ui);
   }
-  // White balance: the sRGB matrix is derived from D65's standard chromaticity (0.3127, 0.3290);
-  // the tabulated D65 seen by the 1 nm observer sits 2e-5 away, so a flat spectrum of 1 would
-  // come out as (1.00016, 0.99998, 0.99976). Scaling each channel by the inverse maps it to
-  // (1, 1, 1) exactly, so a white colour is reachable by a reflectance <= 1 and is flat.
-  const Rgb white = rgb_of(RgbSpectrum{{0, 0, 0}, 2});
-  for (auto& w : w_)
-    for (int k = 0; k < 3; ++k) w[k] /= white[k];
+  return lambda;
+}
+
+Rgb2SpecFit::Rgb2SpecFit() {
+  const std::vector<Rgb>& film = film_rgb_weights();
+  for (int i = 0; i < kCieSamples; ++i) {
+    const double lambda = kCie1931[i].lambda_nm, d = cie_d65(lambda);
+    u_.push_back((lambda - kSpectrumLambdaMin) / (kSpectrumLambdaMax - kSpectrumLambdaMin));
+    w_.push_back({film[i][0] * d, film[i][1] * d, film[i][2] * d});
+  }
 }
 
 Rgb Rgb2SpecFit::rgb_of(const RgbSpectrum& s) const {

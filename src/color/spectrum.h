@@ -68,8 +68,23 @@ struct RgbSpectrum {
   double operator()(double lambda_nm) const;
 };
 
-// Finds the coefficients of colours; the weights W(lambda) = M (x-bar, y-bar, z-bar) D65 / sum(y-bar D65)
-// (M: XYZ to linear sRGB) are computed once per fitter.
+// The film of spectral mode: linear sRGB = integral of L(lambda) F(lambda) d lambda, with
+// F = M (x-bar, y-bar, z-bar) / sum(y-bar D65), white-balanced so that D65 itself is (1, 1, 1)
+// (see White balance above). film_rgb_weights holds F on the observer's 1 nm grid (360..830 nm,
+// kCieSamples entries); film_rgb_weight interpolates it linearly (0 outside).
+const std::vector<Rgb>& film_rgb_weights();
+Rgb film_rgb_weight(double lambda_nm);
+
+// Four wavelengths per path (pbrt-v4's scheme): a hero wavelength from u, three more from
+// u + 1/4, u + 1/2, u + 3/4 (wrapped), each through the visible-wavelength importance density
+// p(lambda) = 0.0039398042 / cosh^2(0.0072 (lambda - 538 nm)) on [360, 830] nm; an estimate
+// of the film is (1/4) sum_i L(lambda_i) F(lambda_i) / p(lambda_i).
+double visible_wavelength_pdf(double lambda_nm);
+double sample_visible_wavelength(double u);
+std::array<double, 4> sample_wavelengths(double u);
+
+// Finds the coefficients of colours; the weights W(lambda) = F(lambda) D65(lambda) on the 1 nm
+// grid are computed once per fitter.
 class Rgb2SpecFit {
  public:
   Rgb2SpecFit();

@@ -6,13 +6,14 @@
 #include <algorithm>
 #include <functional>
 
+#include "color/spectrum.h"
 #include "render/device_scene.h"
 
 namespace spectrack {
 
 Probe::Probe(Renderer& renderer) : renderer_(renderer) {
   DeviceScene& d = renderer_.device_scene();
-  ProgramBuild pb = build_program(d.ctx, d.dev, assemble_kernel_source(d.defines, {"probe.cl"}), "-cl-std=CL1.2", true);
+  ProgramBuild pb = build_program(d.ctx, d.dev, assemble_kernel_source(d.defines, {"spectrum.h", "probe.cl"}), "-cl-std=CL1.2", true);
   launcher_ = std::make_unique<KernelLauncher>(d.queue, pb.program);
 }
 Probe::~Probe() = default;
@@ -196,6 +197,45 @@ std::vector<std::array<uint32_t, 4>> Probe::philox(
   ST_CL_CHECK(ds().queue.enqueueReadBuffer(b_io, CL_TRUE, 0, io.size() * sizeof(cl_uint4), io.data()), "read probe philox");
   launcher_->collect_profiling();
   for (size_t i = 0; i < in.size(); ++i) out[i] = {io[2 * i].s[0], io[2 * i].s[1], io[2 * i].s[2], io[2 * i].s[3]};
+  return out;
+}
+
+std::vector<Probe::SpectrumItem> Probe::spectrum(const std::vector<std::array<float, 4>>& rgb_u) {
+  std::vector<SpectrumItem> out(rgb_u.size());
+  if (rgb_u.empty()) return out;
+  const Rgb2SpecTable& t = rgb2spec_srgb();
+  std::vector<float> table(t.z.begin(), t.z.end());
+  table.insert(table.end(), t.coeffs.begin(), t.coeffs.end());
+  std::vector<st_float4> film;
+  for (const Rgb& w : film_rgb_weights()) film.push_back(st_float4{float(w[0]), float(w[1]), float(w[2]), 0.0f});
+  cl::Buffer b_table = ds().buffer(CL_MEM_READ_ONLY, table.size() * 4, table.data(), "probe rgb2spec table");
+  cl::Buffer b_film = ds().buffer(CL_MEM_READ_ONLY, film.size() * 16, film.data(), "probe film weights");
+  cl::Buffer b_in = ds().buffer(CL_MEM_READ_ONLY, rgb_u.size() * 16, rgb_u.data(), "probe spectrum input");
+  cl::Buffer b_out = ds().buffer(CL_MEM_WRITE_ONLY, rgb_u.size() * 64, nullptr, "probe spectrum output");
+  cl::Buffer b_spec = ds().buffer(CL_MEM_WRITE_ONLY, rgb_u.size() * 16, nullptr, "probe spectrum values");
+  cl::Kernel& k = launcher_->kernel("k_probe_spectrum");
+  k.setArg(0, b_table);
+  k.setArg(1, cl_int(t.res));
+  k.setArg(2, b_film);
+  k.setArg(3, b_in);
+  k.setArg(4, b_out);
+  k.setArg(5, b_spec);
+  k.setArg(6, cl_uint(rgb_u.size()));
+  launcher_->launch("k_probe_spectrum", rgb_u.size());
+  std::vector<std::array<float, 16>> o(rgb_u.size());
+  std::vector<std::array<float, 4>> sp(rgb_u.size());
+  ST_CL_CHECK(ds().queue.enqueueReadBuffer(b_out, CL_TRUE, 0, o.size() * 64, o.data()), "read probe spectrum");
+  ST_CL_CHECK(ds().queue.enqueueReadBuffer(b_spec, CL_TRUE, 0, sp.size() * 16, sp.data()), "read probe spectrum values");
+  launcher_->collect_profiling();
+  for (size_t i = 0; i < o.size(); ++i) {
+    for (int k2 = 0; k2 < 4; ++k2) {
+      out[i].coeffs[k2] = o[i][k2];
+      out[i].lambda[k2] = o[i][4 + k2];
+      out[i].pdf[k2] = o[i][8 + k2];
+      out[i].value[k2] = sp[i][k2];
+    }
+    for (int k2 = 0; k2 < 3; ++k2) out[i].film_rgb[k2] = o[i][12 + k2];
+  }
   return out;
 }
 

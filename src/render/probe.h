@@ -44,6 +44,14 @@ class Probe {
   // (absorption score with Le = 1 xyz, escaped flag). channel -1 = rgb.
   void albedo(std::array<float, 3> o, int channel, int n, std::vector<std::array<float, 4>>* scatter,
               std::vector<std::array<float, 4>>* absorb);
+  // Spectral mode's device functions (kernels/spectrum.h) on items (r, g, b, u): the colour's
+  // table coefficients (c0, c1, c2, scale), the four wavelengths of u and their pdfs, the colour's
+  // spectrum at them, and the film's linear sRGB of that spectrum taken as a radiance.
+  struct SpectrumItem {
+    std::array<float, 4> coeffs, lambda, pdf, value;
+    std::array<float, 3> film_rgb;
+  };
+  std::vector<SpectrumItem> spectrum(const std::vector<std::array<float, 4>>& rgb_u);
   // Phase sampling around +z: per item (cos theta, pdf, phase value, |wi| - 1).
   std::vector<std::array<float, 4>> phase(int type, float g, int n);
   // Transmittance from o along d to the end of every medium, per item and channel, by the

@@ -1,0 +1,104 @@
+/* spectrum.h: spectral mode's device functions (issue 15): four wavelengths per path, an RGB
+ * colour's smooth spectrum at them, and the film's linear sRGB from them. The device twin of
+ * src/color/spectrum.h (read it first); tests/test_spectrum.cpp holds the two to each other.
+ *
+ * Wavelengths: pbrt-v4's scheme, a hero from u and three more from u + 1/4, 1/2, 3/4 (wrapped),
+ * each through the visible-wavelength density p(lambda) = 0.0039398042 / cosh^2(0.0072 (lambda -
+ * 538)) on [360, 830] nm, inverted in closed form. Spectra: the Jakob-Hanika sigmoid polynomial
+ * in a float4 (c0, c1, c2, scale), s(lambda) = scale S(c0 u^2 + c1 u + c2), u = (lambda - 360) / 470;
+ * rgb2spec_lookup reads the build-time table (z levels, then 9 res^3 coefficients, as
+ * serialize_rgb2spec_table lays them out after its header) exactly as the host's rgb2spec does.
+ * Film: linear sRGB = (1/4) sum_i L_i F(lambda_i) / p(lambda_i), with F the white-balanced
+ * observer weights on the 1 nm grid (film_rgb_weights), interpolated linearly.
+ * Not yet part of the renderer's program: the probe program carries it until spectral mode lands. */
+#ifndef SPECTRACK_SPECTRUM_H
+#define SPECTRACK_SPECTRUM_H
+
+#define ST_LAMBDA_MIN 360.0f
+#define ST_LAMBDA_MAX 830.0f
+
+inline float visible_wavelength_pdf(float lambda) {
+  if (!(lambda >= ST_LAMBDA_MIN && lambda <= ST_LAMBDA_MAX)) return 0.0f;
+  float c = cosh(0.0072f * (lambda - 538.0f));
+  return 0.0039398042f / (c * c);
+}
+
+inline float sample_visible_wavelength(float u) {
+  return clamp(538.0f - 138.888889f * atanh(0.85691062f - 1.82750197f * u), ST_LAMBDA_MIN, ST_LAMBDA_MAX);
+}
+
+/* The four wavelengths of a path from one uniform; *pdf gets each one's density. */
+inline float4 sample_wavelengths(float u, float4* pdf) {
+  float4 ui = (float4)(u) + (float4)(0.0f, 0.25f, 0.5f, 0.75f);
+  ui = select(ui, ui - 1.0f, isgreaterequal(ui, (float4)(1.0f)));
+  float4 lambda = (float4)(sample_visible_wavelength(ui.x), sample_visible_wavelength(ui.y),
+                           sample_visible_wavelength(ui.z), sample_visible_wavelength(ui.w));
+  *pdf = (float4)(visible_wavelength_pdf(lambda.x), visible_wavelength_pdf(lambda.y),
+                  visible_wavelength_pdf(lambda.z), visible_wavelength_pdf(lambda.w));
+  return lambda;
+}
+
+/* s(lambda) per lane; S is 0 or 1 where x^2 overflows. */
+inline float4 rgb2spec_eval(float4 coeffs, float4 lambda) {
+  float4 u = (lambda - ST_LAMBDA_MIN) * (1.0f / (ST_LAMBDA_MAX - ST_LAMBDA_MIN));
+  float4 x = mad(mad((float4)(coeffs.x), u, (float4)(coeffs.y)), u, (float4)(coeffs.z));
+  float4 x2 = x * x;
+  float4 s = 0.5f + 0.5f * x / sqrt(1.0f + x2);
+  s = select(s, select((float4)(0.0f), (float4)(1.0f), isgreater(x, (float4)(0.0f))), isinf(x2));
+  return coeffs.w * s;
+}
+
+/* The coefficients (c0, c1, c2, scale) of a colour in [0, 1]^3 (clamped; NaN reads as 0). */
+inline float4 rgb2spec_lookup(__global const float* table, int res, float3 rgb) {
+  rgb = fmin(fmax(rgb, (float3)(0.0f)), (float3)(1.0f));
+  if (rgb.x == rgb.y && rgb.y == rgb.z) return (float4)(0.0f, 0.0f, 0.0f, 2.0f * rgb.x); /* flat */
+  int l = rgb.x >= rgb.y ? (rgb.x >= rgb.z ? 0 : 2) : (rgb.y >= rgb.z ? 1 : 2);
+  float z = l == 0 ? rgb.x : (l == 1 ? rgb.y : rgb.z);
+  float a = l == 0 ? rgb.y : (l == 1 ? rgb.z : rgb.x); /* component l + 1 */
+  float b = l == 0 ? rgb.z : (l == 1 ? rgb.x : rgb.y); /* component l + 2 */
+  float x = a / z, y = b / z;
+  __global const float* zs = table;
+  float scale = 1.0f;
+  if (z < zs[1]) { /* darker than the first level: that level's spectrum, scaled */
+    scale = z / zs[1];
+    z = zs[1];
+  }
+  int lo = 1, hi = res - 2; /* the last level <= z, within [1, res - 2] */
+  while (lo < hi) {
+    int mid = (lo + hi + 1) / 2;
+    if (zs[mid] <= z) lo = mid;
+    else hi = mid - 1;
+  }
+  int zi = lo;
+  float tz = clamp((z - zs[zi]) / (zs[zi + 1] - zs[zi]), 0.0f, 1.0f);
+  float xf = x * (float)(res - 1), yf = y * (float)(res - 1);
+  int xi = min((int)xf, res - 2), yi = min((int)yf, res - 2);
+  float tx = xf - (float)xi, ty = yf - (float)yi;
+  __global const float* co = table + res;
+  float3 c = (float3)(0.0f);
+  for (int dz = 0; dz < 2; ++dz)
+    for (int dy = 0; dy < 2; ++dy)
+      for (int dx = 0; dx < 2; ++dx) {
+        float w = (dz ? tz : 1.0f - tz) * (dy ? ty : 1.0f - ty) * (dx ? tx : 1.0f - tx);
+        size_t i = ((((size_t)l * res + zi + dz) * res + yi + dy) * res + xi + dx) * 3;
+        c += w * (float3)(co[i], co[i + 1], co[i + 2]);
+      }
+  return (float4)(c, scale);
+}
+
+/* F(lambda): the film's linear sRGB weights, linear between the 1 nm samples, 0 outside. */
+inline float3 film_weight(__global const float4* F, float lambda) {
+  if (!(lambda >= ST_LAMBDA_MIN && lambda <= ST_LAMBDA_MAX)) return (float3)(0.0f);
+  float f = lambda - ST_LAMBDA_MIN;
+  int i = min((int)f, 469);
+  return mix(F[i].xyz, F[i + 1].xyz, f - (float)i);
+}
+
+/* One sample's linear sRGB from the radiance L at the path's four wavelengths. */
+inline float3 film_rgb(__global const float4* F, float4 L, float4 lambda, float4 pdf) {
+  float4 w = select(L / pdf, (float4)(0.0f), isequal(pdf, (float4)(0.0f)));
+  return 0.25f * (w.x * film_weight(F, lambda.x) + w.y * film_weight(F, lambda.y) + w.z * film_weight(F, lambda.z) +
+                  w.w * film_weight(F, lambda.w));
+}
+
+#endif
