@@ -22,9 +22,9 @@
 // neighbour's coefficients (the first from the gray of the same z, by continuation), so
 // neighbouring entries lie on one branch of solutions and interpolate sensibly. Lookups
 // (rgb2spec) interpolate the coefficients trilinearly, as a kernel would: at res 64 the colour
-// comes back within 6e-4 for max component <= 0.8 and 9e-4 above on a 21^3 grid, but up to ~1e-2
-// for colours within a few percent of white, where the spectra saturate towards 1 and the
-// coefficients grow fast. Scene constants are upsampled once on the host (rgb2spec_fitted): the
+// comes back within 2e-4 on average, at most 7e-4 for largest component < 0.5, 1.9e-3 below 0.97
+// and 5.5e-3 above, where the spectra saturate towards 1 and the coefficients grow fast
+// (bench/rgb2spec_accuracy, bench/RESULTS.md "RGB upsampling"). Scene constants are upsampled once on the host (rgb2spec_fitted): the
 // table's coefficients refined by the fitter, exact to 1e-7. Two cases bypass the table, both
 // exact: gray colours (r = g = b) are flat, c = 0 and scale = 2 r; colours darker than the first
 // nonzero z level are that level's spectrum scaled down (RGB is linear in the spectrum).
@@ -116,8 +116,8 @@ std::vector<char> serialize_rgb2spec_table(const Rgb2SpecTable& t);
 bool parse_rgb2spec_table(const void* bytes, std::size_t size, Rgb2SpecTable& t, std::string* error);
 
 // The spectrum of a colour in [0, 1]^3 (components outside are clamped) from the table alone,
-// as a kernel would look it up: within ~1e-3 of the colour in most of the cube, up to ~1e-2 near
-// white (bench/RESULTS.md "RGB upsampling" has the measured figures).
+// as a kernel would look it up: within 2e-3 of the colour below a largest component of 0.97,
+// 5.5e-3 above (bench/RESULTS.md "RGB upsampling" has the measured figures).
 RgbSpectrum rgb2spec(const Rgb2SpecTable& t, const Rgb& rgb);
 // The same refined by the fitter from the table's coefficients: exact to the fit's 1e-7 (scene
 // constants are upsampled this way, once per colour on the host).
