@@ -16,6 +16,7 @@
 
 #define ST_LAMBDA_MIN 360.0f
 #define ST_LAMBDA_MAX 830.0f
+#define ST_FILM_SAMPLES 471 /* F on the observer's 1 nm grid, 360..830 nm (kCieSamples) */
 
 inline float visible_wavelength_pdf(float lambda) {
   if (!(lambda >= ST_LAMBDA_MIN && lambda <= ST_LAMBDA_MAX)) return 0.0f;
@@ -41,9 +42,12 @@ inline float4 sample_wavelengths(float u, float4* pdf) {
 /* s(lambda) per lane; S is 0 or 1 where x^2 overflows. */
 inline float4 rgb2spec_eval(float4 coeffs, float4 lambda) {
   float4 u = (lambda - ST_LAMBDA_MIN) * (1.0f / (ST_LAMBDA_MAX - ST_LAMBDA_MIN));
-  float4 x = mad(mad((float4)(coeffs.x), u, (float4)(coeffs.y)), u, (float4)(coeffs.z));
+  /* not mad: its rounding is the device's choice */
+  float4 x = ((float4)(coeffs.x) * u + (float4)(coeffs.y)) * u + (float4)(coeffs.z);
   float4 x2 = x * x;
-  float4 s = 0.5f + 0.5f * x / sqrt(1.0f + x2);
+  float4 r = sqrt(1.0f + x2);
+  /* 1/2 + x / (2 r) without cancellation for x << 0, as the host's sigmoid */
+  float4 s = select(1.0f - 0.5f / (r * (r + x)), 0.5f / (r * (r - x)), isless(x, (float4)(0.0f)));
   s = select(s, select((float4)(0.0f), (float4)(1.0f), isgreater(x, (float4)(0.0f))), isinf(x2));
   return coeffs.w * s;
 }
@@ -90,7 +94,7 @@ inline float4 rgb2spec_lookup(__global const float* table, int res, float3 rgb) 
 inline float3 film_weight(__global const float4* F, float lambda) {
   if (!(lambda >= ST_LAMBDA_MIN && lambda <= ST_LAMBDA_MAX)) return (float3)(0.0f);
   float f = lambda - ST_LAMBDA_MIN;
-  int i = min((int)f, 469);
+  int i = min((int)f, ST_FILM_SAMPLES - 2);
   return mix(F[i].xyz, F[i + 1].xyz, f - (float)i);
 }
 

@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # sanitize.sh: builds spectrack_tests and spectrack with AddressSanitizer + UndefinedBehaviorSanitizer
 # (-DSPECTRACK_SANITIZE=ON, RelWithDebInfo) in build-asan/ and runs, through ctest:
-#   1. the host-side suites (scene loader and volume loader: no OpenCL device), which must be clean
+#   1. the host-side suites (scene loader, volume loader, RGB upsampling: no OpenCL device), which must be clean
 #      with no suppression at all;
 #   2. the kernel suites on PoCL (Render, ProfileVolume, Estimators, Volume = device lookups, Cli*
-#      = the sanitized CLI binary end to end, OpenCL = program build and kernel cache). PoCL works
+#      = the sanitized CLI binary end to end, OpenCL = program build and kernel cache, SpectrumDevice =
+#      spectral mode's device functions against the host). PoCL works
 #      under ASan + UBSan with leak detection on, but its kernel compiler (LLVM) never frees its
 #      state: tests/lsan.supp suppresses leaks inside libpocl/libLLVM (see there), and
 #      tests/asan.supp lists the known product bugs that are suppressed until fixed. The Stress
@@ -32,7 +33,7 @@ export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 # The files holding these suites are the sanitized binary's sources (CMakeLists.txt, SPECTRACK_SANITIZE).
 HOST='^(SceneTest|SceneNames|Spectrum|VolumeLoad|VolumeErrors|VolumeSample|VolumeMajorant|VolumeNanoVdb)\.'
 # the film layers' quick tests (EXR channels, merging every layer, scene fields) beside them
-DEVICE='^((Render|ProfileVolume|Estimators|Volume|CliSceneErrors|CliFlags|CliDevices|CliRender|CliInterrupt|CliHostileImages|CliHostileRadiance|CliHostileFiles|CliHostileOutputs|CliShards|CliShardFlags|CliMerge|CliMultiDevice|OpenCL)\.|Aov\.(ShardsAndTiles|ExrChannels|SceneFields|PassesOnATransparentFilm|AlbedoAndDepthLayersThroughExr))'
+DEVICE='^((Render|ProfileVolume|Estimators|Volume|CliSceneErrors|CliFlags|CliDevices|CliRender|CliInterrupt|CliHostileImages|CliHostileRadiance|CliHostileFiles|CliHostileOutputs|CliShards|CliShardFlags|CliMerge|CliMultiDevice|OpenCL|SpectrumDevice)\.|Aov\.(ShardsAndTiles|ExrChannels|SceneFields|PassesOnATransparentFilm|AlbedoAndDepthLayersThroughExr))'
 cd build-asan
 status=0
 start=$(date +%s)

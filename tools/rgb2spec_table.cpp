@@ -9,13 +9,16 @@
 // the table in the format of serialize_rgb2spec_table. No table is copied from elsewhere; the
 // output depends only on the CIE data and this code. It is written to OUT.tmp and renamed, so an
 // interrupted build never leaves a partial table.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
 #include <fstream>
+#include <stdexcept>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "color/spectrum.h"
 
@@ -26,7 +29,7 @@ int main(int argc, char** argv) {
   }
   const std::string out = argv[1];
   int res = 64;
-  int threads = static_cast<int>(std::thread::hardware_concurrency());
+  int threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
     if ((a == "--res" || a == "--threads") && i + 1 < argc) {
@@ -44,11 +47,12 @@ int main(int argc, char** argv) {
   }
   try {
     const auto t0 = std::chrono::steady_clock::now();
-    const spectrack::Rgb2SpecTable t = spectrack::make_rgb2spec_table(res, std::max(1, threads));
+    const spectrack::Rgb2SpecTable t = spectrack::make_rgb2spec_table(res, threads);
     const std::vector<char> bytes = spectrack::serialize_rgb2spec_table(t);
     {
       std::ofstream f(out + ".tmp", std::ios::binary | std::ios::trunc);
       f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+      f.close();
       if (!f) throw std::runtime_error("cannot write " + out + ".tmp");
     }
     if (std::rename((out + ".tmp").c_str(), out.c_str()) != 0) throw std::runtime_error("cannot rename to " + out);

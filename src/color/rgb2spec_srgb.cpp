@@ -4,6 +4,7 @@
 // file and this file pulls it into .rodata with the assembler's .incbin (GCC and Clang on ELF), so
 // no multi-megabyte array literal has to be compiled; RGB2SPEC_BIN is its path (CMakeLists.txt,
 // which also makes this object depend on it). It is parsed and checked once, at first use.
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 
@@ -30,9 +31,10 @@ const Rgb2SpecTable& rgb2spec_srgb() {
   static const Rgb2SpecTable table = [] {
     Rgb2SpecTable t;
     std::string error;
-    if (!parse_rgb2spec_table(spectrack_rgb2spec_srgb_begin,
-                              static_cast<std::size_t>(spectrack_rgb2spec_srgb_end - spectrack_rgb2spec_srgb_begin), t,
-                              &error))
+    // two symbols, not one array: compare addresses, not pointers
+    const std::size_t size = reinterpret_cast<std::uintptr_t>(spectrack_rgb2spec_srgb_end) -
+                             reinterpret_cast<std::uintptr_t>(spectrack_rgb2spec_srgb_begin);
+    if (!parse_rgb2spec_table(spectrack_rgb2spec_srgb_begin, size, t, &error))
       throw std::runtime_error("the embedded " + error + " (rebuild: " RGB2SPEC_BIN ")");
     return t;
   }();

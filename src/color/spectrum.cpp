@@ -24,7 +24,10 @@ double cie_d65(double lambda_nm) {
 double sigmoid(double x) {
   if (std::isinf(x)) return x > 0 ? 1.0 : 0.0;
   if (std::fabs(x) > 1e150) return x > 0 ? 1.0 : 0.0;  // 1 + x^2 would overflow; S is 1 or 0 to double precision
-  return 0.5 + 0.5 * x / std::sqrt(1.0 + x * x);
+  // 1/2 + x / (2 r) with r = sqrt(1 + x^2) cancels for x << 0 (dark spectra, S ~ 1 / (4 x^2));
+  // 1 + x / r = 1 / (r (r - x)) there keeps full relative precision
+  const double r = std::sqrt(1.0 + x * x);
+  return x < 0 ? 0.5 / (r * (r - x)) : 1.0 - 0.5 / (r * (r + x));
 }
 
 namespace {
@@ -294,6 +297,10 @@ Rgb2SpecTable make_rgb2spec_table(int res, int threads) {
   return t;
 }
 
+#if !defined(__BYTE_ORDER__) || __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
+#error "the rgb2spec table file is little endian: add byte swapping for this target"
+#endif
+
 namespace {
 constexpr char kMagic[] = "spectrack-rgb2spec 1\n";
 constexpr std::size_t kMagicSize = sizeof kMagic - 1;
@@ -403,6 +410,9 @@ RgbSpectrum rgb2spec_fitted(const Rgb2SpecFit& f, const Rgb2SpecTable& t, const 
 }
 
 RgbSpectrum rgb2spec_unbounded(const Rgb2SpecFit& f, const Rgb2SpecTable& t, const Rgb& rgb) {
+  for (double v : rgb)
+    if (!std::isfinite(v) || !std::isfinite(2 * v))
+      throw std::domain_error("rgb2spec_unbounded: a component is not finite or above half the largest double");
   const double m = std::max({rgb[0], rgb[1], rgb[2]});
   if (!(m > 0)) return RgbSpectrum{{0, 0, 0}, 0};
   const double scale = 2 * m;

@@ -24,10 +24,12 @@
 // (rgb2spec) interpolate the coefficients trilinearly, as a kernel would: at res 64 the colour
 // comes back within 2e-4 on average, at most 7e-4 for largest component < 0.5, 1.9e-3 below 0.97
 // and 5.5e-3 above, where the spectra saturate towards 1 and the coefficients grow fast
-// (bench/rgb2spec_accuracy, bench/RESULTS.md "RGB upsampling"). Scene constants are upsampled once on the host (rgb2spec_fitted): the
-// table's coefficients refined by the fitter, exact to 1e-7. Two cases bypass the table, both
-// exact: gray colours (r = g = b) are flat, c = 0 and scale = 2 r; colours darker than the first
-// nonzero z level are that level's spectrum scaled down (RGB is linear in the spectrum).
+// (bench/rgb2spec_accuracy, bench/RESULTS.md "RGB upsampling"). Scene constants are upsampled
+// once on the host (rgb2spec_fitted): the table's coefficients refined by the fitter, exact to
+// 1e-7. Gray colours (r = g = b) bypass the table exactly: flat, c = 0 and scale = 2 r. Colours
+// darker than the first nonzero z level (1.7e-6) read that level, scaled down (exact in
+// brightness: RGB is linear in the spectrum); the fit's absolute 1e-7 leaves their hue
+// approximate, which at that brightness nothing can see.
 // Unbounded colours (scattering coefficients, radiances) are upsampled as pbrt-v4's
 // RGBUnboundedSpectrum: divided by twice their largest component, then scaled back
 // (rgb2spec_unbounded).
@@ -59,7 +61,7 @@ double cie_d65(double lambda_nm);  // linear between the table's samples, 0 outs
 constexpr double kSpectrumLambdaMin = 360.0;  // nm: the observer table's range, the model's u = 0..1
 constexpr double kSpectrumLambdaMax = 830.0;
 
-double sigmoid(double x);  // S(x) above; 0 and 1 at -inf and +inf
+double sigmoid(double x);  // S(x) above, in a form without cancellation; 0 and 1 at -inf and +inf
 
 // s(lambda) = scale * S(c0 u^2 + c1 u + c2)
 struct RgbSpectrum {
@@ -124,7 +126,8 @@ RgbSpectrum rgb2spec(const Rgb2SpecTable& t, const Rgb& rgb);
 RgbSpectrum rgb2spec_fitted(const Rgb2SpecFit& f, const Rgb2SpecTable& t, const Rgb& rgb);
 // The spectrum of a colour with components >= 0 of any size (a scattering coefficient, a
 // radiance): scale 2 max(rgb) times the fitted spectrum of rgb / (2 max(rgb)), whose largest
-// component is 1/2 (pbrt-v4's RGBUnboundedSpectrum).
+// component is 1/2 (pbrt-v4's RGBUnboundedSpectrum). Throws std::domain_error on a non-finite
+// component (callers validate scene values first).
 RgbSpectrum rgb2spec_unbounded(const Rgb2SpecFit& f, const Rgb2SpecTable& t, const Rgb& rgb);
 
 // The table generated at build time for linear sRGB under D65 (tools/rgb2spec_table.cpp), parsed
