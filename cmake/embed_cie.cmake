@@ -37,5 +37,7 @@ append_table(${CSV} 4 360 1 471 "lambda,x,y,z")
 string(APPEND body "};\nconst IlluminantSample kCieD65[kCieD65Samples] = {\n")
 append_table(${D65_CSV} 2 300 5 107 "lambda,S")
 string(APPEND body "};\n}  // namespace spectrack\n")
+# Always replaced (not ONLY_IF_DIFFERENT): an output left older than its changed script or CSV
+# would make every target that lists it run this again on every build.
 file(WRITE ${OUT}.tmp "${body}")
-file(COPY_FILE ${OUT}.tmp ${OUT} ONLY_IF_DIFFERENT)
+file(RENAME ${OUT}.tmp ${OUT})
