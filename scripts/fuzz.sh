@@ -62,6 +62,10 @@ for h in "${HARNESSES[@]}"; do
   shopt -u nullglob
   if [ $rc -ne 0 ] || [ ${#found[@]} -gt 0 ]; then
     failed=1
+    # The tail above holds only the shadow-memory legend: print the report and its stacks too.
+    echo "fuzz: $h report:"
+    grep -m 1 -A 40 -E 'ERROR: |runtime error|==[0-9]+== ?ERROR|deadly signal|uncaught|contract' "$work/$name.log" |
+      grep -v -E '^ *(Shadow|0x[0-9a-f]+:|=>0x)' || true
     mkdir -p "build-fuzz/findings/$name"
     for f in "${found[@]}"; do
       cp "$f" "build-fuzz/findings/$name/"

@@ -641,6 +641,35 @@ TEST(VolumeNanoVdb, CodecsRoundTripAndCorruption) {
   }
 }
 
+// A BLOSC chunk whose byte count is smaller than blosc's 16-byte header is refused before its
+// header is read (fuzz_nvdb found a 1-byte chunk whose header was read 12 bytes past the buffer;
+// ASan reports the old code here).
+TEST(VolumeNanoVdb, ShortBloscChunkRefused) {
+  std::vector<openvdb::Coord> hot;
+  auto grid = shell_and_sheet(&hot);
+  const auto handle = nanovdb::openToNanoVDB(*grid, nanovdb::StatsMode::Default, nanovdb::ChecksumMode::Full);
+  TempFile blosc("blosc.nvdb");
+  write_nvdb(blosc.path, handle, nanovdb::io::Codec::BLOSC);
+  std::string bytes;
+  {
+    std::ifstream is(blosc.path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(is), {});
+  }
+  // The first chunk's uint64 byte count follows the 16-byte segment header, the 176-byte grid
+  // header and the name "density".
+  const size_t chunk_at = 16 + 176 + 8;
+  ASSERT_GT(bytes.size(), chunk_at + 8 + 16);
+  for (uint64_t n : {uint64_t(1), uint64_t(4), uint64_t(15)}) {
+    std::string shortened = bytes;
+    std::memcpy(&shortened[chunk_at], &n, 8);
+    TempFile t("short_chunk.nvdb");
+    std::ofstream(t.path, std::ios::binary) << shortened;
+    const std::string msg = error_of([&] { spectrack::load_float_grid(t.path, "density", -1, "test"); });
+    EXPECT_TRUE(contains(msg, "shorter than its header")) << "chunk of " << n << " bytes: " << msg;
+    EXPECT_TRUE(contains(msg, t.path)) << msg;
+  }
+}
+
 TEST(VolumeNanoVdb, ErrorsMatchVdb) {
   const std::string path = data_path("derived/densityAndHeat.nvdb");
   REQUIRE_FILE(path);

@@ -101,10 +101,13 @@ std::vector<Entry> nvdb_entries(const std::string& file, const Fail& fail) {
 // Checks a blosc chunk header (16 bytes: version, versionlz, flags, typesize, nbytes, blocksize,
 // cbytes) so that blosc never reads past the chunk or writes past the expected size.
 void check_blosc_header(const char* p, uint64_t csize, uint64_t expect, const Fail& fail) {
+  // The size comes first: a chunk shorter than the header must not have its header read
+  // (fuzz_nvdb: a 1-byte chunk read 12 bytes past it).
+  if (csize < 16) fail("corrupt NanoVDB file: BLOSC chunk of " + std::to_string(csize) + " bytes, shorter than its header");
   uint32_t nbytes, cbytes;
   std::memcpy(&nbytes, p + 4, 4);
   std::memcpy(&cbytes, p + 12, 4);
-  if (csize < 16 || cbytes != csize || nbytes != expect) fail("corrupt NanoVDB file: bad BLOSC chunk header");
+  if (cbytes != csize || nbytes != expect) fail("corrupt NanoVDB file: bad BLOSC chunk header");
 }
 
 // Checks that the tree, the root tile table and the node arrays lie inside the grid buffer
