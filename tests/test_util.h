@@ -126,6 +126,21 @@ inline double max_z(const spectrack::RenderResult& a, const spectrack::RenderRes
   return worst;
 }
 
+// Runs fn and returns the spectrack::Error message; fails the test on success or other throws.
+template <class Fn>
+std::string error_of(Fn fn) {
+  try {
+    fn();
+  } catch (const spectrack::Error& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "expected spectrack::Error, got another exception: " << e.what();
+    return "";
+  }
+  ADD_FAILURE() << "expected spectrack::Error, got success";
+  return "";
+}
+
 inline spectrack::RenderOptions quiet_options(int spp = -1) {
   spectrack::RenderOptions o;
   o.quiet = true;

@@ -27,10 +27,13 @@
 #include <nanovdb/util/OpenToNanoVDB.h>
 
 #include "volume/volume.h"
+#include "test_util.h"
 
 namespace fs = std::filesystem;
 using spectrack::GridData;
 using spectrack::MajorantGrid;
+
+using st_test::error_of;
 
 namespace {
 
@@ -77,21 +80,6 @@ openvdb::FloatGrid::Ptr read_vdb(const std::string& path, const std::string& nam
   auto g = openvdb::gridPtrCast<openvdb::FloatGrid>(f.readGrid(name));
   f.close();
   return g;
-}
-
-// Runs fn and returns the spectrack::Error message; fails the test on success or other throws.
-template <class Fn>
-std::string error_of(Fn fn) {
-  try {
-    fn();
-  } catch (const spectrack::Error& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "expected spectrack::Error, got another exception: " << e.what();
-    return "";
-  }
-  ADD_FAILURE() << "expected spectrack::Error, got success";
-  return "";
 }
 
 bool contains(const std::string& s, const std::string& sub) { return s.find(sub) != std::string::npos; }
