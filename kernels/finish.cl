@@ -26,6 +26,10 @@ __kernel void k_finish(ST_STAGE_ARGS) {
   float4 r = p.L;
   for (uint l = 0; l < (uint)scene->n_lights; ++l) r += shadows[slot * NL + l].Ls;
   r.w = 0.0f;
+  if (spectral_mode(scene)) { /* the radiance at the path's wavelengths becomes linear sRGB */
+    float4 pdf_lambda, lambda = path_wavelengths(scene, &p, &pdf_lambda);
+    r = film_rgb3(r, lambda, pdf_lambda);
+  }
   const uint L = (uint)scene->result_layers;
   __global float4* out = &results[p.result_index * L];
   int finite = isfinite(r.x) && isfinite(r.y) && isfinite(r.z);

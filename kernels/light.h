@@ -44,12 +44,18 @@ inline float env_map_pdf(__constant const st_light* l, __global const float* env
   return f / l->map_integral / (2.0f * ST_PI * ST_PI * s);
 }
 
+/* The light's radiance (uniform environment, disc) or scale (map): rgb, or in spectral mode its
+ * spectrum at the path's wavelengths (st_light.spectral: an upsampled colour times D65). */
+inline float4 light_radiance(__constant const st_light* l, float4 lambda) {
+  return ST_HAS_SPECTRAL && l->spectral ? illuminant_at(l->radiance, lambda) : l->radiance;
+}
+
 /* Radiance arriving along direction d (pointing away from the scene) from light l. */
-inline float4 light_Le(__constant const st_light* l, __global const float* env, float3 d) {
-  if (l->type == ST_LIGHT_ENV_UNIFORM) return l->radiance;
+inline float4 light_Le(__constant const st_light* l, __global const float* env, float3 d, float4 lambda) {
+  if (l->type == ST_LIGHT_ENV_UNIFORM) return light_radiance(l, lambda);
   if (ST_HAS_ENV_MAP && l->type == ST_LIGHT_ENV_MAP) return l->radiance * env_texel(l, env, env_dir_to_uv(d));
   if (l->is_delta) return (float4)(0.0f);
-  return dot(d, l->direction.xyz) >= l->cos_max ? l->radiance : (float4)(0.0f);
+  return dot(d, l->direction.xyz) >= l->cos_max ? light_radiance(l, lambda) : (float4)(0.0f);
 }
 
 /* pdf (solid angle) with which light_sample picks d; 0 for delta lights. */
@@ -63,11 +69,11 @@ inline float light_pdf(__constant const st_light* l, __global const float* env, 
 /* Samples a direction towards light l. Returns Le / pdf (or the irradiance for a delta light)
  * and writes the direction and pdf (0 for delta). */
 inline float4 light_sample(__constant const st_light* l, __global const float* env, float u1, float u2,
-                           float3* wi, float* pdf) {
+                           float3* wi, float* pdf, float4 lambda) {
   if (l->type == ST_LIGHT_ENV_UNIFORM) {
     *wi = sample_uniform_sphere(u1, u2);
     *pdf = ST_INV_4PI;
-    return l->radiance / ST_INV_4PI;
+    return light_radiance(l, lambda) / ST_INV_4PI;
   }
   if (ST_HAS_ENV_MAP && l->type == ST_LIGHT_ENV_MAP) {
     __global const float* marg = env + l->cdf_offset;
@@ -80,16 +86,16 @@ inline float4 light_sample(__constant const st_light* l, __global const float* e
     float2 uv = (float2)((col + clamp(du, 0.0f, 1.0f)) / W, (row + clamp(dv, 0.0f, 1.0f)) / H);
     *wi = env_uv_to_dir(uv);
     *pdf = env_map_pdf(l, env, *wi);
-    return *pdf > 0.0f ? light_Le(l, env, *wi) / *pdf : (float4)(0.0f);
+    return *pdf > 0.0f ? light_Le(l, env, *wi, lambda) / *pdf : (float4)(0.0f);
   }
   if (l->is_delta) {
     *wi = l->direction.xyz;
     *pdf = 0.0f;
-    return l->radiance;
+    return light_radiance(l, lambda);
   }
   *wi = sample_cone(l->direction.xyz, l->cos_max, u1, u2);
   *pdf = l->pdf_cone;
-  return l->radiance / l->pdf_cone;
+  return light_radiance(l, lambda) / l->pdf_cone;
 }
 
 /* One-light sampling (uniform, power): the light l with select_cdf[l-1] <= u < select_cdf[l] (scene_pack.cpp:

@@ -281,12 +281,12 @@ inline float medium_gray_sigma_t(__constant const st_medium* m, float4 mask) {
  * the sum over the media inside of dmax * majorant_scale * the medium's sigma_t per channel (a
  * colour medium: its extinction bound sigma_t_maj), which segments_current reduces to the gray
  * mu_bar of a path's channels. */
-inline float4 segments_sigma_maj(__constant const st_scene* scene, const st_segments* s) {
+inline float4 segments_sigma_maj(__constant const st_scene* scene, const st_segments* s, const float4* sigma_t_l) {
   float4 sigma_maj = (float4)(0.0f);
   for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
     if (i >= scene->n_media || s->m[i].state != ST_DDA_INSIDE) continue;
     __constant const st_medium* m = &scene->media[i];
-    float4 sigma_t = medium_has_color(m) ? m->sigma_t_maj : m->sigma_a + m->sigma_s;
+    float4 sigma_t = medium_is_spectral(m) ? sigma_t_l[i] : medium_has_color(m) ? m->sigma_t_maj : m->sigma_a + m->sigma_s;
     sigma_maj += s->m[i].dmax * m->majorant_scale * sigma_t;
   }
   return sigma_maj * (float4)(1.0f, 1.0f, 1.0f, 0.0f);
@@ -308,9 +308,11 @@ typedef struct {
   float density_c[ST_KERNEL_MAX_MEDIA]; /* control density of each medium */
 } st_segment;
 
-/* The current segment of the merged DDA, entered at t0, for a path carrying the channels in mask. */
+/* The current segment of the merged DDA, entered at t0, for a path carrying the channels in mask;
+ * sigma_a_l, sigma_s_l: spectral media's coefficients at the path's wavelengths (st_walker), which
+ * also make their majorant: the extinction's largest value over the wavelengths the path carries. */
 inline st_segment segments_current(__constant const st_scene* scene, const st_segments* s, float t0, float4 mask,
-                                   int decompose) {
+                                   const float4* sigma_a_l, const float4* sigma_s_l, int decompose) {
   st_segment g;
   g.t0 = t0;
   g.t1 = s->end;
@@ -320,14 +322,15 @@ inline st_segment segments_current(__constant const st_scene* scene, const st_se
     g.density_c[i] = 0.0f;
     if (i >= scene->n_media || s->m[i].state != ST_DDA_INSIDE) continue;
     __constant const st_medium* m = &scene->media[i];
-    float gray = medium_gray_sigma_t(m, mask);
+    float gray = medium_is_spectral(m) ? fmax(masked_max(sigma_a_l[i] + sigma_s_l[i], mask), 0.0f)
+                                       : medium_gray_sigma_t(m, mask);
     float dmax = s->m[i].dmax, dmin = s->m[i].dmin;
     float dmax_s = dmax * m->majorant_scale;
     if (decompose && !medium_has_color(m)) { /* a colour medium has no control (medium.h) */
       float dc = dmin * m->minorant_scale;
       g.density_c[i] = dc;
-      g.sigma_a_c += dc * m->sigma_a;
-      g.sigma_s_c += dc * m->sigma_s;
+      g.sigma_a_c += dc * (medium_is_spectral(m) ? sigma_a_l[i] : m->sigma_a);
+      g.sigma_s_c += dc * (medium_is_spectral(m) ? sigma_s_l[i] : m->sigma_s);
       /* > 0 whenever the residual can be non-zero, even with scaled (non-bounding) bounds */
       float r = fmax(fmax(dmax_s - dc, m->majorant_scale * (dmax - dmin)), dc - dmin);
       g.mu_bar_r += fmax(r, 0.0f) * gray;
@@ -368,21 +371,31 @@ typedef struct {
   float mu_bar;     /* rate of the flights in seg */
   float4 T_control; /* ST_WALK_CONTROL_CLOSED_FORM with decomposition: the last flight's control transmittance */
   float4 mask;      /* channels of the path */
+  /* spectral mode: each spectral medium's coefficients at the path's wavelengths (st_rng.lambda),
+   * evaluated once per walk, and their sum (segments_current, segments_sigma_maj) */
+  float4 sigma_a_l[ST_KERNEL_MAX_MEDIA], sigma_s_l[ST_KERNEL_MAX_MEDIA], sigma_t_l[ST_KERNEL_MAX_MEDIA];
   int decompose, mode, iter, budget;
   int exact;        /* flights below the float spacing of t were met: positions are summed exactly */
 } st_walker;
 
 inline void walker_load_segment(__constant const st_scene* scene, st_walker* w) {
-  w->seg = segments_current(scene, &w->dda, w->t, w->mask, w->decompose);
+  w->seg = segments_current(scene, &w->dda, w->t, w->mask, w->sigma_a_l, w->sigma_s_l, w->decompose);
   w->mu_bar = w->mode == ST_WALK_CONTROL_CLOSED_FORM ? w->seg.mu_bar_r : w->seg.mu_bar_c + w->seg.mu_bar_r;
 }
 
 /* Starts a walk along the world ray (o, d) from parameter t with at most `budget` steps. */
 inline void walker_begin(__constant const st_scene* scene, __global const float2* maj, st_walker* w, float3 o,
-                         float3 d, float t, float4 mask, int decompose, int mode, int budget) {
+                         float3 d, float t, float4 mask, float4 lambda, int decompose, int mode, int budget) {
   segments_init(scene, maj, &w->dda, o, d, t);
   w->t = t;
   w->mask = mask;
+  if (ST_HAS_SPECTRAL)
+    for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
+      if (i >= scene->n_media || !medium_is_spectral(&scene->media[i])) continue;
+      w->sigma_a_l[i] = medium_sigma_a(&scene->media[i], lambda);
+      w->sigma_s_l[i] = medium_sigma_s(&scene->media[i], lambda);
+      w->sigma_t_l[i] = w->sigma_a_l[i] + w->sigma_s_l[i];
+    }
   w->decompose = decompose;
   w->mode = mode;
   w->iter = 0;

@@ -26,6 +26,16 @@ inline int medium_box_contains(__constant const st_medium* m, float3 pi) {
   return all(pi >= lo) && all(pi < hi);
 }
 
+/* Spectral mode (st_medium.spectral): the coefficients and emission are spectra, evaluated at the
+ * path's wavelengths (kernels/spectrum.h); otherwise the rgb values themselves. */
+inline int medium_is_spectral(__constant const st_medium* m) { return ST_HAS_SPECTRAL && m->spectral; }
+inline float4 medium_sigma_a(__constant const st_medium* m, float4 lambda) {
+  return medium_is_spectral(m) ? spectrum_at(m->sigma_a, lambda) : m->sigma_a;
+}
+inline float4 medium_sigma_s(__constant const st_medium* m, float4 lambda) {
+  return medium_is_spectral(m) ? spectrum_at(m->sigma_s, lambda) : m->sigma_s;
+}
+
 /* A read accessor of the NanoVDB float grid at word offset `offset` of the grid buffer. */
 inline pnanovdb_readaccessor_t grid_accessor(__global const uint* grids, uint offset, pnanovdb_buf_t* buf) {
   buf->data = grids + offset;
@@ -145,14 +155,16 @@ inline float4 blackbody_rgb(__constant const st_medium* m, __global const uint* 
 
 /* Emitted radiance Le of medium m at p: radiance * scale (* the emission grid's value), or
  * scale * the blackbody colour of the temperature grid's value (emission type "blackbody"). */
-inline float4 medium_Le(__constant const st_medium* m, __global const uint* grids, float3 p, uint* lookups) {
+inline float4 medium_Le(__constant const st_medium* m, __global const uint* grids, float3 p, uint* lookups,
+                        float4 lambda) {
   if (!ST_HAS_EMISSION || !m->emissive) return (float4)(0.0f);
-  if (m->emission_grid == ST_NO_GRID) return m->Le;
+  const float4 Le = medium_is_spectral(m) ? illuminant_at(m->Le, lambda) : m->Le;
+  if (m->emission_grid == ST_NO_GRID) return Le;
   float3 pi = medium_to_index(m, p);
   *lookups += 1u;
   const float v = grid_trilinear(grids, m->emission_grid, pi);
-  if (m->blackbody_offset != ST_NO_GRID) return m->Le * blackbody_rgb(m, grids, v);
-  return m->Le * v;
+  if (m->blackbody_offset != ST_NO_GRID) return Le * blackbody_rgb(m, grids, v);
+  return Le * v;
 }
 
 /* ---- colour grids (st_color_mode) ----
@@ -178,8 +190,10 @@ inline float4 medium_color(__constant const st_medium* m, __global const uint* g
                   grid_trilinear(grids, m->color_grid[2], pi), 0.0f);
 }
 
-/* Coefficients per unit density of medium m with colour tint (ignored without a colour grid). */
-inline void medium_unit_coeffs(__constant const st_medium* m, float4 tint, float4* sigma_a, float4* sigma_s) {
+/* Coefficients per unit density of medium m with colour tint (ignored without a colour grid), at
+ * the path's wavelengths in spectral mode (colour grids are rgb-only: src/render/spectral_pack.cpp). */
+inline void medium_unit_coeffs(__constant const st_medium* m, float4 tint, float4 lambda, float4* sigma_a,
+                               float4* sigma_s) {
   if (medium_has_color(m)) {
     if (m->color_mode == ST_COLOR_ALBEDO) {
       float4 sigma_t = m->sigma_a + m->sigma_s;
@@ -191,8 +205,8 @@ inline void medium_unit_coeffs(__constant const st_medium* m, float4 tint, float
     }
     return;
   }
-  *sigma_a = m->sigma_a;
-  *sigma_s = m->sigma_s;
+  *sigma_a = medium_sigma_a(m, lambda);
+  *sigma_s = medium_sigma_s(m, lambda);
 }
 
 /* Coefficients at a point, per channel, summed over media; the per-medium densities are kept
@@ -207,9 +221,10 @@ typedef struct {
  * does not change, so albedo media skip their colour lookup (their sigma_a/sigma_s split is then
  * the medium's own, the tint 1). rng: for stochastic density lookups (medium_density); colour and
  * emission grids are always read trilinearly, independently of the density's voxel choice, so a
- * product such as density x colour keeps the product of the expectations. */
+ * product such as density x colour keeps the product of the expectations. sigma_a_l, sigma_s_l:
+ * spectral media's coefficients at the path's wavelengths (st_walker, evaluated once per walk). */
 inline st_coeffs scene_coeffs(__constant const st_scene* scene, __global const uint* grids, float3 p, uint* lookups,
-                              int extinction_only, st_rng* rng) {
+                              int extinction_only, st_rng* rng, const float4* sigma_a_l, const float4* sigma_s_l) {
   st_coeffs c;
   c.sigma_a = (float4)(0.0f);
   c.sigma_s = (float4)(0.0f);
@@ -224,13 +239,13 @@ inline st_coeffs scene_coeffs(__constant const st_scene* scene, __global const u
       if (d == 0.0f) continue;
       c.tint[i] = medium_color(m, grids, p, lookups);
       float4 sa, ss;
-      medium_unit_coeffs(m, c.tint[i], &sa, &ss);
+      medium_unit_coeffs(m, c.tint[i], rng->lambda, &sa, &ss);
       c.sigma_a += d * sa;
       c.sigma_s += d * ss;
       continue;
     }
-    c.sigma_a += d * m->sigma_a;
-    c.sigma_s += d * m->sigma_s;
+    c.sigma_a += d * (medium_is_spectral(m) ? sigma_a_l[i] : m->sigma_a);
+    c.sigma_s += d * (medium_is_spectral(m) ? sigma_s_l[i] : m->sigma_s);
   }
   return c;
 }

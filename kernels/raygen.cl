@@ -24,13 +24,13 @@ inline float camera_first_collision(__constant const st_scene* scene, __global c
   st_track_stats st;
   track_stats_clear(&st);
   st_walker w;
-  walker_begin(scene, maj, &w, o, d, 0.0f, all, 0, ST_WALK_SAMPLE_CONTROL, INT_MAX);
+  walker_begin(scene, maj, &w, o, d, 0.0f, all, rng.lambda, 0, ST_WALK_SAMPLE_CONTROL, INT_MAX);
   float weight = 1.0f, hit = 0.0f;
   for (;;) {
     int step = walker_step(scene, maj, &w, &rng, &st.dda_steps, &st.dda_nonempty);
     if (step == ST_WALK_DONE || step == ST_WALK_BUDGET) break;
     if (step != ST_WALK_COLLISION) continue;
-    st_coeffs c = scene_coeffs(scene, grids, o + w.t * d, &st.lookups, 0, &rng);
+    st_coeffs c = scene_coeffs(scene, grids, o + w.t * d, &st.lookups, 0, &rng, w.sigma_a_l, w.sigma_s_l);
     float4 sigma_t = c.sigma_a + c.sigma_s;
     float sigma_t_mean = fmax((sigma_t.x + sigma_t.y + sigma_t.z) * (1.0f / 3.0f), 0.0f);
     float sigma_n = w.mu_bar - sigma_t_mean;

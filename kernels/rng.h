@@ -40,6 +40,9 @@ typedef struct {
   uint4 block; /* Philox(ctr, key): draws 4 * ctr.w .. 4 * ctr.w + 3 */
   uint2 key;
   uint draw;   /* index k of the next draw */
+  /* spectral mode: the path's wavelengths (x, y, z; queues.h path_rng), which every function that
+   * draws for the path also needs to evaluate its spectra; 0 in rgb mode. Not part of the stream. */
+  float4 lambda;
 } st_rng;
 
 /* The 64-bit product of two 32-bit words, high and low halves. Written as one widening multiply:
@@ -71,6 +74,7 @@ inline st_rng rng_make(uint seed, uint pixel, uint sample, uint channel, uint st
   r.block = (uint4)(0u);
   r.key = (uint2)(seed, 0x5EC7AC4Bu);
   r.draw = draw;
+  r.lambda = (float4)(0.0f);
   return r;
 }
 

@@ -45,7 +45,7 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
     float3 wi;
     float pdf_l;
-    float4 Le_over_pdf = light_sample(light, env, u1, u2, &wi, &pdf_l);
+    float4 Le_over_pdf = light_sample(light, env, u1, u2, &wi, &pdf_l, rng.lambda);
     float f = phase_eval(m->phase_type, m->g, dot(wo, wi));
     float w = pdf_l > 0.0f ? power_heuristic(light->select_pmf * pdf_l, f) : 1.0f;
     float4 weight = p.beta * p.mask * Le_over_pdf * (f * w / light->select_pmf);

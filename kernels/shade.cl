@@ -12,9 +12,10 @@ __kernel void k_escape(ST_STAGE_ARGS) {
   float3 d = p.d.xyz;
   float pdf_phase = p.d.w;
   float4 L = (float4)(0.0f);
+  float4 pdf_lambda, lambda = spectral_mode(scene) ? path_wavelengths(scene, &p, &pdf_lambda) : (float4)(0.0f);
   for (int l = 0; l < scene->n_lights; ++l) {
     __constant const st_light* light = &scene->lights[l];
-    float4 Le = light_Le(light, env, d);
+    float4 Le = light_Le(light, env, d, lambda);
     if (max3(Le) <= 0.0f) continue;
     float w = pdf_phase > 0.0f ? power_heuristic(pdf_phase, light->select_pmf * light_pdf(light, env, d)) : 1.0f;
     L += Le * w;

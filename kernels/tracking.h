@@ -142,7 +142,7 @@ inline st_collision collision_component(__constant const st_scene* scene, __glob
     }
     st->control += 1u;
   } else {
-    st_coeffs k = scene_coeffs(scene, grids, p, &st->lookups, 0, rng);
+    st_coeffs k = scene_coeffs(scene, grids, p, &st->lookups, 0, rng, w->sigma_a_l, w->sigma_s_l);
     c.sigma_a = k.sigma_a - seg->sigma_a_c;
     c.sigma_s = k.sigma_s - seg->sigma_s_c;
     c.mu_bar = seg->mu_bar_r;
@@ -158,15 +158,15 @@ inline st_collision collision_component(__constant const st_scene* scene, __glob
 
 /* sigma_a Le at p, summed over the emissive media that have a part of the collision's density. */
 inline float4 absorbed_emission(__constant const st_scene* scene, __global const uint* grids, const st_collision* c,
-                                float3 p, uint* lookups) {
+                                float3 p, uint* lookups, float4 lambda) {
   float4 mua_Le = (float4)(0.0f);
   for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
     if (i >= scene->n_media || c->density[i] == 0.0f) continue;
     __constant const st_medium* m = &scene->media[i];
     if (!m->emissive) continue;
     float4 sigma_a, sigma_s;
-    medium_unit_coeffs(m, c->tint[i], &sigma_a, &sigma_s);
-    mua_Le += c->density[i] * sigma_a * medium_Le(m, grids, p, lookups);
+    medium_unit_coeffs(m, c->tint[i], lambda, &sigma_a, &sigma_s);
+    mua_Le += c->density[i] * sigma_a * medium_Le(m, grids, p, lookups, lambda);
   }
   return mua_Le;
 }
@@ -187,7 +187,7 @@ inline int choose_scattering_medium(__constant const st_scene* scene, const st_c
     q[i] = 0.0f;
     if (i >= scene->n_media) continue;
     float4 sigma_a, sigma_s;
-    medium_unit_coeffs(&scene->media[i], c->tint[i], &sigma_a, &sigma_s);
+    medium_unit_coeffs(&scene->media[i], c->tint[i], rng->lambda, &sigma_a, &sigma_s);
     q[i] = masked_avg(fabs(beta * c->density[i] * sigma_s), mask);
     q_sum += q[i];
   }
@@ -201,7 +201,7 @@ inline int choose_scattering_medium(__constant const st_scene* scene, const st_c
   }
   if (k < 0) return -1;
   float4 sigma_a;
-  medium_unit_coeffs(&scene->media[k], c->tint[k], &sigma_a, sigma_s_k);
+  medium_unit_coeffs(&scene->media[k], c->tint[k], rng->lambda, &sigma_a, sigma_s_k);
   *sigma_s_k *= c->density[k];
   *inv_p = q_sum / q[k];
   return k;
@@ -230,7 +230,7 @@ inline int free_path_collision(__constant const st_scene* scene, __global const 
   float xi = rng_uniform(rng) * p_sum;
   if (xi < P.x) {
     if (ST_HAS_EMISSION) {
-      float4 mua_Le = absorbed_emission(scene, grids, &c, p, &st->emission_lookups);
+      float4 mua_Le = absorbed_emission(scene, grids, &c, p, &st->emission_lookups, rng->lambda);
       *L += *beta * mask * mua_Le * (p_sum / (c.mu_bar * P.x));
     }
     st->real += 1u;
@@ -238,7 +238,7 @@ inline int free_path_collision(__constant const st_scene* scene, __global const 
   }
   if (xi < P.x + P.y) {
     if (ST_HAS_EMISSION && weighted) { /* emission as a collision estimator at the real collision */
-      float4 mua_Le = absorbed_emission(scene, grids, &c, p, &st->emission_lookups);
+      float4 mua_Le = absorbed_emission(scene, grids, &c, p, &st->emission_lookups, rng->lambda);
       *L += *beta * mask * mua_Le * (p_sum / (c.mu_bar * P.y));
     }
     float4 sigma_s_k;
@@ -273,7 +273,7 @@ inline int track_free_path(__constant const st_scene* scene, __global const uint
                            float3 o, float3 d, float* t, float4* beta, float4 mask, float4* L, int* medium,
                            st_rng* rng, int budget, st_track_stats* st) {
   st_walker w;
-  walker_begin(scene, maj, &w, o, d, *t, mask, tracker_decomposes(scene), ST_WALK_SAMPLE_CONTROL, budget);
+  walker_begin(scene, maj, &w, o, d, *t, mask, rng->lambda, tracker_decomposes(scene), ST_WALK_SAMPLE_CONTROL, budget);
   int scheme = tracker_scheme(scene);
   for (;;) {
     int step = walker_step(scene, maj, &w, rng, &st->dda_steps, &st->dda_nonempty);
@@ -347,17 +347,17 @@ inline void mis_rescale(float4* beta, float4* r_u) {
 /* The per-channel majorant of the walker's current segment, with the hero's entry the walker's
  * own flight rate (so that the hero's flight ratio is exactly 1). */
 inline float4 mis_sigma_maj(__constant const st_scene* scene, const st_walker* w, int hero) {
-  float4 sigma_maj = ST_HAS_CHROMATIC ? segments_sigma_maj(scene, &w->dda) : (float4)(w->mu_bar, w->mu_bar, w->mu_bar, 0.0f);
+  float4 sigma_maj = ST_HAS_CHROMATIC ? segments_sigma_maj(scene, &w->dda, w->sigma_t_l) : (float4)(w->mu_bar, w->mu_bar, w->mu_bar, 0.0f);
   return select(sigma_maj, (float4)(w->mu_bar), isnotequal(one_hot(hero), (float4)(0.0f)));
 }
 
 /* The body of spectral-MIS free-path sampling at a tentative collision at p; sigma_maj: the
  * segment's majorant per channel. Returns ST_EV_ABSORB, ST_EV_SCATTER (*medium) or ST_EV_NULL. */
-inline int mis_collision(__constant const st_scene* scene, __global const uint* grids, float3 p, float4 sigma_maj,
-                         int hero, float4* beta, float4* r_u, float4* L, int* medium, st_rng* rng,
+inline int mis_collision(__constant const st_scene* scene, __global const uint* grids, const st_walker* w, float3 p,
+                         float4 sigma_maj, int hero, float4* beta, float4* r_u, float4* L, int* medium, st_rng* rng,
                          st_track_stats* st) {
   const float4 rgb = (float4)(1.0f, 1.0f, 1.0f, 0.0f);
-  st_coeffs k = scene_coeffs(scene, grids, p, &st->lookups, 0, rng);
+  st_coeffs k = scene_coeffs(scene, grids, p, &st->lookups, 0, rng, w->sigma_a_l, w->sigma_s_l);
   st_collision c;
   c.sigma_a = k.sigma_a * rgb;
   c.sigma_s = k.sigma_s * rgb;
@@ -368,7 +368,7 @@ inline int mis_collision(__constant const st_scene* scene, __global const uint* 
     c.tint[i] = k.tint[i];
   }
   if (ST_HAS_EMISSION) { /* the collision estimator of emission, MIS-weighted over the techniques */
-    float4 mua_Le = absorbed_emission(scene, grids, &c, p, &st->emission_lookups);
+    float4 mua_Le = absorbed_emission(scene, grids, &c, p, &st->emission_lookups, rng->lambda);
     float pdf = masked_avg(*r_u * sigma_maj, rgb);
     if (pdf > 0.0f) *L += *beta * rgb * mua_Le / pdf;
   }
@@ -426,7 +426,7 @@ inline int track_free_path_mis(__constant const st_scene* scene, __global const 
                                float3 o, float3 d, float* t, float4* beta, float4* r_u, int hero, float4* L,
                                int* medium, st_rng* rng, int budget, st_track_stats* st) {
   st_walker w;
-  walker_begin(scene, maj, &w, o, d, *t, one_hot(hero), 0, ST_WALK_SAMPLE_CONTROL, budget);
+  walker_begin(scene, maj, &w, o, d, *t, one_hot(hero), rng->lambda, 0, ST_WALK_SAMPLE_CONTROL, budget);
   float4 sigma_maj = mis_sigma_maj(scene, &w, hero);
   for (;;) {
     float t_prev = w.t, t_end = w.seg.t1;
@@ -446,7 +446,7 @@ inline int track_free_path_mis(__constant const st_scene* scene, __global const 
       sigma_maj = mis_sigma_maj(scene, &w, hero);
       continue;
     }
-    int ev = mis_collision(scene, grids, o + w.t * d, sigma_maj, hero, beta, r_u, L, medium, rng, st);
+    int ev = mis_collision(scene, grids, &w, o + w.t * d, sigma_maj, hero, beta, r_u, L, medium, rng, st);
     if (ev != ST_EV_NULL) return ev;
   }
 }
@@ -469,16 +469,16 @@ inline int draw_hero(__constant const st_scene* scene, st_rng* rng) {
 /* Ratio tracking's factor at a tentative collision at p: the residual's null fraction
  * (mu_bar_r - residual sigma_t) / mu_bar_r per carried channel. */
 /* The residual component's sigma_t at p: every medium's sigma_a + sigma_s less the segment's control. */
-inline float4 residual_sigma_t(__constant const st_scene* scene, __global const uint* grids, const st_segment* seg,
+inline float4 residual_sigma_t(__constant const st_scene* scene, __global const uint* grids, const st_walker* w,
                                float3 p, uint* lookups, st_rng* rng) {
-  st_coeffs c = scene_coeffs(scene, grids, p, lookups, 1, rng);
-  return c.sigma_a + c.sigma_s - seg->sigma_a_c - seg->sigma_s_c;
+  st_coeffs c = scene_coeffs(scene, grids, p, lookups, 1, rng, w->sigma_a_l, w->sigma_s_l);
+  return c.sigma_a + c.sigma_s - w->seg.sigma_a_c - w->seg.sigma_s_c;
 }
 
 inline float4 ratio_collision_factor(__constant const st_scene* scene, __global const uint* grids,
-                                     const st_segment* seg, float3 p, float4 mask, uint* lookups, st_rng* rng) {
-  float4 residual = residual_sigma_t(scene, grids, seg, p, lookups, rng);
-  return mask * ((seg->mu_bar_r - residual) / seg->mu_bar_r);
+                                     const st_walker* w, float3 p, float4 mask, uint* lookups, st_rng* rng) {
+  float4 residual = residual_sigma_t(scene, grids, w, p, lookups, rng);
+  return mask * ((w->seg.mu_bar_r - residual) / w->seg.mu_bar_r);
 }
 
 /* Russian roulette on a small estimate (unbiased; pbrt's constants). Returns 0 when the estimate
@@ -504,14 +504,14 @@ inline int ratio_track(__constant const st_scene* scene, __global const uint* gr
                        float3 o, float3 d, float* t, float4* T, float4 mask, st_rng* rng, int budget,
                        st_track_stats* st) {
   st_walker w;
-  walker_begin(scene, maj, &w, o, d, *t, mask, tracker_decomposes(scene), ST_WALK_CONTROL_CLOSED_FORM, budget);
+  walker_begin(scene, maj, &w, o, d, *t, mask, rng->lambda, tracker_decomposes(scene), ST_WALK_CONTROL_CLOSED_FORM, budget);
   for (;;) {
     int step = walker_step(scene, maj, &w, rng, &st->dda_steps, &st->dda_nonempty);
     *t = w.t;
     if (step == ST_WALK_DONE) return 1;
     if (step == ST_WALK_BUDGET) return 0;
     if (w.decompose) *T *= w.T_control;
-    if (step == ST_WALK_COLLISION) *T *= ratio_collision_factor(scene, grids, &w.seg, o + w.t * d, mask, &st->lookups, rng);
+    if (step == ST_WALK_COLLISION) *T *= ratio_collision_factor(scene, grids, &w, o + w.t * d, mask, &st->lookups, rng);
     if (!transmittance_roulette(T, mask, rng)) return 1;
   }
 }
@@ -551,9 +551,9 @@ inline void transmittance_begin(st_trans* tr, float4 mask) {
 }
 
 /* f = residual sigma_t / mu_bar_r at p, per carried channel. */
-inline float4 march_sample(__constant const st_scene* scene, __global const uint* grids, const st_segment* seg, float3 p,
+inline float4 march_sample(__constant const st_scene* scene, __global const uint* grids, const st_walker* w, float3 p,
                            float4 mask, uint* lookups, st_rng* rng) {
-  return mask * (residual_sigma_t(scene, grids, seg, p, lookups, rng) / seg->mu_bar_r);
+  return mask * (residual_sigma_t(scene, grids, w, p, lookups, rng) / w->seg.mu_bar_r);
 }
 
 /* Runs the estimate of tr along (o, d) (every walk starts at t = 0) for at most `budget` steps
@@ -578,7 +578,7 @@ inline int ray_march_transmittance(__constant const st_scene* scene, __global co
       *t = 0.0f;
     }
     st_walker w;
-    walker_begin(scene, maj, &w, o, d, *t, mask, tracker_decomposes(scene), ST_WALK_CONTROL_CLOSED_FORM, left);
+    walker_begin(scene, maj, &w, o, d, *t, mask, rng->lambda, tracker_decomposes(scene), ST_WALK_CONTROL_CLOSED_FORM, left);
     float4 tau_none = (float4)(0.0f);
     for (;;) {
       if (first && !tr->pad[0] && w.mu_bar > 0.0f) { /* the first non-empty segment: the pilot samples it */
@@ -599,7 +599,7 @@ inline int ray_march_transmittance(__constant const st_scene* scene, __global co
       int hit = step == ST_WALK_COLLISION && tr->s_left <= s;
       int hit1 = first && step == ST_WALK_COLLISION && tr->s_left1 <= s;
       if (hit || hit1) {
-        float4 f = march_sample(scene, grids, &w.seg, o + w.t * d, mask, &st->lookups, rng);
+        float4 f = march_sample(scene, grids, &w, o + w.t * d, mask, &st->lookups, rng);
         if (hit) tr->acc += f, tr->count += first ? 1u : 0u;
         if (hit1) tr->acc1 += f, tr->count1 += 1u;
       }

@@ -84,6 +84,16 @@ enum st_transmittance_mode { ST_TRANSMITTANCES(ST_X_TRANSMITTANCE_ENUM) ST_TRANS
 #define ST_X_LOOKUP_ENUM(E, name) ST_LOOKUP_##E,
 enum st_lookup_mode { ST_LOOKUPS(ST_X_LOOKUP_ENUM) ST_LOOKUP_COUNT };
 
+/* What the float4 lanes of a path carry (render.color, --spectral; docs/spectral.md): X(ENUM suffix, name).
+ *   rgb:      linear sRGB channels (w unused);
+ *   spectral: three wavelengths per path (x, y, z; w unused), a hero drawn from the visible-range
+ *             density and two more a third of its CDF apart (kernels/spectrum.h); colours are
+ *             upsampled to smooth spectra (src/color/spectrum.h) and the film turns the path's
+ *             radiance at its wavelengths into linear sRGB (finish.cl). */
+#define ST_FILM_COLORS(X) X(RGB, "rgb") X(SPECTRAL, "spectral")
+#define ST_X_FILM_COLOR_ENUM(E, name) ST_FILM_COLOR_##E,
+enum st_film_color { ST_FILM_COLORS(ST_X_FILM_COLOR_ENUM) ST_FILM_COLOR_COUNT };
+
 /* The trackers, as one table that the host (names, settings, feature mask) and the kernels
  * (tracking.h) read: X(ENUM suffix, CLI/scene name, colour channels traced per sample (one path
  * each), needs achromatic media, uses the spectral scheme, decomposes into control + residual,
@@ -185,7 +195,8 @@ enum st_feature {
   ST_FEATURE_SPECTRAL_MIS = 1 << 10,  /* tracker spectral-mis (hero-channel sampling, MIS over channels) */
   ST_FEATURE_STOCHASTIC_LOOKUP = 1 << 11, /* density lookups read one voxel chosen at random (st_lookup_mode) */
   ST_FEATURE_AOV = 1 << 12,           /* film layers with per-path work: alpha, environment, the passes (st_scene.aovs) */
-  ST_FEATURES_ALL = (1 << 13) - 1
+  ST_FEATURE_SPECTRAL = 1 << 13,      /* spectral mode: the lanes are wavelengths (st_film_color) */
+  ST_FEATURES_ALL = (1 << 14) - 1
 };
 
 /* Queues of the wavefront. Each stage reads the current buffer of its queue and pushes into the
@@ -283,7 +294,11 @@ typedef struct {
    * sRGB, Y) entries at warped temperatures A / T - w ln T = x + i / y, i = 0 .. z (z = entries - 1) */
   st_float4 blackbody_table;
   st_uint blackbody_offset;
-  st_uint pad_blackbody[3];
+  /* spectral mode: 1 when sigma_a, sigma_s and Le hold spectra, not rgb: the sigmoid coefficients
+   * (c0, c1, c2, scale) of kernels/spectrum.h, Le's times CIE D65 (an illuminant); the majorants
+   * take the extinction at the path's wavelengths (majorant.h st_walker) */
+  st_int spectral;
+  st_uint pad_blackbody[2];
 } st_medium;
 
 typedef struct {
@@ -310,7 +325,7 @@ typedef struct {
   float map_integral;   /* integral of luminance * sin(theta) over the map's (u,v) domain */
   float select_pmf;     /* probability that next-event estimation picks this light (1 with light sampling "all") */
   float select_cdf;     /* power light sampling: sum of select_pmf over lights 0..this one */
-  st_int pad;
+  st_int spectral;      /* spectral mode: radiance holds the sigmoid coefficients of a spectrum that, times D65, is the light's */
 } st_light;
 
 /* Everything the kernels need about the scene and the render, in one __constant block. */
@@ -339,7 +354,7 @@ typedef struct {
   st_int lookup;                /* st_lookup_mode of density lookups */
   st_int aovs;                  /* st_aov_index bits of the layers asked for */
   st_int result_layers;         /* float4 per path in the batch result buffer: 1, ST_RESULT_LAYERS_AOV or _PASSES */
-  st_int pad;
+  st_int color;                 /* st_film_color: what the float4 lanes carry */
 } st_scene;
 
 /* Path state, one slot per path in flight. */

@@ -319,6 +319,40 @@ TEST(CliRender, TinyRenderWritesExrAndStats) {
   EXPECT_EQ(j.value("paths", uint64_t(0)), uint64_t(8 * 8 * 2));
 }
 
+// --spectral: the stats and the EXR's metadata record the colour mode; an EXR output gets no alpha
+// layer by default in spectral mode (which has none yet) instead of an error, an explicit --alpha
+// is refused naming the layer, and EXRs of the two modes do not merge.
+TEST(CliRender, SpectralFlag) {
+  std::string dir = test_dir();
+  std::string scene = write_scene(dir, "tiny.json", homogeneous_scene(8, 8, 1, 1.0, 0.1));
+  std::string exr = dir + "/s.exr", stats = dir + "/s.json", rgb = dir + "/r.exr";
+  RunOptions o;
+  o.timeout_s = 180;  // may include a cold kernel build
+  Proc p = run({"render", scene, "--spp", "2", "--spectral", "-o", exr, "--stats-json", stats, "--quiet"}, o);
+  ASSERT_TRUE(p.exited && p.code == 0) << p.describe();
+  json j;
+  {
+    std::ifstream f(stats);
+    ASSERT_NO_THROW(j = json::parse(f)) << "stats file is not JSON";
+  }
+  EXPECT_EQ(j.value("color", std::string()), "spectral");
+  EXPECT_TRUE(j["film_layers"].empty()) << j.dump(2);
+  auto in = OIIO::ImageInput::open(exr);
+  ASSERT_TRUE(in) << OIIO::geterror();
+  EXPECT_EQ(in->spec().nchannels, 3) << "no alpha layer in spectral mode";
+  EXPECT_EQ(in->spec().get_string_attribute("spectrack:color"), "spectral");
+  in->close();
+  Proc a = run({"render", scene, "--spp", "1", "--spectral", "--alpha", "-o", dir + "/a.exr", "--quiet"}, o);
+  ASSERT_TRUE(a.exited && a.code == 1) << a.describe();
+  EXPECT_THAT(a.out, HasSubstr("alpha")) << a.describe();
+  EXPECT_THAT(a.out, HasSubstr("spectral mode")) << a.describe();
+  Proc r = run({"render", scene, "--spp-range", "2:4", "--no-alpha", "-o", rgb, "--quiet"}, o);
+  ASSERT_TRUE(r.exited && r.code == 0) << r.describe();
+  Proc m = run({"merge", dir + "/m.exr", exr, rgb, "--quiet"}, o);
+  ASSERT_TRUE(m.exited && m.code == 1) << m.describe();
+  EXPECT_THAT(m.out, HasSubstr("colour mode")) << m.describe();
+}
+
 TEST(CliRender, PngOutputAndSceneOutputDefault) {
   std::string dir = test_dir();
   std::string scene = write_scene(dir, "tiny.json", homogeneous_scene(8, 8, 1, 1.0, 0.1));

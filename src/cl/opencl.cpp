@@ -4,6 +4,8 @@
 // cache key covers the exact text the compiler sees.
 #include "cl/opencl.h"
 
+#include "color/spectrum.h"
+
 #include <OpenImageIO/hash.h>
 #include <fmt/format.h>
 
@@ -173,12 +175,31 @@ static std::string rewrite_pnanovdb(std::string s) {
   return s;
 }
 
+// The film table of spectral mode (kernels/spectrum.h st_film_table): per nm from 360 to 830, the
+// film's weights F (film_rgb_weights) and CIE D65, as a program-scope __constant array, printed
+// with enough digits to read back the same floats.
+static const std::string& film_table_source() {
+  static const std::string text = [] {
+    const std::vector<Rgb>& F = film_rgb_weights();
+    std::ostringstream o;
+    o << "#define ST_FILM_TABLE 1\n__constant float4 st_film_table[" << F.size() << "] = {\n";
+    for (size_t i = 0; i < F.size(); ++i) {
+      const double lambda = kSpectrumLambdaMin + double(i);
+      o << fmt::format("  (float4)({:.8e}f, {:.8e}f, {:.8e}f, {:.8e}f),\n", float(F[i][0]), float(F[i][1]),
+                       float(F[i][2]), float(cie_d65(lambda)));
+    }
+    o << "};\n";
+    return o.str();
+  }();
+  return text;
+}
+
 std::string assemble_kernel_source(const std::vector<std::pair<std::string, std::string>>& defines,
                                    const std::vector<std::string>& extra_files) {
   static const std::vector<std::string> renderer_files = {
-      "types.h",  "features.h", "rng.h",      "sampling.h", "phase.h",  "pnanovdb_cl.h", "PNanoVDB.h",
-      "medium.h", "majorant.h", "tracking.h", "light.h",    "queues.h", "raygen.cl",     "track.cl",
-      "shade.cl", "scatter.cl", "shadow.cl",  "finish.cl"};
+      "types.h",    "features.h", "rng.h",    "sampling.h", "film_table", "spectrum.h", "phase.h",
+      "pnanovdb_cl.h", "PNanoVDB.h", "medium.h", "majorant.h", "tracking.h", "light.h", "queues.h",
+      "raygen.cl",  "track.cl",   "shade.cl", "scatter.cl", "shadow.cl",  "finish.cl"};
   std::vector<std::string> order = renderer_files;
   order.insert(order.end(), extra_files.begin(), extra_files.end());
   const auto& files = embedded_kernel_sources();
@@ -186,6 +207,10 @@ std::string assemble_kernel_source(const std::vector<std::pair<std::string, std:
   out << "/* spectrack " << SPECTRACK_VERSION << ": assembled kernel source */\n";
   for (auto& [k, v] : defines) out << "#define " << k << " " << v << "\n";
   for (const std::string& name : order) {
+    if (name == "film_table") {  // generated: src/color/spectrum.h's tables
+      out << "#line 1 \"<film_table: src/color/spectrum.cpp>\"\n" << film_table_source();
+      continue;
+    }
     auto it = files.find(name);
     if (it == files.end()) throw Error(fmt::format("internal: kernel file {} is not embedded", name));
     std::string text = name == "PNanoVDB.h" ? rewrite_pnanovdb(it->second) : it->second;

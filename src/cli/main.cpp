@@ -96,7 +96,7 @@ int cmd_devices() {
 struct RenderArgs {
   std::string scene, output, stats_json, preview, device, tracker, scheme, absorption, light_sampling, transmittance,
       lookup, spp_range, pixel_bounds, frames, aov, compression;
-  bool alpha = false, no_alpha = false, half = false;
+  bool alpha = false, no_alpha = false, half = false, spectral = false;
   double march_spacing = 0, pilot_spacing = 0;  // 0: not given
   int spp = -1;
   int64_t seed = -1;
@@ -204,6 +204,7 @@ void write_stats_json(const std::string& path, const MultiDeviceResult& r, doubl
   j["light_sampling"] = light_sampling_name(r.light_sampling);
   j["transmittance"] = transmittance_name(r.transmittance);
   j["lookup"] = lookup_name(r.lookup);
+  j["color"] = film_color_name(r.color);
   j["film_layers"] = nlohmann::json::array();
   for (int k = 0; k < ST_AOV_COUNT; ++k)
     if (r.aovs & (1u << k)) j["film_layers"].push_back(aov_name(k));
@@ -287,6 +288,7 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
     if (*opt.lookup < 0)
       throw Error(fmt::format("--lookup {}: unknown density lookup mode (one of: {})", a.lookup, lookup_names()));
   }
+  if (a.spectral) opt.color = ST_FILM_COLOR_SPECTRAL;
   if (a.march_spacing > 0) opt.march_spacing = a.march_spacing;
   if (a.pilot_spacing > 0) opt.pilot_spacing = a.pilot_spacing;
   if (!a.absorption.empty()) {
@@ -342,7 +344,8 @@ MultiDeviceResult render_share(const SceneDesc& scene, const RenderOptions& opt,
 }
 
 // The film layers of a render to `output` (docs/aov.md): film.aovs and --aov; alpha from --alpha /
-// --no-alpha, else film.alpha, else on for an EXR output. Layers need an EXR (a PNG holds the beauty).
+// --no-alpha, else film.alpha, else on for an EXR output in rgb mode (spectral mode has no alpha layer
+// yet: settings.cpp). Layers need an EXR (a PNG holds the beauty).
 uint32_t film_layers(const RenderArgs& a, const SceneDesc& scene, const std::string& output) {
   uint32_t aovs = scene.film.aovs & ~uint32_t(ST_AOV_BIT(ALPHA));
   std::stringstream list(a.aov);
@@ -359,7 +362,8 @@ uint32_t film_layers(const RenderArgs& a, const SceneDesc& scene, const std::str
   const bool exr = ext == ".exr";
   if (a.alpha && a.no_alpha) throw Error("--alpha and --no-alpha: choose one");
   if (alpha_listed && a.no_alpha) throw Error(fmt::format("--aov {} lists alpha, which --no-alpha turns off", a.aov));
-  bool alpha = a.alpha || alpha_listed ? true : a.no_alpha ? false : scene.film.alpha.value_or(exr);
+  const bool spectral = a.spectral || scene.render.color == ST_FILM_COLOR_SPECTRAL;
+  bool alpha = a.alpha || alpha_listed ? true : a.no_alpha ? false : scene.film.alpha.value_or(exr && !spectral);
   if (!exr && (aovs || ((a.alpha || alpha_listed || scene.film.alpha.value_or(false)) && !a.no_alpha)))
     throw Error(fmt::format("{}: film layers ({}) need an EXR output; a PNG holds the beauty only (write an EXR and add "
                             "--preview for a PNG)",
@@ -600,6 +604,9 @@ CLI::App* add_render_command(CLI::App& app, RenderArgs& ra) {
                      "voxels around the point; default) or stochastic (one of them, chosen with its trilinear weight: "
                      "the same expectation, cheaper lookups, more noise)")
       ->check(one_of("lookup", lookup_name_list()));
+  render->add_flag("--spectral", ra.spectral,
+                   "spectral mode (overrides render.color): each path carries three wavelengths, colours become smooth "
+                   "spectra (Jakob and Hanika 2019), the film turns them into linear sRGB (docs/spectral.md)");
   render->add_option("--march-spacing", ra.march_spacing,
                      "ray-marching transmittance: majorant optical depth between the samples of one estimate (default 1)")
       ->check(finite_range(1e-3, 1e3));

@@ -98,7 +98,7 @@ std::string scene_hash(const SceneDesc& scene) {
       for (const char* k : {"output", "spp", "alpha", "aovs", "half", "compression"}) j["film"].erase(k);
     }
     if (j.contains("render") && j["render"].is_object())
-      for (const char* k : {"seed", "tracker", "spectral_scheme", "absorption", "light_sampling", "transmittance", "lookup"})
+      for (const char* k : {"seed", "tracker", "spectral_scheme", "absorption", "light_sampling", "transmittance", "lookup", "color"})
         j["render"].erase(k);
     // file names stand for their contents, hashed below: a scene whose assets moved is the same scene
     for (const char* list : {"media", "lights"})
@@ -127,6 +127,7 @@ RenderIdentity render_identity(const RenderSettings& s) {
   id.light_sampling = light_sampling_name(s.light_sampling);
   id.transmittance = transmittance_name(s.transmittance);
   id.lookup = lookup_name(s.lookup);
+  id.color = film_color_name(s.color);
   id.aovs = s.aovs;
   id.version = SPECTRACK_VERSION;
   return id;
@@ -198,6 +199,7 @@ void check_one_render(const std::vector<FilmPiece>& pieces) {
     if (p.id.transmittance != a.id.transmittance)
       differ("the transmittance estimator", a.id.transmittance, p.id.transmittance);
     if (p.id.lookup != a.id.lookup) differ("the density lookup mode", a.id.lookup, p.id.lookup);
+    if (p.id.color != a.id.color) differ("the colour mode", a.id.color, p.id.color);
     if (p.id.aovs != a.id.aovs) differ("the film layers", layer_list(a.id.aovs), layer_list(p.id.aovs));
     if (p.id.version != a.id.version) differ("the spectrack version", a.id.version, p.id.version);
     if (p.id.scene_hash != a.id.scene_hash) differ("the scene (spectrack:scene_hash)", a.id.scene_hash, p.id.scene_hash);
@@ -310,6 +312,7 @@ Metadata piece_metadata(const FilmPiece& p) {
   m["light_sampling"] = p.id.light_sampling;
   m["transmittance"] = p.id.transmittance;
   m["lookup"] = p.id.lookup;
+  m["color"] = p.id.color;
   m["version"] = p.id.version;
   m["scene_hash"] = p.id.scene_hash;
   m["pixel_bounds"] = fmt::format("{},{},{},{}", p.x0, p.x0 + p.width, p.y0, p.y0 + p.height);
@@ -441,6 +444,7 @@ FilmPiece read_piece(const std::string& path, Metadata* meta) {
   if (img.meta.count("light_sampling")) p.id.light_sampling = str("light_sampling");
   if (img.meta.count("transmittance")) p.id.transmittance = str("transmittance");
   if (img.meta.count("lookup")) p.id.lookup = str("lookup");
+  if (img.meta.count("color")) p.id.color = str("color");
   p.id.version = str("version");
   try {
     p.id.seed = std::stoll(str("seed"));

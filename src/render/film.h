@@ -44,6 +44,7 @@ struct RenderIdentity {
   std::string light_sampling = "all";  // st_light_sampling name (pieces written before the option: all)
   std::string transmittance = "ratio";  // st_transmittance_mode name (pieces written before the option: ratio)
   std::string lookup = "trilinear";  // st_lookup_mode name (pieces written before the option: trilinear)
+  std::string color = "rgb";         // st_film_color name (pieces written before spectral mode: rgb)
   uint32_t aovs = 0;  // the film layers (ST_AOV_BIT bits; pieces written before them: none)
 };
 

@@ -2,6 +2,7 @@
 // rotations about x, y, z, then translation: SCENE_FORMAT.md) and only the final world-to-index
 // rows are rounded to float.
 #include "render/scene_pack.h"
+#include "render/spectral_pack.h"
 
 #include <fmt/format.h>
 
@@ -603,6 +604,9 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
   if (out.grid_words.empty()) out.grid_words = {0u, 0u};
   if (out.env_data.empty()) out.env_data = {0.0f};
   out.features = pk.scene_features();
+  // spectral mode: the colours the kernels read become spectra, once everything above has been
+  // derived from the rgb values (spectral_pack.h)
+  if (s.color == ST_FILM_COLOR_SPECTRAL) make_spectral(scene, out);
   return out;
 }
 

@@ -50,6 +50,7 @@ struct RenderOptions {
   std::optional<double> march_spacing;  // ray marching: majorant optical depth between samples (kDefaultMarchSpacing)
   std::optional<double> pilot_spacing;  // ray marching: the same for the pilot (kDefaultPilotSpacing)
   std::optional<int> lookup;            // st_lookup_mode, else render.lookup, else kDefaultLookup
+  std::optional<int> color;             // st_film_color, else render.color (--spectral)
   std::optional<uint32_t> aovs;         // film layers, ST_AOV_BIT bits; else film.aovs (+ alpha if film.alpha)
   std::string device;                   // "P:D", name substring, or "" (SPECTRACK_DEVICE, then default)
   int path_slots = 0;                   // paths in flight; 0 = by device type
@@ -90,6 +91,7 @@ struct RenderSettings {
   int transmittance = 0;        // st_transmittance_mode
   double march_spacing = kDefaultMarchSpacing, pilot_spacing = kDefaultPilotSpacing;  // ray marching
   int lookup = 0;               // st_lookup_mode
+  int color = 0;                // st_film_color
   uint32_t aovs = 0;            // film layers (ST_AOV_BIT bits; alpha implies environment)
   uint32_t seed = 0;
   int spp = 0;                  // samples per pixel to render
@@ -107,6 +109,7 @@ struct RenderChoices {
   int light_sampling = 0;       // st_light_sampling
   int transmittance = 0;        // st_transmittance_mode
   int lookup = 0;               // st_lookup_mode
+  int color = 0;                // st_film_color
   uint32_t aovs = 0;            // film layers (ST_AOV_BIT bits)
   uint32_t seed = 0;
 
@@ -118,6 +121,7 @@ struct RenderChoices {
     light_sampling = s.light_sampling;
     transmittance = s.transmittance;
     lookup = s.lookup;
+    color = s.color;
     seed = s.seed;
   }
 };

@@ -19,6 +19,7 @@ namespace {
 #define ST_X_TRANSMITTANCE_NAME(E, name) name,
 #define ST_X_LOOKUP_NAME(E, name) name,
 #define ST_X_AOV_NAME(E, name) name,
+#define ST_X_FILM_COLOR_NAME(E, name) name,
 const char* const kTrackerNames[] = {ST_TRACKERS(ST_X_TRACKER_NAME)};
 const char* const kSchemeNames[] = {ST_SCHEMES(ST_X_SCHEME_NAME)};
 const char* const kAbsorptionNames[] = {ST_ABSORPTIONS(ST_X_ABSORPTION_NAME)};
@@ -26,6 +27,8 @@ const char* const kLightSamplingNames[] = {ST_LIGHT_SAMPLINGS(ST_X_LIGHT_SAMPLIN
 const char* const kTransmittanceNames[] = {ST_TRANSMITTANCES(ST_X_TRANSMITTANCE_NAME)};
 const char* const kLookupNames[] = {ST_LOOKUPS(ST_X_LOOKUP_NAME)};
 const char* const kAovNames[] = {ST_AOVS(ST_X_AOV_NAME)};
+const char* const kFilmColorNames[] = {ST_FILM_COLORS(ST_X_FILM_COLOR_NAME)};
+static_assert(sizeof(kFilmColorNames) / sizeof(kFilmColorNames[0]) == ST_FILM_COLOR_COUNT, "film colour names");
 static_assert(sizeof(kAovNames) / sizeof(kAovNames[0]) == ST_AOV_COUNT, "aov names");
 static_assert(sizeof(kLookupNames) / sizeof(kLookupNames[0]) == ST_LOOKUP_COUNT, "lookup names");
 static_assert(sizeof(kTransmittanceNames) / sizeof(kTransmittanceNames[0]) == ST_TRANSMITTANCE_COUNT, "transmittance names");
@@ -83,6 +86,9 @@ const char* lookup_name(int mode) { return name_of(kLookupNames, mode); }
 int lookup_from_name(const std::string& name) { return value_of(kLookupNames, name); }
 std::string lookup_names() { return list_of(kLookupNames); }
 std::vector<std::string> lookup_name_list() { return {std::begin(kLookupNames), std::end(kLookupNames)}; }
+const char* film_color_name(int mode) { return name_of(kFilmColorNames, mode); }
+int film_color_from_name(const std::string& name) { return value_of(kFilmColorNames, name); }
+std::string film_color_names() { return list_of(kFilmColorNames); }
 const char* aov_name(int index) { return name_of(kAovNames, index); }
 int aov_from_name(const std::string& name) { return value_of(kAovNames, name); }
 std::string aov_names() { return list_of(kAovNames); }

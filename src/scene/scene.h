@@ -121,6 +121,7 @@ struct RenderDesc {
   int light_sampling = -1;  // st_light_sampling; -1: the default (kDefaultLightSampling, settings.h)
   int transmittance = -1;   // st_transmittance_mode; -1: the default (kDefaultTransmittance, settings.h)
   int lookup = -1;          // st_lookup_mode; -1: the default (kDefaultLookup, settings.h)
+  int color = ST_FILM_COLOR_RGB;  // st_film_color: what a path's lanes carry (render.color)
   int max_depth = -1;
   uint32_t seed = 0;
   double time_limit = 0;  // seconds from the start of the command after which the render stops cleanly; 0: none
@@ -171,6 +172,10 @@ const char* transmittance_name(int mode);
 int transmittance_from_name(const std::string& name);  // -1 when unknown
 std::string transmittance_names();
 std::vector<std::string> transmittance_name_list();
+// Names of the film colour modes (st_film_color): "rgb", "spectral".
+const char* film_color_name(int mode);
+int film_color_from_name(const std::string& name);  // -1 when unknown
+std::string film_color_names();
 // Names of the density lookup modes (st_lookup_mode): "trilinear", "stochastic".
 const char* lookup_name(int mode);
 int lookup_from_name(const std::string& name);  // -1 when unknown

@@ -1,0 +1,254 @@
+// test_spectral_mode.cpp: the renderer's spectral mode (render.color "spectral", --spectral;
+// docs/spectral.md) against analytic answers, on the default OpenCL device, with tolerances of 4
+// standard errors from the renders' own pixels plus the film estimator's 2e-4 (its expectation is
+// the integral with F and D65 interpolated linearly, within ~1e-4 of the fitter's 1 nm sums):
+//   - the absorbing slab per wavelength: the film of D65 exp(-d sigma_a(lambda)), with sigma_a the
+//     upsampled spectrum of the scene's rgb, summed on the host over the 1 nm grid, for every
+//     tracker; and the rgb answer exp(-d sigma_a,rgb) is told apart (the test can fail);
+//   - white and emissive furnaces (per wavelength, so the film of D65 times the light's spectrum);
+//   - a gray medium under a coloured light renders the rgb mode's expectation;
+//   - every tracker agrees with per-channel delta tracking on a chromatic scattering medium;
+//   - the scene field, the flag's refusals and the stats.
+#include <cmath>
+#include <functional>
+
+#include "color/spectrum.h"
+#include "render/spectral_pack.h"
+#include "test_util.h"
+
+using namespace spectrack;
+using namespace st_test;
+using nlohmann::json;
+
+namespace {
+
+json spectral_scene(int w, int h, int spp, const std::string& tracker) {
+  return json{{"format", "spectrack-scene/1"},
+              {"camera", {{"type", "orthographic"}, {"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"height", 1.0}}},
+              {"film", {{"width", w}, {"height", h}, {"spp", spp}}},
+              {"render", {{"tracker", tracker}, {"seed", 11}, {"color", "spectral"}}},
+              {"lights", json::array()},
+              {"media", json::array()}};
+}
+
+struct Mode {
+  std::string tracker;
+  int absorption;
+  std::string name() const { return tracker + " / absorption " + absorption_name(absorption); }
+};
+const Mode kModes[] = {{"delta-per-channel", ST_ABSORPTION_EVENT}, {"spectral", ST_ABSORPTION_EVENT},
+                       {"spectral", ST_ABSORPTION_WEIGHT},         {"decomposition", ST_ABSORPTION_WEIGHT},
+                       {"spectral-decomposition", ST_ABSORPTION_WEIGHT}, {"spectral-mis", ST_ABSORPTION_WEIGHT}};
+
+RenderOptions mode_options(const Mode& m, int spp = -1) {
+  RenderOptions o = quiet_options(spp);
+  o.absorption = m.absorption;
+  return o;
+}
+
+// The film's linear sRGB of a radiance spectrum L(lambda), summed over the 1 nm grid.
+Rgb film_of(const std::function<double(double)>& L) {
+  const std::vector<Rgb>& F = film_rgb_weights();
+  Rgb out{0, 0, 0};
+  for (size_t i = 0; i < F.size(); ++i) {
+    const double l = L(kSpectrumLambdaMin + double(i));
+    for (int c = 0; c < 3; ++c) out[c] += l * F[i][c];
+  }
+  return out;
+}
+
+RgbSpectrum upsampled(const Rgb& rgb) { return rgb2spec_unbounded(Rgb2SpecFit(), rgb2spec_srgb(), rgb); }
+
+void expect_image(const RenderResult& r, const Rgb& expected, const std::string& what, double extra = 2e-4) {
+  for (int c = 0; c < 3; ++c) {
+    Stats s = mean_se(channel(r, c));
+    EXPECT_NEAR(s.mean, expected[c], 4.0 * s.se + extra) << what << ", channel " << c << " (SE " << s.se << ")";
+  }
+}
+
+}  // namespace
+
+// A slab of thickness 2 absorbing sigma_a = (0.5, 1, 2) seen against a white environment: each
+// wavelength is attenuated by exp(-2 sigma_a(lambda)) of the upsampled spectrum, which is not the
+// rgb answer exp(-2 sigma_a,rgb) (the exponential does not commute with the film).
+TEST(SpectralMode, AbsorbingSlabPerWavelength) {
+  const std::string dir = temp_dir("spectral_slab");
+  const Rgb sigma_a{0.5, 1.0, 2.0};
+  const RgbSpectrum s = upsampled(sigma_a);
+  const Rgb expected = film_of([&](double l) { return cie_d65(l) * std::exp(-2.0 * s(l)); });
+  const Rgb rgb_answer{std::exp(-1.0), std::exp(-2.0), std::exp(-4.0)};
+  std::cout << "[ info ] spectral slab: expected " << expected[0] << " " << expected[1] << " " << expected[2]
+            << " (rgb mode: " << rgb_answer[0] << " " << rgb_answer[1] << " " << rgb_answer[2] << ")\n";
+  for (const Mode& m : kModes) {
+    json j = spectral_scene(16, 16, 256, m.tracker);
+    j["lights"].push_back({{"type", "environment"}, {"radiance", {1, 1, 1}}});
+    j["media"].push_back({{"type", "homogeneous"}, {"bounds", {{-1, -1, -1}, {1, 1, 1}}}, {"sigma_a", {0.5, 1.0, 2.0}},
+                          {"sigma_s", {0, 0, 0}}});
+    RenderResult r = Renderer(scene_from_json(j, dir), mode_options(m)).render();
+    EXPECT_EQ(r.stats.nonfinite_samples, 0u);
+    EXPECT_EQ(r.color, ST_FILM_COLOR_SPECTRAL);
+    expect_image(r, expected, "spectral slab " + m.name());
+    if (m.tracker == "delta-per-channel") {  // the twin: the rgb answer is told apart
+      double worst = 0;
+      for (int c = 0; c < 3; ++c) {
+        Stats st = mean_se(channel(r, c));
+        worst = std::max(worst, std::abs(st.mean - rgb_answer[c]) / st.se);
+      }
+      EXPECT_GT(worst, 4.0) << "the spectral slab must differ from the rgb answer";
+    }
+  }
+}
+
+// White furnace: no absorption at any wavelength, so every pixel is the film of D65: white.
+TEST(SpectralMode, WhiteFurnace) {
+  const std::string dir = temp_dir("spectral_furnace");
+  write_lumpy(dir + "/lumpy.vdb");
+  for (const Mode& m : kModes) {
+    json j = spectral_scene(12, 12, 48, m.tracker);
+    j["camera"] = {{"type", "perspective"}, {"position", {0.2, 0.1, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 30}};
+    j["lights"].push_back({{"type", "environment"}, {"radiance", {1, 1, 1}}});
+    j["media"].push_back({{"type", "vdb"}, {"file", "lumpy.vdb"}, {"density_scale", 4.0}, {"sigma_a", {0, 0, 0}},
+                          {"sigma_s", {1.0, 3.0, 9.0}}, {"phase", {{"type", "hg"}, {"g", 0.4}}}});
+    RenderResult r = Renderer(scene_from_json(j, dir), mode_options(m)).render();
+    EXPECT_GT(r.stats.scatter_events, 1000u);
+    EXPECT_EQ(r.stats.nonfinite_samples, 0u);
+    expect_image(r, film_of([](double l) { return cie_d65(l); }), "spectral white furnace " + m.name());
+  }
+}
+
+// Emissive furnace: the medium emits the environment's radiance, so each wavelength is in
+// equilibrium and every pixel is the light's colour (both are the same upsampled spectrum times D65).
+TEST(SpectralMode, EmissiveFurnace) {
+  const std::string dir = temp_dir("spectral_efurnace");
+  write_lumpy(dir + "/lumpy.vdb");
+  const Rgb c{0.3, 0.6, 0.9};
+  for (const Mode& m : kModes) {
+    json j = spectral_scene(12, 12, m.tracker == "spectral-mis" ? 192 : 64, m.tracker);
+    j["camera"] = {{"type", "perspective"}, {"position", {0.2, 0.1, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 30}};
+    j["lights"].push_back({{"type", "environment"}, {"radiance", {0.3, 0.6, 0.9}}});
+    j["media"].push_back({{"type", "vdb"}, {"file", "lumpy.vdb"}, {"density_scale", 4.0}, {"sigma_a", {1.0, 2.0, 4.0}},
+                          {"sigma_s", {3.0, 1.0, 0.5}}, {"emission", {{"radiance", {0.3, 0.6, 0.9}}}}});
+    RenderResult r = Renderer(scene_from_json(j, dir), mode_options(m)).render();
+    EXPECT_GT(r.stats.real_collisions, 1000u);
+    EXPECT_EQ(r.stats.nonfinite_samples, 0u);
+    expect_image(r, c, "spectral emissive furnace " + m.name());
+  }
+}
+
+// A gray medium under a coloured sun and sky: every wavelength sees the same transport, so the
+// film gives the rgb mode's expectation (the lights' spectra come back as their colours).
+TEST(SpectralMode, GrayMediumMatchesRgb) {
+  const std::string dir = temp_dir("spectral_gray");
+  write_lumpy(dir + "/lumpy.vdb");
+  json j = spectral_scene(16, 16, 128, "spectral-decomposition");
+  j["camera"] = {{"type", "perspective"}, {"position", {0.2, 0.1, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 30}};
+  j["lights"].push_back({{"type", "environment"}, {"radiance", {0.2, 0.3, 0.6}}});
+  j["lights"].push_back({{"type", "directional"}, {"to_light", {0.3, 1, -0.4}}, {"irradiance", {3.0, 2.0, 1.0}}});
+  j["media"].push_back({{"type", "vdb"}, {"file", "lumpy.vdb"}, {"density_scale", 3.0}, {"sigma_a", {0.5, 0.5, 0.5}},
+                        {"sigma_s", {2.0, 2.0, 2.0}}, {"phase", {{"type", "hg"}, {"g", 0.3}}}});
+  RenderResult spectral = Renderer(scene_from_json(j, dir), quiet_options()).render();
+  j["render"]["color"] = "rgb";
+  j["render"]["seed"] = 12;
+  RenderResult rgb = Renderer(scene_from_json(j, dir), quiet_options()).render();
+  EXPECT_EQ(spectral.stats.nonfinite_samples, 0u);
+  const double z = max_z(spectral, rgb);
+  EXPECT_LT(z, 4.0) << "gray medium: spectral and rgb modes differ by " << z << " SE";
+  // the twin: a 3% change of the light is seen
+  EXPECT_GT(max_z(spectral, rgb, 1.03), 4.0) << "a 3% difference must be detectable";
+}
+
+// Every tracker renders the expectation of per-channel delta tracking (one path per wavelength)
+// on a strongly chromatic scattering medium with a sun, a sky and emission.
+TEST(SpectralMode, EveryTrackerAgreesWithPerChannelDelta) {
+  const std::string dir = temp_dir("spectral_agree");
+  write_lumpy(dir + "/lumpy.vdb");
+  auto scene = [&](const std::string& tracker) {
+    json j = spectral_scene(16, 16, 96, tracker);
+    j["camera"] = {{"type", "perspective"}, {"position", {0.2, 0.1, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 30}};
+    j["lights"].push_back({{"type", "environment"}, {"radiance", {0.1, 0.2, 0.4}}});
+    j["lights"].push_back({{"type", "directional"}, {"to_light", {0.3, 1, -0.4}}, {"irradiance", {3.0, 2.0, 1.0}}});
+    j["media"].push_back({{"type", "vdb"}, {"file", "lumpy.vdb"}, {"density_scale", 3.0}, {"sigma_a", {0.2, 0.6, 1.5}},
+                          {"sigma_s", {3.0, 1.5, 0.5}}, {"phase", {{"type", "hg"}, {"g", 0.3}}},
+                          {"emission", {{"radiance", {0.5, 0.2, 0.05}}}}});
+    return scene_from_json(j, dir);
+  };
+  RenderOptions ref_opt = quiet_options(256);
+  RenderResult ref = Renderer(scene("delta-per-channel"), ref_opt).render();
+  EXPECT_EQ(ref.stats.nonfinite_samples, 0u);
+  for (const Mode& m : kModes) {
+    if (m.tracker == "delta-per-channel") continue;
+    RenderOptions o = mode_options(m, 128);
+    o.seed = 99;
+    RenderResult r = Renderer(scene(m.tracker), o).render();
+    EXPECT_EQ(r.stats.nonfinite_samples, 0u) << m.name();
+    const double z = max_z(r, ref);
+    EXPECT_LT(z, 4.0) << m.name() << " differs from delta-per-channel by " << z << " SE";
+  }
+}
+
+// The flag and the scene field agree, and seeds make spectral renders bit-identical.
+TEST(SpectralMode, OptionOverridesSceneAndIsReproducible) {
+  const std::string dir = temp_dir("spectral_option");
+  json j = spectral_scene(8, 8, 16, "spectral-decomposition");
+  j["render"].erase("color");
+  j["lights"].push_back({{"type", "environment"}, {"radiance", {1, 0.5, 0.25}}});
+  j["media"].push_back({{"type", "homogeneous"}, {"bounds", {{-1, -1, -1}, {1, 1, 1}}}, {"sigma_a", {0.5, 1.0, 2.0}},
+                        {"sigma_s", {1, 1, 0.5}}});
+  RenderOptions o = quiet_options();
+  o.color = ST_FILM_COLOR_SPECTRAL;
+  RenderResult a = Renderer(scene_from_json(j, dir), o).render();
+  j["render"]["color"] = "spectral";
+  RenderResult b = Renderer(scene_from_json(j, dir), quiet_options()).render();
+  EXPECT_EQ(a.color, ST_FILM_COLOR_SPECTRAL);
+  EXPECT_EQ(a.rgb, b.rgb) << "the option and the scene field render the same image, bit for bit";
+  j["render"]["color"] = "rgb";
+  RenderResult c = Renderer(scene_from_json(j, dir), quiet_options()).render();
+  EXPECT_EQ(c.color, ST_FILM_COLOR_RGB);
+  EXPECT_NE(a.rgb, c.rgb);
+}
+
+TEST(SpectralMode, SceneFieldErrors) {
+  const std::string dir = temp_dir("spectral_errors");
+  json j = spectral_scene(4, 4, 1, "spectral");
+  j["render"]["color"] = "hyperspectral";
+  const std::string msg = error_of([&] { scene_from_json(j, dir); });
+  EXPECT_NE(msg.find("/render/color"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("rgb, spectral"), std::string::npos) << msg;
+}
+
+// What spectral mode cannot render yet is refused, naming the field.
+TEST(SpectralMode, UnsupportedFeaturesAreRefused) {
+  const std::string dir = temp_dir("spectral_refused");
+  write_lumpy(dir + "/lumpy.vdb");
+  {  // blackbody emission
+    json j = spectral_scene(4, 4, 1, "spectral");
+    j["media"].push_back({{"type", "homogeneous"}, {"bounds", {{-1, -1, -1}, {1, 1, 1}}}, {"sigma_a", {1, 1, 1}},
+                          {"sigma_s", {0, 0, 0}}, {"emission", {{"type", "blackbody"}, {"temperature", 1500}}}});
+    const std::string msg = error_of([&] { Renderer(scene_from_json(j, dir), quiet_options()); });
+    EXPECT_NE(msg.find("/media/0/emission"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("spectral mode"), std::string::npos) << msg;
+  }
+  {  // film layers other than variance
+    json j = spectral_scene(4, 4, 1, "spectral");
+    j["film"]["aovs"] = {"albedo"};
+    j["lights"].push_back({{"type", "environment"}, {"radiance", {1, 1, 1}}});
+    const std::string msg = error_of([&] { Renderer(scene_from_json(j, dir), quiet_options()); });
+    EXPECT_NE(msg.find("albedo"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("spectral mode"), std::string::npos) << msg;
+  }
+}
+
+// spectrum_max: the spectrum's largest value over 360..830 nm, exactly (spectral_pack.cpp checks it stays a float).
+TEST(SpectralMode, SpectrumMaxBoundsTheSpectrum) {
+  const Rgb2SpecFit fit;
+  for (const Rgb& rgb : {Rgb{0.5, 1.0, 2.0}, Rgb{3.0, 1.5, 0.5}, Rgb{0.1, 0.9, 0.1}, Rgb{1, 1, 1}, Rgb{0, 0, 0}}) {
+    const RgbSpectrum s = rgb2spec_unbounded(fit, rgb2spec_srgb(), rgb);
+    const st_float4 c{float(s.c[0]), float(s.c[1]), float(s.c[2]), float(s.scale)};
+    const RgbSpectrum sf{{double(c.x), double(c.y), double(c.z)}, double(c.w)};
+    double grid_max = 0;
+    for (double l = kSpectrumLambdaMin; l <= kSpectrumLambdaMax; l += 0.25) grid_max = std::max(grid_max, sf(l));
+    const double m = spectrum_max(c);
+    EXPECT_GE(m, grid_max * (1 - 1e-12)) << rgb[0] << " " << rgb[1] << " " << rgb[2];
+    EXPECT_LE(m, grid_max * (1 + 1e-4) + 1e-12) << "tight: " << rgb[0] << " " << rgb[1] << " " << rgb[2];
+  }
+}
