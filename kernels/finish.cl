@@ -27,8 +27,8 @@ __kernel void k_finish(ST_STAGE_ARGS) {
   for (uint l = 0; l < (uint)scene->n_lights; ++l) r += shadows[slot * NL + l].Ls;
   r.w = 0.0f;
   if (spectral_mode(scene)) { /* the radiance at the path's wavelengths becomes linear sRGB */
-    float4 pdf_lambda, lambda = path_wavelengths(scene, &p, &pdf_lambda);
-    r = film_rgb3(r, lambda, pdf_lambda);
+    float4 lambda = path_wavelengths(scene, &p);
+    r = film_rgb(r, lambda, wavelength_pdfs(lambda), 3);
   }
   const uint L = (uint)scene->result_layers;
   __global float4* out = &results[p.result_index * L];

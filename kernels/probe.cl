@@ -181,17 +181,17 @@ __kernel void k_probe_philox(__global uint4* io, uint n) {
  * out[4i] = the colour's coefficients (table lookup), out[4i+1] = the four wavelengths of u,
  * out[4i+2] = their pdfs, out[4i+3] = (film rgb of the colour's spectrum as a radiance at them, 0)
  * and spec[i] = the spectrum at them. */
-__kernel void k_probe_spectrum(__global const float* table, int res, __global const float4* film,
-                               __global const float4* in, __global float4* out, __global float4* spec, uint n) {
+__kernel void k_probe_spectrum(__global const float* table, int res, __global const float4* in, __global float4* out,
+                               __global float4* spec, uint n) {
   uint i = get_global_id(0);
   if (i >= n) return;
   float4 coeffs = rgb2spec_lookup(table, res, in[i].xyz);
-  float4 pdf;
-  float4 lambda = sample_wavelengths(in[i].w, &pdf);
+  float4 lambda = sample_wavelengths(in[i].w, 4);
+  float4 pdf = wavelength_pdfs(lambda);
   float4 s = rgb2spec_eval(coeffs, lambda);
   out[4 * i] = coeffs;
   out[4 * i + 1] = lambda;
   out[4 * i + 2] = pdf;
-  out[4 * i + 3] = (float4)(film_rgb(film, s, lambda, pdf), 0.0f);
+  out[4 * i + 3] = film_rgb(s, lambda, pdf, 4);
   spec[i] = s;
 }

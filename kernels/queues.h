@@ -85,12 +85,12 @@ inline void shadow_fold(__constant const st_scene* scene, __global st_shadow* ac
 }
 
 /* The random stream of a path (stream 0) or of one of its shadow rays. */
-/* Spectral mode (st_film_color): the wavelengths of sample (pixel, sample), shared by the paths of
- * a per-channel tracker's sample, from the first draw of a stream no path uses (channel 3: paths
- * have channels 0..2), so they depend only on the seed, pixel and sample; *pdf: their densities. */
-inline float4 path_wavelengths(__constant const st_scene* scene, const st_path* p, float4* pdf) {
+/* Spectral mode (st_film_color): the three wavelengths of sample (pixel, sample), shared by the
+ * paths of a per-channel tracker's sample, from the first draw of a stream no path uses (channel
+ * 3: paths have channels 0..2), so they depend only on the seed, pixel and sample. */
+inline float4 path_wavelengths(__constant const st_scene* scene, const st_path* p) {
   st_rng r = rng_make(scene->seed, p->pixel, p->sample, 3u, 0u, 0u);
-  return sample_wavelengths3(rng_uniform(&r), pdf);
+  return sample_wavelengths(rng_uniform(&r), 3);
 }
 
 inline int spectral_mode(__constant const st_scene* scene) {
@@ -99,10 +99,7 @@ inline int spectral_mode(__constant const st_scene* scene) {
 
 inline st_rng path_rng(__constant const st_scene* scene, const st_path* p, uint stream, uint draw) {
   st_rng r = rng_make(scene->seed, p->pixel, p->sample, p->channel, stream, draw);
-  if (spectral_mode(scene)) {
-    float4 pdf;
-    r.lambda = path_wavelengths(scene, p, &pdf);
-  }
+  if (spectral_mode(scene)) r.lambda = path_wavelengths(scene, p);
   return r;
 }
 

@@ -1,16 +1,18 @@
-/* spectrum.h: spectral mode's device functions (issue 15): four wavelengths per path, an RGB
+/* spectrum.h: spectral mode's device functions (issue 15): the wavelengths of a path, an RGB
  * colour's smooth spectrum at them, and the film's linear sRGB from them. The device twin of
  * src/color/spectrum.h (read it first); tests/test_spectrum.cpp holds the two to each other.
  *
- * Wavelengths: pbrt-v4's scheme, a hero from u and three more from u + 1/4, 1/2, 3/4 (wrapped),
+ * Wavelengths: pbrt-v4's scheme, a hero from u and the others from u + k / n (wrapped),
  * each through the visible-wavelength density p(lambda) = 0.0039398042 / cosh^2(0.0072 (lambda -
  * 538)) on [360, 830] nm, inverted in closed form. Spectra: the Jakob-Hanika sigmoid polynomial
  * in a float4 (c0, c1, c2, scale), s(lambda) = scale S(c0 u^2 + c1 u + c2), u = (lambda - 360) / 470;
  * rgb2spec_lookup reads the build-time table (z levels, then 9 res^3 coefficients, as
  * serialize_rgb2spec_table lays them out after its header) exactly as the host's rgb2spec does.
- * Film: linear sRGB = (1/4) sum_i L_i F(lambda_i) / p(lambda_i), with F the white-balanced
- * observer weights on the 1 nm grid (film_rgb_weights), interpolated linearly.
- * The renderer's spectral mode uses three of these lanes (below). */
+ * Film: linear sRGB = (1/n) sum_i L_i F(lambda_i) / p(lambda_i), with F the white-balanced
+ * observer weights on the 1 nm grid (film_rgb_weights), interpolated linearly from a table the
+ * host generates into the program. The renderer's spectral mode carries n = 3 wavelengths in
+ * lanes x, y, z (the kernels' three channels: masks, per-channel tracking, spectral MIS), lane w 0;
+ * the probe tests n = 4 against the host. */
 #ifndef SPECTRACK_SPECTRUM_H
 #define SPECTRACK_SPECTRUM_H
 
@@ -28,15 +30,20 @@ inline float sample_visible_wavelength(float u) {
   return clamp(538.0f - 138.888889f * atanh(0.85691062f - 1.82750197f * u), ST_LAMBDA_MIN, ST_LAMBDA_MAX);
 }
 
-/* The four wavelengths of a path from one uniform; *pdf gets each one's density. */
-inline float4 sample_wavelengths(float u, float4* pdf) {
-  float4 ui = (float4)(u) + (float4)(0.0f, 0.25f, 0.5f, 0.75f);
+/* The n wavelengths (n = 3 or 4) of a path from one uniform: a hero from u and the others from
+ * u + k / n (wrapped), in lanes 0 .. n - 1; a lane >= n is 0 (no wavelength, density 0). */
+inline float4 sample_wavelengths(float u, int n) {
+  const float step = 1.0f / (float)n;
+  float4 ui = (float4)(u) + (float4)(0.0f, step, 2.0f * step, 3.0f * step);
   ui = select(ui, ui - 1.0f, isgreaterequal(ui, (float4)(1.0f)));
-  float4 lambda = (float4)(sample_visible_wavelength(ui.x), sample_visible_wavelength(ui.y),
-                           sample_visible_wavelength(ui.z), sample_visible_wavelength(ui.w));
-  *pdf = (float4)(visible_wavelength_pdf(lambda.x), visible_wavelength_pdf(lambda.y),
-                  visible_wavelength_pdf(lambda.z), visible_wavelength_pdf(lambda.w));
-  return lambda;
+  return (float4)(sample_visible_wavelength(ui.x), sample_visible_wavelength(ui.y), sample_visible_wavelength(ui.z),
+                  n > 3 ? sample_visible_wavelength(ui.w) : 0.0f);
+}
+
+/* Each lane's density (0 for an unused lane, whose wavelength 0 lies outside the range). */
+inline float4 wavelength_pdfs(float4 lambda) {
+  return (float4)(visible_wavelength_pdf(lambda.x), visible_wavelength_pdf(lambda.y), visible_wavelength_pdf(lambda.z),
+                  visible_wavelength_pdf(lambda.w));
 }
 
 /* s(lambda) per lane; S is 0 or 1 where x^2 overflows. */
@@ -90,44 +97,14 @@ inline float4 rgb2spec_lookup(__global const float* table, int res, float3 rgb) 
   return (float4)(c, scale);
 }
 
-/* F(lambda): the film's linear sRGB weights, linear between the 1 nm samples, 0 outside. */
-inline float3 film_weight(__global const float4* F, float lambda) {
-  if (!(lambda >= ST_LAMBDA_MIN && lambda <= ST_LAMBDA_MAX)) return (float3)(0.0f);
-  float f = lambda - ST_LAMBDA_MIN;
-  int i = min((int)f, ST_FILM_SAMPLES - 2);
-  return mix(F[i].xyz, F[i + 1].xyz, f - (float)i);
-}
-
-/* One sample's linear sRGB from the radiance L at the path's four wavelengths. */
-inline float3 film_rgb(__global const float4* F, float4 L, float4 lambda, float4 pdf) {
-  float4 w = select(L / pdf, (float4)(0.0f), isequal(pdf, (float4)(0.0f)));
-  return 0.25f * (w.x * film_weight(F, lambda.x) + w.y * film_weight(F, lambda.y) + w.z * film_weight(F, lambda.z) +
-                  w.w * film_weight(F, lambda.w));
-}
-
-/* ---- the renderer's spectral mode (st_film_color): three wavelengths in lanes x, y, z ----
- * The kernels carry three channels (masks, per-channel tracking, spectral MIS), so a path carries
- * three wavelengths, the same scheme with n = 3: a hero from u and two more from u + 1/3, u + 2/3
- * (wrapped); lane w stays 0. */
-inline float4 sample_wavelengths3(float u, float4* pdf) {
-  float4 ui = (float4)(u) + (float4)(0.0f, 1.0f / 3.0f, 2.0f / 3.0f, 0.0f);
-  ui = select(ui, ui - 1.0f, isgreaterequal(ui, (float4)(1.0f)));
-  float4 lambda = (float4)(sample_visible_wavelength(ui.x), sample_visible_wavelength(ui.y),
-                           sample_visible_wavelength(ui.z), 0.0f);
-  *pdf = (float4)(visible_wavelength_pdf(lambda.x), visible_wavelength_pdf(lambda.y),
-                  visible_wavelength_pdf(lambda.z), 0.0f);
-  return lambda;
-}
-
-/* A spectrum's values at a path's wavelengths (lanes x, y, z; w = 0). */
+/* A spectrum's values at a path's wavelengths, lane w 0 (spectral mode carries three). */
 inline float4 spectrum_at(float4 coeffs, float4 lambda) {
   return rgb2spec_eval(coeffs, lambda) * (float4)(1.0f, 1.0f, 1.0f, 0.0f);
 }
 
-#ifdef ST_FILM_TABLE
-/* st_film_table (generated by the host, src/cl/opencl.cpp film_table_source): entry i is the
- * wavelength 360 + i nm: xyz = the film's weights F (film_rgb_weights), w = CIE D65 (cie_d65),
- * both linear between the entries as on the host. */
+/* st_film_table (generated into every program by the host, src/cl/opencl.cpp film_table_source):
+ * entry i is the wavelength 360 + i nm: xyz = the film's weights F (film_rgb_weights), w = CIE D65
+ * (cie_d65), both linear between the entries as on the host; 0 outside 360..830 nm. */
 inline float4 film_table_at(float lambda) {
   if (!(lambda >= ST_LAMBDA_MIN && lambda <= ST_LAMBDA_MAX)) return (float4)(0.0f);
   float f = lambda - ST_LAMBDA_MIN;
@@ -142,14 +119,14 @@ inline float4 illuminant_at(float4 coeffs, float4 lambda) {
   return spectrum_at(coeffs, lambda) * d65;
 }
 
-/* One path's linear sRGB (w = 0) from its radiance L at its three wavelengths: (1/3) sum_i
- * L_i F(lambda_i) / p(lambda_i). A per-channel tracker's path carries one lane (the others 0), so
- * the sum over a sample's three paths is the sample's estimate. */
-inline float4 film_rgb3(float4 L, float4 lambda, float4 pdf) {
-  float4 w = select(L / pdf, (float4)(0.0f), isequal(pdf, (float4)(0.0f))) * (1.0f / 3.0f);
-  float4 rgb = w.x * film_table_at(lambda.x) + w.y * film_table_at(lambda.y) + w.z * film_table_at(lambda.z);
+/* One sample's linear sRGB (w = 0) from the radiance L at its n wavelengths: (1/n) sum_i
+ * L_i F(lambda_i) / p(lambda_i), unused lanes (pdf 0) adding nothing. A per-channel tracker's path
+ * carries one lane (the others 0), so the sum over a sample's paths is the sample's estimate. */
+inline float4 film_rgb(float4 L, float4 lambda, float4 pdf, int n) {
+  float4 w = select(L / pdf, (float4)(0.0f), isequal(pdf, (float4)(0.0f))) * (1.0f / (float)n);
+  float4 rgb = w.x * film_table_at(lambda.x) + w.y * film_table_at(lambda.y) + w.z * film_table_at(lambda.z) +
+               w.w * film_table_at(lambda.w);
   return (float4)(rgb.xyz, 0.0f);
 }
-#endif
 
 #endif

@@ -182,7 +182,7 @@ static const std::string& film_table_source() {
   static const std::string text = [] {
     const std::vector<Rgb>& F = film_rgb_weights();
     std::ostringstream o;
-    o << "#define ST_FILM_TABLE 1\n__constant float4 st_film_table[" << F.size() << "] = {\n";
+    o << "__constant float4 st_film_table[" << F.size() << "] = {\n";
     for (size_t i = 0; i < F.size(); ++i) {
       const double lambda = kSpectrumLambdaMin + double(i);
       o << fmt::format("  (float4)({:.8e}f, {:.8e}f, {:.8e}f, {:.8e}f),\n", float(F[i][0]), float(F[i][1]),

@@ -13,7 +13,7 @@ namespace spectrack {
 
 Probe::Probe(Renderer& renderer) : renderer_(renderer) {
   DeviceScene& d = renderer_.device_scene();
-  ProgramBuild pb = build_program(d.ctx, d.dev, assemble_kernel_source(d.defines, {"spectrum.h", "probe.cl"}), "-cl-std=CL1.2", true);
+  ProgramBuild pb = build_program(d.ctx, d.dev, assemble_kernel_source(d.defines, {"probe.cl"}), "-cl-std=CL1.2", true);
   launcher_ = std::make_unique<KernelLauncher>(d.queue, pb.program);
 }
 Probe::~Probe() = default;
@@ -206,21 +206,17 @@ std::vector<Probe::SpectrumItem> Probe::spectrum(const std::vector<std::array<fl
   const Rgb2SpecTable& t = rgb2spec_srgb();
   std::vector<float> table(t.z.begin(), t.z.end());
   table.insert(table.end(), t.coeffs.begin(), t.coeffs.end());
-  std::vector<st_float4> film;
-  for (const Rgb& w : film_rgb_weights()) film.push_back(st_float4{float(w[0]), float(w[1]), float(w[2]), 0.0f});
   cl::Buffer b_table = ds().buffer(CL_MEM_READ_ONLY, table.size() * 4, table.data(), "probe rgb2spec table");
-  cl::Buffer b_film = ds().buffer(CL_MEM_READ_ONLY, film.size() * 16, film.data(), "probe film weights");
   cl::Buffer b_in = ds().buffer(CL_MEM_READ_ONLY, rgb_u.size() * 16, rgb_u.data(), "probe spectrum input");
   cl::Buffer b_out = ds().buffer(CL_MEM_WRITE_ONLY, rgb_u.size() * 64, nullptr, "probe spectrum output");
   cl::Buffer b_spec = ds().buffer(CL_MEM_WRITE_ONLY, rgb_u.size() * 16, nullptr, "probe spectrum values");
   cl::Kernel& k = launcher_->kernel("k_probe_spectrum");
   k.setArg(0, b_table);
   k.setArg(1, cl_int(t.res));
-  k.setArg(2, b_film);
-  k.setArg(3, b_in);
-  k.setArg(4, b_out);
-  k.setArg(5, b_spec);
-  k.setArg(6, cl_uint(rgb_u.size()));
+  k.setArg(2, b_in);
+  k.setArg(3, b_out);
+  k.setArg(4, b_spec);
+  k.setArg(5, cl_uint(rgb_u.size()));
   launcher_->launch("k_probe_spectrum", rgb_u.size());
   std::vector<std::array<float, 16>> o(rgb_u.size());
   std::vector<std::array<float, 4>> sp(rgb_u.size());
