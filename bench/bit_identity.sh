@@ -30,6 +30,21 @@ run cloud_mis data/scenes/cloud.json --tracker spectral-mis --spp 2 --pixel-boun
 run cloud_rm data/scenes/cloud.json --transmittance ray-marching --spp 2 --pixel-bounds 176,208,112,144
 run dense_uniform bench/scenes/dense_chromatic.json --light-sampling uniform --spp 1 --pixel-bounds 20,44,20,44
 run cloud_budget3 data/scenes/cloud.json --budget 3 --spp 2 --pixel-bounds 176,208,112,144
+# blackbody emission: a temperature grid through the colour table, specialised and generic kernels
+run fire data/scenes/fire.json --spp 2 --pixel-bounds 116,140,150,174
+run fire_g data/scenes/fire.json --tracker delta-per-channel --spp 2 --pixel-bounds 116,140,150,174 --generic-kernels
+# a colour grid (albedo), and an environment map (a gradient written here) lighting the cloud
+for t in delta-per-channel spectral-mis; do run smoke_cd_$t docs/examples/colored_smoke.json --tracker $t --spp 2 --pixel-bounds 148,172,108,132; done
+oiiotool --pattern fill:top=0.2,0.4,0.9:bottom=1.6,0.8,0.3 64x32 3 -d float -o $out/sky.exr >/dev/null 2>&1
+/usr/bin/python3 - "$out" <<'PY'
+import json, os, sys
+s = json.load(open("data/scenes/cloud.json"))
+s["lights"] = [{"type": "environment", "map": os.path.join(sys.argv[1], "sky.exr"), "scale": 1.5}]
+s["media"][0]["file"] = os.path.abspath("data/volumes/cloud.vdb")
+s["film"].pop("output", None)
+json.dump(s, open(os.path.join(sys.argv[1], "env.json"), "w"))
+PY
+for t in spectral-decomposition delta-per-channel; do run env_$t $out/env.json --tracker $t --spp 2 --pixel-bounds 176,208,112,144; done
 # control: a different seed must differ
 $NEW render data/scenes/cloud.json --spp 1 --pixel-bounds 180,200,120,140 -o $out/c1.exr --quiet; $NEW render data/scenes/cloud.json --spp 1 --seed 9 --pixel-bounds 180,200,120,140 -o $out/c2.exr --quiet
 cmp -s <(oiiotool --dumpdata $out/c1.exr | tail -n +2) <(oiiotool --dumpdata $out/c2.exr | tail -n +2) && { echo "CONTROL FAILED: comparison is blind"; fail=1; } || echo "control ok: seeds differ"

@@ -18,11 +18,24 @@ inline float3 env_uv_to_dir(float2 uv) {
   return (float3)(s * sin(phi), cos(theta), -s * cos(phi));
 }
 
-inline float4 env_texel(__constant const st_light* l, __global const float* env, float2 uv) {
+inline __global const float* env_texel_at(__constant const st_light* l, __global const float* env, float2 uv) {
   int x = min((int)(uv.x * l->map_width), l->map_width - 1);
   int y = min((int)(uv.y * l->map_height), l->map_height - 1);
-  __global const float* px = env + l->map_offset + 4u * (uint)(y * l->map_width + x);
+  return env + l->map_offset + 4u * (uint)(y * l->map_width + x);
+}
+
+/* The texel's rgb (w = 0); in spectral mode (l->spectral) texels hold the sigmoid coefficients of
+ * their colour instead (src/render/spectral_pack.cpp: rgb2spec_unbounded_lookup, whose scale, lane
+ * w, is exactly twice the colour's largest component). */
+inline float4 env_texel(__constant const st_light* l, __global const float* env, float2 uv) {
+  __global const float* px = env_texel_at(l, env, uv);
   return (float4)(px[0], px[1], px[2], 0.0f);
+}
+
+/* The texel's largest rgb component: what the sampling distribution is built on, in both modes. */
+inline float env_texel_max(__constant const st_light* l, __global const float* env, float2 uv) {
+  if (ST_HAS_SPECTRAL && l->spectral) return 0.5f * env_texel_at(l, env, uv)[3];
+  return max3(env_texel(l, env, uv));
 }
 
 /* Index i with cdf[i] <= u < cdf[i+1] in a cdf of n+1 entries (cdf[0] = 0, cdf[n] = 1). */
@@ -39,8 +52,7 @@ inline float env_map_pdf(__constant const st_light* l, __global const float* env
   float2 uv = env_dir_to_uv(d);
   float s = sqrt(fmax(0.0f, 1.0f - d.y * d.y));
   if (s <= 0.0f || l->map_integral <= 0.0f) return 0.0f;
-  float4 c = env_texel(l, env, uv);
-  float f = max3(c) * s;
+  float f = env_texel_max(l, env, uv) * s;
   return f / l->map_integral / (2.0f * ST_PI * ST_PI * s);
 }
 
@@ -50,10 +62,20 @@ inline float4 light_radiance(__constant const st_light* l, float4 lambda) {
   return ST_HAS_SPECTRAL && l->spectral ? illuminant_at(l->radiance, lambda) : l->radiance;
 }
 
+/* An environment map's radiance along d: scale * the texel's rgb, or in spectral mode scale * the
+ * texel's spectrum times D65 at the path's wavelengths (the map's scale stays a number). */
+inline float4 env_map_Le(__constant const st_light* l, __global const float* env, float3 d, float4 lambda) {
+  if (ST_HAS_SPECTRAL && l->spectral) {
+    __global const float* px = env_texel_at(l, env, env_dir_to_uv(d));
+    return l->radiance.x * illuminant_at((float4)(px[0], px[1], px[2], px[3]), lambda);
+  }
+  return l->radiance * env_texel(l, env, env_dir_to_uv(d));
+}
+
 /* Radiance arriving along direction d (pointing away from the scene) from light l. */
 inline float4 light_Le(__constant const st_light* l, __global const float* env, float3 d, float4 lambda) {
   if (l->type == ST_LIGHT_ENV_UNIFORM) return light_radiance(l, lambda);
-  if (ST_HAS_ENV_MAP && l->type == ST_LIGHT_ENV_MAP) return l->radiance * env_texel(l, env, env_dir_to_uv(d));
+  if (ST_HAS_ENV_MAP && l->type == ST_LIGHT_ENV_MAP) return env_map_Le(l, env, d, lambda);
   if (l->is_delta) return (float4)(0.0f);
   return dot(d, l->direction.xyz) >= l->cos_max ? light_radiance(l, lambda) : (float4)(0.0f);
 }

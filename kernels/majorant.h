@@ -372,7 +372,8 @@ typedef struct {
   float4 T_control; /* ST_WALK_CONTROL_CLOSED_FORM with decomposition: the last flight's control transmittance */
   float4 mask;      /* channels of the path */
   /* spectral mode: each spectral medium's coefficients at the path's wavelengths (st_rng.lambda),
-   * evaluated once per walk, and their sum (segments_current, segments_sigma_maj) */
+   * evaluated once per walk, and their sum (segments_current, segments_sigma_maj); a colour
+   * medium's sigma_s_l is its bound over the colour (walker_begin) */
   float4 sigma_a_l[ST_KERNEL_MAX_MEDIA], sigma_s_l[ST_KERNEL_MAX_MEDIA], sigma_t_l[ST_KERNEL_MAX_MEDIA];
   int decompose, mode, iter, budget;
   int exact;        /* flights below the float spacing of t were met: positions are summed exactly */
@@ -394,6 +395,9 @@ inline void walker_begin(__constant const st_scene* scene, __global const float2
       if (i >= scene->n_media || !medium_is_spectral(&scene->media[i])) continue;
       w->sigma_a_l[i] = medium_sigma_a(&scene->media[i], lambda);
       w->sigma_s_l[i] = medium_sigma_s(&scene->media[i], lambda);
+      /* a colour medium's scattering part at its bound (medium.h: 1 for an albedo grid, whose
+       * extinction is the colour-free one; the colour spectrum's bound for a scattering grid) */
+      if (medium_has_color(&scene->media[i])) w->sigma_s_l[i] *= scene->media[i].sigma_t_maj.x;
       w->sigma_t_l[i] = w->sigma_a_l[i] + w->sigma_s_l[i];
     }
   w->decompose = decompose;

@@ -136,28 +136,58 @@ inline float medium_density(__constant const st_scene* scene, __constant const s
   return grid_trilinear(grids, m->density_grid, pi);
 }
 
-/* The blackbody colour (linear sRGB, unscaled) of a temperature grid value v: T = v * a + b
- * (a = temperature_scale, b = -temperature_offset * temperature_scale), 0 at or below the
- * cutoff, else the table (src/color/blackbody.h) interpolated linearly in the warped temperature
- * w = A / T - B ln T between its two nearest entries. */
-inline float4 blackbody_rgb(__constant const st_medium* m, __global const uint* grids, float v) {
-  const float T = v * m->temperature.x + m->temperature.y;
-  if (!(T > m->temperature.z)) return (float4)(0.0f);
+/* Where temperature T falls in medium m's blackbody table (the grid buffer at blackbody_offset):
+ * entry *i and the fraction towards entry *i + 1, linear in the warped temperature
+ * w = A / T - B ln T (src/color/blackbody.h), clamped to the table. */
+inline float blackbody_table_pos(__constant const st_medium* m, float T, uint* i) {
   const float w = m->temperature.w / T - m->blackbody_table.w * log(T);
   const float last = m->blackbody_table.z;
   const float u = clamp((w - m->blackbody_table.x) * m->blackbody_table.y, 0.0f, last);
-  const uint i = min((uint)u, (uint)last - 1u);
-  const float f = u - (float)i;
+  *i = min((uint)u, (uint)last - 1u);
+  return u - (float)*i;
+}
+
+/* The blackbody colour (linear sRGB, unscaled) of a temperature grid value v: T = v * a + b
+ * (a = temperature_scale, b = -temperature_offset * temperature_scale), 0 at or below the
+ * cutoff, else the table's colours interpolated between its two nearest entries. */
+inline float4 blackbody_rgb(__constant const st_medium* m, __global const uint* grids, float v) {
+  const float T = v * m->temperature.x + m->temperature.y;
+  if (!(T > m->temperature.z)) return (float4)(0.0f);
+  uint i;
+  const float f = blackbody_table_pos(m, T, &i);
   __global const float* t = (__global const float*)(grids + m->blackbody_offset) + 4u * i;
   const float4 a = vload4(0, t), b = vload4(1, t);
   return (float4)(mix(a.xyz, b.xyz, f), 0.0f);
 }
 
+/* Spectral mode's blackbody emission at p (m->blackbody, types.h): m->Le.x B(lambda, T) / N(T)
+ * at the path's wavelengths, Planck's law evaluated exactly per wavelength (kernels/spectrum.h);
+ * T is the temperature grid's value mapped as in blackbody_rgb (0 at or below the cutoff) or the
+ * constant temperature.y, raised to the table's floor; ln N is interpolated from the table's lane w,
+ * or the constant's blackbody_log_norm. */
+inline float4 blackbody_spectral_Le(__constant const st_medium* m, __global const uint* grids, float3 p, uint* lookups,
+                                    float4 lambda) {
+  float T = m->temperature.y, log_norm = m->blackbody_log_norm;
+  if (m->emission_grid != ST_NO_GRID) {
+    *lookups += 1u;
+    T = grid_trilinear(grids, m->emission_grid, medium_to_index(m, p)) * m->temperature.x + m->temperature.y;
+    if (!(T > m->temperature.z)) return (float4)(0.0f);
+    uint i;
+    const float f = blackbody_table_pos(m, T, &i);
+    __global const float* t = (__global const float*)(grids + m->blackbody_offset) + 4u * i;
+    log_norm = mix(t[3], t[7], f);
+  }
+  T = fmax(T, ST_BLACKBODY_T_FLOOR);
+  return m->Le.x * blackbody_over_norm(lambda, T, log_norm);
+}
+
 /* Emitted radiance Le of medium m at p: radiance * scale (* the emission grid's value), or
- * scale * the blackbody colour of the temperature grid's value (emission type "blackbody"). */
+ * scale * the blackbody colour of the temperature grid's value (emission type "blackbody"); in
+ * spectral mode at the path's wavelengths. */
 inline float4 medium_Le(__constant const st_medium* m, __global const uint* grids, float3 p, uint* lookups,
                         float4 lambda) {
   if (!ST_HAS_EMISSION || !m->emissive) return (float4)(0.0f);
+  if (ST_HAS_SPECTRAL && m->blackbody) return blackbody_spectral_Le(m, grids, p, lookups, lambda);
   const float4 Le = medium_is_spectral(m) ? illuminant_at(m->Le, lambda) : m->Le;
   if (m->emission_grid == ST_NO_GRID) return Le;
   float3 pi = medium_to_index(m, p);
@@ -179,7 +209,12 @@ inline float4 medium_Le(__constant const st_medium* m, __global const uint* grid
  * A medium with a colour grid has no control component (majorant.h segments_current): its
  * coefficients are not constant anywhere, so every collision it takes part in is a residual one,
  * which looks C up. The colour of each medium at a collision travels with the collision (tint).
- * Transmittance needs only sigma_t, so shadow rays through an albedo grid never read it. */
+ * Transmittance needs only sigma_t, so shadow rays through an albedo grid never read it.
+ * Spectral mode: C becomes a spectrum at each collision, through the RGB-to-spectrum table the host
+ * puts in the grid buffer at color_grid[3] (a word holding res, then kernels/spectrum.h's layout):
+ * an albedo's of clamp(C, 0, 1), within [0, 1] at every wavelength, or a scattering factor's of
+ * max(C, 0) in pbrt-v4's unbounded form (the spectrum of C / (2 max C), times 2 max C), which is at
+ * most 2 max C; the host keeps that factor's bound in sigma_t_maj.x (1 for albedo; st_walker). */
 inline int medium_has_color(__constant const st_medium* m) { return ST_HAS_COLOR && m->color_mode != ST_COLOR_NONE; }
 
 /* C at world point p (3 lookups). */
@@ -190,11 +225,40 @@ inline float4 medium_color(__constant const st_medium* m, __global const uint* g
                   grid_trilinear(grids, m->color_grid[2], pi), 0.0f);
 }
 
+/* Spectral mode: the spectrum of colour C (tint) at the path's wavelengths (see above). */
+inline float4 medium_color_spectrum(__constant const st_medium* m, __global const uint* grids, float4 tint,
+                                    float4 lambda) {
+  __global const uint* t = grids + m->color_grid[3];
+  float3 c = tint.xyz;
+  float k = 1.0f;
+  if (m->color_mode != ST_COLOR_ALBEDO) {
+    c = fmax(c, (float3)(0.0f));
+    const float top = fmax(c.x, fmax(c.y, c.z));
+    if (!(top > 0.0f)) return (float4)(0.0f);
+    k = 2.0f * top;
+    c = c / k;
+  }
+  return k * spectrum_at(rgb2spec_lookup((__global const float*)(t + 1), (int)t[0], c), lambda);
+}
+
 /* Coefficients per unit density of medium m with colour tint (ignored without a colour grid), at
- * the path's wavelengths in spectral mode (colour grids are rgb-only: src/render/spectral_pack.cpp). */
-inline void medium_unit_coeffs(__constant const st_medium* m, float4 tint, float4 lambda, float4* sigma_a,
-                               float4* sigma_s) {
+ * the path's wavelengths in spectral mode. */
+inline void medium_unit_coeffs(__constant const st_medium* m, __global const uint* grids, float4 tint, float4 lambda,
+                               float4* sigma_a, float4* sigma_s) {
   if (medium_has_color(m)) {
+    if (medium_is_spectral(m)) {
+      const float4 C = medium_color_spectrum(m, grids, tint, lambda);
+      *sigma_a = spectrum_at(m->sigma_a, lambda);
+      *sigma_s = spectrum_at(m->sigma_s, lambda);
+      if (m->color_mode == ST_COLOR_ALBEDO) {
+        const float4 sigma_t = *sigma_a + *sigma_s;
+        *sigma_s = sigma_t * C;
+        *sigma_a = fmax(sigma_t - *sigma_s, 0.0f);
+      } else {
+        *sigma_s *= C;
+      }
+      return;
+    }
     if (m->color_mode == ST_COLOR_ALBEDO) {
       float4 sigma_t = m->sigma_a + m->sigma_s;
       *sigma_s = sigma_t * clamp(tint, 0.0f, 1.0f);
@@ -239,7 +303,7 @@ inline st_coeffs scene_coeffs(__constant const st_scene* scene, __global const u
       if (d == 0.0f) continue;
       c.tint[i] = medium_color(m, grids, p, lookups);
       float4 sa, ss;
-      medium_unit_coeffs(m, c.tint[i], rng->lambda, &sa, &ss);
+      medium_unit_coeffs(m, grids, c.tint[i], rng->lambda, &sa, &ss);
       c.sigma_a += d * sa;
       c.sigma_s += d * ss;
       continue;

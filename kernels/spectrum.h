@@ -102,6 +102,19 @@ inline float4 spectrum_at(float4 coeffs, float4 lambda) {
   return rgb2spec_eval(coeffs, lambda) * (float4)(1.0f, 1.0f, 1.0f, 0.0f);
 }
 
+/* B(lambda, T) / N per lane, ln N = log_norm: Planck's law in W sr^-1 m^-2 nm^-1
+ * (src/color/blackbody.cpp log_planck, CODATA 2018: ln(2 h c^2) in these units and c2 = h c / k in
+ * nm K) over a normaliser, as exp(ln(2 h c^2) - ln N - x) / (lambda^5 (1 - exp(-x))), x =
+ * c2 / (lambda T): one exp and one expm1 per lane, finite where B / N is (the exponent holds the
+ * cold regime's e^-x and the normaliser, which apart overflow a float); 0 in an unused lane
+ * (lambda 0). */
+inline float4 blackbody_over_norm(float4 lambda, float T, float log_norm) {
+  const float4 x = 14387768.8f / (lambda * T);
+  const float4 l2 = lambda * lambda;
+  const float4 v = exp((float4)(46.2265312f - log_norm) - x) / (l2 * l2 * lambda * -expm1(-x));
+  return select(v, (float4)(0.0f), islessequal(lambda, (float4)(0.0f)));
+}
+
 /* st_film_table (generated into every program by the host, src/cl/opencl.cpp film_table_source):
  * entry i is the wavelength 360 + i nm: xyz = the film's weights F (film_rgb_weights), w = CIE D65
  * (cie_d65), both linear between the entries as on the host; 0 outside 360..830 nm. */

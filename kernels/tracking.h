@@ -165,7 +165,7 @@ inline float4 absorbed_emission(__constant const st_scene* scene, __global const
     __constant const st_medium* m = &scene->media[i];
     if (!m->emissive) continue;
     float4 sigma_a, sigma_s;
-    medium_unit_coeffs(m, c->tint[i], lambda, &sigma_a, &sigma_s);
+    medium_unit_coeffs(m, grids, c->tint[i], lambda, &sigma_a, &sigma_s);
     mua_Le += c->density[i] * sigma_a * medium_Le(m, grids, p, lookups, lambda);
   }
   return mua_Le;
@@ -176,8 +176,8 @@ inline float4 absorbed_emission(__constant const st_scene* scene, __global const
  * with one medium, medium 0. Sets *sigma_s_k to that part's scattering coefficient and *inv_p to
  * the reciprocal of the choice's probability; returns -1 when no medium scatters any carried
  * channel. */
-inline int choose_scattering_medium(__constant const st_scene* scene, const st_collision* c, float4 beta,
-                                    float4 mask, st_rng* rng, float4* sigma_s_k, float* inv_p) {
+inline int choose_scattering_medium(__constant const st_scene* scene, __global const uint* grids, const st_collision* c,
+                                    float4 beta, float4 mask, st_rng* rng, float4* sigma_s_k, float* inv_p) {
   *sigma_s_k = c->sigma_s;
   *inv_p = 1.0f;
   if (!(ST_HAS_MULTI_MEDIUM && scene->n_media > 1)) return 0;
@@ -187,7 +187,7 @@ inline int choose_scattering_medium(__constant const st_scene* scene, const st_c
     q[i] = 0.0f;
     if (i >= scene->n_media) continue;
     float4 sigma_a, sigma_s;
-    medium_unit_coeffs(&scene->media[i], c->tint[i], rng->lambda, &sigma_a, &sigma_s);
+    medium_unit_coeffs(&scene->media[i], grids, c->tint[i], rng->lambda, &sigma_a, &sigma_s);
     q[i] = masked_avg(fabs(beta * c->density[i] * sigma_s), mask);
     q_sum += q[i];
   }
@@ -201,7 +201,7 @@ inline int choose_scattering_medium(__constant const st_scene* scene, const st_c
   }
   if (k < 0) return -1;
   float4 sigma_a;
-  medium_unit_coeffs(&scene->media[k], c->tint[k], rng->lambda, &sigma_a, sigma_s_k);
+  medium_unit_coeffs(&scene->media[k], grids, c->tint[k], rng->lambda, &sigma_a, sigma_s_k);
   *sigma_s_k *= c->density[k];
   *inv_p = q_sum / q[k];
   return k;
@@ -243,7 +243,7 @@ inline int free_path_collision(__constant const st_scene* scene, __global const 
     }
     float4 sigma_s_k;
     float inv_p;
-    int k = choose_scattering_medium(scene, &c, *beta, mask, rng, &sigma_s_k, &inv_p);
+    int k = choose_scattering_medium(scene, grids, &c, *beta, mask, rng, &sigma_s_k, &inv_p);
     if (k < 0) {
       *beta = (float4)(0.0f);
       st->real += weighted ? 1u : 0u;
@@ -395,7 +395,7 @@ inline int mis_collision(__constant const st_scene* scene, __global const uint* 
     st->real += 1u;
     float4 sigma_s_k;
     float inv_p;
-    int m = choose_scattering_medium(scene, &c, rgb, rgb, rng, &sigma_s_k, &inv_p);
+    int m = choose_scattering_medium(scene, grids, &c, rgb, rgb, rng, &sigma_s_k, &inv_p);
     if (m < 0) {
       *beta = (float4)(0.0f);
       return ST_EV_ABSORB;

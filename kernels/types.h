@@ -285,21 +285,34 @@ typedef struct {
   st_int maj_block;            /* fine cells per block edge of the hierarchy; 0: one level */
   st_uint maj_coarse_offset;   /* first block entry in the majorant buffer (float2, kernels/majorant.h) */
   st_int color_mode;           /* st_color_mode; ST_COLOR_NONE: no colour grid */
-  st_float4 sigma_t_maj;       /* colour grid: per unit density, an upper bound of sigma_t over the medium (rgb) */
-  st_uint color_grid[4];       /* colour grid: word offsets of its x, y, z component float grids; w unused */
+  st_float4 sigma_t_maj;       /* colour grid: per unit density, an upper bound of sigma_t over the medium (rgb);
+                                * spectral mode: the bound of the colour's spectrum per unit of sigma_s (medium.h) */
+  st_uint color_grid[4];       /* colour grid: word offsets of its x, y, z component float grids; w: spectral mode,
+                                * the RGB-to-spectrum table's (medium.h medium_color_spectrum), else ST_NO_GRID */
   /* blackbody emission (emission_grid holds the temperature grid; Le = (scale, scale, scale)):
    * T = value * x + y, nothing emits where T <= z; w: the warp's A (below) */
   st_float4 temperature;
   /* its colour table in the grid buffer at blackbody_offset (ST_NO_GRID: none): float4 (linear
-   * sRGB, Y) entries at warped temperatures A / T - w ln T = x + i / y, i = 0 .. z (z = entries - 1) */
+   * sRGB, ln N: the normaliser of src/color/blackbody.h blackbody_xyz) entries at warped
+   * temperatures A / T - w ln T = x + i / y, i = 0 .. z (z = entries - 1) */
   st_float4 blackbody_table;
   st_uint blackbody_offset;
   /* spectral mode: 1 when sigma_a, sigma_s and Le hold spectra, not rgb: the sigmoid coefficients
    * (c0, c1, c2, scale) of kernels/spectrum.h, Le's times CIE D65 (an illuminant); the majorants
    * take the extinction at the path's wavelengths (majorant.h st_walker) */
   st_int spectral;
-  st_uint pad_blackbody[2];
+  /* spectral mode, blackbody emission (0 otherwise, and in rgb mode): Le = scale times the film's
+   * emission scale (src/color/spectrum.h film_emission_scale) in lanes xyz, and the spectrum is
+   * exp(ln B(lambda, T) - ln N(T)) (kernels/medium.h blackbody_spectral_Le); a constant temperature
+   * is temperature.y (temperature.x = 0) and its ln N is blackbody_log_norm */
+  st_int blackbody;
+  float blackbody_log_norm;
 } st_medium;
+
+/* Blackbody colours and spectra below this temperature (K) are those of this temperature (the
+ * table's floor, src/color/blackbody.h kBlackbodyTableFloor): 0 for the peak and none
+ * normalisations to float precision, the red end of the spectrum for luminance. */
+#define ST_BLACKBODY_T_FLOOR 100.0f
 
 typedef struct {
   st_float4 position;
@@ -319,13 +332,15 @@ typedef struct {
   float cos_max;       /* directional: cos of the half apex angle */
   float pdf_cone;      /* directional: 1 / solid angle of the disc */
   /* environment map: texels (rgb float4) and the sampling distribution in the env buffer */
-  st_uint map_offset;   /* float4 texels, width*height, row 0 = top (v = 0 at +y) */
+  st_uint map_offset;   /* float4 texels, width*height, row 0 = top (v = 0 at +y): rgb, or in spectral mode the
+                         * sigmoid coefficients of each texel's colour (scale = 2 max rgb; kernels/light.h) */
   st_uint cdf_offset;   /* float: marginal cdf (height+1) then conditional cdfs (height*(width+1)) */
   st_int map_width, map_height;
   float map_integral;   /* integral of luminance * sin(theta) over the map's (u,v) domain */
   float select_pmf;     /* probability that next-event estimation picks this light (1 with light sampling "all") */
   float select_cdf;     /* power light sampling: sum of select_pmf over lights 0..this one */
-  st_int spectral;      /* spectral mode: radiance holds the sigmoid coefficients of a spectrum that, times D65, is the light's */
+  st_int spectral;      /* spectral mode: radiance holds the sigmoid coefficients of a spectrum that, times D65, is the
+                         * light's (an environment map's radiance stays its scale; its texels hold the spectra) */
 } st_light;
 
 /* Everything the kernels need about the scene and the render, in one __constant block. */

@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "color/blackbody.h"
+#include "color/spectrum.h"
 #include "test_util.h"
 #include "util/error.h"
 
@@ -35,6 +36,40 @@ json scene_base(int w, int h, int spp, const std::string& tracker) {
               {"render", {{"tracker", tracker}, {"seed", 11}}},
               {"lights", json::array()},
               {"media", json::array()}};
+}
+
+// The fire scene's medium (coefficients given) on the project's fire volume
+// (data/volumes/fire.vdb, made by make_cloud --style fire), under a dim sky.
+const std::string kFireVdb = std::string(SPECTRACK_SOURCE_DIR) + "/data/volumes/fire.vdb";
+json fire_scene(const std::string& tracker, int spp, const json& sigma_s, const json& sigma_a) {
+  json s = scene_base(12, 16, spp, tracker);
+  s["camera"] = {{"type", "perspective"}, {"position", {0.0, 0.1, -4.4}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 34}};
+  s["lights"].push_back({{"type", "environment"}, {"radiance", {0.01, 0.012, 0.02}}});
+  s["media"].push_back({{"type", "vdb"}, {"file", kFireVdb}, {"density_scale", 6.0}, {"sigma_s", sigma_s},
+                        {"sigma_a", sigma_a}, {"phase", {{"type", "hg"}, {"g", 0.3}}},
+                        {"emission", {{"type", "blackbody"}, {"normalization", "none"}}}});
+  return s;
+}
+
+// The reference render's largest pixel value; every pixel must be finite.
+double finite_peak(const RenderResult& r) {
+  double peak = 0;
+  for (int c = 0; c < 3; ++c)
+    for (double v : channel(r, c)) {
+      EXPECT_TRUE(std::isfinite(v));
+      peak = std::max(peak, v);
+    }
+  return peak;
+}
+
+// A slab 3 x 3 x 2 units (voxel 1/32) of density 1 with a "heat" grid (no "temperature": found
+// by name) of 2 on the slab; one voxel of heat 3 at a corner out of view makes the table reach
+// higher, so the slab's temperature falls between entries.
+void write_heat_slab(const std::string& path) {
+  write_vdb_grids(path, openvdb::Coord(-49, -49, -33), openvdb::Coord(48, 48, 32),
+                  {{"density", [](int i, int j, int k) { return (std::abs(i + 0.5) < 48 && std::abs(j + 0.5) < 48 && std::abs(k + 0.5) < 32) ? 1.0f : 0.0f; }},
+                   {"heat", [](int i, int j, int k) { return (i == 48 && j == 48 && k == 32) ? 3.0f : 2.0f; }}},
+                  1.0 / 32.0);
 }
 
 std::string parse_error(const json& j, const std::string& dir = ".") {
@@ -139,7 +174,7 @@ TEST(Blackbody, TableInterpolatesTheIntegral) {
   for (BlackbodyNorm norm : {BlackbodyNorm::Peak, BlackbodyNorm::Luminance, BlackbodyNorm::None})
     for (double T_hi : {4000.0, 1e9}) {
       const BlackbodyTable t = make_blackbody_table(100, T_hi, norm, 16384);
-      ASSERT_EQ(t.rgby.size(), 16384u * 4);
+      ASSERT_EQ(t.rgbn.size(), 16384u * 4);
       for (double T : {150.3, 700.7, 1000.0, 1234.5, 1899.9, 2500.1, 3999.0, 12345.6, 1.1e5, 3.3e5, 7.7e6, 9.9e8}) {
         if (T > T_hi) continue;
         const double u = (blackbody_warp(T) - t.warp_first) * t.entries_per_warp;
@@ -148,7 +183,7 @@ TEST(Blackbody, TableInterpolatesTheIntegral) {
         const Rgb exact = blackbody_linear_srgb(T, norm);
         const double top = std::max({exact[0], exact[1], exact[2]});
         for (int ch = 0; ch < 3; ++ch) {
-          const double v = (1 - f) * t.rgby[size_t(i) * 4 + ch] + f * t.rgby[size_t(i + 1) * 4 + ch];
+          const double v = (1 - f) * t.rgbn[size_t(i) * 4 + ch] + f * t.rgbn[size_t(i + 1) * 4 + ch];
           EXPECT_NEAR(v, exact[ch], 2e-4 * top + 1e-30) << T << " K (table to " << T_hi << " K), channel " << ch;
         }
       }
@@ -175,13 +210,7 @@ TEST(Blackbody, OutOfGamutComponentsAreClippedOnlyBelow1900K) {
 // 60), so each sample is Le at its absorption point exactly, and the image is Le(T).
 TEST(BlackbodyRender, ThickSlabShowsTheBlackbodyColour) {
   std::string dir = temp_dir("blackbody_slab");
-  const double v = 1.0 / 32.0;
-  write_vdb_grids(dir + "/slab.vdb", openvdb::Coord(-49, -49, -33), openvdb::Coord(48, 48, 32),
-                  {{"density", [](int i, int j, int k) { return (std::abs(i + 0.5) < 48 && std::abs(j + 0.5) < 48 && std::abs(k + 0.5) < 32) ? 1.0f : 0.0f; }},
-                   // heat 2 on the slab; one voxel of heat 3 at a corner out of view makes the table reach
-                   // higher, so the slab's temperature falls between entries
-                   {"heat", [](int i, int j, int k) { return (i == 48 && j == 48 && k == 32) ? 3.0f : 2.0f; }}},
-                  v);
+  write_heat_slab(dir + "/slab.vdb");
   for (const std::string tracker : {"delta-per-channel", "spectral-decomposition"})
     for (double T : {1000.0, 1900.0, 6500.0}) {
       SCOPED_TRACE(tracker + ", " + std::to_string(T) + " K");
@@ -238,25 +267,12 @@ TEST(BlackbodyRender, FireSceneTrackersAgree) {
   // the project's fire volume (data/volumes/fire.vdb, made by make_cloud --style fire) with the
   // fire scene's medium: every tracker estimates the same image within 4 SE of the per-pixel
   // differences, and the image is finite and glows
-  const std::string vdb = std::string(SPECTRACK_SOURCE_DIR) + "/data/volumes/fire.vdb";
-  ASSERT_TRUE(std::filesystem::exists(vdb)) << vdb << " (built by the bench_volumes target)";
+  ASSERT_TRUE(std::filesystem::exists(kFireVdb)) << kFireVdb << " (built by the bench_volumes target)";
   auto render = [&](const std::string& tracker, int spp) {
-    json s = scene_base(12, 16, spp, tracker);
-    s["camera"] = {{"type", "perspective"}, {"position", {0.0, 0.1, -4.4}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 34}};
-    s["lights"].push_back({{"type", "environment"}, {"radiance", {0.01, 0.012, 0.02}}});
-    s["media"].push_back({{"type", "vdb"}, {"file", vdb}, {"density_scale", 6.0}, {"sigma_s", {0.5, 0.5, 0.5}},
-                          {"sigma_a", {1.0, 1.0, 1.0}}, {"phase", {{"type", "hg"}, {"g", 0.3}}},
-                          {"emission", {{"type", "blackbody"}, {"normalization", "none"}}}});
-    return Renderer(scene_from_json(s, "."), quiet_options()).render();
+    return Renderer(scene_from_json(fire_scene(tracker, spp, {0.5, 0.5, 0.5}, {1.0, 1.0, 1.0}), "."), quiet_options()).render();
   };
   RenderResult ref = render("delta-per-channel", 256);
-  double peak = 0;
-  for (int c = 0; c < 3; ++c)
-    for (double v : channel(ref, c)) {
-      ASSERT_TRUE(std::isfinite(v));
-      peak = std::max(peak, v);
-    }
-  EXPECT_GT(peak, 0.05);  // the core glows well above the sky
+  EXPECT_GT(finite_peak(ref), 0.05);  // the core glows well above the sky
   for (const std::string tracker : {"delta", "spectral", "decomposition", "spectral-decomposition", "spectral-mis"}) {
     RenderResult r = render(tracker, 128);
     EXPECT_LT(max_z(r, ref), 4.0) << tracker;
@@ -324,4 +340,136 @@ TEST(BlackbodyScene, FieldsAndErrors) {
   const std::string hot = render_error(v);
   EXPECT_THAT(hot, HasSubstr("/media/0/emission/temperature_grid: grid 'density'"));
   EXPECT_THAT(hot, HasSubstr("at most 1e+09 K"));
+}
+
+// ---- spectral mode (render.color "spectral": Planck's law at each path's wavelengths) ----
+
+namespace {
+
+// The film's linear sRGB of blackbody emission scale * k B(lambda, T) / N(T) (k: the film's
+// emission scale), summed over the observer's 1 nm grid: what a spectral render estimates.
+Rgb spectral_film_of_blackbody(double T, BlackbodyNorm norm, double scale) {
+  double log_norm = 0;
+  blackbody_xyz(T, norm, &log_norm);
+  return film_of([&](double l) { return scale * film_emission_scale() * std::exp(log_planck(l, T) - log_norm); });
+}
+
+}  // namespace
+
+// The spectrum the kernels evaluate, S = k B / N, is read by the film as the rgb mode's colour:
+// the same normaliser, and k turns blackbody.h's Y convention into the film's unit. Equal within
+// the film's white balance (2e-4), including out-of-gamut components, which rgb mode then clips.
+TEST(BlackbodySpectral, TheFilmOfTheSpectrumIsTheRgbColour) {
+  EXPECT_NEAR(film_emission_scale(), 98.89, 0.01);  // sum(y-bar D65) / sum(y-bar)
+  for (BlackbodyNorm norm : {BlackbodyNorm::Peak, BlackbodyNorm::Luminance, BlackbodyNorm::None})
+    for (double T : {150.0, 800.0, 1000.0, 1500.0, 1900.0, 3000.0, 6504.0, 1e4, 1e6}) {
+      const Rgb film = spectral_film_of_blackbody(T, norm, 1.0);
+      const Rgb rgb = xyz_to_linear_srgb(blackbody_xyz(T, norm));
+      const double top = std::max({std::abs(rgb[0]), std::abs(rgb[1]), std::abs(rgb[2])});
+      ASSERT_GT(top, 0.0) << T;
+      for (int c = 0; c < 3; ++c) EXPECT_NEAR(film[c], rgb[c], 3e-4 * top) << T << " K, channel " << c;
+    }
+  // blackbody_spectrum_max: the spectrum's largest value on the 1 nm grid, attained within it
+  for (BlackbodyNorm norm : {BlackbodyNorm::Peak, BlackbodyNorm::Luminance, BlackbodyNorm::None})
+    for (double T : {100.0, 1000.0, 5000.0, 1e5}) {
+      double log_norm = 0, top = 0;
+      blackbody_xyz(T, norm, &log_norm);
+      for (int l = 360; l <= 830; ++l) top = std::max(top, std::exp(log_planck(l, T) - log_norm));
+      const double m = blackbody_spectrum_max(T, norm);
+      EXPECT_GE(m, top * (1 - 1e-12)) << T;
+      EXPECT_LE(m, top * (1 + 1e-4)) << T;
+    }
+  EXPECT_NEAR(blackbody_spectrum_max(5000, BlackbodyNorm::Peak), 1.0, 1e-12);  // the peak lies inside
+}
+
+// The thick absorbing slab of ThickSlabShowsTheBlackbodyColour in spectral mode: the image is
+// the film of the spectrum, through the heat grid (table normaliser, T between its entries) and
+// through the constant form (no grid, no table); at 1000 K its blue is negative, which the rgb
+// mode's clipped colour (0) is not.
+TEST(BlackbodySpectral, ThickSlabShowsTheFilmOfPlancksLaw) {
+  std::string dir = temp_dir("blackbody_spectral_slab");
+  write_heat_slab(dir + "/slab.vdb");
+  for (const std::string tracker : {"delta-per-channel", "spectral-decomposition"})
+    for (double T : {1000.0, 1900.0, 6500.0}) {
+      SCOPED_TRACE(tracker + ", " + std::to_string(T) + " K");
+      // the film's wavelength sampling is the only noise (every path is absorbed): 24 x 24 x 128
+      // samples bring its SE to ~0.2% of the deep-red 1000 K, so a 1% error is seen
+      json s = scene_base(24, 24, 128, tracker);
+      s["render"]["color"] = "spectral";
+      s["camera"]["height"] = 1.5;
+      json e = {{"type", "blackbody"}, {"temperature_offset", 0.5}, {"temperature_scale", T / 1.5},
+                {"normalization", "luminance"}, {"scale", 3.0}};
+      s["media"].push_back({{"type", "vdb"}, {"file", "slab.vdb"}, {"sigma_a", {30, 30, 30}}, {"sigma_s", {0, 0, 0}},
+                            {"emission", e}});
+      const Rgb want = spectral_film_of_blackbody(T, BlackbodyNorm::Luminance, 3.0);
+      const double top = std::max({want[0], want[1], want[2]});
+      auto check = [&](const RenderResult& r, const char* form) {
+        for (int c = 0; c < 3; ++c) {
+          Stats st = mean_se(channel(r, c));
+          EXPECT_NEAR(st.mean, want[c], 4 * st.se + 3e-4 * top) << form << ", channel " << c << " (SE " << st.se << ")";
+        }
+        if (T == 1000.0) EXPECT_LT(mean_se(channel(r, 2)).mean, -0.01) << form;  // out of gamut, not clipped
+      };
+      RenderResult r = Renderer(scene_from_json(s, dir), quiet_options()).render();
+      EXPECT_GT(r.stats.lookups_emission, 0u);
+      check(r, "heat grid");
+      s["media"][0]["emission"] = {{"type", "blackbody"}, {"temperature", T}, {"normalization", "luminance"}, {"scale", 3.0}};
+      RenderResult k = Renderer(scene_from_json(s, dir), quiet_options()).render();
+      EXPECT_EQ(k.stats.lookups_emission, 0u);
+      check(k, "constant");
+    }
+}
+
+// Below the cutoff nothing emits in spectral mode either: the image is the emission-less twin's.
+TEST(BlackbodySpectral, BelowTheCutoffNothingEmits) {
+  auto scene = [&](json emission) {
+    json s = scene_base(8, 8, 16, "spectral-mis");
+    s["render"]["color"] = "spectral";
+    s["lights"].push_back({{"type", "environment"}, {"radiance", {0.2, 0.3, 0.4}}});
+    s["media"].push_back({{"type", "homogeneous"}, {"bounds", {{-1, -1, -0.3}, {1, 1, 0.3}}}, {"sigma_a", {0.8, 0.6, 0.8}},
+                          {"sigma_s", {0.5, 0.5, 0.7}}, {"emission", emission}});
+    return scene_from_json(s, ".");
+  };
+  RenderResult cold = Renderer(scene({{"type", "blackbody"}, {"temperature", 90}}), quiet_options()).render();
+  RenderResult dark = Renderer(scene({{"radiance", {0, 0, 0}}}), quiet_options()).render();
+  RenderResult hot = Renderer(scene({{"type", "blackbody"}, {"temperature", 1500}, {"scale", 2.0}}), quiet_options()).render();
+  for (int ch = 0; ch < 3; ++ch) {
+    const auto pc = channel(cold, ch), pd = channel(dark, ch);
+    for (size_t i = 0; i < pc.size(); ++i) EXPECT_EQ(pc[i], pd[i]);
+  }
+  EXPECT_GT(mean_se(channel(hot, 0)).mean, mean_se(channel(dark, 0)).mean + 0.005);  // 1500 K glows red
+}
+
+// The fire volume in spectral mode: the spectral trackers agree with per-channel delta tracking
+// (one wavelength per path) within 4 SE of the per-pixel differences; a 5% twin is told apart.
+TEST(BlackbodySpectral, FireSceneTrackersAgree) {
+  ASSERT_TRUE(std::filesystem::exists(kFireVdb)) << kFireVdb << " (built by the bench_volumes target)";
+  auto render = [&](const std::string& tracker, int spp) {
+    json s = fire_scene(tracker, spp, {0.5, 0.45, 0.4}, {1.0, 1.1, 1.2});
+    s["render"]["color"] = "spectral";
+    return Renderer(scene_from_json(s, "."), quiet_options()).render();
+  };
+  RenderResult ref = render("delta-per-channel", 256);
+  EXPECT_GT(finite_peak(ref), 0.05);
+  for (const std::string tracker : {"spectral", "spectral-decomposition", "spectral-mis"}) {
+    RenderResult r = render(tracker, 128);
+    EXPECT_LT(max_z(r, ref), 4.0) << tracker;
+    if (tracker == "spectral-decomposition") EXPECT_GT(max_z(r, ref, 1.05), 4.0) << tracker;
+  }
+}
+
+// Spectral mode checks the spectrum's own bound: a luminance-normalised blackbody near the
+// cutoff is bright in the deep red (S(830 nm) ~ 1e9 at 150 K for Y = 1), which rgb mode's colour
+// does not show.
+TEST(BlackbodySpectral, SpectralRadianceBoundIsChecked) {
+  json s = scene_base(4, 4, 1, "spectral");
+  s["media"].push_back({{"type", "homogeneous"}, {"bounds", {{-1, -1, -1}, {1, 1, 1}}}, {"sigma_a", {1, 1, 1}},
+                        {"sigma_s", {0, 0, 0}},
+                        {"emission", {{"type", "blackbody"}, {"temperature", 150}, {"normalization", "luminance"},
+                                      {"scale", 1e12}}}});
+  EXPECT_NO_THROW(Renderer(scene_from_json(s, "."), quiet_options()));  // rgb
+  s["render"]["color"] = "spectral";
+  const std::string msg = error_of([&] { Renderer(scene_from_json(s, "."), quiet_options()); });
+  EXPECT_NE(msg.find("/media/0/emission/scale"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("spectral radiance"), std::string::npos) << msg;
 }

@@ -8,11 +8,15 @@
 //   - white and emissive furnaces (per wavelength, so the film of D65 times the light's spectrum);
 //   - a gray medium under a coloured light renders the rgb mode's expectation;
 //   - every tracker agrees with per-channel delta tracking on a chromatic scattering medium;
+//   - environment maps: a texel seen directly is the film of its spectrum times D65, a white map
+//     keeps a white furnace white, a gray medium under a chromatic map renders the rgb expectation;
 //   - the scene field, the flag's refusals and the stats.
 #include <cmath>
 #include <functional>
+#include <utility>
 
 #include "color/spectrum.h"
+#include "image/image.h"
 #include "render/spectral_pack.h"
 #include "test_util.h"
 
@@ -46,16 +50,6 @@ RenderOptions mode_options(const Mode& m, int spp = -1) {
   return o;
 }
 
-// The film's linear sRGB of a radiance spectrum L(lambda), summed over the 1 nm grid.
-Rgb film_of(const std::function<double(double)>& L) {
-  const std::vector<Rgb>& F = film_rgb_weights();
-  Rgb out{0, 0, 0};
-  for (size_t i = 0; i < F.size(); ++i) {
-    const double l = L(kSpectrumLambdaMin + double(i));
-    for (int c = 0; c < 3; ++c) out[c] += l * F[i][c];
-  }
-  return out;
-}
 
 RgbSpectrum upsampled(const Rgb& rgb) { return rgb2spec_unbounded(Rgb2SpecFit(), rgb2spec_srgb(), rgb); }
 
@@ -64,6 +58,19 @@ void expect_image(const RenderResult& r, const Rgb& expected, const std::string&
     Stats s = mean_se(channel(r, c));
     EXPECT_NEAR(s.mean, expected[c], 4.0 * s.se + extra) << what << ", channel " << c << " (SE " << s.se << ")";
   }
+}
+
+// The gray lumpy medium added to scene j (spectral), rendered in spectral mode and in rgb mode with
+// another seed: the two estimate one image when the lights' spectra come back as their colours.
+std::pair<RenderResult, RenderResult> gray_medium_both_modes(json j, const std::string& dir) {
+  j["media"].push_back({{"type", "vdb"}, {"file", "lumpy.vdb"}, {"density_scale", 3.0}, {"sigma_a", {0.5, 0.5, 0.5}},
+                        {"sigma_s", {2.0, 2.0, 2.0}}, {"phase", {{"type", "hg"}, {"g", 0.3}}}});
+  RenderResult spectral = Renderer(scene_from_json(j, dir), quiet_options()).render();
+  j["render"]["color"] = "rgb";
+  j["render"]["seed"] = 12;
+  RenderResult rgb = Renderer(scene_from_json(j, dir), quiet_options()).render();
+  EXPECT_EQ(spectral.stats.nonfinite_samples, 0u);
+  return {spectral, rgb};
 }
 
 }  // namespace
@@ -144,13 +151,7 @@ TEST(SpectralMode, GrayMediumMatchesRgb) {
   j["camera"] = {{"type", "perspective"}, {"position", {0.2, 0.1, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 30}};
   j["lights"].push_back({{"type", "environment"}, {"radiance", {0.2, 0.3, 0.6}}});
   j["lights"].push_back({{"type", "directional"}, {"to_light", {0.3, 1, -0.4}}, {"irradiance", {3.0, 2.0, 1.0}}});
-  j["media"].push_back({{"type", "vdb"}, {"file", "lumpy.vdb"}, {"density_scale", 3.0}, {"sigma_a", {0.5, 0.5, 0.5}},
-                        {"sigma_s", {2.0, 2.0, 2.0}}, {"phase", {{"type", "hg"}, {"g", 0.3}}}});
-  RenderResult spectral = Renderer(scene_from_json(j, dir), quiet_options()).render();
-  j["render"]["color"] = "rgb";
-  j["render"]["seed"] = 12;
-  RenderResult rgb = Renderer(scene_from_json(j, dir), quiet_options()).render();
-  EXPECT_EQ(spectral.stats.nonfinite_samples, 0u);
+  auto [spectral, rgb] = gray_medium_both_modes(j, dir);
   const double z = max_z(spectral, rgb);
   EXPECT_LT(z, 4.0) << "gray medium: spectral and rgb modes differ by " << z << " SE";
   // the twin: a 3% change of the light is seen
@@ -220,14 +221,6 @@ TEST(SpectralMode, SceneFieldErrors) {
 TEST(SpectralMode, UnsupportedFeaturesAreRefused) {
   const std::string dir = temp_dir("spectral_refused");
   write_lumpy(dir + "/lumpy.vdb");
-  {  // blackbody emission
-    json j = spectral_scene(4, 4, 1, "spectral");
-    j["media"].push_back({{"type", "homogeneous"}, {"bounds", {{-1, -1, -1}, {1, 1, 1}}}, {"sigma_a", {1, 1, 1}},
-                          {"sigma_s", {0, 0, 0}}, {"emission", {{"type", "blackbody"}, {"temperature", 1500}}}});
-    const std::string msg = error_of([&] { Renderer(scene_from_json(j, dir), quiet_options()); });
-    EXPECT_NE(msg.find("/media/0/emission"), std::string::npos) << msg;
-    EXPECT_NE(msg.find("spectral mode"), std::string::npos) << msg;
-  }
   {  // film layers other than variance
     json j = spectral_scene(4, 4, 1, "spectral");
     j["film"]["aovs"] = {"albedo"};
@@ -251,4 +244,63 @@ TEST(SpectralMode, SpectrumMaxBoundsTheSpectrum) {
     EXPECT_GE(m, grid_max * (1 - 1e-12)) << rgb[0] << " " << rgb[1] << " " << rgb[2];
     EXPECT_LE(m, grid_max * (1 + 1e-4) + 1e-12) << "tight: " << rgb[0] << " " << rgb[1] << " " << rgb[2];
   }
+}
+
+// ---- environment maps (each texel's colour upsampled from the table, times D65) ----
+
+namespace {
+
+// An 8 x 4 lat-long map of chromatic texels, some above 1 (radiances are unbounded).
+void write_chromatic_map(const std::string& path) {
+  std::vector<float> px(8 * 4 * 3);
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 8; ++x) {
+      const float rgb[3] = {0.1f + 0.3f * float(x % 3), 0.2f + 0.5f * float(y) / 3.0f, 1.5f - 0.15f * float(x)};
+      for (int c = 0; c < 3; ++c) px[size_t(y * 8 + x) * 3 + c] = rgb[c];
+    }
+  write_image(path, 8, 4, px, {});
+}
+
+}  // namespace
+
+// Seen directly (no media), the map is the film of its texel's spectrum times D65, and that film
+// is the texel's colour within the table's accuracy; the texels' sampling pdf is the rgb mode's.
+TEST(SpectralMode, EnvironmentMapSeenDirectly) {
+  const std::string dir = temp_dir("spectral_envmap");
+  write_chromatic_map(dir + "/sky.exr");
+  json j = spectral_scene(4, 4, 64, "spectral");
+  j["lights"].push_back({{"type", "environment"}, {"map", "sky.exr"}, {"scale", 2.0}});
+  RenderResult r = Renderer(scene_from_json(j, dir), quiet_options()).render();
+  // direction +z: column 0, row 2 (Render.EnvironmentMapSeenDirectly)
+  const Rgb texel{0.1, 0.2 + 0.5 * 2.0 / 3.0, 1.5};
+  const RgbSpectrum s = rgb2spec_unbounded_lookup(rgb2spec_srgb(), texel);
+  EXPECT_DOUBLE_EQ(s.scale, 2 * 1.5);
+  const Rgb want = film_of([&](double l) { return 2.0 * s(l) * cie_d65(l); });
+  expect_image(r, want, "texel seen directly", 2e-4 * 3);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(want[c], 2.0 * texel[c], 2e-3 * 2.0 * 1.5) << "channel " << c;
+}
+
+// A white map lights a white furnace: every pixel is 1 (sampling the map and its pdf agree);
+// a gray medium under a chromatic map renders the rgb mode's expectation.
+TEST(SpectralMode, EnvironmentMapLightsMedia) {
+  const std::string dir = temp_dir("spectral_envmap_media");
+  write_lumpy(dir + "/lumpy.vdb");
+  write_image(dir + "/white.exr", 32, 16, std::vector<float>(32 * 16 * 3, 1.0f), {});
+  write_chromatic_map(dir + "/sky.exr");
+  for (const std::string tracker : {"spectral-decomposition", "spectral-mis"}) {
+    json j = spectral_scene(12, 12, 48, tracker);
+    j["camera"] = {{"type", "perspective"}, {"position", {0.2, 0.1, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 30}};
+    j["lights"].push_back({{"type", "environment"}, {"map", "white.exr"}});
+    j["media"].push_back({{"type", "vdb"}, {"file", "lumpy.vdb"}, {"density_scale", 4.0}, {"sigma_a", {0, 0, 0}},
+                          {"sigma_s", {1.0, 3.0, 9.0}}, {"phase", {{"type", "hg"}, {"g", 0.4}}}});
+    RenderResult r = Renderer(scene_from_json(j, dir), quiet_options()).render();
+    EXPECT_EQ(r.stats.nonfinite_samples, 0u);
+    expect_image(r, film_of([](double l) { return cie_d65(l); }), "white furnace under a white map, " + tracker);
+  }
+  json j = spectral_scene(16, 16, 128, "spectral-decomposition");
+  j["camera"] = {{"type", "perspective"}, {"position", {0.2, 0.1, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 30}};
+  j["lights"].push_back({{"type", "environment"}, {"map", "sky.exr"}, {"scale", 0.5}});
+  auto [spectral, rgb] = gray_medium_both_modes(j, dir);
+  EXPECT_LT(max_z(spectral, rgb), 4.0) << "gray medium under a map";
+  EXPECT_GT(max_z(spectral, rgb, 1.03), 4.0) << "a 3% difference must be detectable";
 }

@@ -14,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "color/spectrum.h"
 #include "render/probe.h"
 #include "render/renderer.h"
 #include "scene/scene.h"
@@ -146,6 +147,18 @@ inline spectrack::RenderOptions quiet_options(int spp = -1) {
   o.quiet = true;
   if (spp > 0) o.spp = spp;
   return o;
+}
+
+// Spectral mode's film (src/color/spectrum.h): the linear sRGB of a radiance spectrum L(lambda),
+// summed over the observer's 1 nm grid with the film's weights; what a spectral render estimates.
+inline spectrack::Rgb film_of(const std::function<double(double)>& L) {
+  const std::vector<spectrack::Rgb>& F = spectrack::film_rgb_weights();
+  spectrack::Rgb out{0, 0, 0};
+  for (size_t i = 0; i < F.size(); ++i) {
+    const double l = L(spectrack::kSpectrumLambdaMin + double(i));
+    for (int c = 0; c < 3; ++c) out[c] += l * F[i][c];
+  }
+  return out;
 }
 
 }  // namespace st_test

@@ -84,8 +84,9 @@ double planck(double lambda_nm, double T) {
 
 double planck_peak_nm(double T) { return kWienB / T * 1e9; }
 
-Rgb blackbody_xyz(double T, BlackbodyNorm norm) {
+Rgb blackbody_xyz(double T, BlackbodyNorm norm, double* log_norm) {
   Rgb s{0, 0, 0};
+  if (log_norm) *log_norm = 0;
   if (!(T > 0)) return s;
   // sums of B(lambda) / exp(ref): ref = log B(lambda_max) for peak, the largest log B over the
   // table for luminance (so a cold blackbody, far below double's range, keeps its colour)
@@ -103,8 +104,25 @@ Rgb blackbody_xyz(double T, BlackbodyNorm norm) {
   }
   double n = 1.0 / cie_y_integral();
   if (norm == BlackbodyNorm::Luminance) n = 1.0 / s[1];
+  // the spectrum is B / N with N = exp(ref) (peak, none), exp(ref) s_y / sum(y-bar) (luminance)
+  if (log_norm) *log_norm = norm == BlackbodyNorm::Luminance ? ref + std::log(s[1] / cie_y_integral()) : ref;
   for (double& v : s) v *= n;
   return s;
+}
+
+namespace {
+// max over 360..830 nm of B(lambda, T) / N, ln N = log_norm
+double spectrum_max_of(double T, double log_norm) {
+  const double lambda = std::clamp(planck_peak_nm(T), double(kCie1931[0].lambda_nm), double(kCie1931[kCieSamples - 1].lambda_nm));
+  return std::exp(log_planck(lambda, T) - log_norm);
+}
+}  // namespace
+
+double blackbody_spectrum_max(double T, BlackbodyNorm norm) {
+  if (!(T > 0)) return 0;
+  double log_norm = 0;
+  blackbody_xyz(T, norm, &log_norm);
+  return spectrum_max_of(T, log_norm);
 }
 
 Rgb xyz_to_linear_srgb(const Rgb& xyz) { return mul(from_xyz(), xyz); }
@@ -126,7 +144,7 @@ BlackbodyTable make_blackbody_table(double T_lo, double T_hi, BlackbodyNorm norm
   const double s0 = blackbody_warp(T_hi), s1 = blackbody_warp(T_lo);
   t.warp_first = s0;
   t.entries_per_warp = (t.entries - 1) / (s1 - s0);
-  t.rgby.resize(size_t(t.entries) * 4);
+  t.rgbn.resize(size_t(t.entries) * 4);
   for (int i = 0; i < t.entries; ++i) {
     // the entry's temperature: warp is decreasing in T; bisection on log T
     const double target = s0 + i / t.entries_per_warp;
@@ -136,14 +154,16 @@ BlackbodyTable make_blackbody_table(double T_lo, double T_hi, BlackbodyNorm norm
       (blackbody_warp(std::exp(mid)) > target ? lo : hi) = mid;
     }
     const double T = i == 0 ? T_hi : i == t.entries - 1 ? T_lo : std::exp(0.5 * (lo + hi));
-    const Rgb xyz = blackbody_xyz(T, norm);
+    double log_norm = 0;
+    const Rgb xyz = blackbody_xyz(T, norm, &log_norm);
     Rgb c = xyz_to_linear_srgb(xyz);
     for (int k = 0; k < 3; ++k) {
       c[k] = std::max(c[k], 0.0);
-      t.rgby[size_t(i) * 4 + k] = float(c[k]);
+      t.rgbn[size_t(i) * 4 + k] = float(c[k]);
       t.max_value = std::max(t.max_value, c[k]);
     }
-    t.rgby[size_t(i) * 4 + 3] = float(xyz[1]);
+    t.rgbn[size_t(i) * 4 + 3] = float(log_norm);
+    t.spectrum_max = std::max(t.spectrum_max, spectrum_max_of(T, log_norm));
   }
   return t;
 }

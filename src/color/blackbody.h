@@ -39,20 +39,28 @@ double cie_y_integral();                       // sum of y-bar over the table (1
 double planck(double lambda_nm, double T);     // W sr^-1 m^-2 nm^-1; 0 for T <= 0
 double log_planck(double lambda_nm, double T); // its log, finite for T > 0 (no underflow)
 double planck_peak_nm(double T);               // Wien's displacement law: lambda_max = b / T
-Rgb blackbody_xyz(double T, BlackbodyNorm norm);  // CIE XYZ, Y = sum(S y-bar) / sum(y-bar)
+// CIE XYZ of the normalised spectrum S = B / N(T), Y = sum(S y-bar) / sum(y-bar); *log_norm (when
+// given) receives ln N(T): peak, ln B(lambda_max, T); luminance, ln (sum(B y-bar) / sum(y-bar));
+// none, 0. Spectral mode evaluates S(lambda) = exp(ln B(lambda, T) - ln N(T)) per wavelength.
+Rgb blackbody_xyz(double T, BlackbodyNorm norm, double* log_norm = nullptr);
+// The largest value of S = B / N(T) over 360..830 nm (B is unimodal in lambda: at the peak
+// wavelength clamped into that range).
+double blackbody_spectrum_max(double T, BlackbodyNorm norm);
 Rgb xyz_to_linear_srgb(const Rgb& xyz);
 Rgb linear_srgb_to_xyz(const Rgb& rgb);
 // blackbody_xyz in linear sRGB with negative components set to 0 (outside the gamut).
 Rgb blackbody_linear_srgb(double T, BlackbodyNorm norm);
 
-// The kernels' table (kernels/medium.h blackbody_rgb): entries (r, g, b, Y) evenly spaced in the
+// The kernels' table (kernels/medium.h blackbody_rgb): entries (r, g, b, ln N) evenly spaced in the
 // warped temperature w(T) = A / T - B ln T (decreasing in T), entry i at
 // w = warp_first + i / entries_per_warp: entry 0 is T_hi, the last max(T_lo, kBlackbodyTableFloor).
 // Wien's regime (T << A) changes as exp(-c2 / (lambda T)), smooth in 1/T (the A / T term, A = c2 /
 // 400 nm); the Rayleigh-Jeans regime (hot) as powers of T, smooth in ln T (B = 4: the peak
 // normalisation's T^-4); with 16384 entries linear interpolation in w stays within ~1e-4 of the
 // integral from 100 K to 1e9 K. Below the floor, 100 K, the colour is that of 100 K to float
-// precision (0 for peak and none; the red end of the spectrum for luminance).
+// precision (0 for peak and none; the red end of the spectrum for luminance). ln N (blackbody_xyz)
+// serves spectral mode, which evaluates Planck's law itself at a path's wavelengths and divides by
+// the normaliser, interpolated in the table as the colours are (it is smooth in w too).
 constexpr double kBlackbodyWarpA = 36000.0;  // K
 constexpr double kBlackbodyWarpB = 4.0;
 constexpr double kBlackbodyTableFloor = 100.0;  // K
@@ -61,8 +69,9 @@ struct BlackbodyTable {
   double warp_first = 0;
   double entries_per_warp = 0;
   int entries = 0;
-  std::vector<float> rgby;  // 4 floats per entry
+  std::vector<float> rgbn;  // 4 floats per entry: linear sRGB, ln N
   double max_value = 0;     // the largest r, g or b
+  double spectrum_max = 0;  // the largest blackbody_spectrum_max over the entries
 };
 BlackbodyTable make_blackbody_table(double T_lo, double T_hi, BlackbodyNorm norm, int entries);
 

@@ -62,6 +62,15 @@ const std::vector<Rgb>& film_rgb_weights() {
   return weights;
 }
 
+double film_emission_scale() {
+  static const double k = [] {
+    double y_d65 = 0;
+    for (const CieSample& s : kCie1931) y_d65 += s.y * cie_d65(s.lambda_nm);
+    return y_d65 / cie_y_integral();
+  }();
+  return k;
+}
+
 Rgb film_rgb_weight(double lambda_nm) {
   const std::vector<Rgb>& w = film_rgb_weights();
   if (!(lambda_nm >= kSpectrumLambdaMin && lambda_nm <= kSpectrumLambdaMax)) return {0, 0, 0};
@@ -409,16 +418,32 @@ RgbSpectrum rgb2spec_fitted(const Rgb2SpecFit& f, const Rgb2SpecTable& t, const 
   return s;
 }
 
-RgbSpectrum rgb2spec_unbounded(const Rgb2SpecFit& f, const Rgb2SpecTable& t, const Rgb& rgb) {
+namespace {
+
+// rgb / (2 max(rgb)) through `upsample`, scaled back by 2 max(rgb) (pbrt-v4's RGBUnboundedSpectrum)
+template <class Upsample>
+RgbSpectrum unbounded(const Rgb& rgb, const char* name, Upsample upsample) {
   for (double v : rgb)
     if (!std::isfinite(v) || !std::isfinite(2 * v))
-      throw std::domain_error("rgb2spec_unbounded: a component is not finite or above half the largest double");
+      throw std::domain_error(std::string(name) + ": a component is not finite or above half the largest double");
   const double m = std::max({rgb[0], rgb[1], rgb[2]});
   if (!(m > 0)) return RgbSpectrum{{0, 0, 0}, 0};
   const double scale = 2 * m;
-  RgbSpectrum s = rgb2spec_fitted(f, t, {rgb[0] / scale, rgb[1] / scale, rgb[2] / scale});
+  RgbSpectrum s = upsample(Rgb{rgb[0] / scale, rgb[1] / scale, rgb[2] / scale});
   s.scale *= scale;
   return s;
+}
+
+}  // namespace
+
+RgbSpectrum rgb2spec_unbounded(const Rgb2SpecFit& f, const Rgb2SpecTable& t, const Rgb& rgb) {
+  return unbounded(rgb, "rgb2spec_unbounded", [&](const Rgb& c) { return rgb2spec_fitted(f, t, c); });
+}
+
+RgbSpectrum rgb2spec_unbounded_lookup(const Rgb2SpecTable& t, const Rgb& rgb) {
+  // the largest component is exactly 1/2 (never below the table's first level) and a gray is flat
+  // with scale 2 x 1/2: the lookup's scale is 1, so the result's is 2 max(rgb)
+  return unbounded(rgb, "rgb2spec_unbounded_lookup", [&](const Rgb& c) { return rgb2spec(t, c); });
 }
 
 }  // namespace spectrack

@@ -76,6 +76,11 @@ struct RgbSpectrum {
 // kCieSamples entries); film_rgb_weight interpolates it linearly (0 outside).
 const std::vector<Rgb>& film_rgb_weights();
 Rgb film_rgb_weight(double lambda_nm);
+// An emitted spectrum S in blackbody.h's convention (Y = sum(S y-bar) / sum(y-bar): a flat
+// spectrum of 1 has Y = 1) reaches this film as S times sum(y-bar D65) / sum(y-bar) (98.89): the
+// film's unit is D65's luminance. Spectral mode's blackbody emission carries the factor, so that
+// both modes render one colour (kernels/medium.h blackbody_spectral_Le).
+double film_emission_scale();
 
 // Four wavelengths per path (pbrt-v4's scheme): a hero wavelength from u, three more from
 // u + 1/4, u + 1/2, u + 3/4 (wrapped), each through the visible-wavelength importance density
@@ -129,6 +134,11 @@ RgbSpectrum rgb2spec_fitted(const Rgb2SpecFit& f, const Rgb2SpecTable& t, const 
 // component is 1/2 (pbrt-v4's RGBUnboundedSpectrum). Throws std::domain_error on a non-finite
 // component (callers validate scene values first).
 RgbSpectrum rgb2spec_unbounded(const Rgb2SpecFit& f, const Rgb2SpecTable& t, const Rgb& rgb);
+// The same from the table alone, without the fitter's refinement (for colours too many to fit one
+// by one: environment map texels): the colour comes back within the table's accuracy for a
+// largest component of 1/2 (7e-4 of it). Its scale is exactly 2 max(rgb) (0 for black), the
+// largest component a kernel can read back from it. Throws std::domain_error as above.
+RgbSpectrum rgb2spec_unbounded_lookup(const Rgb2SpecTable& t, const Rgb& rgb);
 
 // The table generated at build time for linear sRGB under D65 (tools/rgb2spec_table.cpp), parsed
 // once from the library's embedded copy.

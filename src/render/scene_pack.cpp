@@ -14,6 +14,7 @@
 #include <cstring>
 #include <limits>
 
+#include "color/spectrum.h"
 #include "image/image.h"
 #include "scene/radiance.h"
 #include "volume/float_limits.h"
@@ -28,27 +29,36 @@ namespace {
 // Entries of a blackbody colour table (kernels/medium.h blackbody_rgb, src/color/blackbody.h): 16384
 // keep linear interpolation within ~1e-4 of the integral from 100 K to 1e9 K, at 256 KiB.
 constexpr int kBlackbodyEntries = 16384;
+static_assert(ST_BLACKBODY_T_FLOOR == kBlackbodyTableFloor, "kernels/types.h and src/color/blackbody.h: one floor");
 
 const char* blackbody_norm_name(BlackbodyNorm n) {
   return n == BlackbodyNorm::Peak ? "peak" : n == BlackbodyNorm::Luminance ? "luminance" : "none";
 }
 
 // The emission bounds (scene/radiance.h) of a blackbody medium whose brightest colour component
-// up to T_hi kelvin, before `scale`, is `peak`.
-void check_blackbody_bounds(const std::string& ctx, const MediumDesc& md, double peak, double T_hi, double density_max) {
+// up to T_hi kelvin, before `scale`, is `peak` (`what`: "colour"; spectral mode checks its
+// brightest spectral radiance as the film reads it as well).
+void check_blackbody_bounds(const std::string& ctx, const MediumDesc& md, double peak, double T_hi, double density_max,
+                            const char* what = "colour") {
   const EmissionDesc& e = md.emission;
   const double le = peak * e.scale;
   const char* why = " (the kernels carry light in single-precision float: see README \"Limits\")";
   if (le > kMaxRadiance)
-    throw Error(fmt::format("{}/emission/scale: scale ({}) x the brightest blackbody colour up to {} K ({}, "
+    throw Error(fmt::format("{}/emission/scale: scale ({}) x the brightest blackbody {} up to {} K ({}, "
                             "normalization {}) = {} is more than {:g}{}, in medium \"{}\"",
-                            ctx, e.scale, T_hi, peak, blackbody_norm_name(e.normalization), le, kMaxRadiance, why,
+                            ctx, e.scale, what, T_hi, peak, blackbody_norm_name(e.normalization), le, kMaxRadiance, why,
                             md.name));
   const double mua = std::max({md.sigma_a[0], md.sigma_a[1], md.sigma_a[2]}) * md.density_scale * density_max;
   if (mua * le > kMaxEmissionProduct)
     throw Error(fmt::format("{}/emission/scale: sigma_a x density_scale x the density's largest value ({}) x the "
                             "brightest blackbody radiance ({}) = {} is more than {:g}{}, in medium \"{}\"",
                             ctx, density_max, le, mua * le, kMaxEmissionProduct, why, md.name));
+}
+
+// The brightest spectral radiance of a blackbody at T as the film reads it, before `scale`
+// (kernels/medium.h blackbody_spectral_Le; temperatures below the table's floor emit as the floor).
+double spectral_blackbody_peak(double T, BlackbodyNorm norm) {
+  return film_emission_scale() * blackbody_spectrum_max(std::max(T, kBlackbodyTableFloor), norm);
 }
 
 st_float4 f4(double x, double y, double z, double w = 0) { return st_float4{float(x), float(y), float(z), float(w)}; }
@@ -140,6 +150,7 @@ struct Packer {
   std::vector<float>& env_data;
   std::vector<MajorantInfo>& majorants;
   int tracker = 0;                     // st_tracker: the majorant hierarchy's cost model
+  bool spectral = false;               // spectral mode (make_spectral follows): its bounds are checked too
   std::vector<Box3> media_boxes = {};  // world boxes, for the camera's framing
   // Each light's power up to the common factor pi r^2 of pbrt-v4's Light::Phi (r: the scene
   // radius): the mean over channels of the irradiance a directional light gives, or 4 pi times the
@@ -148,7 +159,8 @@ struct Packer {
 
   void add_medium(int i, const MediumDesc& md);
   void add_vdb_medium(st_medium& m, const MediumDesc& md, const std::string& ctx_name);
-  void add_color_grid(st_medium& m, const MediumDesc& md, const GridData& density, const std::string& ctx_name);
+  // returns the colour's largest value over its channels, its voxels and its background
+  double add_color_grid(st_medium& m, const MediumDesc& md, const GridData& density, const std::string& ctx_name);
   GridData add_temperature_grid(st_medium& m, const MediumDesc& md, const GridData& density, const std::string& ctx_name);
   uint32_t upload_grid(const std::string& ctx_name, const GridData& g);
   void add_light(int i, const LightDesc& ld);
@@ -181,6 +193,9 @@ void Packer::add_medium(int i, const MediumDesc& md) {
       // a constant temperature: its colour, exactly (no table)
       r = e.temperature > e.temperature_cutoff ? blackbody_linear_srgb(e.temperature, e.normalization) : Vec3{0, 0, 0};
       if (md.type == ST_MEDIUM_HOMOGENEOUS) check_blackbody_bounds(ctx_name, md, std::max({r[0], r[1], r[2]}), e.temperature, 1.0);
+      if (md.type == ST_MEDIUM_HOMOGENEOUS && spectral && e.temperature > e.temperature_cutoff)
+        check_blackbody_bounds(ctx_name, md, spectral_blackbody_peak(e.temperature, e.normalization), e.temperature, 1.0,
+                               "spectral radiance");
     } else if (e.blackbody) {
       r = Vec3{1, 1, 1};  // scale x the temperature grid's colour (add_vdb_medium)
     }
@@ -221,7 +236,7 @@ void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::strin
   for (int r = 0; r < 3; ++r) m.world_to_index[r] = f4(w2i.m[r][0], w2i.m[r][1], w2i.m[r][2], w2i.m[r][3]);
   check_float_limits(md, m, &g, ctx_name);
   m.density_grid = upload_grid(ctx_name, g);
-  if (md.color.present) add_color_grid(m, md, g, ctx_name);  // sets sigma_t_maj, which the cost model uses
+  const double color_max = md.color.present ? add_color_grid(m, md, g, ctx_name) : 0.0;  // sets sigma_t_maj, which the cost model uses
   const auto t_build = std::chrono::steady_clock::now();
   const int cell = opt.majorant_cell > 0 ? opt.majorant_cell : auto_majorant_cell(g);
   MajorantGrid mg = build_majorant_grid(g, majorant_cell_for(m, g, md.majorant_scale, cell));
@@ -263,6 +278,14 @@ void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::strin
   }
   info.seconds_build = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_build).count();
   majorants.push_back(info);
+  if (spectral && md.color.present) {
+    // spectral mode (kernels/medium.h): the bound of the colour's spectrum per unit of sigma_s, 1
+    // for an albedo; 2 max C for a scattering factor (its unbounded spectrum's scale), rounded up
+    // as the rgb bound is
+    const double k = md.color.mode == ST_COLOR_ALBEDO ? 1.0 : 2.0 * color_max * (1.0 + 1e-5);
+    const float kf = md.color.mode == ST_COLOR_ALBEDO ? 1.0f : std::nextafter(float(k), std::numeric_limits<float>::infinity());
+    m.sigma_t_maj = f4(kf, kf, kf);
+  }
   const EmissionDesc& em = md.emission;
   auto same_transform = [&](const GridData& e, const std::string& field) {
     for (int r = 0; r < 3; ++r)
@@ -275,6 +298,9 @@ void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::strin
   if (em.blackbody && em.temperature > 0) {
     // add_medium set Le = scale x the colour (emissive: scale > 0)
     if (m.emissive) check_blackbody_bounds(ctx_name, md, std::max({m.Le.x, m.Le.y, m.Le.z}) / em.scale, em.temperature, g.value_max);
+    if (m.emissive && spectral)
+      check_blackbody_bounds(ctx_name, md, spectral_blackbody_peak(em.temperature, em.normalization), em.temperature,
+                             g.value_max, "spectral radiance");
   } else if (em.blackbody && m.emissive) {
     const GridData t = add_temperature_grid(m, md, g, ctx_name);
     if (m.emissive) {
@@ -337,17 +363,20 @@ GridData Packer::add_temperature_grid(st_medium& m, const MediumDesc& md, const 
   }
   const BlackbodyTable table = make_blackbody_table(e.temperature_cutoff, T_hi, e.normalization, kBlackbodyEntries);
   check_blackbody_bounds(ctx_name, md, table.max_value, T_hi, density.value_max);
+  if (spectral)
+    check_blackbody_bounds(ctx_name, md, film_emission_scale() * table.spectrum_max, T_hi, density.value_max,
+                           "spectral radiance");
   m.temperature = f4(ta, tb, e.temperature_cutoff, kBlackbodyWarpA);
   m.blackbody_table = f4(table.warp_first, table.entries_per_warp, table.entries - 1, kBlackbodyWarpB);
   m.blackbody_offset = uint32_t(grid_words.size());
-  grid_words.resize(grid_words.size() + table.rgby.size());
-  std::memcpy(grid_words.data() + m.blackbody_offset, table.rgby.data(), table.rgby.size() * sizeof(float));
+  grid_words.resize(grid_words.size() + table.rgbn.size());
+  std::memcpy(grid_words.data() + m.blackbody_offset, table.rgbn.data(), table.rgbn.size() * sizeof(float));
   return t;
 }
 
 // A medium's colour grid (medium.h): three component grids in the density grid's index space, and
 // the extinction bound per unit density that the majorants use.
-void Packer::add_color_grid(st_medium& m, const MediumDesc& md, const GridData& density, const std::string& ctx_name) {
+double Packer::add_color_grid(st_medium& m, const MediumDesc& md, const GridData& density, const std::string& ctx_name) {
   const std::string ctx = ctx_name + "/color";
   std::array<GridData, 3> c = load_color_grid(md.file, md.color.grid, ctx);
   for (int r = 0; r < 3; ++r)
@@ -383,6 +412,7 @@ void Packer::add_color_grid(st_medium& m, const MediumDesc& md, const GridData& 
                               md.color.grid, cmax[size_t(k)]));
   }
   m.sigma_t_maj = f4(bound[0], bound[1], bound[2]);
+  return std::max({cmax[0], cmax[1], cmax[2]});
 }
 
 uint32_t Packer::upload_grid(const std::string& ctx_name, const GridData& g) {
@@ -569,7 +599,8 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
   PackedScene out;
   st_scene& st = out.st;
   std::memset(&st, 0, sizeof(st));
-  Packer pk{scene, options, st, out.grid_words, out.maj_cells, out.env_data, out.majorants, s.tracker};
+  Packer pk{scene, options, st, out.grid_words, out.maj_cells, out.env_data, out.majorants, s.tracker,
+            s.color == ST_FILM_COLOR_SPECTRAL};
   st.n_media = int(scene.media.size());
   st.n_lights = int(scene.lights.size());
   for (int i = 0; i < st.n_media; ++i) pk.add_medium(i, scene.media[i]);

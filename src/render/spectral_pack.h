@@ -12,8 +12,18 @@
 // take each medium's extinction at a path's own wavelengths (kernels/majorant.h st_walker), the
 // exact bound over the wavelengths it carries; the extinction's largest value over all visible
 // wavelengths (spectrum_max, in closed form) is checked to stay a float.
-// What has no spectral form yet is refused with the field that asks for it: colour grids,
-// blackbody emission, environment maps.
+// Blackbody emission needs no upsampling: the kernels evaluate Planck's law at a path's
+// wavelengths (kernels/medium.h blackbody_spectral_Le), divided by the normaliser the rgb table
+// also uses and scaled into the film's unit (film_emission_scale), so both modes render one
+// colour; only its out-of-gamut components (below ~1900 K), which rgb mode sets to 0, stay
+// negative here, as the film's linear sRGB of the spectrum. This pass gives such a medium its
+// scale and, for a constant temperature, its normaliser; the packer checked its bounds.
+// Environment maps keep their scale; each texel's colour becomes its coefficients from the
+// table (rgb2spec_unbounded_lookup, within the table's 7e-4: a map has too many texels to fit one
+// by one), in place, and the sampling distribution stays the one built on the rgb texels.
+// Colour grids stay rgb: the kernels turn each collision's colour into a spectrum through the
+// build-time table, which this pass puts in the grid buffer once (kernels/medium.h).
+// Film layers other than variance are refused (render/settings.cpp).
 #pragma once
 #include <string>
 
