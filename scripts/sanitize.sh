@@ -33,7 +33,7 @@ export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 # The files holding these suites are the sanitized binary's sources (CMakeLists.txt, SPECTRACK_SANITIZE).
 HOST='^(SceneTest|SceneNames|Spectrum|VolumeLoad|VolumeErrors|VolumeSample|VolumeMajorant|VolumeNanoVdb)\.'
 # the film layers' quick tests (EXR channels, merging every layer, scene fields) beside them
-DEVICE='^((Render|ProfileVolume|Estimators|Volume|CliSceneErrors|CliFlags|CliDevices|CliRender|CliInterrupt|CliHostileImages|CliHostileRadiance|CliHostileFiles|CliHostileOutputs|CliShards|CliShardFlags|CliMerge|CliMultiDevice|OpenCL|SpectrumDevice)\.|Aov\.(ShardsAndTiles|ExrChannels|SceneFields|PassesOnATransparentFilm|AlbedoAndDepthLayersThroughExr)|SpectralMode\.(OptionOverridesSceneAndIsReproducible|SceneFieldErrors|UnsupportedFeaturesAreRefused|SpectrumMaxBoundsTheSpectrum|EnvironmentMapSeenDirectly))'
+DEVICE='^((Render|ProfileVolume|Estimators|Volume|CliSceneErrors|CliFlags|CliDevices|CliRender|CliInterrupt|CliHostileImages|CliHostileRadiance|CliHostileFiles|CliHostileOutputs|CliShards|CliShardFlags|CliMerge|CliMultiDevice|OpenCL|SpectrumDevice)\.|Aov\.(ShardsAndTiles|ExrChannels|SceneFields|PassesOnATransparentFilm|AlbedoAndDepthLayersThroughExr)|SpectralMode\.(OptionOverridesSceneAndIsReproducible|SceneFieldErrors|SpectrumMaxBoundsTheSpectrum|EnvironmentMapSeenDirectly))'
 cd build-asan
 status=0
 start=$(date +%s)

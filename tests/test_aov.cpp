@@ -10,6 +10,7 @@
 #include "image/image.h"
 #include "render/film.h"
 #include "render/renderer.h"
+#include "color/spectrum.h"
 #include "test_util.h"
 
 using namespace spectrack;
@@ -350,10 +351,13 @@ TEST(Aov, SceneFieldsAndTheirErrors) {
 TEST(Aov, PassesAddUpAndMatchDepthLimitedRenders) {
   const std::string dir = temp_dir("aov_passes");
   const uint32_t passes = ST_AOV_BIT(EMISSION) | ST_AOV_BIT(DIRECT) | ST_AOV_BIT(INDIRECT) | ST_AOV_BIT(ENVIRONMENT);
+  // in both colour modes: spectral mode turns each pass into linear sRGB as it does the beauty
+  for (const char* color : {"rgb", "spectral"})
   for (const char* tracker : {"delta-per-channel", "spectral-decomposition"})
     for (bool emissive : {true, false}) {
-      SCOPED_TRACE(std::string(tracker) + (emissive ? " emissive" : ""));
+      SCOPED_TRACE(std::string(color) + " " + tracker + (emissive ? " emissive" : ""));
       json s = lumpy(dir, tracker, 4);
+      s["render"]["color"] = color;
       if (emissive) s["media"][0]["emission"] = {{"radiance", {0.6, 0.4, 0.2}}};
       Renderer full_r(scene_from_json(s, dir), with_layers(passes));
       RenderResult full = full_r.render();
@@ -533,4 +537,68 @@ TEST(Aov, AlbedoAndDepthLayersThroughExrShardsAndMerge) {
   ASSERT_EQ(m.aov_sum.size(), full.aov_sum.size());
   for (size_t i = 0; i < full.aov_sum.size(); ++i)
     EXPECT_NEAR(m.aov_sum[i], full.aov_sum[i], 1e-4 * std::max(1.0, std::abs(full.aov_sum[i]))) << i;
+}
+
+// ---- spectral mode: the layers in linear sRGB ----
+
+// The absorbing slab in spectral mode on a transparent film: the environment layer is the film of
+// the sky's spectrum times exp(-2 sigma_a(lambda)), alpha is the film of D65 (1 - exp(-2 sigma_a))
+// (1 minus what a white sky shows through), and R, G, B hold nothing; the rgb mode's alpha
+// 1 - exp(-2 sigma_a,rgb) is told apart.
+TEST(AovSpectral, SlabAlphaAndEnvironmentAreTheFilmOfTheTransmittance) {
+  const std::string dir = temp_dir("aov_spectral_slab");
+  const Rgb2SpecFit fit;
+  const RgbSpectrum sa = rgb2spec_unbounded(fit, rgb2spec_srgb(), Rgb{0.5, 1.0, 2.0});
+  const RgbSpectrum sky = rgb2spec_unbounded(fit, rgb2spec_srgb(), Rgb{0.5, 1.0, 2.0});
+  const Rgb shown = film_of([&](double l) { return sky(l) * cie_d65(l) * std::exp(-2.0 * sa(l)); });
+  const Rgb alpha = film_of([&](double l) { return cie_d65(l) * (1.0 - std::exp(-2.0 * sa(l))); });
+  const char* a[3] = {"AR", "AG", "AB"};
+  const char* e[3] = {"environment.R", "environment.G", "environment.B"};
+  for (const char* tracker : {"delta-per-channel", "spectral-decomposition", "spectral-mis"}) {
+    SCOPED_TRACE(tracker);
+    json s = slab(tracker, 64);
+    s["render"]["color"] = "spectral";
+    RenderResult res = Renderer(scene_from_json(s, dir), with_layers(ST_AOV_BIT(ALPHA), 64)).render();
+    double worst_rgb = 0;
+    for (int c = 0; c < 3; ++c) {
+      Stats sa_ = mean_se(layer(res, a[c]));
+      EXPECT_NEAR(sa_.mean, alpha[c], 4.0 * sa_.se + 2e-4) << "alpha, channel " << c << " SE " << sa_.se;
+      worst_rgb = std::max(worst_rgb, std::abs(sa_.mean - (1.0 - std::exp(-2.0 * (0.5 * (1 << c))))) / sa_.se);
+      Stats se = mean_se(layer(res, e[c]));
+      EXPECT_NEAR(se.mean, shown[c], 4.0 * se.se + 2e-4) << "environment, channel " << c << " SE " << se.se;
+      for (size_t i = 0; i < size_t(res.width) * res.height; ++i) EXPECT_EQ(res.rgb[i * 3 + c], 0.0f);
+    }
+    EXPECT_GT(worst_rgb, 4.0) << "the rgb mode's alpha must be told apart";
+  }
+}
+
+// The albedo layer in spectral mode is the film of the albedo spectrum sigma_s / sigma_t under D65
+// (a reflectance), averaged over the samples whose camera ray collided; depth is unchanged.
+TEST(AovSpectral, AlbedoLayerIsTheFilmOfTheAlbedoSpectrum) {
+  const std::string dir = temp_dir("aov_spectral_albedo");
+  const Rgb2SpecFit fit;
+  const RgbSpectrum sa = rgb2spec_unbounded(fit, rgb2spec_srgb(), Rgb{0.5, 1.0, 2.0});
+  const RgbSpectrum ss = rgb2spec_unbounded(fit, rgb2spec_srgb(), Rgb{1.0, 0.5, 0.25});
+  const Rgb want = film_of([&](double l) { return cie_d65(l) * ss(l) / (sa(l) + ss(l)); });
+  for (const char* tracker : {"delta-per-channel", "spectral-decomposition"}) {
+    SCOPED_TRACE(tracker);
+    json s = scattering_box(tracker, 32, 3.0);
+    s["render"]["color"] = "spectral";
+    RenderResult res = Renderer(scene_from_json(s, dir), with_layers(ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH))).render();
+    ASSERT_EQ(res.aov_channels, (std::vector<std::string>{"albedo.R", "albedo.G", "albedo.B", "depth.Z", "collision.fraction"}));
+    const size_t na = res.aov_channels.size();
+    std::vector<double> albedo[3];
+    for (size_t i = 0; i < size_t(res.width) * res.height; ++i) {
+      const double* v = &res.aov_sum[i * na];
+      if (v[4] <= 0) continue;  // no sample's camera ray collided
+      for (int c = 0; c < 3; ++c) albedo[c].push_back(v[c] / v[4]);
+      EXPECT_GE(v[3] / v[4], 2.0 - 1e-5);
+      EXPECT_LE(v[3] / v[4], 4.0 + 1e-5);
+    }
+    ASSERT_GT(albedo[0].size(), 50u);
+    for (int c = 0; c < 3; ++c) {
+      Stats st = mean_se(albedo[c]);
+      EXPECT_NEAR(st.mean, want[c], 4.0 * st.se + 2e-4) << "channel " << c << " SE " << st.se;
+    }
+  }
 }

@@ -10,7 +10,7 @@
 //   - every tracker agrees with per-channel delta tracking on a chromatic scattering medium;
 //   - environment maps: a texel seen directly is the film of its spectrum times D65, a white map
 //     keeps a white furnace white, a gray medium under a chromatic map renders the rgb expectation;
-//   - the scene field, the flag's refusals and the stats.
+//   - the scene field and the stats (film layers in spectral mode: tests/test_aov.cpp AovSpectral).
 #include <cmath>
 #include <functional>
 #include <utility>
@@ -215,20 +215,6 @@ TEST(SpectralMode, SceneFieldErrors) {
   const std::string msg = error_of([&] { scene_from_json(j, dir); });
   EXPECT_NE(msg.find("/render/color"), std::string::npos) << msg;
   EXPECT_NE(msg.find("rgb, spectral"), std::string::npos) << msg;
-}
-
-// What spectral mode cannot render yet is refused, naming the field.
-TEST(SpectralMode, UnsupportedFeaturesAreRefused) {
-  const std::string dir = temp_dir("spectral_refused");
-  write_lumpy(dir + "/lumpy.vdb");
-  {  // film layers other than variance
-    json j = spectral_scene(4, 4, 1, "spectral");
-    j["film"]["aovs"] = {"albedo"};
-    j["lights"].push_back({{"type", "environment"}, {"radiance", {1, 1, 1}}});
-    const std::string msg = error_of([&] { Renderer(scene_from_json(j, dir), quiet_options()); });
-    EXPECT_NE(msg.find("albedo"), std::string::npos) << msg;
-    EXPECT_NE(msg.find("spectral mode"), std::string::npos) << msg;
-  }
 }
 
 // spectrum_max: the spectrum's largest value over 360..830 nm, exactly (spectral_pack.cpp checks it stays a float).

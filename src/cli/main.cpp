@@ -344,8 +344,7 @@ MultiDeviceResult render_share(const SceneDesc& scene, const RenderOptions& opt,
 }
 
 // The film layers of a render to `output` (docs/aov.md): film.aovs and --aov; alpha from --alpha /
-// --no-alpha, else film.alpha, else on for an EXR output in rgb mode (spectral mode has no alpha layer
-// yet: settings.cpp). Layers need an EXR (a PNG holds the beauty).
+// --no-alpha, else film.alpha, else on for an EXR output. Layers need an EXR (a PNG holds the beauty).
 uint32_t film_layers(const RenderArgs& a, const SceneDesc& scene, const std::string& output) {
   uint32_t aovs = scene.film.aovs & ~uint32_t(ST_AOV_BIT(ALPHA));
   std::stringstream list(a.aov);
@@ -362,8 +361,7 @@ uint32_t film_layers(const RenderArgs& a, const SceneDesc& scene, const std::str
   const bool exr = ext == ".exr";
   if (a.alpha && a.no_alpha) throw Error("--alpha and --no-alpha: choose one");
   if (alpha_listed && a.no_alpha) throw Error(fmt::format("--aov {} lists alpha, which --no-alpha turns off", a.aov));
-  const bool spectral = a.spectral || scene.render.color == ST_FILM_COLOR_SPECTRAL;
-  bool alpha = a.alpha || alpha_listed ? true : a.no_alpha ? false : scene.film.alpha.value_or(exr && !spectral);
+  bool alpha = a.alpha || alpha_listed ? true : a.no_alpha ? false : scene.film.alpha.value_or(exr);
   if (!exr && (aovs || ((a.alpha || alpha_listed || scene.film.alpha.value_or(false)) && !a.no_alpha)))
     throw Error(fmt::format("{}: film layers ({}) need an EXR output; a PNG holds the beauty only (write an EXR and add "
                             "--preview for a PNG)",

@@ -63,16 +63,6 @@ RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) 
   s.aovs = o.aovs ? *o.aovs : (scene.film.aovs | (scene.film.alpha.value_or(false) ? uint32_t(ST_AOV_BIT(ALPHA)) : 0u));
   if (s.aovs >= (1u << ST_AOV_COUNT)) throw Error(fmt::format("film layer mask 0x{:x} names layers that do not exist", s.aovs));
   if (s.aovs & ST_AOV_BIT(ALPHA)) s.aovs |= ST_AOV_BIT(ENVIRONMENT);
-  // spectral mode turns only the beauty into rgb (finish.cl): the layers a path writes itself are rgb-only for now
-  if (s.color == ST_FILM_COLOR_SPECTRAL && (s.aovs & ~uint32_t(ST_AOV_BIT(VARIANCE)))) {
-    std::string names;
-    for (int k = 0; k < ST_AOV_COUNT; ++k)
-      if (k != ST_AOV_INDEX_VARIANCE && (s.aovs & (1u << k))) names += (names.empty() ? "" : ", ") + std::string(aov_name(k));
-    throw Error(fmt::format("{}: film layers {} are not available in spectral mode yet (render.color \"spectral\" or "
-                            "--spectral renders the beauty and the variance layer); drop them (/film/aovs, /film/alpha, "
-                            "--aov; PNG output, or --no-alpha for EXR) or render in rgb",
-                            scene.path, names));
-  }
   s.seed = o.seed ? uint32_t(*o.seed) : scene.render.seed;
   s.spp = o.spp.value_or(scene.film.spp);
   s.sample_begin = o.sample_begin;
