@@ -473,3 +473,16 @@ TEST(BlackbodySpectral, SpectralRadianceBoundIsChecked) {
   EXPECT_NE(msg.find("/media/0/emission/scale"), std::string::npos) << msg;
   EXPECT_NE(msg.find("spectral radiance"), std::string::npos) << msg;
 }
+
+// emission.normalization's names: one table read both ways (the parser and the messages)
+TEST(Blackbody, NormalizationNamesRoundTrip) {
+  for (BlackbodyNorm n : {BlackbodyNorm::Peak, BlackbodyNorm::Luminance, BlackbodyNorm::None}) {
+    BlackbodyNorm back = BlackbodyNorm::Peak == n ? BlackbodyNorm::None : BlackbodyNorm::Peak;
+    EXPECT_TRUE(blackbody_norm_from_name(blackbody_norm_name(n), &back)) << blackbody_norm_name(n);
+    EXPECT_EQ(back, n);
+  }
+  BlackbodyNorm n = BlackbodyNorm::Luminance;
+  EXPECT_FALSE(blackbody_norm_from_name("max", &n));
+  EXPECT_EQ(n, BlackbodyNorm::Luminance);
+  EXPECT_EQ(blackbody_norm_names(), "peak, luminance, none");
+}

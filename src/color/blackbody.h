@@ -12,6 +12,7 @@
 // temperature that is smooth in both of Planck's regimes, and interpolate it linearly.
 #pragma once
 #include <array>
+#include <string>
 #include <vector>
 
 namespace spectrack {
@@ -28,6 +29,10 @@ extern const CieSample kCie1931[kCieSamples];
 //   luminance: scaled to Y = 1 (colour only: temperature sets the hue, `scale` the brightness);
 //   none:      B itself in W sr^-1 m^-2 nm^-1 (brightness grows as ~T^4: physical fire).
 enum class BlackbodyNorm { Peak, Luminance, None };
+// Their names in scene files (emission.normalization) and messages, one table for both ways.
+const char* blackbody_norm_name(BlackbodyNorm n);
+bool blackbody_norm_from_name(const std::string& name, BlackbodyNorm* n);  // false: no such name
+std::string blackbody_norm_names();                                         // "peak, luminance, none"
 
 using Rgb = std::array<double, 3>;
 

@@ -31,10 +31,6 @@ namespace {
 constexpr int kBlackbodyEntries = 16384;
 static_assert(ST_BLACKBODY_T_FLOOR == kBlackbodyTableFloor, "kernels/types.h and src/color/blackbody.h: one floor");
 
-const char* blackbody_norm_name(BlackbodyNorm n) {
-  return n == BlackbodyNorm::Peak ? "peak" : n == BlackbodyNorm::Luminance ? "luminance" : "none";
-}
-
 // The emission bounds (scene/radiance.h) of a blackbody medium whose brightest colour component
 // up to T_hi kelvin, before `scale`, is `peak` (`what`: "colour"; spectral mode checks its
 // brightest spectral radiance as the film reads it as well).

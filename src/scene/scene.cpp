@@ -542,16 +542,10 @@ EmissionDesc Parser::emission(const json& j, const std::string& path, bool vdb) 
     e.temperature_scale = number(j, path, "temperature_scale", e.temperature_scale, kAny);
     e.temperature_offset = number(j, path, "temperature_offset", e.temperature_offset, kAny);
   }
-  const std::string norm = string(j, path, "normalization", "peak");
-  if (norm == "peak") {
-    e.normalization = BlackbodyNorm::Peak;
-  } else if (norm == "luminance") {
-    e.normalization = BlackbodyNorm::Luminance;
-  } else if (norm == "none") {
-    e.normalization = BlackbodyNorm::None;
-  } else {
-    fail(path + "/normalization", "unknown normalization " + in_quotes(norm) + " (expected one of: peak, luminance, none)");
-  }
+  const std::string norm = string(j, path, "normalization", blackbody_norm_name(BlackbodyNorm::Peak));
+  if (!blackbody_norm_from_name(norm, &e.normalization))
+    fail(path + "/normalization",
+         "unknown normalization " + in_quotes(norm) + " (expected one of: " + blackbody_norm_names() + ")");
   return e;
 }
 
