@@ -61,32 +61,6 @@ const Mat3& from_xyz() {
 
 }  // namespace
 
-namespace {
-constexpr std::array<std::pair<BlackbodyNorm, const char*>, 3> kNormNames = {
-    {{BlackbodyNorm::Peak, "peak"}, {BlackbodyNorm::Luminance, "luminance"}, {BlackbodyNorm::None, "none"}}};
-}  // namespace
-
-const char* blackbody_norm_name(BlackbodyNorm n) {
-  for (const auto& [k, name] : kNormNames)
-    if (k == n) return name;
-  return "?";
-}
-
-bool blackbody_norm_from_name(const std::string& name, BlackbodyNorm* n) {
-  for (const auto& [k, v] : kNormNames)
-    if (name == v) {
-      *n = k;
-      return true;
-    }
-  return false;
-}
-
-std::string blackbody_norm_names() {
-  std::string s;
-  for (const auto& [k, name] : kNormNames) s += (s.empty() ? "" : ", ") + std::string(name);
-  return s;
-}
-
 double cie_y_integral() {
   static const double s = [] {
     double t = 0;

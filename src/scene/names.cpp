@@ -1,10 +1,13 @@
-// names.cpp: the user-facing names of the tracker and spectral-scheme enums of kernels/types.h.
+// names.cpp: the user-facing names of the tracker and spectral-scheme enums of kernels/types.h,
+// and of the blackbody normalisations (color/blackbody.h).
 //
 // Design: the names come from the enums' own tables in kernels/types.h (ST_TRACKERS, ST_SCHEMES),
 // so an enum value cannot lack a name. The scene loader, the CLI flags and the EXR metadata all go
 // through these functions; nothing else spells the names.
+#include <array>
 #include <iterator>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "scene/scene.h"
@@ -113,5 +116,34 @@ const std::vector<std::string>& exr_compressions() {
   return names;
 }
 bool tracker_uses_scheme(int tracker) { return st_tracker_uses_scheme(tracker) != 0; }
+
+
+// Blackbody normalisations (color/blackbody.h declares them; defined here so that the scene loader
+// and its fuzzing harness need no colour science).
+namespace {
+constexpr std::array<std::pair<BlackbodyNorm, const char*>, 3> kNormNames = {
+    {{BlackbodyNorm::Peak, "peak"}, {BlackbodyNorm::Luminance, "luminance"}, {BlackbodyNorm::None, "none"}}};
+}  // namespace
+
+const char* blackbody_norm_name(BlackbodyNorm n) {
+  for (const auto& [k, name] : kNormNames)
+    if (k == n) return name;
+  return "?";
+}
+
+bool blackbody_norm_from_name(const std::string& name, BlackbodyNorm* n) {
+  for (const auto& [k, v] : kNormNames)
+    if (name == v) {
+      *n = k;
+      return true;
+    }
+  return false;
+}
+
+std::string blackbody_norm_names() {
+  std::string s;
+  for (const auto& [k, name] : kNormNames) s += (s.empty() ? "" : ", ") + std::string(name);
+  return s;
+}
 
 }  // namespace spectrack
