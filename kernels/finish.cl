@@ -2,23 +2,17 @@
  * buffer at its own index (in spectral mode its beauty and layers turned into linear sRGB); k_accumulate then adds a whole batch to the film per pixel in a fixed
  * order, so the image does not depend on the order in which paths finished (bit-identical
  * renders for one seed). Non-finite samples are counted and dropped, never hidden. */
-/* Spectral mode: the layers a path wrote at its wavelengths become linear sRGB, as its beauty does:
- * the radiances (environment, emission and direct passes) through the film, alpha (1 - T) and the
- * albedo (sigma_s / sigma_t) as reflectances under D65 (the film of D65 times them, so that a gray
- * value stays itself and a slab's alpha is 1 minus what a white sky shows through it); their w
- * lanes (the first collision's weight, its depth) are kept. */
+/* Spectral mode: the radiance layers a path wrote at its wavelengths (environment, emission and
+ * direct passes) become linear sRGB through the film, as its beauty does. Alpha (1 - T) and the
+ * albedo (sigma_s / sigma_t) are linear sRGB already: raygen.cl turns them into reflectances under
+ * D65 where it computes them (the film of D65 times them, so that a gray value stays itself and a
+ * slab's alpha is 1 minus what a white sky shows through it), which frees their w lanes for the
+ * first collision's weight and depth. */
 inline void spectral_layers_to_rgb(__global float4* out, uint L, float4 lambda, float4 pdf) {
-  const float4 d65 = (float4)(film_table_at(lambda.x).w, film_table_at(lambda.y).w, film_table_at(lambda.z).w, 0.0f);
-  const float4 a = out[ST_RESULT_ALPHA];
-  out[ST_RESULT_ALPHA] = (float4)(film_rgb(a * d65, lambda, pdf, 3).xyz, a.w);
-  out[ST_RESULT_ENVIRONMENT] = film_rgb(out[ST_RESULT_ENVIRONMENT], lambda, pdf, 3);
+  out[ST_RESULT_ENVIRONMENT] = film_rgb(out[ST_RESULT_ENVIRONMENT], lambda, pdf, 4);
   if (L > ST_RESULT_LAYERS_AOV) {
-    out[ST_RESULT_EMISSION] = film_rgb(out[ST_RESULT_EMISSION], lambda, pdf, 3);
-    out[ST_RESULT_DIRECT] = film_rgb(out[ST_RESULT_DIRECT], lambda, pdf, 3);
-  }
-  if (L > ST_RESULT_LAYERS_PASSES) {
-    const float4 aux = out[ST_RESULT_AUX];
-    out[ST_RESULT_AUX] = (float4)(film_rgb(aux * d65, lambda, pdf, 3).xyz, aux.w);
+    out[ST_RESULT_EMISSION] = film_rgb(out[ST_RESULT_EMISSION], lambda, pdf, 4);
+    out[ST_RESULT_DIRECT] = film_rgb(out[ST_RESULT_DIRECT], lambda, pdf, 4);
   }
 }
 
@@ -45,17 +39,18 @@ __kernel void k_finish(ST_STAGE_ARGS) {
   }
   float4 r = p.L;
   for (uint l = 0; l < (uint)scene->n_lights; ++l) r += shadows[slot * NL + l].Ls;
-  r.w = 0.0f;
   const uint L = (uint)scene->result_layers;
   __global float4* out = &results[p.result_index * L];
-  if (spectral_mode(scene)) { /* the radiance at the path's wavelengths becomes linear sRGB */
+  if (spectral_mode(scene)) { /* the radiance at the path's four wavelengths becomes linear sRGB (w = 0) */
     const float4 lambda = path_wavelengths(scene, &p), pdf = wavelength_pdfs(lambda);
-    r = film_rgb(r, lambda, pdf, 3);
+    r = film_rgb(r, lambda, pdf, 4);
     if (ST_HAS_AOV && L > 1u) spectral_layers_to_rgb(out, L, lambda, pdf);
+  } else {
+    r.w = 0.0f;
   }
   int finite = isfinite(r.x) && isfinite(r.y) && isfinite(r.z);
   if (ST_HAS_AOV && L > 1u) /* the layers the path wrote: a non-finite one drops all of this path's values
-                             * (delta-per-channel: one of a sample's three paths, as for the beauty) */
+                             * (delta-per-channel: one of a sample's paths, as for the beauty) */
     for (uint k = 1u; k < L; ++k) finite = finite && isfinite(out[k].x) && isfinite(out[k].y) && isfinite(out[k].z);
   if (!finite) {
     atomic_inc(&counters[ST_C_NONFINITE]);

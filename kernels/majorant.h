@@ -289,7 +289,7 @@ inline float4 segments_sigma_maj(__constant const st_scene* scene, const st_segm
     float4 sigma_t = medium_is_spectral(m) ? sigma_t_l[i] : medium_has_color(m) ? m->sigma_t_maj : m->sigma_a + m->sigma_s;
     sigma_maj += s->m[i].dmax * m->majorant_scale * sigma_t;
   }
-  return sigma_maj * (float4)(1.0f, 1.0f, 1.0f, 0.0f);
+  return sigma_maj * scene_lanes(scene);
 }
 
 /* A majorant segment [t0, t1) as the trackers see it, with its free-path components

@@ -58,7 +58,7 @@ __kernel void k_probe_track(__constant const st_scene* scene, __global const uin
   uint i = get_global_id(0);
   if (i >= n) return;
   st_rng rng = rng_make(scene->seed, i, 0u, 0u, 7u, 0u);
-  float4 mask = channel < 0 ? (float4)(1.0f, 1.0f, 1.0f, 0.0f) : one_hot(channel);
+  float4 mask = channel < 0 ? scene_lanes(scene) : one_hot(channel);
   float4 beta = mask, L = (float4)(0.0f), r_u = mask;
   int hero = draw_hero(scene, &rng);
   st_track_stats st;
@@ -81,7 +81,7 @@ __kernel void k_probe_transmittance(__constant const st_scene* scene, __global c
   uint i = get_global_id(0);
   if (i >= n) return;
   st_rng rng = rng_make(scene->seed, i, 0u, 0u, 7u, 0u);
-  float4 mask = (float4)(1.0f, 1.0f, 1.0f, 0.0f);
+  float4 mask = scene_lanes(scene);
   st_trans tr;
   transmittance_begin(&tr, mask);
   st_track_stats st;
@@ -105,7 +105,7 @@ __kernel void k_probe_albedo(__constant const st_scene* scene, __global const ui
   uint i = get_global_id(0);
   if (i >= n) return;
   st_rng rng = rng_make(scene->seed, i, 1u, 0u, 7u, 0u);
-  float4 mask = channel < 0 ? (float4)(1.0f, 1.0f, 1.0f, 0.0f) : one_hot(channel);
+  float4 mask = channel < 0 ? scene_lanes(scene) : one_hot(channel);
   float4 beta = mask, L = (float4)(0.0f), sum = (float4)(0.0f), r_u = mask;
   int hero = draw_hero(scene, &rng);
   st_track_stats st;

@@ -85,16 +85,17 @@ inline void shadow_fold(__constant const st_scene* scene, __global st_shadow* ac
 }
 
 /* The random stream of a path (stream 0) or of one of its shadow rays. */
-/* Spectral mode (st_film_color): the three wavelengths of sample (pixel, sample), shared by the
- * paths of a per-channel tracker's sample, from the first draw of a stream no path uses (channel
- * 3: paths have channels 0..2), so they depend only on the seed, pixel and sample. */
+/* Spectral mode (st_film_color): the four wavelengths of sample (pixel, sample), shared by the
+ * paths of a per-channel tracker's sample, from the first draw of a stream of their own
+ * (ST_STREAM_WAVELENGTHS on channel 0), so they depend only on the seed, pixel and sample. */
 inline float4 path_wavelengths(__constant const st_scene* scene, const st_path* p) {
-  st_rng r = rng_make(scene->seed, p->pixel, p->sample, 3u, 0u, 0u);
-  return sample_wavelengths(rng_uniform(&r), 3);
+  st_rng r = rng_make(scene->seed, p->pixel, p->sample, 0u, ST_STREAM_WAVELENGTHS, 0u);
+  return sample_wavelengths(rng_uniform(&r), 4);
 }
 
-inline int spectral_mode(__constant const st_scene* scene) {
-  return ST_HAS_SPECTRAL && scene->color == ST_FILM_COLOR_SPECTRAL;
+/* The lanes a path carries: its own lane for a per-channel tracker, else every lane of the scene. */
+inline float4 path_mask(__constant const st_scene* scene, const st_path* p) {
+  return scene->n_channels_per_sample > 1 ? one_hot((int)p->channel) : scene_lanes(scene);
 }
 
 inline st_rng path_rng(__constant const st_scene* scene, const st_path* p, uint stream, uint draw) {

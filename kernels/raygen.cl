@@ -5,7 +5,7 @@
  * not touched and stay free. */
 
 /* The camera ray's first collision for the albedo and depth layers (types.h ST_AOVS): a delta-tracking
- * free flight whose collision density is sigma_t T with sigma_t the mean of the three channels'
+ * free flight whose collision density is sigma_t T with sigma_t the mean over the lanes (channels or wavelengths) of the
  * extinction (every medium, no decomposition), on its own stream ST_STREAM_CAMERA_COLLISION. A
  * tentative collision of the walker (rate mu_bar, the channels' majorant) is real with probability
  * sigma_t / (sigma_t + |mu_bar - sigma_t|), and the flight's weight w takes the ratio of
@@ -18,7 +18,7 @@
 inline float camera_first_collision(__constant const st_scene* scene, __global const uint* grids,
                                     __global const float2* maj, __global uint* counters, const st_path* p,
                                     float4* aux) {
-  const float4 all = (float4)(1.0f, 1.0f, 1.0f, 0.0f);
+  const float4 all = scene_lanes(scene);
   const float3 o = p->o.xyz, d = p->d.xyz;
   st_rng rng = path_rng(scene, p, ST_STREAM_CAMERA_COLLISION, 0u);
   st_track_stats st;
@@ -32,12 +32,16 @@ inline float camera_first_collision(__constant const st_scene* scene, __global c
     if (step != ST_WALK_COLLISION) continue;
     st_coeffs c = scene_coeffs(scene, grids, o + w.t * d, &st.lookups, 0, &rng, w.sigma_a_l, w.sigma_s_l);
     float4 sigma_t = c.sigma_a + c.sigma_s;
-    float sigma_t_mean = fmax((sigma_t.x + sigma_t.y + sigma_t.z) * (1.0f / 3.0f), 0.0f);
+    float sigma_t_mean = fmax(spectral_mode(scene) ? (sigma_t.x + sigma_t.y + sigma_t.z + sigma_t.w) * 0.25f
+                                                   : (sigma_t.x + sigma_t.y + sigma_t.z) * (1.0f / 3.0f),
+                              0.0f);
     float sigma_n = w.mu_bar - sigma_t_mean;
     float P_real = sigma_t_mean / (sigma_t_mean + fabs(sigma_n));
     if (rng_uniform(&rng) < P_real) {
       if (sigma_n < 0.0f) weight *= sigma_t_mean / (w.mu_bar * P_real); /* else exactly 1 */
       float4 albedo = select((float4)(0.0f), c.sigma_s / sigma_t, sigma_t > 0.0f);
+      if (spectral_mode(scene)) /* a reflectance under D65, as linear sRGB (finish.cl keeps it) */
+        albedo = film_rgb(albedo * d65_at(rng.lambda), rng.lambda, wavelength_pdfs(rng.lambda), 4);
       *aux = weight * (float4)(albedo.xyz, w.t);
       hit = weight;
       break;
@@ -51,7 +55,7 @@ inline float camera_first_collision(__constant const st_scene* scene, __global c
 /* The camera layers of a new camera path (types.h ST_AOVS): the environment
  * (and the emission and direct passes) start at 0 (k_escape, k_track and the shadow folds add to them), the alpha value is 1 - T per channel with T the scene's
  * transmittance estimator along the whole camera ray (ratio tracking or ray marching, through
- * every medium, the three channels at once), on the stream ST_STREAM_CAMERA_T so the path's own stream is unchanged. It runs to the end here
+ * every medium, every lane at once), on the stream ST_STREAM_CAMERA_T so the path's own stream is unchanged. It runs to the end here
  * (roulette bounds it); its lookups are counted on their own (density_lookups_alpha). The albedo
  * and depth layers take the ray's first collision (camera_first_collision). */
 inline void camera_layers_begin(__constant const st_scene* scene, __global const uint* grids,
@@ -65,7 +69,7 @@ inline void camera_layers_begin(__constant const st_scene* scene, __global const
   /* one estimate per sample, for every channel: the per-channel trackers' channel-0 path makes it
    * (the sample's other paths add 0), the others carry every channel already */
   if ((scene->aovs & ST_AOV_BIT(ALPHA)) && (scene->n_channels_per_sample == 1 || p->channel == 0u)) {
-    const float4 all = (float4)(1.0f, 1.0f, 1.0f, 0.0f);
+    const float4 all = scene_lanes(scene);
     st_rng rng = path_rng(scene, p, ST_STREAM_CAMERA_T, 0u);
     st_track_stats st;
     track_stats_clear(&st);
@@ -76,6 +80,8 @@ inline void camera_layers_begin(__constant const st_scene* scene, __global const
                                    scene->iteration_budget, &st)) {
     }
     alpha = all - tr.T;
+    if (spectral_mode(scene)) /* 1 - T at the four wavelengths, a reflectance under D65, as linear sRGB */
+      alpha = film_rgb(alpha * d65_at(rng.lambda), rng.lambda, wavelength_pdfs(rng.lambda), 4);
     alpha.w = 0.0f;
     counter_add(counters, ST_C_LOOKUPS_ALPHA, st.lookups);
   }
@@ -111,7 +117,7 @@ __kernel void k_raygen(ST_STAGE_ARGS) {
   int x = scene->pixel_x0 + (int)(wpix % (uint)scene->window_width);
   int y = scene->pixel_y0 + (int)(wpix / (uint)scene->window_width);
   p.pixel = (uint)(y * scene->camera.width + x);
-  p.channel = nch == 3u ? ch : 0u;
+  p.channel = nch > 1u ? ch : 0u;
   p.batch = (uint)(b % (ulong)scene->batches_in_flight);
   p.result_index = p.batch * batch_paths + in_batch;
   st_rng rng = path_rng(scene, &p, 0u, 0u);
@@ -130,20 +136,16 @@ __kernel void k_raygen(ST_STAGE_ARGS) {
   }
   p.o = (float4)(o, 0.0f);
   p.d = (float4)(d, 0.0f);
-  if (nch == 3u) {
-    p.mask = one_hot((int)ch);
-  } else {
-    p.mask = (float4)(1.0f, 1.0f, 1.0f, 0.0f);
-  }
   /* spectral-mis: the hero channel, uniform (the one-sample MIS's choice of technique, tracking.h) */
   if (tracker_is_mis(scene)) p.channel = (uint)draw_hero(scene, &rng);
-  p.beta = p.mask;
+  p.beta = path_mask(scene, &p);
   p.L = (float4)(0.0f);
   p.rng_draw = rng_draw_index(&rng);
   p.depth = 0;
   p.pending = 0;
   p.medium = 0;
-  p.r_u[0] = p.r_u[1] = p.r_u[2] = 1.0f;
+  p.r_u = scene_lanes(scene);
+  p.pad[0] = p.pad[1] = p.pad[2] = 0u;
   paths[slot] = p;
   if (ST_HAS_AOV && scene->result_layers > 1) camera_layers_begin(scene, grids, maj, counters, results, &p);
   for (uint l = 0; l < (uint)scene->n_lights; ++l) shadows[slot * NL + l].Ls = (float4)(0.0f);

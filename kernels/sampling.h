@@ -12,16 +12,22 @@ inline float sample_exponential(float u, float mu) { return -log(1.0f - u) / mu;
 
 inline float max3(float4 v) { return fmax(v.x, fmax(v.y, v.z)); }
 inline float sum3(float4 v) { return v.x + v.y + v.z; }
-/* The mask of colour channel c (0..2), and component c of v. */
-inline float4 one_hot(int c) { return (float4)(c == 0 ? 1.0f : 0.0f, c == 1 ? 1.0f : 0.0f, c == 2 ? 1.0f : 0.0f, 0.0f); }
-inline float channel_of(float4 v, int c) { return c == 0 ? v.x : (c == 1 ? v.y : v.z); }
+/* The mask of lane c (0..3: a colour channel, or a wavelength in spectral mode), and component c of v. */
+inline float4 one_hot(int c) {
+  return (float4)(c == 0 ? 1.0f : 0.0f, c == 1 ? 1.0f : 0.0f, c == 2 ? 1.0f : 0.0f, c == 3 ? 1.0f : 0.0f);
+}
+inline float channel_of(float4 v, int c) { return c == 0 ? v.x : (c == 1 ? v.y : (c == 2 ? v.z : v.w)); }
 
-/* Reductions over the channels a path carries (mask entries are 0 or 1). */
+/* Reductions over the lanes a path carries (mask entries are 0 or 1). Lane w (spectral mode's
+ * fourth wavelength) joins only where the mask has it, after the other three, so that a mask
+ * without it gives exactly the three-lane result whatever w holds. */
 inline float masked_max(float4 v, float4 mask) {
   float4 m = select((float4)(-INFINITY), v, isnotequal(mask, (float4)(0.0f)));
-  return fmax(m.x, fmax(m.y, m.z));
+  return fmax(fmax(m.x, fmax(m.y, m.z)), m.w);
 }
-inline float masked_avg(float4 v, float4 mask) { return sum3(v * mask) / sum3(mask); }
+inline float masked_avg(float4 v, float4 mask) {
+  return mask.w != 0.0f ? (sum3(v * mask) + v.w * mask.w) / (sum3(mask) + mask.w) : sum3(v * mask) / sum3(mask);
+}
 
 inline void make_frame(float3 n, float3* t, float3* b) {
   /* Duff et al. 2017, "Building an orthonormal basis, revisited" */

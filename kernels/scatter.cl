@@ -35,6 +35,7 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
   st_rng rng = path_rng(scene, &p, 0u, p.rng_draw);
   __constant const st_medium* m = &scene->media[p.medium];
   float3 wo = p.d.xyz;
+  const float4 mask = path_mask(scene, &p);
   int l_begin = 0, l_end = scene->n_lights;
   if (scene->light_sampling != ST_LIGHT_SAMPLING_ALL && scene->n_lights > 1) {
     l_begin = light_select(scene, rng_uniform(&rng));
@@ -48,15 +49,15 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     float4 Le_over_pdf = light_sample(light, env, u1, u2, &wi, &pdf_l, rng.lambda);
     float f = phase_eval(m->phase_type, m->g, dot(wo, wi));
     float w = pdf_l > 0.0f ? power_heuristic(light->select_pmf * pdf_l, f) : 1.0f;
-    float4 weight = p.beta * p.mask * Le_over_pdf * (f * w / light->select_pmf);
-    if (!(masked_max(fabs(weight), p.mask) > 0.0f)) continue;
+    float4 weight = p.beta * mask * Le_over_pdf * (f * w / light->select_pmf);
+    if (!(masked_max(fabs(weight), mask) > 0.0f)) continue;
     uint id = shadow_entry(slot, NL, scene->n_lights, p.depth, l);
     __global st_shadow* sh = &shadows[id];
     sh->o = (float4)(p.o.xyz, 0.0f);
     sh->d = (float4)(wi, 0.0f);
     sh->weight = weight;
     st_trans tr;
-    transmittance_begin(&tr, p.mask);
+    transmittance_begin(&tr, mask);
     sh->tr = tr;
     sh->rng_draw = 0u;
     sh->stream = 1u + (uint)p.depth * ST_MAX_LIGHTS + (uint)l;
@@ -74,7 +75,7 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
   p.depth += 1;
   int q = ST_Q_TRACK;
   if (p.depth > 2) {
-    float survive = fmin(1.0f, masked_max(fabs(p.beta), p.mask));
+    float survive = fmin(1.0f, masked_max(fabs(p.beta), mask));
     if (survive < 1.0f) {
       if (rng_uniform(&rng) >= survive) q = ST_Q_FINISH;
       else p.beta /= survive;

@@ -13,23 +13,24 @@ __kernel void k_escape(ST_STAGE_ARGS) {
   float pdf_phase = p.d.w;
   float4 L = (float4)(0.0f);
   float4 lambda = spectral_mode(scene) ? path_wavelengths(scene, &p) : (float4)(0.0f);
+  const float4 mask = path_mask(scene, &p);
   for (int l = 0; l < scene->n_lights; ++l) {
     __constant const st_light* light = &scene->lights[l];
     float4 Le = light_Le(light, env, d, lambda);
-    if (max3(Le) <= 0.0f) continue;
+    if (masked_max(Le, scene_lanes(scene)) <= 0.0f) continue;
     float w = pdf_phase > 0.0f ? power_heuristic(pdf_phase, light->select_pmf * light_pdf(light, env, d)) : 1.0f;
     L += Le * w;
   }
   /* the alpha / environment layers: lights at infinity seen straight from the camera go to the
    * environment layer (a transparent film, types.h ST_AOVS) */
   if (ST_HAS_AOV && scene->result_layers > 1 && p.depth == 0) {
-    results[p.result_index * (uint)scene->result_layers + ST_RESULT_ENVIRONMENT] = p.beta * p.mask * L;
+    results[p.result_index * (uint)scene->result_layers + ST_RESULT_ENVIRONMENT] = p.beta * mask * L;
   } else {
-    p.L += p.beta * p.mask * L;
+    p.L += p.beta * mask * L;
     paths[slot].L = p.L;
     /* the direct pass: the lights that the first scattering event's phase-sampled ray reaches */
     if (ST_HAS_AOV && scene->result_layers > ST_RESULT_LAYERS_AOV && p.depth == 1)
-      results[p.result_index * (uint)scene->result_layers + ST_RESULT_DIRECT] += p.beta * p.mask * L;
+      results[p.result_index * (uint)scene->result_layers + ST_RESULT_DIRECT] += p.beta * mask * L;
   }
   queue_push(queues, counters, Q, NL, cur, ST_Q_FINISH, slot);
 }

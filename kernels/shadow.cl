@@ -13,7 +13,7 @@ __kernel void k_shadow(ST_STAGE_ARGS) {
   st_track_stats st;
   track_stats_clear(&st);
   float t = sh.o.w;
-  int done = transmittance_estimate(scene, grids, maj, sh.o.xyz, sh.d.xyz, &t, &sh.tr, p.mask, &rng,
+  int done = transmittance_estimate(scene, grids, maj, sh.o.xyz, sh.d.xyz, &t, &sh.tr, path_mask(scene, &p), &rng,
                                     scene->iteration_budget, &st);
   sh.rng_draw = rng_draw_index(&rng);
   if (done) {

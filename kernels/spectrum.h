@@ -10,9 +10,9 @@
  * serialize_rgb2spec_table lays them out after its header) exactly as the host's rgb2spec does.
  * Film: linear sRGB = (1/n) sum_i L_i F(lambda_i) / p(lambda_i), with F the white-balanced
  * observer weights on the 1 nm grid (film_rgb_weights), interpolated linearly from a table the
- * host generates into the program. The renderer's spectral mode carries n = 3 wavelengths in
- * lanes x, y, z (the kernels' three channels: masks, per-channel tracking, spectral MIS), lane w 0;
- * the probe tests n = 4 against the host. */
+ * host generates into the program. The renderer's spectral mode carries n = 4 wavelengths, one
+ * per lane (the lanes that hold the three colour channels in rgb mode: masks, per-channel
+ * tracking, spectral MIS); the probe tests them against the host. */
 #ifndef SPECTRACK_SPECTRUM_H
 #define SPECTRACK_SPECTRUM_H
 
@@ -97,10 +97,19 @@ inline float4 rgb2spec_lookup(__global const float* table, int res, float3 rgb) 
   return (float4)(c, scale);
 }
 
-/* A spectrum's values at a path's wavelengths, lane w 0 (spectral mode carries three). */
-inline float4 spectrum_at(float4 coeffs, float4 lambda) {
-  return rgb2spec_eval(coeffs, lambda) * (float4)(1.0f, 1.0f, 1.0f, 0.0f);
+/* A spectrum's values at a path's four wavelengths. */
+inline float4 spectrum_at(float4 coeffs, float4 lambda) { return rgb2spec_eval(coeffs, lambda); }
+
+inline int spectral_mode(__constant const st_scene* scene) {
+  return ST_HAS_SPECTRAL && scene->color == ST_FILM_COLOR_SPECTRAL;
 }
+
+/* The lanes a path of the scene can carry: the three colour channels in rgb mode (w unused), the
+ * four wavelengths in spectral mode. */
+inline float4 scene_lanes(__constant const st_scene* scene) {
+  return (float4)(1.0f, 1.0f, 1.0f, spectral_mode(scene) ? 1.0f : 0.0f);
+}
+inline int scene_n_lanes(__constant const st_scene* scene) { return spectral_mode(scene) ? 4 : 3; }
 
 /* B(lambda, T) / N per lane, ln N = log_norm: Planck's law in W sr^-1 m^-2 nm^-1
  * (src/color/blackbody.cpp log_planck, CODATA 2018: ln(2 h c^2) in these units and c2 = h c / k in
@@ -127,10 +136,11 @@ inline float4 film_table_at(float lambda) {
 
 /* An upsampled light colour at the path's wavelengths: its spectrum times D65, so that the film
  * gives the colour back (the fit is made under D65, src/color/spectrum.h). */
-inline float4 illuminant_at(float4 coeffs, float4 lambda) {
-  float4 d65 = (float4)(film_table_at(lambda.x).w, film_table_at(lambda.y).w, film_table_at(lambda.z).w, 0.0f);
-  return spectrum_at(coeffs, lambda) * d65;
+inline float4 d65_at(float4 lambda) {
+  return (float4)(film_table_at(lambda.x).w, film_table_at(lambda.y).w, film_table_at(lambda.z).w,
+                  film_table_at(lambda.w).w);
 }
+inline float4 illuminant_at(float4 coeffs, float4 lambda) { return spectrum_at(coeffs, lambda) * d65_at(lambda); }
 
 /* One sample's linear sRGB (w = 0) from the radiance L at its n wavelengths: (1/n) sum_i
  * L_i F(lambda_i) / p(lambda_i), unused lanes (pdf 0) adding nothing. A per-channel tracker's path

@@ -13,12 +13,11 @@ __kernel void k_track(ST_STAGE_ARGS) {
   float t = p.o.w;
   int medium = 0;
   float4 beta = p.beta, L = p.L;
-  float4 r_u = (float4)(p.r_u[0], p.r_u[1], p.r_u[2], 0.0f);
-  int ev = track_path(scene, grids, maj, p.o.xyz, p.d.xyz, &t, &beta, &r_u, (int)p.channel, p.mask, &L, &medium, &rng,
-                      scene->iteration_budget, &st);
-  p.r_u[0] = r_u.x;
-  p.r_u[1] = r_u.y;
-  p.r_u[2] = r_u.z;
+  float4 r_u = p.r_u;
+  if (!spectral_mode(scene)) r_u.w = 0.0f; /* an unused lane: whatever the last launch left there */
+  int ev = track_path(scene, grids, maj, p.o.xyz, p.d.xyz, &t, &beta, &r_u, (int)p.channel, path_mask(scene, &p), &L,
+                      &medium, &rng, scene->iteration_budget, &st);
+  p.r_u = r_u;
   p.beta = beta;
   /* the emission pass: what the camera segment (before any scattering) scored */
   if (ST_HAS_AOV && ST_HAS_EMISSION && scene->result_layers > ST_RESULT_LAYERS_AOV && p.depth == 0)

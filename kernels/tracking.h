@@ -101,10 +101,10 @@ inline float3 event_values(int scheme, float4 beta, float4 mask, float4 sigma_a,
  *          n avg(|beta| sigma_s) avg|beta| / avg(|beta| sigma_t) <= n avg|beta| = sum_c |beta_c|
  *          (sigma_s <= sigma_t per channel);
  *   null:  sum_c |beta'_c| = n avg(|beta| sigma_n) avg|beta| / avg(|beta| sigma_n) = sum_c |beta_c|.
- * So the sum of the channel weights never grows along a path; it starts at 3 for rgb (and
- * Russian roulette in scatter.cl divides by min(1, max_c |beta_c|), which leaves max_c |beta_c|
- * <= 1 when it applies), so every component of beta stays <= 3: max_throughput <= 3 holds in
- * both modes (tests/test_estimators.cpp HistoryAverageBoundsThroughputByThree*).
+ * So the sum of the channel weights never grows along a path; it starts at n = 3 for rgb, 4 in
+ * spectral mode (and Russian roulette in scatter.cl divides by min(1, max_c |beta_c|), which leaves
+ * max_c |beta_c| <= 1 when it applies), so every component of beta stays <= n: max_throughput <= 3
+ * holds in both absorption modes for rgb (tests/test_estimators.cpp HistoryAverageBoundsThroughputByThree*).
  *
  * Paths end by Russian roulette (scatter.cl): after the phase sample from depth 3 on, the path
  * survives with probability q = min(1, max_c |beta_c|) over its carried channels and beta /= q
@@ -299,8 +299,9 @@ inline int track_free_path(__constant const st_scene* scene, __global const uint
  * the path throughput f_c of channel c carries T_maj,c = exp(-sigma_maj,c dt) per flight and
  * sigma_s,c or sigma_n,c per event, and technique c (hero c) has the path pdf p_c, the product of
  * T_maj,c per flight and sigma_maj,c P_e,c / S_c per event. The one-sample MIS with the balance
- * heuristic over the three techniques, each chosen with probability 1/3, scores
- *   f_c / ((1/3) sum_k p_k) = (f_c / p_h) / mean_k (p_k / p_h),
+ * heuristic over the n techniques (n lanes: 3 channels, or 4 wavelengths in spectral mode), each
+ * chosen with probability 1/n, scores
+ *   f_c / ((1/n) sum_k p_k) = (f_c / p_h) / mean_k (p_k / p_h),
  * which is unbiased for every channel c whenever some technique can make each path f_c != 0 gives
  * (the hero always can, so every path the render can make is covered).
  *
@@ -308,7 +309,7 @@ inline int track_free_path(__constant const st_scene* scene, __global const uint
  * every update so that mean(r_u) = 1. The score beta / mean(r_u) does not change under a common
  * factor, so with that scaling beta IS the MIS-weighted throughput: next-event estimation, escape,
  * Russian roulette and max_throughput (scatter.cl, shade.cl) use it unchanged. With absorption
- * events and bounding majorants beta <= 3: f_c / mean p_k <= 3 f_c / p_c, and f_c / p_c = 1 for
+ * events and bounding majorants beta <= n: f_c / mean p_k <= n f_c / p_c, and f_c / p_c = 1 for
  * channel c's own (analog) delta tracking. With absorption as a weight f_c / p_c starts as the
  * product of albedos <= 1, but Russian roulette (scatter.cl, on beta as pbrt-v4 does) divides every
  * channel by the survival probability q = max_c beta_c, which can leave f_c / p_c > 1 on a
@@ -321,7 +322,7 @@ inline int track_free_path(__constant const st_scene* scene, __global const uint
  * (before the event's update); an absorption event then scores nothing more (it ends the path).
  * The scattering medium of several overlapping ones is chosen in proportion to the mean over the
  * channels of density_k sigma_s,k (the same for every technique, so it cancels in r_u).
- * Shadow rays use the scene's transmittance estimator over all three channels and MIS against
+ * Shadow rays use the scene's transmittance estimator over all the lanes and MIS against
  * phase sampling over directions (scatter.cl, shade.cl): the prefix's MIS weight is in beta, and
  * an unbiased, independent estimate of the light at the vertex times it stays unbiased. (pbrt-v4
  * also MIS-weights the shadow ray's null collisions across channels; ratio tracking with the
@@ -333,9 +334,8 @@ inline int tracker_is_mis(__constant const st_scene* scene) {
 }
 
 /* beta and r_u scaled by one factor so that mean(r_u) = 1 (the score beta / mean(r_u) is kept). */
-inline void mis_rescale(float4* beta, float4* r_u) {
-  const float4 rgb = (float4)(1.0f, 1.0f, 1.0f, 0.0f);
-  float m = masked_avg(*r_u, rgb);
+inline void mis_rescale(float4* beta, float4* r_u, float4 lanes) {
+  float m = masked_avg(*r_u, lanes);
   if (m > 0.0f) {
     *beta /= m;
     *r_u /= m;
@@ -347,7 +347,8 @@ inline void mis_rescale(float4* beta, float4* r_u) {
 /* The per-channel majorant of the walker's current segment, with the hero's entry the walker's
  * own flight rate (so that the hero's flight ratio is exactly 1). */
 inline float4 mis_sigma_maj(__constant const st_scene* scene, const st_walker* w, int hero) {
-  float4 sigma_maj = ST_HAS_CHROMATIC ? segments_sigma_maj(scene, &w->dda, w->sigma_t_l) : (float4)(w->mu_bar, w->mu_bar, w->mu_bar, 0.0f);
+  float4 sigma_maj = ST_HAS_CHROMATIC ? segments_sigma_maj(scene, &w->dda, w->sigma_t_l)
+                                      : select((float4)(0.0f), (float4)(w->mu_bar), isnotequal(scene_lanes(scene), (float4)(0.0f)));
   return select(sigma_maj, (float4)(w->mu_bar), isnotequal(one_hot(hero), (float4)(0.0f)));
 }
 
@@ -356,7 +357,7 @@ inline float4 mis_sigma_maj(__constant const st_scene* scene, const st_walker* w
 inline int mis_collision(__constant const st_scene* scene, __global const uint* grids, const st_walker* w, float3 p,
                          float4 sigma_maj, int hero, float4* beta, float4* r_u, float4* L, int* medium, st_rng* rng,
                          st_track_stats* st) {
-  const float4 rgb = (float4)(1.0f, 1.0f, 1.0f, 0.0f);
+  const float4 rgb = scene_lanes(scene); /* every lane of the scene */
   st_coeffs k = scene_coeffs(scene, grids, p, &st->lookups, 0, rng, w->sigma_a_l, w->sigma_s_l);
   st_collision c;
   c.sigma_a = k.sigma_a * rgb;
@@ -403,7 +404,7 @@ inline int mis_collision(__constant const st_scene* scene, __global const uint* 
     /* f gains sigma_s,k / p(k), every technique's pdf P_s rate (the common 1 / p_h cancels in the rescale) */
     *beta *= sigma_s_k * rgb * inv_p;
     *r_u *= P_s * rate;
-    mis_rescale(beta, r_u);
+    mis_rescale(beta, r_u, rgb);
     if (!(masked_max(fabs(*beta), rgb) > 0.0f)) {
       *beta = (float4)(0.0f);
       return ST_EV_ABSORB;
@@ -414,7 +415,7 @@ inline int mis_collision(__constant const st_scene* scene, __global const uint* 
   }
   *beta *= c.sigma_n;
   *r_u *= P_n * rate;
-  mis_rescale(beta, r_u);
+  mis_rescale(beta, r_u, rgb);
   st->nulls += 1u;
   st->max_beta = fmax(st->max_beta, masked_max(fabs(*beta), rgb));
   return ST_EV_NULL;
@@ -437,10 +438,11 @@ inline int track_free_path_mis(__constant const st_scene* scene, __global const 
     /* the flight: f_c gains T_maj,c and p_k gains T_maj,k; relative to the hero's, exp(-(sigma_maj - sigma_maj,h) dt) */
     if (ST_HAS_CHROMATIC) {
       float dt = (step == ST_WALK_COLLISION ? w.t : t_end) - t_prev;
-      float4 ratio = exp(-(sigma_maj - (float4)(channel_of(sigma_maj, hero))) * fmax(dt, 0.0f)) * (float4)(1.0f, 1.0f, 1.0f, 0.0f);
+      const float4 lanes = scene_lanes(scene);
+      float4 ratio = exp(-(sigma_maj - (float4)(channel_of(sigma_maj, hero))) * fmax(dt, 0.0f)) * lanes;
       *beta *= ratio;
       *r_u *= ratio;
-      mis_rescale(beta, r_u);
+      mis_rescale(beta, r_u, lanes);
     }
     if (step == ST_WALK_CROSSED) {
       sigma_maj = mis_sigma_maj(scene, &w, hero);
@@ -459,9 +461,10 @@ inline int track_path(__constant const st_scene* scene, __global const uint* gri
   return track_free_path(scene, grids, maj, o, d, t, beta, mask, L, medium, rng, budget, st);
 }
 
-/* A path's hero channel (spectral-mis), uniform over the three; 0 for the other trackers (no draw). */
+/* A path's hero lane (spectral-mis), uniform over the scene's lanes; 0 for the other trackers (no draw). */
 inline int draw_hero(__constant const st_scene* scene, st_rng* rng) {
-  return tracker_is_mis(scene) ? (int)min((uint)(rng_uniform(rng) * 3.0f), 2u) : 0;
+  const uint n = (uint)scene_n_lanes(scene);
+  return tracker_is_mis(scene) ? (int)min((uint)(rng_uniform(rng) * (float)n), n - 1u) : 0;
 }
 
 /* ---- transmittance ---- */

@@ -86,8 +86,8 @@ enum st_lookup_mode { ST_LOOKUPS(ST_X_LOOKUP_ENUM) ST_LOOKUP_COUNT };
 
 /* What the float4 lanes of a path carry (render.color, --spectral; docs/spectral.md): X(ENUM suffix, name).
  *   rgb:      linear sRGB channels (w unused);
- *   spectral: three wavelengths per path (x, y, z; w unused), a hero drawn from the visible-range
- *             density and two more a third of its CDF apart (kernels/spectrum.h); colours are
+ *   spectral: four wavelengths per path (x, y, z, w), a hero drawn from the visible-range
+ *             density and three more a quarter of its CDF apart (kernels/spectrum.h); colours are
  *             upsampled to smooth spectra (src/color/spectrum.h) and the film turns the path's
  *             radiance at its wavelengths into linear sRGB (finish.cl). */
 #define ST_FILM_COLORS(X) X(RGB, "rgb") X(SPECTRAL, "spectral")
@@ -115,6 +115,11 @@ enum st_tracker { ST_TRACKERS(ST_X_TRACKER_ENUM) ST_TRACKER_COUNT };
 #define ST_X_TRACKER_DECOMPOSES(E, name, ch, achromatic, scheme, decomposes, absorption) (t == ST_TRACKER_##E) ? decomposes :
 #define ST_X_TRACKER_ABSORPTION(E, name, ch, achromatic, scheme, decomposes, absorption) (t == ST_TRACKER_##E) ? absorption :
 inline int st_tracker_channels(int t) { return ST_TRACKERS(ST_X_TRACKER_CHANNELS) 1; }
+/* Paths per (pixel, sample): a per-channel tracker traces each lane alone, the three colour
+ * channels in rgb mode and the four wavelengths in spectral mode. */
+inline int st_paths_per_sample(int t, int color) {
+  return st_tracker_channels(t) > 1 && color == ST_FILM_COLOR_SPECTRAL ? 4 : st_tracker_channels(t);
+}
 inline int st_tracker_achromatic_only(int t) { return ST_TRACKERS(ST_X_TRACKER_ACHROMATIC) 0; }
 inline int st_tracker_uses_scheme(int t) { return ST_TRACKERS(ST_X_TRACKER_SCHEME) 0; }
 inline int st_tracker_decomposes(int t) { return ST_TRACKERS(ST_X_TRACKER_DECOMPOSES) 0; }
@@ -354,7 +359,7 @@ typedef struct {
   st_int scheme;      /* st_scheme */
   st_int max_depth;   /* real scattering events; -1 = unlimited */
   st_uint seed;
-  st_int n_channels_per_sample; /* 3 for delta-per-channel (one path per channel), else 1 */
+  st_int n_channels_per_sample; /* delta-per-channel: one path per lane (3, spectral mode 4), else 1 */
   st_int iteration_budget;      /* tentative collisions + DDA steps per item and launch */
   st_int pixel_x0, pixel_y0;    /* window of the film being rendered */
   st_int window_width, window_height;
@@ -378,17 +383,17 @@ typedef struct {
   st_float4 d;        /* xyz: unit direction; w: pdf of the phase sample that made d (0: camera ray) */
   st_float4 beta;     /* throughput weight per channel */
   st_float4 L;        /* radiance gathered by this path (emission, escape) */
-  st_float4 mask;     /* 1 for the channels this path carries, 0 otherwise */
+  st_float4 r_u;      /* spectral-mis: each channel's path pdf over the hero's, scaled to mean 1 (tracking.h) */
   st_uint pixel;      /* pixel index in the film window */
   st_uint sample;     /* sample index in the full sequence */
-  st_uint channel;    /* 0..2 for delta-per-channel; spectral-mis: the hero channel; 0 otherwise */
+  st_uint channel;    /* delta-per-channel: the lane it carries (0..2, spectral mode 0..3); spectral-mis: the hero lane; 0 otherwise */
   st_uint result_index; /* slot in the batch result buffer */
   st_uint rng_draw;   /* next draw of the path's random stream */
   st_int depth;       /* real scattering events so far */
   st_int pending;     /* shadow rays of this path not finished yet */
   st_int medium;      /* medium whose phase function applies at the scatter point */
   st_uint batch;      /* ring slot of this path's batch */
-  float r_u[3];       /* spectral-mis: each channel's path pdf over the hero's, scaled to mean 1 (tracking.h) */
+  st_uint pad[3];     /* 0; the lanes a path carries are not stored: queues.h path_mask */
 } st_path;
 
 /* A transmittance estimate in progress, resumable across launches (tracking.h). Ratio tracking

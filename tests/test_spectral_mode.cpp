@@ -290,3 +290,58 @@ TEST(SpectralMode, EnvironmentMapLightsMedia) {
   EXPECT_LT(max_z(spectral, rgb), 4.0) << "gray medium under a map";
   EXPECT_GT(max_z(spectral, rgb, 1.03), 4.0) << "a 3% difference must be detectable";
 }
+
+// Four wavelengths per sample (pbrt-v4's count): with no medium, a pixel's sample under a white
+// environment is the film estimate g(u) = (1/4) sum_i F(lambda_i) D65(lambda_i) / p(lambda_i) of
+// one uniform u, whose mean is white and whose variance the host integrates over u (midpoint rule,
+// the same interpolated F and D65). The variance over 64 x 64 one-sample pixels must match the
+// four-wavelength variance within 4 of its standard errors (from the fourth central moment), and
+// be told apart from three wavelengths' (2-8x larger per channel). delta-per-channel traces one
+// path per wavelength: four per sample, which sum to the same estimate.
+TEST(SpectralMode, FourWavelengthsPerSample) {
+  const std::string dir = temp_dir("spectral_lanes");
+  const int n_side = 64, N = n_side * n_side;
+  auto estimate = [](double u, int n, int c) {
+    double g = 0;
+    for (int i = 0; i < n; ++i) {
+      double ui = u + double(i) / n;
+      if (ui >= 1.0) ui -= 1.0;
+      const double l = sample_visible_wavelength(ui);
+      g += film_rgb_weight(l)[c] * cie_d65(l) / visible_wavelength_pdf(l);
+    }
+    return g / n;
+  };
+  const int K = 200000;  // midpoint rule over u: its error is far below the test's tolerance
+  for (const std::string tracker : {"spectral-decomposition", "delta-per-channel"}) {
+    json j = spectral_scene(n_side, n_side, 1, tracker);
+    j["lights"].push_back({{"type", "environment"}, {"radiance", {1, 1, 1}}});
+    RenderResult r = Renderer(scene_from_json(j, dir), quiet_options()).render();
+    EXPECT_EQ(r.stats.nonfinite_samples, 0u);
+    EXPECT_EQ(r.stats.paths, uint64_t(N) * (tracker == "delta-per-channel" ? 4u : 1u)) << tracker;
+    for (int c = 0; c < 3; ++c) {
+      double m[2][5] = {};  // n = 4, 3: sum of g, then central moments 2 and 4
+      for (int a = 0; a < 2; ++a) {
+        const int n = a == 0 ? 4 : 3;
+        double s1 = 0;
+        for (int k = 0; k < K; ++k) s1 += estimate((k + 0.5) / K, n, c);
+        m[a][1] = s1 / K;
+        for (int k = 0; k < K; ++k) {
+          const double d = estimate((k + 0.5) / K, n, c) - m[a][1];
+          m[a][2] += d * d / K;
+          m[a][4] += d * d * d * d / K;
+        }
+      }
+      const std::vector<double> v = channel(r, c);
+      Stats s = mean_se(v);
+      double var = 0;
+      for (double x : v) var += (x - s.mean) * (x - s.mean);
+      var /= (N - 1);
+      const double se_var = std::sqrt((m[0][4] - m[0][2] * m[0][2]) / N);
+      std::cout << "[ info ] " << tracker << " channel " << c << ": per-sample variance " << var << ", four wavelengths "
+                << m[0][2] << " (SE " << se_var << "), three " << m[1][2] << "\n";
+      EXPECT_NEAR(s.mean, m[0][1], 4.0 * s.se + 2e-4) << tracker << " channel " << c;
+      EXPECT_NEAR(var, m[0][2], 4.0 * se_var) << tracker << " channel " << c;
+      EXPECT_GT(std::abs(var - m[1][2]), 4.0 * se_var) << tracker << ": three wavelengths' variance must be told apart";
+    }
+  }
+}

@@ -72,7 +72,7 @@ RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) 
   s.window = resolve_window(scene, o);
   s.full_width = scene.film.width;
   s.full_height = scene.film.height;
-  s.channels_per_sample = st_tracker_channels(s.tracker);
+  s.channels_per_sample = st_paths_per_sample(s.tracker, s.color);
   if (st_tracker_achromatic_only(s.tracker)) {
     for (auto& m : scene.media) {
       if (!achromatic(m.sigma_a) || !achromatic(m.sigma_s))

@@ -98,7 +98,7 @@ struct RenderSettings {
   int64_t sample_begin = 0;     // samples sample_begin .. sample_begin + spp - 1
   FilmWindow window;            // the pixels rendered
   int full_width = 0, full_height = 0;  // the film
-  int channels_per_sample = 1;  // paths per (pixel, sample): 3 for the per-channel trackers
+  int channels_per_sample = 1;  // paths per (pixel, sample): the per-channel trackers' lanes (st_paths_per_sample)
 };
 
 // What a result records of the settings it was rendered with: the estimator choices and the seed
