@@ -3,8 +3,9 @@
 # issue 15's target: at most 1.3x rgb) on the bench scenes, in one run: each scene and tracker
 # rendered in rgb and with --spectral (both --no-alpha, so both do the same per-path work),
 # interleaved round by round after a warm-up render of each (kernel builds cached), the order
-# swapped every round. Prints the mean seconds_render of each mode, the paths rendered, and the
-# ratio of seconds per path, spectral over rgb.
+# swapped every round. Prints the mean seconds_render of each mode and, spectral over rgb, the
+# ratios of seconds per path, of density lookups per path (spectral transport meets more
+# extinction where the upsampled spectra exceed their RGB averages) and of seconds per lookup.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 SPP=${1:-8}; ROUNDS=${2:-3}
@@ -14,7 +15,7 @@ TRACKERS=${TRACKERS:-"delta-per-channel spectral-decomposition spectral-mis"}
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 echo "spectral mode cost: $BIN, $SPP spp, $ROUNDS interleaved rounds, $(date -u +%F) on $(nproc) cores ($(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs))"
-printf '%-18s %-24s %10s %10s %12s\n' scene tracker rgb_s spectral_s "s/path ratio"
+printf '%-18s %-24s %10s %10s %12s %14s %14s\n' scene tracker rgb_s spectral_s "s/path ratio" "lookups/path" "s/lookup"
 for s in $SCENES; do
   n=$(basename "$s" .json)
   for t in $TRACKERS; do
@@ -32,9 +33,10 @@ import json, sys
 out, n, t, rounds = sys.argv[1], sys.argv[2], sys.argv[3], int(sys.argv[4])
 def load(mode):
     st = [json.load(open(f"{out}/{n}.{t}.{mode}.{r}.json")) for r in range(1, rounds + 1)]
-    return sum(x["seconds_render"] for x in st) / rounds, st[0]["paths"]
-(a, pa), (b, pb) = load("rgb"), load("spectral")
-print(f"{n:18s} {t:24s} {a:10.3f} {b:10.3f} {(b / pb) / (a / pa):12.3f}")
+    return sum(x["seconds_render"] for x in st) / rounds, st[0]["paths"], st[0]["density_lookups"]
+(a, pa, la), (b, pb, lb) = load("rgb"), load("spectral")
+lk = (lb / pb) / (la / pa) if la > 0 and lb > 0 else float("nan")
+print(f"{n:18s} {t:24s} {a:10.3f} {b:10.3f} {(b / pb) / (a / pa):12.3f} {lk:14.3f} {(b / pb) / (a / pa) / lk:14.3f}")
 PY
   done
 done
