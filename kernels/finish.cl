@@ -42,7 +42,7 @@ __kernel void k_finish(ST_STAGE_ARGS) {
   const uint L = (uint)scene->result_layers;
   __global float4* out = &results[p.result_index * L];
   if (spectral_mode(scene)) { /* the radiance at the path's four wavelengths becomes linear sRGB (w = 0) */
-    const float4 lambda = path_wavelengths(scene, &p), pdf = wavelength_pdfs(lambda);
+    const float4 lambda = p.lambda, pdf = wavelength_pdfs(lambda);
     r = film_rgb(r, lambda, pdf, 4);
     if (ST_HAS_AOV && L > 1u) spectral_layers_to_rgb(out, L, lambda, pdf);
   } else {
@@ -59,7 +59,7 @@ __kernel void k_finish(ST_STAGE_ARGS) {
       for (uint k = 1u; k < L; ++k) out[k] = (float4)(0.0f);
   }
   out[ST_RESULT_BEAUTY] = r;
-  atomic_inc(&counters[ST_C_BATCH_DONE + p.batch]);
+  atomic_inc(&counters[ST_C_BATCH_DONE + p.result_index / it.batch_paths]); /* its batch's ring slot (raygen.cl) */
   free_push(queues, counters, Q, free_base(it.n_queue[ST_Q_FREE], it.n_new), slot);
 }
 

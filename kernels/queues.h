@@ -87,7 +87,9 @@ inline void shadow_fold(__constant const st_scene* scene, __global st_shadow* ac
 /* The random stream of a path (stream 0) or of one of its shadow rays. */
 /* Spectral mode (st_film_color): the four wavelengths of sample (pixel, sample), shared by the
  * paths of a per-channel tracker's sample, from the first draw of a stream of their own
- * (ST_STREAM_WAVELENGTHS on channel 0), so they depend only on the seed, pixel and sample. */
+ * (ST_STREAM_WAVELENGTHS on channel 0), so they depend only on the seed, pixel and sample.
+ * raygen.cl draws them once into st_path.lambda (a Philox call and four inverse CDFs that every
+ * kernel call repeated before). */
 inline float4 path_wavelengths(__constant const st_scene* scene, const st_path* p) {
   st_rng r = rng_make(scene->seed, p->pixel, p->sample, 0u, ST_STREAM_WAVELENGTHS, 0u);
   return sample_wavelengths(rng_uniform(&r), 4);
@@ -100,7 +102,7 @@ inline float4 path_mask(__constant const st_scene* scene, const st_path* p) {
 
 inline st_rng path_rng(__constant const st_scene* scene, const st_path* p, uint stream, uint draw) {
   st_rng r = rng_make(scene->seed, p->pixel, p->sample, p->channel, stream, draw);
-  if (spectral_mode(scene)) r.lambda = path_wavelengths(scene, p);
+  if (spectral_mode(scene)) r.lambda = p->lambda;
   return r;
 }
 

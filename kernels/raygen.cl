@@ -118,8 +118,9 @@ __kernel void k_raygen(ST_STAGE_ARGS) {
   int y = scene->pixel_y0 + (int)(wpix / (uint)scene->window_width);
   p.pixel = (uint)(y * scene->camera.width + x);
   p.channel = nch > 1u ? ch : 0u;
-  p.batch = (uint)(b % (ulong)scene->batches_in_flight);
-  p.result_index = p.batch * batch_paths + in_batch;
+  const uint batch = (uint)(b % (ulong)scene->batches_in_flight); /* its ring slot: finish.cl */
+  p.result_index = batch * batch_paths + in_batch;
+  p.lambda = spectral_mode(scene) ? path_wavelengths(scene, &p) : (float4)(0.0f);
   st_rng rng = path_rng(scene, &p, 0u, 0u);
   float jx = rng_uniform(&rng), jy = rng_uniform(&rng);
 
@@ -145,7 +146,6 @@ __kernel void k_raygen(ST_STAGE_ARGS) {
   p.pending = 0;
   p.medium = 0;
   p.r_u = scene_lanes(scene);
-  p.pad[0] = p.pad[1] = p.pad[2] = 0u;
   paths[slot] = p;
   if (ST_HAS_AOV && scene->result_layers > 1) camera_layers_begin(scene, grids, maj, counters, results, &p);
   for (uint l = 0; l < (uint)scene->n_lights; ++l) shadows[slot * NL + l].Ls = (float4)(0.0f);

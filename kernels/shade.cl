@@ -12,7 +12,7 @@ __kernel void k_escape(ST_STAGE_ARGS) {
   float3 d = p.d.xyz;
   float pdf_phase = p.d.w;
   float4 L = (float4)(0.0f);
-  float4 lambda = spectral_mode(scene) ? path_wavelengths(scene, &p) : (float4)(0.0f);
+  float4 lambda = p.lambda;
   const float4 mask = path_mask(scene, &p);
   for (int l = 0; l < scene->n_lights; ++l) {
     __constant const st_light* light = &scene->lights[l];

@@ -392,8 +392,10 @@ typedef struct {
   st_int depth;       /* real scattering events so far */
   st_int pending;     /* shadow rays of this path not finished yet */
   st_int medium;      /* medium whose phase function applies at the scatter point */
-  st_uint batch;      /* ring slot of this path's batch */
-  st_uint pad[3];     /* 0; the lanes a path carries are not stored: queues.h path_mask */
+  /* (its batch's ring slot is result_index / st_iteration.batch_paths; the lanes it carries are
+   * not stored either: queues.h path_mask) */
+  st_float4 lambda;   /* spectral mode: the sample's four wavelengths (nm), drawn once by raygen
+                       * (queues.h path_wavelengths) and read by every later kernel; rgb: 0 */
 } st_path;
 
 /* A transmittance estimate in progress, resumable across launches (tracking.h). Ratio tracking
