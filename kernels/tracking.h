@@ -357,11 +357,11 @@ inline float4 mis_sigma_maj(__constant const st_scene* scene, const st_walker* w
 inline int mis_collision(__constant const st_scene* scene, __global const uint* grids, const st_walker* w, float3 p,
                          float4 sigma_maj, int hero, float4* beta, float4* r_u, float4* L, int* medium, st_rng* rng,
                          st_track_stats* st) {
-  const float4 rgb = scene_lanes(scene); /* every lane of the scene */
+  const float4 lanes = scene_lanes(scene); /* every lane of the scene: channels or wavelengths */
   st_coeffs k = scene_coeffs(scene, grids, p, &st->lookups, 0, rng, w->sigma_a_l, w->sigma_s_l);
   st_collision c;
-  c.sigma_a = k.sigma_a * rgb;
-  c.sigma_s = k.sigma_s * rgb;
+  c.sigma_a = k.sigma_a * lanes;
+  c.sigma_s = k.sigma_s * lanes;
   c.sigma_n = sigma_maj - c.sigma_a - c.sigma_s;
   c.mu_bar = channel_of(sigma_maj, hero);
   for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
@@ -370,8 +370,8 @@ inline int mis_collision(__constant const st_scene* scene, __global const uint* 
   }
   if (ST_HAS_EMISSION) { /* the collision estimator of emission, MIS-weighted over the techniques */
     float4 mua_Le = absorbed_emission(scene, grids, &c, p, &st->emission_lookups, rng->lambda);
-    float pdf = masked_avg(*r_u * sigma_maj, rgb);
-    if (pdf > 0.0f) *L += *beta * rgb * mua_Le / pdf;
+    float pdf = masked_avg(*r_u * sigma_maj, lanes);
+    if (pdf > 0.0f) *L += *beta * lanes * mua_Le / pdf;
   }
   int weighted = absorption_as_weight(scene);
   float4 P_a = weighted ? (float4)(0.0f) : fabs(c.sigma_a);
@@ -396,28 +396,28 @@ inline int mis_collision(__constant const st_scene* scene, __global const uint* 
     st->real += 1u;
     float4 sigma_s_k;
     float inv_p;
-    int m = choose_scattering_medium(scene, grids, &c, rgb, rgb, rng, &sigma_s_k, &inv_p);
+    int m = choose_scattering_medium(scene, grids, &c, lanes, lanes, rng, &sigma_s_k, &inv_p);
     if (m < 0) {
       *beta = (float4)(0.0f);
       return ST_EV_ABSORB;
     }
     /* f gains sigma_s,k / p(k), every technique's pdf P_s rate (the common 1 / p_h cancels in the rescale) */
-    *beta *= sigma_s_k * rgb * inv_p;
+    *beta *= sigma_s_k * lanes * inv_p;
     *r_u *= P_s * rate;
-    mis_rescale(beta, r_u, rgb);
-    if (!(masked_max(fabs(*beta), rgb) > 0.0f)) {
+    mis_rescale(beta, r_u, lanes);
+    if (!(masked_max(fabs(*beta), lanes) > 0.0f)) {
       *beta = (float4)(0.0f);
       return ST_EV_ABSORB;
     }
     *medium = m;
-    st->max_beta = fmax(st->max_beta, masked_max(fabs(*beta), rgb));
+    st->max_beta = fmax(st->max_beta, masked_max(fabs(*beta), lanes));
     return ST_EV_SCATTER;
   }
   *beta *= c.sigma_n;
   *r_u *= P_n * rate;
-  mis_rescale(beta, r_u, rgb);
+  mis_rescale(beta, r_u, lanes);
   st->nulls += 1u;
-  st->max_beta = fmax(st->max_beta, masked_max(fabs(*beta), rgb));
+  st->max_beta = fmax(st->max_beta, masked_max(fabs(*beta), lanes));
   return ST_EV_NULL;
 }
 
