@@ -377,12 +377,17 @@ void check_throughput_bound(int absorption, const std::string& name) {
   RenderResult h = render_with(s, dir, ST_TRACKER_SPECTRAL, ST_SCHEME_HISTORY_AVERAGE, 1, absorption);
   RenderResult hd = render_with(s, dir, ST_TRACKER_SPECTRAL_DECOMPOSITION, ST_SCHEME_HISTORY_AVERAGE, 1, absorption);
   RenderResult m = render_with(s, dir, ST_TRACKER_SPECTRAL, ST_SCHEME_MAX, 1, absorption);
-  EXPECT_LE(h.stats.max_throughput, 3.0 * (1 + 1e-5));
-  EXPECT_LE(hd.stats.max_throughput, 3.0 * (1 + 1e-5));
+  // The bound is exact; the slack is rounding: a path here meets ~100 collisions, each multiplying
+  // the weights by ratios whose division OpenCL C 1.2 allows 2.5 ulp (NVIDIA's default), so the
+  // sum can pass 3 by ~100 x 2.5 x 6e-8 = 1.5e-5 relative (measured 2e-5 on an H200; 0 on PoCL,
+  // whose division is correctly rounded). The max scheme exceeds 3 by far more (checked below).
+  const double bound = 3.0 * (1 + 1e-4);
+  EXPECT_LE(h.stats.max_throughput, bound);
+  EXPECT_LE(hd.stats.max_throughput, bound);
   if (absorption == ST_ABSORPTION_EVENT) {
     // spectral MIS with absorption events: beta = f_c / mean_k p_k <= 3 f_c / p_c = 3 (kernels/tracking.h)
     RenderResult mis = render_with(s, dir, ST_TRACKER_SPECTRAL_MIS, ST_SCHEME_MAX, 1, absorption);
-    EXPECT_LE(mis.stats.max_throughput, 3.0 * (1 + 1e-5));
+    EXPECT_LE(mis.stats.max_throughput, bound);
     EXPECT_GT(mis.stats.max_throughput, 1.5) << "spectral MIS must meet chromatic weights here";
   }
   EXPECT_GT(h.stats.max_throughput, 1.5) << "the scene must be chromatic enough to test the bound";
