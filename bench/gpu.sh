@@ -1,27 +1,39 @@
 #!/usr/bin/env bash
 # bench/gpu.sh [OUT_DIR]: the GPU check of issue 18 item 5 in one command, sized for about 8
 # minutes on a machine with an NVIDIA GPU and its OpenCL driver (the `device` tool's machines).
+#   0. bundle: where .gpu/bundle.tar.xz exists (bench/gpu_bundle.py packs a build with every
+#      library it loads, for machines without the Debian packages and no registry, such as the
+#      device tool's), it is unpacked to /opt/spectrack-gpu and its programs put in build/; the
+#      baked-in source path (/work/main) and ../shared are linked to this checkout; NVIDIA's OpenCL
+#      library gets an ICD file when none lists it;
 #   1. build: scripts/setup.sh (installs the Debian packages it lacks, builds build/); where apt
-#      cannot reach a mirror, an existing build/ is used as it is (SKIP_SETUP=1 forces that);
+#      cannot reach a mirror, an existing build/ is used as it is (SKIP_SETUP=1 forces that;
+#      skipped where step 0 unpacked a bundle);
 #   2. the device: GPU_DEVICE (P:D or a name substring) or else the first device of type GPU that
 #      `spectrack devices` lists; without one the script stops with exit 2 and says so;
-#   3. the kernel tests on it: ctest with SPECTRACK_DEVICE set (the host-only tests run too);
 #   4. kernel throughput on bench/scenes/cloud_chromatic.json (lookups/s, trilinear and stochastic,
 #      DDA steps/s, free paths/s, kernel build) there;
+#   7. pbrt-v4's grid (bench/pbrt_grid.py's scene, packed in the bundle as grid/) in RGB and
+#      spectral mode, GRID_SPP (256) samples x 4 seeds each: grid.tsv (seconds_render) and
+#      grid_images.tar (the EXRs; bench/pbrt_grid.py's variance is taken from them where OIIO is);
+#      with a bundle's spectrack_old (gpu_bundle.py --old), both binaries, interleaved;
 #   5. paths/s of every bench scene and data/scenes/cloud.json at 16 spp with the default tracker,
 #      trilinear and stochastic lookups, after a warm-up render each (the figure issue 18 compares
 #      with the 2-core PoCL rows of bench/RESULTS.md: target >= 50x);
-#   6. bench/run --quick --no-mitsuba --device there.
+#   6. bench/run --quick --no-mitsuba --device there (needs apt; skipped where a bundle was used);
+#   3. the test suite on it, last (the longest): ctest with SPECTRACK_DEVICE set, or, from a
+#      bundle, spectrack_tests itself in TEST_SHARDS (8) parallel gtest shards (ctest.log).
 # Everything goes to OUT_DIR (default out/gpu-<UTC date>): gpu.log (all output), devices.txt,
-# ctest.log, kernel_throughput.json, paths.tsv, bench_quick.log. Each step's failure is recorded
-# and the next step still runs; the exit status is 1 if any step failed. STEPS="1 3 5" runs a
-# subset; TIMEOUT_TESTS (default 300 s) bounds ctest.
+# ctest.log, kernel_throughput.json, paths.tsv, grid.tsv, grid_images.tar, bench_quick.log. Each
+# step's failure is recorded and the next step still runs; the exit status is 1 if any step
+# failed. STEPS="0 2 5" runs a subset; TIMEOUT_TESTS (default 300 s) bounds the tests, TEST_FILTER
+# (a gtest filter) picks some.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 OUT=${1:-out/gpu-$(date -u +%Y%m%dT%H%M%S)}
 mkdir -p "$OUT"
 OUT=$(cd "$OUT" && pwd)
-STEPS=${STEPS:-"1 2 3 4 5 6"}
+STEPS=${STEPS:-"0 1 2 3 4 5 6 7"}
 exec > >(tee "$OUT/gpu.log") 2>&1
 status=0
 step() { case " $STEPS " in *" $1 "*) return 0 ;; *) return 1 ;; esac; }
@@ -29,7 +41,30 @@ fail() { echo "gpu.sh: FAILED: $*"; status=1; }
 echo "gpu.sh: $(date -u) on $(hostname), commit $(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
 command -v nvidia-smi >/dev/null && nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv
 
-if step 1; then
+bundled=0
+if step 0 && [ -f .gpu/bundle.tar.xz ] && { [ "${BUNDLE:-0}" = 1 ] || ! build/spectrack --version >/dev/null 2>&1; }; then
+  B=/opt/spectrack-gpu
+  rm -rf "$B" && mkdir -p "$B" && tar -xJf .gpu/bundle.tar.xz -C "$B" || { echo "gpu.sh: cannot unpack the bundle"; exit 1; }
+  mkdir -p build data/volumes && cp "$B"/bin/* build/ && cp "$B"/volumes/* data/volumes/
+  repo=$(pwd -P)
+  # the programs hold the source path they were built in (tests: SPECTRACK_BINARY, data paths)
+  if [ "$repo" != /work/main ] && [ ! -e /work/main ]; then mkdir -p /work && ln -s "$repo" /work/main; fi
+  # ../shared/data/vdb beside the checkout (tests, bench scenes)
+  if [ -d "$B/shared_vdb" ] && [ ! -e "$repo/../shared/data/vdb" ]; then
+    mkdir -p "$repo/../shared/data" && ln -s "$B/shared_vdb" "$repo/../shared/data/vdb"
+  fi
+  if ! grep -qs nvidia /etc/OpenCL/vendors/*.icd; then
+    lib=$(ldconfig -p | awk '/libnvidia-opencl\.so\.1/ {print $NF; exit}')
+    [ -n "$lib" ] || lib=$(find /usr/local/nvidia /usr/lib /usr/lib64 /usr/local -name 'libnvidia-opencl.so*' 2>/dev/null | head -n 1)
+    if [ -n "$lib" ]; then mkdir -p /etc/OpenCL/vendors && echo "$lib" > /etc/OpenCL/vendors/nvidia.icd
+      echo "gpu.sh: NVIDIA OpenCL library $lib"
+    else echo "gpu.sh: no libnvidia-opencl found"; fi
+  fi
+  bundled=1
+  echo "gpu.sh: bundle unpacked to $B (repository $repo)"
+fi
+
+if step 1 && [ $bundled = 0 ]; then
   if [ "${SKIP_SETUP:-0}" != 1 ] && bash scripts/setup.sh; then :
   elif [ -x build/spectrack ]; then echo "gpu.sh: setup.sh did not complete: using the existing build/"
   else echo "gpu.sh: no build and setup.sh failed"; exit 1; fi
@@ -45,15 +80,38 @@ fi
 export SPECTRACK_DEVICE=$DEV
 echo "gpu.sh: device $DEV"
 
-if step 3; then
-  (cd build && timeout "${TIMEOUT_TESTS:-300}" ctest --output-on-failure -j "$(nproc)") > "$OUT/ctest.log" 2>&1 ||
-    fail "ctest (see ctest.log)"
-  tail -n 4 "$OUT/ctest.log"
-fi
-
 if step 4; then
   build/kernel_throughput bench/scenes/cloud_chromatic.json --device "$DEV" --json "$OUT/kernel_throughput.json" ||
     fail "kernel_throughput"
+fi
+
+if step 7 && [ -f "${GRID_SCENE:-/opt/spectrack-gpu/grid/st_chromatic_g0.6.json}" ]; then
+  g=${GRID_SCENE:-/opt/spectrack-gpu/grid/st_chromatic_g0.6.json}
+  mkdir -p "$OUT/grid"
+  bins=(build/spectrack); [ -x build/spectrack_old ] && bins+=(build/spectrack_old)  # a bundle's --old
+  printf 'binary\tmode\tseed\tspp\tseconds_render\tpaths_per_second\tdensity_lookups\n' > "$OUT/grid.tsv"
+  for bin in "${bins[@]}"; do
+    for mode in rgb spectral; do
+      flags=(); [ $mode = spectral ] && flags=(--spectral)
+      $bin render "$g" "${flags[@]}" --spp 4 -q --no-alpha -o "$OUT/grid/warm.exr" >/dev/null 2>&1 || fail "grid warm-up ($bin $mode)"
+    done
+  done
+  for seed in 0 1 2 3; do
+    for mode in rgb spectral; do
+      for bin in "${bins[@]}"; do  # interleaved: new old new old
+        flags=(); [ $mode = spectral ] && flags=(--spectral)
+        tag=$(basename "$bin")_${mode}_$seed
+        $bin render "$g" "${flags[@]}" --spp "${GRID_SPP:-256}" --seed $seed -q --no-alpha \
+          -o "$OUT/grid/$tag.exr" --stats-json "$OUT/grid/$tag.json" || { fail "grid $tag"; continue; }
+        python3 -c "
+import json; j = json.load(open('$OUT/grid/$tag.json'))
+print('\t'.join(str(x) for x in ['$(basename "$bin")', '$mode', $seed, ${GRID_SPP:-256}, j['seconds_render'], round(j['paths_per_second']), j['density_lookups']]))" >> "$OUT/grid.tsv"
+      done
+    done
+  done
+  rm -f "$OUT/grid/warm.exr"
+  (cd "$OUT/grid" && tar -cf "$OUT/grid_images.tar" ./*.exr ./*.json) && rm -rf "$OUT/grid"
+  cat "$OUT/grid.tsv"
 fi
 
 if step 5; then
@@ -73,9 +131,35 @@ print('\t'.join(str(x) for x in ['$(basename "$s" .json)', '$lookup', round(j['p
   cat "$OUT/paths.tsv"
 fi
 
-if step 6; then
+if step 6 && [ $bundled = 0 ]; then
   bash bench/run --quick --no-mitsuba --device "$DEV" > "$OUT/bench_quick.log" 2>&1 || fail "bench/run --quick"
   tail -n 20 "$OUT/bench_quick.log"
 fi
+if step 3; then
+  if [ $bundled = 1 ]; then
+    # no ctest files travel with a bundle: the test binary itself, in parallel gtest shards
+    n=${TEST_SHARDS:-8}
+    # Two suites need what the bundle stubs out (gpu_bundle.py): Open MPI (CliMpi) and the image
+    # readers OpenImageIO tries on a file it cannot identify (a stub segfaults in
+    # CliHostileImages.ImagesThatWouldBeMisreadAreRefusedByName); they run with a real build.
+    filter=${TEST_FILTER:-*-CliMpi.*:CliHostileImages.ImagesThatWouldBeMisreadAreRefusedByName}
+    pids=()
+    for ((k = 0; k < n; ++k)); do
+      GTEST_TOTAL_SHARDS=$n GTEST_SHARD_INDEX=$k timeout "${TIMEOUT_TESTS:-300}" build/spectrack_tests --gtest_brief=1 --gtest_filter="$filter" \
+        > "$OUT/tests_shard$k.log" 2>&1 &
+      pids+=($!)
+    done
+    wait "${pids[@]}"  # (a bare wait would also wait for the tee of the log)
+    cat "$OUT"/tests_shard*.log > "$OUT/ctest.log"; rm -f "$OUT"/tests_shard*.log
+    grep -E "^\[  (PASSED|FAILED|SKIPPED) |^\[  FAILED  \]" "$OUT/ctest.log" | sort | uniq -c | sort -rn | head -n 60
+    grep -q "FAILED" "$OUT/ctest.log" && fail "tests (see ctest.log)"
+    [ "$(grep -c '^\[  PASSED  \]' "$OUT/ctest.log")" = "$n" ] || fail "a test shard did not finish (timeout or crash; see ctest.log)"
+  else
+    (cd build && timeout "${TIMEOUT_TESTS:-300}" ctest --output-on-failure -j "$(nproc)") > "$OUT/ctest.log" 2>&1 ||
+      fail "ctest (see ctest.log)"
+    tail -n 4 "$OUT/ctest.log"
+  fi
+fi
+
 echo "gpu.sh: done, status $status, results in $OUT"
 exit $status
