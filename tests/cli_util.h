@@ -225,33 +225,13 @@ inline std::string write_scene(const std::string& dir, const std::string& name, 
   return path;
 }
 
-// Removes the folder of a test that passed (a failed test's files stay for a look).
-class RemoveDirOnPass : public testing::EmptyTestEventListener {
- public:
-  static std::string& current() {
-    static std::string dir;
-    return dir;
-  }
-  void OnTestEnd(const testing::TestInfo& info) override {
-    if (!current().empty() && info.result() && info.result()->Passed()) {
-      std::error_code ec;
-      fs::remove_all(current(), ec);
-    }
-    current().clear();
-  }
-};
-inline const bool kRemoveDirRegistered = [] {
-  testing::UnitTest::GetInstance()->listeners().Append(new RemoveDirOnPass);
-  return true;
-}();
-
-// A per-test folder (the test's name and the process id keep parallel runs apart).
+// A per-test folder (the test's name and the process id keep parallel runs apart), removed when
+// the test passes (st_test::temp_dir).
 inline std::string test_dir() {
   const auto* info = testing::UnitTest::GetInstance()->current_test_info();
   std::string d = st_test::temp_dir(std::string("cli_") + info->test_suite_name() + "_" + info->name());
   // Start empty: a left-over image would hide a missing one.
   for (auto& e : fs::directory_iterator(d)) fs::remove_all(e.path());
-  RemoveDirOnPass::current() = d;
   return d;
 }
 
