@@ -4,7 +4,7 @@
 #   0. bundle: where .gpu/bundle.tar.xz exists (bench/gpu_bundle.py packs a build with every
 #      library it loads, for machines without the Debian packages and no registry, such as the
 #      device tool's), it is unpacked to /opt/spectrack-gpu and its programs put in build/; the
-#      baked-in source path (/work/main) and ../shared are linked to this checkout; NVIDIA's OpenCL
+#      baked-in source path (the build's folder) and ../shared are linked to this checkout; NVIDIA's OpenCL
 #      library gets an ICD file when none lists it;
 #   1. build: scripts/setup.sh (installs the Debian packages it lacks, builds build/); where apt
 #      cannot reach a mirror, an existing build/ is used as it is (SKIP_SETUP=1 forces that;
@@ -13,7 +13,7 @@
 #      `spectrack devices` lists; without one the script stops with exit 2 and says so;
 #   4. kernel throughput on bench/scenes/cloud_chromatic.json (lookups/s, trilinear and stochastic,
 #      DDA steps/s, free paths/s, kernel build) there;
-#   7. pbrt-v4's grid (bench/pbrt_grid.py's scene, packed in the bundle as grid/) in RGB and
+#   7. pbrt-v4's grid (bench/pbrt_grid.py's scene: the bundle's grid/, or its cache) in RGB and
 #      spectral mode, GRID_SPP (256) samples x 4 seeds each: grid.tsv (seconds_render) and
 #      grid_images.tar (the EXRs; bench/pbrt_grid.py's variance is taken from them where OIIO is);
 #      with a bundle's spectrack_old (gpu_bundle.py --old), both binaries, interleaved;
@@ -48,7 +48,8 @@ if step 0 && [ -f .gpu/bundle.tar.xz ] && { [ "${BUNDLE:-0}" = 1 ] || ! build/sp
   mkdir -p build data/volumes && cp "$B"/bin/* build/ && cp "$B"/volumes/* data/volumes/
   repo=$(pwd -P)
   # the programs hold the source path they were built in (tests: SPECTRACK_BINARY, data paths)
-  if [ "$repo" != /work/main ] && [ ! -e /work/main ]; then mkdir -p /work && ln -s "$repo" /work/main; fi
+  src=$(cat "$B/source_dir" 2>/dev/null || echo /work/main)
+  if [ "$repo" != "$src" ] && [ ! -e "$src" ]; then mkdir -p "$(dirname "$src")" && ln -s "$repo" "$src"; fi
   # ../shared/data/vdb beside the checkout (tests, bench scenes)
   if [ -d "$B/shared_vdb" ] && [ ! -e "$repo/../shared/data/vdb" ]; then
     mkdir -p "$repo/../shared/data" && ln -s "$B/shared_vdb" "$repo/../shared/data/vdb"
@@ -85,8 +86,11 @@ if step 4; then
     fail "kernel_throughput"
 fi
 
-if step 7 && [ -f "${GRID_SCENE:-/opt/spectrack-gpu/grid/st_chromatic_g0.6.json}" ]; then
-  g=${GRID_SCENE:-/opt/spectrack-gpu/grid/st_chromatic_g0.6.json}
+g=/opt/spectrack-gpu/grid/st_chromatic_g0.6.json  # a bundle's, else bench/pbrt_grid.py's cache
+[ $bundled = 1 ] || g=${SPECTRACK_BENCH_CACHE:-$HOME/.cache/spectrack/bench}/pbrt-grid/st_chromatic_g0.6.json
+g=${GRID_SCENE:-$g}
+if step 7 && [ ! -f "$g" ]; then echo "gpu.sh: no grid scene $g (run bench/pbrt_grid.py once, or GRID_SCENE=...): step 7 skipped"
+elif step 7; then
   mkdir -p "$OUT/grid"
   bins=(build/spectrack); [ -x build/spectrack_old ] && bins+=(build/spectrack_old)  # a bundle's --old
   printf 'binary\tmode\tseed\tspp\tseconds_render\tpaths_per_second\tdensity_lookups\n' > "$OUT/grid.tsv"

@@ -168,9 +168,13 @@ def main():
             subprocess.run(["strip", "--strip-debug", dst], check=True)
             subprocess.run(["patchelf", "--set-interpreter", f"{a.prefix}/lib/ld-linux-x86-64.so.2",
                             "--force-rpath", "--set-rpath", f"{a.prefix}/lib", dst], check=True)
+        # the source folder the programs were built in (their baked-in paths): gpu.sh links it
+        with open(os.path.join(work, "source_dir"), "w") as f:
+            f.write(ROOT + "\n")
         os.makedirs(os.path.dirname(os.path.abspath(a.out)), exist_ok=True)
         with tarfile.open(a.out, "w:xz", preset=6) as t:
             t.add(binp, "bin")
+            t.add(os.path.join(work, "source_dir"), "source_dir")
             t.add(lib, "lib")
             t.add(os.path.join(ROOT, "data", "volumes"), "volumes")
             grid = os.path.join(os.environ.get("SPECTRACK_BENCH_CACHE", os.path.expanduser("~/.cache/spectrack/bench")), "pbrt-grid")
