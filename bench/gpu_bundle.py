@@ -59,27 +59,27 @@ def needed(path):
 
 
 def dynsyms(path):
-    """(name, version, type, size, defined) of each dynamic symbol."""
+    """(name, version, type, size, defined) of each dynamic symbol (readelf --dyn-syms -W)."""
     out = []
     for line in sh("readelf", "--dyn-syms", "-W", path).splitlines():
         f = line.split()
         if len(f) < 8 or not f[0].rstrip(":").isdigit():
             continue
-        size = int(f[2], 0) if not f[2].startswith("0x") else int(f[2], 16)
+        size = int(f[2], 16) if f[2].startswith("0x") else int(f[2])
         name = f[7]
         ver = ""
         if "@" in name:
             name, _, ver = name.partition("@")
             ver = ver.lstrip("@")
         ver = re.sub(r"\s*\(\d+\)$", "", ver)
-        out.append((name, ver, f[3], size, f[6] != "UND", f[4]))
+        out.append((name, ver, f[3], size, f[6] != "UND"))
     return out
 
 
 def make_stub(soname, lib_path, imports, work):
     """A shared object named soname defining every symbol of lib_path that `imports` holds."""
     defined = {}
-    for name, ver, typ, size, is_def, bind in dynsyms(lib_path):
+    for name, ver, typ, size, is_def in dynsyms(lib_path):
         if is_def and name in imports and typ in ("FUNC", "OBJECT", "IFUNC", "TLS", "NOTYPE"):
             defined.setdefault(name, (ver, typ, size))
     c = ["#include <stdlib.h>", "#include <stdio.h>",
@@ -146,7 +146,7 @@ def main():
     # symbol of the programs (objects they copy-relocate appear defined in them)
     imports = set()
     for obj in progs + [os.path.realpath(p) for p in keep.values()]:
-        imports.update(name for name, ver, typ, size, is_def, bind in dynsyms(obj) if not is_def or obj in progs)
+        imports.update(name for name, ver, typ, size, is_def in dynsyms(obj) if not is_def or obj in progs)
     loader = os.path.realpath("/lib64/ld-linux-x86-64.so.2")
     with tempfile.TemporaryDirectory() as work:
         lib = os.path.join(work, "lib")
