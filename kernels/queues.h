@@ -84,7 +84,6 @@ inline void shadow_fold(__constant const st_scene* scene, __global st_shadow* ac
   e->state = ST_SHADOW_EMPTY;
 }
 
-/* The random stream of a path (stream 0) or of one of its shadow rays. */
 /* Spectral mode (st_film_color): the four wavelengths of sample (pixel, sample), shared by the
  * paths of a per-channel tracker's sample, from the first draw of a stream of their own
  * (ST_STREAM_WAVELENGTHS on channel 0), so they depend only on the seed, pixel and sample.
@@ -100,6 +99,7 @@ inline float4 path_mask(__constant const st_scene* scene, const st_path* p) {
   return scene->n_channels_per_sample > 1 ? one_hot((int)p->channel) : scene_lanes(scene);
 }
 
+/* The random stream of a path (stream 0) or of one of its shadow rays. */
 inline st_rng path_rng(__constant const st_scene* scene, const st_path* p, uint stream, uint draw) {
   st_rng r = rng_make(scene->seed, p->pixel, p->sample, p->channel, stream, draw);
   if (spectral_mode(scene)) r.lambda = p->lambda;
