@@ -130,6 +130,38 @@ inline int light_select(__constant const st_scene* scene, float u) {
   return last;
 }
 
+/* Light sampling "contribution" (types.h): the unoccluded contribution of light l at a scatter
+ * event of a medium with phase (phase_type, g), the path travelling along wo, up to the factor
+ * beta common to every light: nee_strength times the phase function towards a directional light
+ * (its disc's centre), nee_strength alone for an environment (the phase function integrates to 1:
+ * exact for a uniform one). HG is > 0 everywhere, so every light with strength gets a chance. */
+inline float light_contribution(__constant const st_light* l, int phase_type, float g, float3 wo) {
+  if (l->type != ST_LIGHT_DIRECTIONAL) return l->nee_strength;
+  return l->nee_strength * phase_eval(phase_type, g, dot(wo, l->direction.xyz));
+}
+
+/* The light of contribution sampling for uniform u: l with probability c_l / sum c (c:
+ * light_contribution), written to *pmf; -1 when no light has any strength (no shadow ray). */
+inline int light_select_contribution(__constant const st_scene* scene, int phase_type, float g, float3 wo, float u,
+                                     float* pmf) {
+  float total = 0.0f;
+  for (int l = 0; l < scene->n_lights; ++l) total += light_contribution(&scene->lights[l], phase_type, g, wo);
+  if (!(total > 0.0f)) return -1;
+  const float x = u * total;
+  float acc = 0.0f, c = 0.0f;
+  int chosen = -1;
+  for (int l = 0; l < scene->n_lights; ++l) {
+    const float cl = light_contribution(&scene->lights[l], phase_type, g, wo);
+    if (!(cl > 0.0f)) continue;
+    chosen = l; /* the last light with a contribution, should rounding leave x past the sum */
+    c = cl;
+    acc += cl;
+    if (x < acc) break;
+  }
+  *pmf = c / total;
+  return chosen;
+}
+
 inline float power_heuristic(float a, float b) {
   float a2 = a * a, b2 = b * b;
   return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;

@@ -1,7 +1,8 @@
 /* scatter.cl: a real scattering event. Next-event estimation: one shadow ray to every light, or
- * with light sampling "uniform" or "power" to one light, weighted by 1 / its probability; MIS
- * against phase sampling for lights that phase sampling can hit, the light's pdf taken times the
- * probability of picking it, as k_escape does. Then phase sampling, then Russian roulette on the
+ * with light sampling "uniform", "power" or "contribution" to one light, weighted by 1 / its
+ * probability; MIS against phase sampling for lights that phase sampling can hit, the light's pdf
+ * taken times select_pmf (1 for all and contribution, whose choice depends on the event: types.h),
+ * as k_escape does. Then phase sampling, then Russian roulette on the
  * throughput (from depth 3 on, survival probability min(1, max |beta| over the path's channels),
  * beta divided by it: unbiased; with absorption=weight beta decays by the albedo and this is how
  * paths end). The shadow rays of the last R - 1 bounces (R: the shadow ring, queues.h) may still
@@ -37,9 +38,16 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
   float3 wo = p.d.xyz;
   const float4 mask = path_mask(scene, &p);
   int l_begin = 0, l_end = scene->n_lights;
+  float pick_pmf = 1.0f; /* the probability of a one-light choice */
   if (scene->light_sampling != ST_LIGHT_SAMPLING_ALL && scene->n_lights > 1) {
-    l_begin = light_select(scene, rng_uniform(&rng));
-    l_end = l_begin + 1;
+    if (scene->light_sampling == ST_LIGHT_SAMPLING_CONTRIBUTION) {
+      l_begin = light_select_contribution(scene, m->phase_type, m->g, wo, rng_uniform(&rng), &pick_pmf);
+      l_end = l_begin < 0 ? 0 : l_begin + 1;
+    } else {
+      l_begin = light_select(scene, rng_uniform(&rng));
+      l_end = l_begin + 1;
+      pick_pmf = scene->lights[l_begin].select_pmf;
+    }
   }
   for (int l = l_begin; l < l_end; ++l) {
     __constant const st_light* light = &scene->lights[l];
@@ -49,7 +57,7 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     float4 Le_over_pdf = light_sample(light, env, u1, u2, &wi, &pdf_l, rng.lambda);
     float f = phase_eval(m->phase_type, m->g, dot(wo, wi));
     float w = pdf_l > 0.0f ? power_heuristic(light->select_pmf * pdf_l, f) : 1.0f;
-    float4 weight = p.beta * mask * Le_over_pdf * (f * w / light->select_pmf);
+    float4 weight = p.beta * mask * Le_over_pdf * (f * w / pick_pmf);
     if (!(masked_max(fabs(weight), mask) > 0.0f)) continue;
     uint id = shadow_entry(slot, NL, scene->n_lights, p.depth, l);
     __global st_shadow* sh = &shadows[id];

@@ -53,13 +53,26 @@ enum st_shadow_state { ST_SHADOW_EMPTY = 0, ST_SHADOW_PENDING = 1, ST_SHADOW_DON
 enum st_absorption { ST_ABSORPTIONS(ST_X_ABSORPTION_ENUM) ST_ABSORPTION_COUNT };
 
 /* Which lights next-event estimation samples at a scatter event (scatter.cl): X(ENUM suffix, name).
- *   all:     one shadow ray to every light;
- *   uniform: one light, each with the same probability (pbrt-v4's BVH light sampler does this
- *            for lights at infinity), the contribution divided by that probability;
- *   power:   one light, chosen in proportion to its power (pbrt-v4's PowerLightSampler: the
- *            radiance it would send to a point with no medium around it).
- * MIS with phase sampling takes the probability of the choice into the light's pdf. */
-#define ST_LIGHT_SAMPLINGS(X) X(ALL, "all") X(UNIFORM, "uniform") X(POWER, "power")
+ *   all:          one shadow ray to every light;
+ *   uniform:      one light, each with the same probability (pbrt-v4's BVH light sampler does this
+ *                 for lights at infinity), the contribution divided by that probability;
+ *   power:        one light, chosen in proportion to its power (pbrt-v4's PowerLightSampler: the
+ *                 radiance it would send to a point with no medium around it);
+ *   contribution: one light, chosen at each scatter event in proportion to its unoccluded
+ *                 contribution there: st_light.nee_strength times the phase function towards a
+ *                 directional light (an environment's phase-weighted radiance is taken as its mean;
+ *                 light.h light_select_contribution);
+ *   auto:         a request, never seen by the kernels: the host resolves it per scene and tracker
+ *                 (scene_pack.cpp) to contribution where shadow rays are long (the media's
+ *                 residual majorant optical depth along a mean chord of their boxes, the lookups a
+ *                 shadow ray crossing them takes, is at least settings.h kAutoContributionLookups) and to
+ *                 all otherwise: one shadow ray per event halves the cost of dense media, where
+ *                 shadow rays are most of the work, and loses in thin ones, where they are cheap.
+ * MIS with phase sampling takes the probability of a uniform or power choice into the light's pdf;
+ * contribution's choice depends on the event, so its MIS weights are all's (select_pmf 1), which
+ * stay a partition of unity: unbiased for any choice probabilities. */
+#define ST_LIGHT_SAMPLINGS(X) \
+  X(ALL, "all") X(UNIFORM, "uniform") X(POWER, "power") X(CONTRIBUTION, "contribution") X(AUTO, "auto")
 #define ST_X_LIGHT_SAMPLING_ENUM(E, name) ST_LIGHT_SAMPLING_##E,
 enum st_light_sampling { ST_LIGHT_SAMPLINGS(ST_X_LIGHT_SAMPLING_ENUM) ST_LIGHT_SAMPLING_COUNT };
 
@@ -346,6 +359,9 @@ typedef struct {
   float select_cdf;     /* power light sampling: sum of select_pmf over lights 0..this one */
   st_int spectral;      /* spectral mode: radiance holds the sigmoid coefficients of a spectrum that, times D65, is the
                          * light's (an environment map's radiance stays its scale; its texels hold the spectra) */
+  float nee_strength;   /* light sampling contribution: a directional light's mean irradiance, an environment's mean
+                         * radiance over the sphere (rgb, before spectral mode) */
+  st_int pad[3];
 } st_light;
 
 /* Everything the kernels need about the scene and the render, in one __constant block. */
@@ -446,7 +462,7 @@ typedef struct {
 
 #define ST_SIZEOF_MEDIUM 256
 #define ST_SIZEOF_CAMERA 80
-#define ST_SIZEOF_LIGHT 80
+#define ST_SIZEOF_LIGHT 96
 #define ST_SIZEOF_SCENE (ST_SIZEOF_CAMERA + ST_MAX_LIGHTS * ST_SIZEOF_LIGHT + ST_MAX_MEDIA * ST_SIZEOF_MEDIUM + 96)
 #define ST_SIZEOF_PATH 128
 #define ST_SIZEOF_TRANS 128

@@ -876,7 +876,7 @@ TEST_F(CliFlags, UnknownAbsorptionModeIsAUsageErrorListingTheNames) {
 TEST_F(CliFlags, UnknownLightSamplingIsAUsageErrorListingTheNames) {
   Proc p = run({"render", scene, "-o", dir + "/out.exr", "--light-sampling", "some", "--quiet"});
   expect_error_exit(p, 2);
-  for (const char* s : {"some", "all", "uniform", "power"}) EXPECT_THAT(p.out, HasSubstr(s)) << p.describe();
+  for (const char* s : {"some", "all", "uniform", "power", "contribution", "auto"}) EXPECT_THAT(p.out, HasSubstr(s)) << p.describe();
   EXPECT_FALSE(fs::exists(dir + "/out.exr"));
 }
 

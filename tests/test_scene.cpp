@@ -721,10 +721,12 @@ TEST_F(SceneTest, UnknownTypeNames) {
   j = example();
   j["render"]["light_sampling"] = "random";
   EXPECT_SCENE_ERROR(j, "/render/light_sampling",
-                     "unknown light sampling \"random\" (expected one of: all, uniform, power)");
+                     "unknown light sampling \"random\" (expected one of: all, uniform, power, contribution, auto)");
   j = example();
   j["render"]["light_sampling"] = "power";
   EXPECT_EQ(parse(j).render.light_sampling, ST_LIGHT_SAMPLING_POWER);
+  j["render"]["light_sampling"] = "contribution";
+  EXPECT_EQ(parse(j).render.light_sampling, ST_LIGHT_SAMPLING_CONTRIBUTION);
   EXPECT_EQ(parse(example()).render.light_sampling, -1) << "not given: the default (settings.h)";
   j = example();
   j["render"]["lookup"] = "nearest";

@@ -202,6 +202,7 @@ void write_stats_json(const std::string& path, const MultiDeviceResult& r, doubl
   j["scheme"] = scheme_name(r.scheme);
   j["absorption"] = absorption_name(r.absorption);
   j["light_sampling"] = light_sampling_name(r.light_sampling);
+  j["light_sampling_used"] = light_sampling_name(r.light_sampling_used);
   j["transmittance"] = transmittance_name(r.transmittance);
   j["lookup"] = lookup_name(r.lookup);
   j["color"] = film_color_name(r.color);
@@ -231,7 +232,8 @@ void write_stats_json(const std::string& path, const MultiDeviceResult& r, doubl
   for (const MajorantInfo& m : r.majorants)
     maj.push_back({{"cell", m.cell}, {"block", m.block}, {"levels", m.levels}, {"blocks_per_level", m.blocks_per_level}, {"fine_cells", m.fine_cells},
                    {"blocks_empty", m.blocks_empty}, {"blocks_whole", m.blocks_whole},
-                   {"blocks_refined", m.blocks_refined}, {"bytes", m.bytes}, {"seconds_build", m.seconds_build}});
+                   {"blocks_refined", m.blocks_refined}, {"bytes", m.bytes}, {"seconds_build", m.seconds_build},
+                   {"chord_lookups", m.chord_lookups}});
   j["majorant_grids"] = maj;
   j["dda_steps_per_nonempty_cell"] = r.stats.dda_nonempty > 0 ? double(r.stats.dda_steps) / double(r.stats.dda_nonempty) : 0.0;
   j["seconds_total"] = seconds_total;
@@ -333,6 +335,7 @@ MultiDeviceResult render_share(const SceneDesc& scene, const RenderOptions& opt,
   } else {
     r.piece = empty_piece(render_identity(set), set.window, "render");
     r.record_settings(set);
+    r.light_sampling_used = set.light_sampling;  // no scene packed here: the request ("auto" unresolved)
   }
   r.spp_requested = set.spp;
   r.piece.interrupted = r.piece.interrupted || r.piece.samples() < my_end - my_begin;
@@ -590,8 +593,9 @@ CLI::App* add_render_command(CLI::App& app, RenderArgs& ra) {
       ->check(one_of("absorption", absorption_name_list()));
   render->add_option("--light-sampling", ra.light_sampling,
                      "lights that next-event estimation samples at each scatter event (overrides "
-                     "render.light_sampling): all (one shadow ray to each), uniform (one, each as likely) or power (one, "
-                     "chosen by power)")
+                     "render.light_sampling): all (one shadow ray to each), uniform (one, each as likely), power (one, "
+                     "chosen by power), contribution (one, chosen by its unoccluded contribution at the event) or "
+                     "auto (default: contribution in dense media, all in thin ones)")
       ->check(one_of("light sampling", light_sampling_name_list()));
   render->add_option("--transmittance", ra.transmittance,
                      "transmittance estimator of shadow rays (overrides render.transmittance): ratio ((residual) ratio "

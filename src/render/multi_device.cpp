@@ -74,6 +74,7 @@ class MultiDeviceRun {
     double setup = 0, build = 0, first_pass = -1.0, render = 0;  // render: its stage loops
     bool from_cache = true, time_limit_reached = false;
     uint32_t features = 0;
+    int light_sampling_used = 0;
     std::vector<MajorantInfo> majorants;
   };
   bool stopped() const {
@@ -127,6 +128,7 @@ void MultiDeviceRun::add_chunk(size_t i, int64_t begin, const RenderResult& res)
     d.from_cache = res.kernels_from_cache;
     d.first_pass = res.seconds_first_pass;
     d.features = res.features;
+    d.light_sampling_used = res.light_sampling_used;
     d.majorants = res.majorants;
   }
   d.render += res.seconds_render;
@@ -208,6 +210,7 @@ MultiDeviceResult MultiDeviceRun::combine() const {
     if (d.first_pass >= 0) {
       out.seconds_first_pass = out.seconds_first_pass > 0 ? std::min(out.seconds_first_pass, d.first_pass) : d.first_pass;
       out.features = d.features;
+      out.light_sampling_used = d.light_sampling_used;
       out.majorants = d.majorants;
     }
   }

@@ -30,6 +30,7 @@ struct MultiDeviceResult : RenderChoices {
   bool kernels_from_cache = true;
   double seconds_first_pass = 0;  // the first device to put a batch on its film: construction to then
   uint32_t features = 0;          // the kernels' feature mask (the same on every device)
+  int light_sampling_used = 0;    // st_light_sampling the kernels ran ("auto" resolved; the same on every device)
   std::vector<MajorantInfo> majorants;  // each VDB medium's majorant structure (the same on every device)
   int spp_requested = 0;
   bool time_limit_reached = false;  // some device stopped at RenderOptions::deadline

@@ -374,6 +374,7 @@ RenderResult Renderer::Impl::result_header(int64_t sample_begin, int spp) const 
   res.seconds_build = seconds_build;
   res.kernels_from_cache = from_cache;
   res.features = ds.packed.features;
+  res.light_sampling_used = ds.packed.st.light_sampling;
   res.majorants = ds.packed.majorants;
   return res;
 }

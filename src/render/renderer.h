@@ -75,6 +75,7 @@ struct RenderResult : RenderChoices {
   double seconds_first_pass = 0;  // Renderer construction to the first batch added to the film
   bool kernels_from_cache = false;
   uint32_t features = 0;          // st_feature mask the kernels were compiled for (ST_FEATURES_ALL: generic)
+  int light_sampling_used = 0;    // st_light_sampling the kernels ran (light_sampling "auto" resolved: scene_pack.cpp)
   std::vector<MajorantInfo> majorants;  // each VDB medium's majorant structure
   RenderStats stats;
 };

@@ -103,6 +103,13 @@ Mat4 inverse_affine(const Mat4& a, const std::string& what) {
 }
 
 // scale, then rotations about x, y, z, then translate (SCENE_FORMAT.md)
+// The mean length of the chords of a box with sides a over uniformly random lines crossing it
+// (Cauchy: 4 V / S).
+double mean_chord(const std::array<double, 3>& a) {
+  const double S = 2.0 * (a[0] * a[1] + a[1] * a[2] + a[0] * a[2]);
+  return S > 0 ? 4.0 * a[0] * a[1] * a[2] / S : 0.0;
+}
+
 Mat4 user_transform(const TransformDesc& t) {
   Mat4 S, Rx, Ry, Rz, T;
   for (int i = 0; i < 3; ++i) S.m[i][i] = t.scale[i];
@@ -152,6 +159,9 @@ struct Packer {
   // radius): the mean over channels of the irradiance a directional light gives, or 4 pi times the
   // mean radiance of an environment over the sphere.
   std::array<double, ST_MAX_LIGHTS> light_power = {};
+  // density lookups of a shadow ray crossing every medium along its box's mean chord (the sum of
+  // MajorantInfo::chord_lookups, homogeneous media included): light sampling "auto"
+  double chord_lookups = 0;
 
   void add_medium(int i, const MediumDesc& md);
   void add_vdb_medium(st_medium& m, const MediumDesc& md, const std::string& ctx_name);
@@ -164,6 +174,7 @@ struct Packer {
   double add_env_map(st_light& l, const LightDesc& ld);
   double add_env_cdf(st_light& l, const RgbImage& img);
   void set_light_selection(int light_sampling);
+  int resolve_light_sampling(int requested) const;
   void set_camera();
   uint32_t scene_features() const;
 };
@@ -216,6 +227,12 @@ void Packer::add_medium(int i, const MediumDesc& md) {
     maj_cells.push_back(1.0f);
     check_float_limits(md, m, nullptr, ctx_name);
     media_boxes.push_back(Box3{lo, hi});
+    // a decomposing tracker's control is the whole medium (closed form, no lookup)
+    if (!st_tracker_decomposes(tracker)) {
+      const double sigma_t = std::max({double(m.sigma_a.x + m.sigma_s.x), double(m.sigma_a.y + m.sigma_s.y),
+                                       double(m.sigma_a.z + m.sigma_s.z)});
+      chord_lookups += sigma_t * std::max(1.0, md.majorant_scale) * mean_chord({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+    }
     return;
   }
 
@@ -241,14 +258,32 @@ void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::strin
   MajorantInfo info;
   info.cell = mg.cell;
   info.fine_cells = mg.dmax.size();
+  // a colour medium's flights run at its extinction bound sigma_t_maj, and it has no control
+  const bool color = m.color_mode != ST_COLOR_NONE;
+  const st_float4 st_gray = color ? m.sigma_t_maj : f4(m.sigma_a.x + m.sigma_s.x, m.sigma_a.y + m.sigma_s.y, m.sigma_a.z + m.sigma_s.z);
+  const double sigma_t = std::max({double(st_gray.x), double(st_gray.y), double(st_gray.z)});
+  {
+    // the residual majorant of each fine cell as the walk's segments take it (majorant.h
+    // segments_current), averaged, times the sides of the box in world units
+    const bool decompose = st_tracker_decomposes(tracker) && !color;
+    const double ms = md.majorant_scale, ns = md.minorant_scale;
+    double sum = 0;
+    for (size_t c = 0; c < mg.dmax.size(); ++c) {
+      const double dmax = mg.dmax[c], dmin = mg.dmin[c], dc = dmin * ns;
+      sum += decompose ? std::max({dmax * ms - dc, ms * (dmax - dmin), dc - dmin, 0.0}) : dmax * ms;
+    }
+    Mat4 w = user_transform(md.transform) * i2w;
+    std::array<double, 3> side{};
+    for (int a = 0; a < 3; ++a)
+      side[size_t(a)] = double(mg.dims[size_t(a)]) * mg.cell *
+                        std::sqrt(w.m[0][a] * w.m[0][a] + w.m[1][a] * w.m[1][a] + w.m[2][a] * w.m[2][a]);
+    info.chord_lookups = mg.dmax.empty() ? 0.0 : sum / double(mg.dmax.size()) * sigma_t * mean_chord(side);
+    chord_lookups += info.chord_lookups;
+  }
   const int B = opt.majorant_block;
   if (B > 1) {
     // the adaptive hierarchy: each block of B^3 cells walked whole or refined, by the cost model
     MajorantCostModel cost;
-    // a colour medium's flights run at its extinction bound sigma_t_maj, and it has no control
-    const bool color = m.color_mode != ST_COLOR_NONE;
-    const st_float4 st = color ? m.sigma_t_maj : f4(m.sigma_a.x + m.sigma_s.x, m.sigma_a.y + m.sigma_s.y, m.sigma_a.z + m.sigma_s.z);
-    const double sigma_t = std::max({double(st.x), double(st.y), double(st.z)});
     cost.lookups_per_density = sigma_t * std::max(1.0, md.majorant_scale) * longest_voxel_edge(m);
     cost.decompose = st_tracker_decomposes(tracker) && !color;
     cost.step_cost = opt.majorant_step_cost >= 0 ? opt.majorant_step_cost : auto_majorant_step_cost(tracker, !color);
@@ -455,17 +490,28 @@ void Packer::add_light(int i, const LightDesc& ld) {
   light_power[i] = 4.0 * M_PI * ld.scale * add_env_map(l, ld);
 }
 
+// Light sampling "auto" (types.h): contribution where a shadow ray through the media takes
+// kAutoContributionLookups lookups or more and there is a choice to make, else all.
+int Packer::resolve_light_sampling(int requested) const {
+  if (requested != ST_LIGHT_SAMPLING_AUTO) return requested;
+  return st.n_lights > 1 && chord_lookups >= kAutoContributionLookups ? ST_LIGHT_SAMPLING_CONTRIBUTION
+                                                                       : ST_LIGHT_SAMPLING_ALL;
+}
+
 // The probabilities with which next-event estimation picks each light (st_light::select_pmf):
-// 1 for every light with light sampling "all" (one shadow ray each) or a single light; 1 / n with
-// "uniform"; with "power" in proportion to power (uniform if no light has any), a light without
-// power never being picked.
+// 1 for every light with light sampling "all" (one shadow ray each) or "contribution" (chosen per
+// event: its MIS weights are all's, types.h) or a single light; 1 / n with "uniform"; with
+// "power" in proportion to power (uniform if no light has any), a light without power never being
+// picked. Every light's nee_strength: its mean irradiance (directional) or mean radiance over the
+// sphere (environment), i.e. its power without the 4 pi of an environment.
 void Packer::set_light_selection(int light_sampling) {
   double total = 0;
   for (int i = 0; i < st.n_lights; ++i) total += light_power[i];
   double acc = 0;
   for (int i = 0; i < st.n_lights; ++i) {
     st_light& l = st.lights[i];
-    if (light_sampling == ST_LIGHT_SAMPLING_ALL || st.n_lights == 1) {
+    l.nee_strength = float(l.type == ST_LIGHT_DIRECTIONAL ? light_power[i] : light_power[i] / (4.0 * M_PI));
+    if (light_sampling == ST_LIGHT_SAMPLING_ALL || light_sampling == ST_LIGHT_SAMPLING_CONTRIBUTION || st.n_lights == 1) {
       l.select_pmf = 1.0f;
       l.select_cdf = 1.0f;
       continue;
@@ -601,12 +647,13 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
   st.n_lights = int(scene.lights.size());
   for (int i = 0; i < st.n_media; ++i) pk.add_medium(i, scene.media[i]);
   for (int i = 0; i < st.n_lights; ++i) pk.add_light(i, scene.lights[i]);
-  pk.set_light_selection(s.light_sampling);
+  const int light_sampling = pk.resolve_light_sampling(s.light_sampling);
+  pk.set_light_selection(light_sampling);
   pk.set_camera();
   st.tracker = s.tracker;
   st.scheme = s.scheme;
   st.absorption = s.absorption;
-  st.light_sampling = s.light_sampling;
+  st.light_sampling = light_sampling;
   st.transmittance = s.transmittance;
   st.march_spacing = float(s.march_spacing);
   st.pilot_spacing = float(s.pilot_spacing);

@@ -22,8 +22,14 @@
 namespace spectrack {
 
 // Light sampling of next-event estimation when neither the command line nor the scene chooses
-// (bench/RESULTS.md, "One light per scatter event").
-constexpr int kDefaultLightSampling = ST_LIGHT_SAMPLING_ALL;
+// (bench/RESULTS.md, "One light per scatter event" and "Light sampling by contribution").
+constexpr int kDefaultLightSampling = ST_LIGHT_SAMPLING_AUTO;
+// Light sampling "auto" (types.h) picks "contribution" when the scene's media make a shadow ray
+// crossing them take at least this many density lookups (the residual majorant's optical depth
+// along the mean chord of each medium's box, summed over media: MajorantInfo::chord_lookups), and
+// "all" below. bench/RESULTS.md "Light sampling by contribution": the bench scenes' values and
+// where one shadow ray per event starts to pay.
+constexpr double kAutoContributionLookups = 2.0;
 // Transmittance estimator of shadow rays when neither the command line nor the scene chooses, and
 // the ray-marching spacings (majorant optical depth between samples; bench/RESULTS.md,
 // "Ray-marching transmittance").
@@ -141,6 +147,10 @@ struct MajorantInfo {
   std::vector<size_t> blocks_per_level;  // blocks walked at each level
   size_t bytes = 0;             // device memory of the structure
   double seconds_build = 0;
+  // density lookups of a ratio-tracking shadow ray along the mean chord of the medium's box (4 V /
+  // S, Cauchy): the mean residual majorant over the fine cells times that length (light sampling
+  // "auto", kAutoContributionLookups)
+  double chord_lookups = 0;
 };
 
 }  // namespace spectrack
