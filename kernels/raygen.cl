@@ -76,7 +76,7 @@ inline void camera_layers_begin(__constant const st_scene* scene, __global const
     st_trans tr;
     transmittance_begin(&tr, all);
     float t = 0.0f;
-    while (!transmittance_estimate(scene, grids, maj, p->o.xyz, p->d.xyz, &t, &tr, all, &rng,
+    while (!transmittance_estimate(scene, grids, maj, p->o.xyz, p->d.xyz, &t, &tr, all, all, &rng,
                                    scene->iteration_budget, &st)) {
     }
     alpha = all - tr.T;

@@ -13,7 +13,12 @@ __kernel void k_shadow(ST_STAGE_ARGS) {
   st_track_stats st;
   track_stats_clear(&st);
   float t = sh.o.w;
-  int done = transmittance_estimate(scene, grids, maj, sh.o.xyz, sh.d.xyz, &t, &sh.tr, path_mask(scene, &p), &rng,
+  /* roulette by what the estimate is for: weight * T per channel, relative to the weight's largest
+   * channel (tracking.h transmittance_roulette); the weight is never 0 (scatter.cl) */
+  const float4 mask = path_mask(scene, &p), w = fabs(sh.weight);
+  const float w_max = masked_max(w, mask);
+  const float4 importance = w_max > 0.0f ? w / w_max : mask;
+  int done = transmittance_estimate(scene, grids, maj, sh.o.xyz, sh.d.xyz, &t, &sh.tr, mask, importance, &rng,
                                     scene->iteration_budget, &st);
   sh.rng_draw = rng_draw_index(&rng);
   if (done) {

@@ -484,10 +484,13 @@ inline float4 ratio_collision_factor(__constant const st_scene* scene, __global 
   return mask * ((w->seg.mu_bar_r - residual) / w->seg.mu_bar_r);
 }
 
-/* Russian roulette on a small estimate (unbiased; pbrt's constants). Returns 0 when the estimate
- * ends (then *T = 0). */
-inline int transmittance_roulette(float4* T, float4 mask, st_rng* rng) {
-  float m = masked_max(fabs(*T), mask);
+/* Russian roulette on a small estimate (unbiased: the decision depends on the past only; pbrt's
+ * constants). importance: each carried channel's share of what the estimate is for, in [0, 1]
+ * (a shadow ray: its weight over the weight's largest channel; the mask for transmittance itself),
+ * so that a channel whose T stays high but whose weight is small (the blue of a path that has lost
+ * its blue to albedo) does not keep a ray going. Returns 0 when the estimate ends (then *T = 0). */
+inline int transmittance_roulette(float4* T, float4 mask, float4 importance, st_rng* rng) {
+  float m = masked_max(fabs(*T) * importance, mask);
   if (m < 0.05f) {
     if (m == 0.0f || rng_uniform(rng) < 0.75f) {
       *T = (float4)(0.0f);
@@ -504,7 +507,7 @@ inline int transmittance_roulette(float4* T, float4 mask, st_rng* rng) {
  * update of the estimate (also after the closed-form control factor, which can make T tiny
  * without any lookup). Returns 1 when finished, 0 when the budget is spent (call again from *t). */
 inline int ratio_track(__constant const st_scene* scene, __global const uint* grids, __global const float2* maj,
-                       float3 o, float3 d, float* t, float4* T, float4 mask, st_rng* rng, int budget,
+                       float3 o, float3 d, float* t, float4* T, float4 mask, float4 importance, st_rng* rng, int budget,
                        st_track_stats* st) {
   st_walker w;
   walker_begin(scene, maj, &w, o, d, *t, mask, rng->lambda, tracker_decomposes(scene), ST_WALK_CONTROL_CLOSED_FORM, budget);
@@ -515,7 +518,7 @@ inline int ratio_track(__constant const st_scene* scene, __global const uint* gr
     if (step == ST_WALK_BUDGET) return 0;
     if (w.decompose) *T *= w.T_control;
     if (step == ST_WALK_COLLISION) *T *= ratio_collision_factor(scene, grids, &w, o + w.t * d, mask, &st->lookups, rng);
-    if (!transmittance_roulette(T, mask, rng)) return 1;
+    if (!transmittance_roulette(T, mask, importance, rng)) return 1;
   }
 }
 
@@ -564,7 +567,7 @@ inline float4 march_sample(__constant const st_scene* scene, __global const uint
  * again: *t and tr hold where it is). */
 inline int ray_march_transmittance(__constant const st_scene* scene, __global const uint* grids,
                                    __global const float2* maj, float3 o, float3 d, float* t, st_trans* tr,
-                                   float4 mask, st_rng* rng, int budget, st_track_stats* st) {
+                                   float4 mask, float4 importance, st_rng* rng, int budget, st_track_stats* st) {
   int left = budget;
   const float h = scene->march_spacing;
   for (;;) {
@@ -614,7 +617,7 @@ inline int ray_march_transmittance(__constant const st_scene* scene, __global co
        * residual optical depth so far, clamped at 0 so it cannot overflow; ratio tracking's
        * constants), its factor kept in P. Any rule that looks only at the past is unbiased. */
       float4 tau_so_far = tr->count > 0u ? tr->tau_maj * tr->acc / (float)tr->count : (float4)(0.0f);
-      float m = masked_max(tr->P * exp(-fmax(tr->S + tau_so_far, 0.0f)), mask);
+      float m = masked_max(tr->P * exp(-fmax(tr->S + tau_so_far, 0.0f)) * importance, mask);
       if (m < 0.05f) {
         if (m == 0.0f || rng_uniform(rng) < 0.75f) {
           tr->T = (float4)(0.0f);
@@ -656,15 +659,16 @@ inline int ray_march_transmittance(__constant const st_scene* scene, __global co
 }
 
 /* The scene's transmittance estimator along (o, d) from t = 0 (the ray's origin; *t is where a
- * resumed estimate is), per carried channel; tr from transmittance_begin. Returns 1 when finished (the estimate in tr->T), 0 when the budget is
- * spent (call again). */
+ * resumed estimate is), per carried channel; tr from transmittance_begin; importance: the
+ * channels' weights for Russian roulette (transmittance_roulette). Returns 1 when finished (the
+ * estimate in tr->T), 0 when the budget is spent (call again). */
 inline int transmittance_estimate(__constant const st_scene* scene, __global const uint* grids,
                                   __global const float2* maj, float3 o, float3 d, float* t, st_trans* tr,
-                                  float4 mask, st_rng* rng, int budget, st_track_stats* st) {
+                                  float4 mask, float4 importance, st_rng* rng, int budget, st_track_stats* st) {
   if (scene->transmittance == ST_TRANSMITTANCE_RAY_MARCHING)
-    return ray_march_transmittance(scene, grids, maj, o, d, t, tr, mask, rng, budget, st);
+    return ray_march_transmittance(scene, grids, maj, o, d, t, tr, mask, importance, rng, budget, st);
   float4 T = tr->T;
-  int done = ratio_track(scene, grids, maj, o, d, t, &T, mask, rng, budget, st);
+  int done = ratio_track(scene, grids, maj, o, d, t, &T, mask, importance, rng, budget, st);
   tr->T = T;
   return done;
 }
