@@ -102,7 +102,6 @@ Mat4 inverse_affine(const Mat4& a, const std::string& what) {
   return r;
 }
 
-// scale, then rotations about x, y, z, then translate (SCENE_FORMAT.md)
 // The mean length of the chords of a box with sides a over uniformly random lines crossing it
 // (Cauchy: 4 V / S).
 double mean_chord(const std::array<double, 3>& a) {
@@ -110,6 +109,15 @@ double mean_chord(const std::array<double, 3>& a) {
   return S > 0 ? 4.0 * a[0] * a[1] * a[2] / S : 0.0;
 }
 
+// The residual majorant of a majorant cell with bounds (dmax, dmin), per unit of sigma_t, as the
+// walk's segments take it (majorant.h segments_current); without decomposition the majorant.
+double residual_majorant(double dmax, double dmin, double majorant_scale, double minorant_scale, bool decompose) {
+  if (!decompose) return dmax * majorant_scale;
+  const double dc = dmin * minorant_scale;
+  return std::max({dmax * majorant_scale - dc, majorant_scale * (dmax - dmin), dc - dmin, 0.0});
+}
+
+// scale, then rotations about x, y, z, then translate (SCENE_FORMAT.md)
 Mat4 user_transform(const TransformDesc& t) {
   Mat4 S, Rx, Ry, Rz, T;
   for (int i = 0; i < 3; ++i) S.m[i][i] = t.scale[i];
@@ -227,12 +235,12 @@ void Packer::add_medium(int i, const MediumDesc& md) {
     maj_cells.push_back(1.0f);
     check_float_limits(md, m, nullptr, ctx_name);
     media_boxes.push_back(Box3{lo, hi});
-    // a decomposing tracker's control is the whole medium (closed form, no lookup)
-    if (!st_tracker_decomposes(tracker)) {
-      const double sigma_t = std::max({double(m.sigma_a.x + m.sigma_s.x), double(m.sigma_a.y + m.sigma_s.y),
-                                       double(m.sigma_a.z + m.sigma_s.z)});
-      chord_lookups += sigma_t * std::max(1.0, md.majorant_scale) * mean_chord({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
-    }
+    // density 1 everywhere: a decomposing tracker's control is the whole medium (no lookup, with
+    // bounding scales)
+    const double sigma_t = std::max({double(m.sigma_a.x + m.sigma_s.x), double(m.sigma_a.y + m.sigma_s.y),
+                                     double(m.sigma_a.z + m.sigma_s.z)});
+    chord_lookups += residual_majorant(1.0, 1.0, md.majorant_scale, md.minorant_scale, st_tracker_decomposes(tracker)) *
+                     sigma_t * mean_chord({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
     return;
   }
 
@@ -263,15 +271,11 @@ void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::strin
   const st_float4 st_gray = color ? m.sigma_t_maj : f4(m.sigma_a.x + m.sigma_s.x, m.sigma_a.y + m.sigma_s.y, m.sigma_a.z + m.sigma_s.z);
   const double sigma_t = std::max({double(st_gray.x), double(st_gray.y), double(st_gray.z)});
   {
-    // the residual majorant of each fine cell as the walk's segments take it (majorant.h
-    // segments_current), averaged, times the sides of the box in world units
+    // each fine cell's residual majorant, averaged, times the mean chord of the box in world units
     const bool decompose = st_tracker_decomposes(tracker) && !color;
-    const double ms = md.majorant_scale, ns = md.minorant_scale;
     double sum = 0;
-    for (size_t c = 0; c < mg.dmax.size(); ++c) {
-      const double dmax = mg.dmax[c], dmin = mg.dmin[c], dc = dmin * ns;
-      sum += decompose ? std::max({dmax * ms - dc, ms * (dmax - dmin), dc - dmin, 0.0}) : dmax * ms;
-    }
+    for (size_t c = 0; c < mg.dmax.size(); ++c)
+      sum += residual_majorant(mg.dmax[c], mg.dmin[c], md.majorant_scale, md.minorant_scale, decompose);
     Mat4 w = user_transform(md.transform) * i2w;
     std::array<double, 3> side{};
     for (int a = 0; a < 3; ++a)
