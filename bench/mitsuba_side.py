@@ -24,6 +24,8 @@ the render seconds (wall clock around mi.render and the read-back) into OUT_DIR/
 import json
 import math
 import os
+import re
+import subprocess
 import sys
 import time
 
@@ -109,11 +111,29 @@ def build_scene(scene, grid_prefix, spp):
     return mi.load_dict(d)
 
 
+def resolve_framed_camera(scene, scene_path):
+    """A camera framed by spectrack ("position": "auto", "look_at": "media") gets the position and
+    look_at spectrack computes, from `spectrack info` ($SPECTRACK, else build/spectrack), which
+    prints them to 6 significant digits."""
+    cam = scene["camera"]
+    if not isinstance(cam.get("position"), str) and not isinstance(cam.get("look_at"), str):
+        return
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    binary = os.environ.get("SPECTRACK", os.path.join(root, "build", "spectrack"))
+    out = subprocess.run([binary, "info", scene_path], capture_output=True, text=True, check=True).stdout
+    m = re.search(r"camera \w+ \(framed\): position \(([^)]*)\), look_at \(([^)]*)\)", out)
+    if not m:
+        raise SystemExit(f"mitsuba_side: no framed camera in `spectrack info {scene_path}`")
+    cam["position"] = [float(x) for x in m.group(1).split(",")]
+    cam["look_at"] = [float(x) for x in m.group(2).split(",")]
+
+
 def main():
     scene_path, grid_prefix, variant, out_dir = sys.argv[1:5]
     jobs = [tuple(int(x) for x in a.split(":")) for a in sys.argv[5:]]
     mi.set_variant(variant)
     scene = json.load(open(scene_path))
+    resolve_framed_camera(scene, scene_path)
     os.makedirs(out_dir, exist_ok=True)
     tpath = os.path.join(out_dir, "timings.json")
     timings = json.load(open(tpath)) if os.path.exists(tpath) else {}
