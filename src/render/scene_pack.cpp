@@ -253,7 +253,8 @@ void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::strin
   Mat4 i2w;
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 4; ++c) i2w.m[r][c] = g.index_to_world[r][c];
-  Mat4 w2i = inverse_affine(user_transform(md.transform) * i2w, ctx_name + "/transform");
+  const Mat4 index_to_scene = user_transform(md.transform) * i2w;
+  Mat4 w2i = inverse_affine(index_to_scene, ctx_name + "/transform");
   for (int r = 0; r < 3; ++r) m.world_to_index[r] = f4(w2i.m[r][0], w2i.m[r][1], w2i.m[r][2], w2i.m[r][3]);
   check_float_limits(md, m, &g, ctx_name);
   m.density_grid = upload_grid(ctx_name, g);
@@ -270,13 +271,13 @@ void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::strin
   const bool color = m.color_mode != ST_COLOR_NONE;
   const st_float4 st_gray = color ? m.sigma_t_maj : f4(m.sigma_a.x + m.sigma_s.x, m.sigma_a.y + m.sigma_s.y, m.sigma_a.z + m.sigma_s.z);
   const double sigma_t = std::max({double(st_gray.x), double(st_gray.y), double(st_gray.z)});
+  const bool decompose = st_tracker_decomposes(tracker) && !color;
   {
     // each fine cell's residual majorant, averaged, times the mean chord of the box in world units
-    const bool decompose = st_tracker_decomposes(tracker) && !color;
     double sum = 0;
     for (size_t c = 0; c < mg.dmax.size(); ++c)
       sum += residual_majorant(mg.dmax[c], mg.dmin[c], md.majorant_scale, md.minorant_scale, decompose);
-    Mat4 w = user_transform(md.transform) * i2w;
+    const Mat4& w = index_to_scene;
     std::array<double, 3> side{};
     for (int a = 0; a < 3; ++a)
       side[size_t(a)] = double(mg.dims[size_t(a)]) * mg.cell *
@@ -289,7 +290,7 @@ void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::strin
     // the adaptive hierarchy: each block of B^3 cells walked whole or refined, by the cost model
     MajorantCostModel cost;
     cost.lookups_per_density = sigma_t * std::max(1.0, md.majorant_scale) * longest_voxel_edge(m);
-    cost.decompose = st_tracker_decomposes(tracker) && !color;
+    cost.decompose = decompose;
     cost.step_cost = opt.majorant_step_cost >= 0 ? opt.majorant_step_cost : auto_majorant_step_cost(tracker, !color);
     MajorantHierarchy h = build_majorant_hierarchy(mg, B, cost);
     m.maj_block = B;
