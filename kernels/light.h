@@ -144,14 +144,20 @@ inline float light_contribution(__constant const st_light* l, int phase_type, fl
  * light_contribution), written to *pmf; -1 when no light has any strength (no shadow ray). */
 inline int light_select_contribution(__constant const st_scene* scene, int phase_type, float g, float3 wo, float u,
                                      float* pmf) {
+  float contrib[ST_MAX_LIGHTS]; /* each light's, evaluated once (a phase function each) */
   float total = 0.0f;
-  for (int l = 0; l < scene->n_lights; ++l) total += light_contribution(&scene->lights[l], phase_type, g, wo);
+  for (int l = 0; l < ST_MAX_LIGHTS; ++l) {
+    if (l >= scene->n_lights) break;
+    contrib[l] = light_contribution(&scene->lights[l], phase_type, g, wo);
+    total += contrib[l];
+  }
   if (!(total > 0.0f)) return -1;
   const float x = u * total;
   float acc = 0.0f, c = 0.0f;
   int chosen = -1;
-  for (int l = 0; l < scene->n_lights; ++l) {
-    const float cl = light_contribution(&scene->lights[l], phase_type, g, wo);
+  for (int l = 0; l < ST_MAX_LIGHTS; ++l) {
+    if (l >= scene->n_lights) break;
+    const float cl = contrib[l];
     if (!(cl > 0.0f)) continue;
     chosen = l; /* the last light with a contribution, should rounding leave x past the sum */
     c = cl;

@@ -117,6 +117,15 @@ double residual_majorant(double dmax, double dmin, double majorant_scale, double
   return std::max({dmax * majorant_scale - dc, majorant_scale * (dmax - dmin), dc - dmin, 0.0});
 }
 
+// The largest channel's extinction per unit density (a colour medium's: its bound sigma_t_maj, at
+// which its flights run): the gray rate a shadow ray's lookups scale with.
+double max_sigma_t(const st_medium& m) {
+  const st_float4 s = m.color_mode != ST_COLOR_NONE
+                          ? m.sigma_t_maj
+                          : f4(m.sigma_a.x + m.sigma_s.x, m.sigma_a.y + m.sigma_s.y, m.sigma_a.z + m.sigma_s.z);
+  return std::max({double(s.x), double(s.y), double(s.z)});
+}
+
 // scale, then rotations about x, y, z, then translate (SCENE_FORMAT.md)
 Mat4 user_transform(const TransformDesc& t) {
   Mat4 S, Rx, Ry, Rz, T;
@@ -237,10 +246,8 @@ void Packer::add_medium(int i, const MediumDesc& md) {
     media_boxes.push_back(Box3{lo, hi});
     // density 1 everywhere: a decomposing tracker's control is the whole medium (no lookup, with
     // bounding scales)
-    const double sigma_t = std::max({double(m.sigma_a.x + m.sigma_s.x), double(m.sigma_a.y + m.sigma_s.y),
-                                     double(m.sigma_a.z + m.sigma_s.z)});
     chord_lookups += residual_majorant(1.0, 1.0, md.majorant_scale, md.minorant_scale, st_tracker_decomposes(tracker)) *
-                     sigma_t * mean_chord({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+                     max_sigma_t(m) * mean_chord({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
     return;
   }
 
@@ -269,8 +276,7 @@ void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::strin
   info.fine_cells = mg.dmax.size();
   // a colour medium's flights run at its extinction bound sigma_t_maj, and it has no control
   const bool color = m.color_mode != ST_COLOR_NONE;
-  const st_float4 st_gray = color ? m.sigma_t_maj : f4(m.sigma_a.x + m.sigma_s.x, m.sigma_a.y + m.sigma_s.y, m.sigma_a.z + m.sigma_s.z);
-  const double sigma_t = std::max({double(st_gray.x), double(st_gray.y), double(st_gray.z)});
+  const double sigma_t = max_sigma_t(m);
   const bool decompose = st_tracker_decomposes(tracker) && !color;
   {
     // each fine cell's residual majorant, averaged, times the mean chord of the box in world units
