@@ -2,7 +2,7 @@
 # bench/cold_first_render.sh: seconds_render and seconds_kernel_build of first renders with cold
 # caches, two binaries interleaved: (i) spectrack kernel cache warm, PoCL cache fresh
 # (POCL_CACHE_DIR=$(mktemp -d)), (ii) both fresh; then one warm render each. A=... B=...
-# [SCENE=...] [SPP=32]. Used for issue 18 item 6 (kernel JIT outside seconds_render).
+# [SCENE=...] [SPP=32]. Measures the kernel JIT outside seconds_render (bench/RESULTS.md).
 set -u
 cd "$(dirname "$0")/.."
 A=${A:?A=binary before}; B=${B:?B=binary after}

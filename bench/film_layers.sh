@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# bench/film_layers.sh [SPP] [ROUNDS]: the cost of the film layers (issue 14, docs/aov.md) per
+# bench/film_layers.sh [SPP] [ROUNDS]: the cost of the film layers (docs/aov.md) per
 # scene, in one run: the same binary with --no-alpha (the beauty alone), --no-alpha --aov variance
 # (no per-path work: one more film layer), the EXR default (alpha: a transmittance estimate along
 # every camera ray, and the environment layer), the denoiser's albedo and depth buffers alone

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# bench/gpu.sh [OUT_DIR]: the GPU check of issue 18 item 5 in one command, sized for about 8
+# bench/gpu.sh [OUT_DIR]: the GPU check (docs/benchmarks.md) in one command, sized for about 8
 # minutes on a machine with an NVIDIA GPU and its OpenCL driver (the `device` tool's machines).
 #   0. bundle: where .gpu/bundle.tar.xz exists (bench/gpu_bundle.py packs a build with every
 #      library it loads, for machines without the Debian packages and no registry, such as the
@@ -18,7 +18,7 @@
 #      grid_images.tar (the EXRs; bench/pbrt_grid.py's variance is taken from them where OIIO is);
 #      with a bundle's spectrack_old (gpu_bundle.py --old), both binaries, interleaved;
 #   5. paths/s of every bench scene and data/scenes/cloud.json at 16 spp with the default tracker,
-#      trilinear and stochastic lookups, after a warm-up render each (the figure issue 18 compares
+#      trilinear and stochastic lookups, after a warm-up render each (the figure bench/RESULTS.md compares
 #      with the 2-core PoCL rows of bench/RESULTS.md: target >= 50x);
 #   6. bench/run --quick --no-mitsuba --device there (needs apt; skipped where a bundle was used);
 #   3. the test suite on it, last (the longest): ctest with SPECTRACK_DEVICE set, or, from a

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Packs a build of spectrack for a GPU machine that has none of its Debian packages.
 
-Design: the `device` tool's GPU machines (issue 18 item 5) run a CUDA image with no package
+Design: the `device` tool's GPU machines (docs/benchmarks.md, GPU check) run a CUDA image with no package
 registry reachable, so bench/gpu.sh cannot run scripts/setup.sh there. This packs what the built
 programs need to run there into one .tar.xz: the programs (build/spectrack, spectrack_tests,
 kernel_throughput), pbrt-v4's grid as bench/pbrt_grid.py

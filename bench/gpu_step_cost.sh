@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# bench/gpu_step_cost.sh [OUT_DIR]: the majorant hierarchy's step cost on a GPU (issue 12;
-# docs/majorant-hierarchy.md), sized for about 4 minutes on the `device` tool's H200.
+# bench/gpu_step_cost.sh [OUT_DIR]: the majorant hierarchy's step cost on a GPU
+# (docs/majorant-hierarchy.md), sized for about 4 minutes on the `device` tool's H200.
 #
 # The hierarchy's cost model weighs a DDA step into a non-empty group against a density lookup
 # (--majorant-step-cost, in lookups; automatic: 0.6, 2 for spectral-decomposition, measured on

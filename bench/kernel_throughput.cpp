@@ -50,7 +50,7 @@ int usage() {
   return 2;
 }
 
-// Scene transform: scale, then rotations about x, y, z, then translate (SCENE_FORMAT.md).
+// Scene transform: scale, then rotations about x, y, z, then translate (docs/scene-format.md, `transform`).
 std::array<double, 3> apply_transform(const TransformDesc& t, std::array<double, 3> p) {
   for (int a = 0; a < 3; ++a) p[a] *= t.scale[a];
   for (int axis = 0; axis < 3; ++axis) {
@@ -165,7 +165,7 @@ int main(int argc, char** argv) {
     });
     j["density"] = {{"points", n_points}, {"seconds", t_density}, {"lookups_per_second", double(n_points) / t_density},
                     {"mean_density", sum / double(n_points)}};
-    // The same points with stochastic one-voxel lookups (--lookup stochastic, issue 18 item 7): one
+    // The same points with stochastic one-voxel lookups (--lookup stochastic, docs/stochastic-lookup.md): one
     // accessor walk and one read instead of eight, and one random draw; the mean density agrees
     // with the trilinear one within its noise.
     {
@@ -183,7 +183,7 @@ int main(int argc, char** argv) {
                                     {"mean_density", ssum / double(n_points)}};
     }
     // The same trilinear lookups on the host with NanoVDB's ReadAccessor (one per thread), on 1
-    // and 2 threads: the figure the kernels' PNanoVDB lookups are compared with (issue 18 item 4).
+    // and 2 threads: the figure the kernels' PNanoVDB lookups are compared with (docs/architecture.md, 'Kernels').
     // The device figure includes the points' upload and the read-back; the host one does not.
     const nanovdb::FloatGrid* grid = g.handle.grid<float>();
     if (!grid) throw Error(scene_path + ": the medium's NanoVDB grid is not a float grid");
@@ -257,7 +257,7 @@ int main(int argc, char** argv) {
       j["track"][name] = track(rr, per_channel ? 0 : -1);
     }
 
-    // (5) Shadow-ray transmittance, ratio tracking against ray marching (issue 13): rays from
+    // (5) Shadow-ray transmittance, ratio tracking against ray marching (docs/transmittance.md): rays from
     // up to 32 of the points of (2) that lie in the medium, towards the first directional light
     // (else up, tilted), each estimated --paths / 4 times (64 to 1024) by both estimators with
     // the scene's tracker. The

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # bench/majorant_hierarchy.sh OLD_BINARY [SPP] [SEEDS] [TRACKERS]: the adaptive majorant hierarchy
-# (issue 12; docs/majorant-hierarchy.md) against the binary before it (OLD_BINARY: a spectrack
+# (docs/majorant-hierarchy.md) against the binary before it (OLD_BINARY: a spectrack
 # built from a commit before the hierarchy: one 8-voxel cell grid with 4^3-cell empty blocks), on
 # pbrt-v4's comparison grid (../shared/bench/pbrt-grid/) and every bench scene, in one run per
 # scene, for each tracker of TRACKERS (default: spectral-decomposition, decomposition, spectral,

@@ -38,7 +38,7 @@ def matmul(a, b):
 
 
 def scene_transform(t):
-    """scale, then rotations about x, y, z, then translate (SCENE_FORMAT.md), as a 4x4."""
+    """scale, then rotations about x, y, z, then translate (docs/scene-format.md, `transform`), as a 4x4."""
     s = t.get("scale", 1.0)
     s = [s, s, s] if isinstance(s, (int, float)) else s
     m = [[s[0], 0, 0, 0], [0, s[1], 0, 0], [0, 0, s[2], 0], [0, 0, 0, 1]]

@@ -4,7 +4,7 @@
 # [ROUNDS=3] [OUTDIR=...]. Prints per render: scene round binary paths_per_second seconds_render
 # cpu_seconds (user + sys of the process, /usr/bin/time) paths waiting_requeues (paths re-queued
 # waiting for their shadow rays; '-' for a binary without the counter); the stats JSON of each render is
-# kept in OUTDIR (per-kernel device times). Used for issue 18 (bench/RESULTS.md).
+# kept in OUTDIR (per-kernel device times). Results: bench/RESULTS.md.
 set -u
 cd "$(dirname "$0")/.."
 OLD=${OLD:?OLD=old binary}; NEW=${NEW:?NEW=new binary}

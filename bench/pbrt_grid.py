@@ -71,7 +71,7 @@ _no_alpha = {}
 
 
 def no_alpha(binary):
-    """--no-alpha where the binary has film layers (issue 14: EXRs get a transparent film and an
+    """--no-alpha where the binary has film layers (docs/aov.md: EXRs get a transparent film and an
     alpha estimate by default): the benchmarks compare whole images and the cost of the beauty,
     as pbrt-v4 and Mitsuba render it; bench/film_layers.sh measures the layers' cost"""
     if binary not in _no_alpha:

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # bench/same_image.sh: whether two spectrack binaries render bit-identical images (EXR pixel data
 # by `oiiotool --dumpdata`) on a few scenes, trackers and queue settings, plus a control pair that
-# must differ (another --seed). A=... B=... [OUTDIR=...]. Used for issue 18 (raygen change).
+# must differ (another --seed). A=... B=... [OUTDIR=...]. Used for the raygen change (bench/RESULTS.md).
 set -u
 cd "$(dirname "$0")/.."
 A=${A:?A=binary before}; B=${B:?B=binary after}

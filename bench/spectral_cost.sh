@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # bench/spectral_cost.sh [SPP] [ROUNDS]: the cost of spectral mode per path (docs/spectral.md;
-# issue 15's target: at most 1.3x rgb) on the bench scenes, in one run: each scene and tracker
+# its target: at most 1.3x rgb) on the bench scenes, in one run: each scene and tracker
 # rendered in rgb and with --spectral (both --no-alpha, so both do the same per-path work),
 # interleaved round by round after a warm-up render of each (kernel builds cached), the order
 # swapped every round. Prints the mean seconds_render of each mode and, spectral over rgb, the

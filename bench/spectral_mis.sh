@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# bench/spectral_mis.sh [SPP] [SEEDS]: which estimator wins in which regime (issue 19 item 5).
+# bench/spectral_mis.sh [SPP] [SEEDS]: which estimator wins in which regime (docs/estimators.md, 'Spectral MIS').
 # On pbrt-v4's comparison grid (../shared/bench/pbrt-grid/, strongly chromatic) and every bench
 # scene, in one run per scene: the default tracker (spectral-decomposition, history-average,
 # absorption weight), spectral-mis with absorption as a weight and as an event (pbrt-v4's volpath

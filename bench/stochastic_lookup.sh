@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # bench/stochastic_lookup.sh [SPP] [SEEDS] [TRACKERS]: stochastic one-voxel lookups against
-# trilinear ones (issue 18 item 7; docs/stochastic-lookup.md). On pbrt-v4's comparison grid
+# trilinear ones (docs/stochastic-lookup.md). On pbrt-v4's comparison grid
 # (../shared/bench/pbrt-grid/) and every bench scene, in one run per scene, for each tracker of
 # TRACKERS (default: the default spectral-decomposition, delta-per-channel, spectral-mis): the
 # tracker with --lookup trilinear and --lookup stochastic, interleaved seed by seed after a warm-up

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # bench/tracker_table.sh [SPP] [SEEDS] [SCENES...]: every tracker x absorption mode x light
-# selection on every bench scene (issue 19's table), in one run per scene: bench/pbrt_grid.py with
+# selection on every bench scene (bench/RESULTS.md, 'Every tracker x absorption mode x light selection'), in one run per scene: bench/pbrt_grid.py with
 # one configuration each, interleaved seed by seed after a warm-up render each. Prints a markdown
 # table per scene: variance x seconds_render and the paper's lookups-to-unit-variance (density
 # lookups x variance), both as ratios to delta-per-channel / event / all (> 1: better). `delta` is

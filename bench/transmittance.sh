@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # bench/transmittance.sh [SPECTRACK_BUILD_DIR]: ratio tracking against ray-marching transmittance
-# (issue 13, docs/transmittance.md) on every bench scene and on pbrt-v4's comparison grid (when
+# (docs/transmittance.md) on every bench scene and on pbrt-v4's comparison grid (when
 # bench/pbrt_grid.py has generated it in the cache). Two figures per scene, each a ratio measured
 # in one run: (1) shadow rays alone: kernel_throughput's section (5), 32 rays from points in the
 # medium towards the light, 1024 estimates each, variance x lookups and variance x seconds; (2)

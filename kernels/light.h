@@ -1,7 +1,7 @@
 /* light.h: environment (uniform or lat-long map) and directional (delta or disc) lights:
  * radiance seen along a direction, direction sampling for next-event estimation, and the pdf
  * of that sampling for MIS against phase sampling (power heuristic, directions only:
- * ALGORITHMS.md 2.6).
+ * docs/estimators.md, 'Spectral MIS').
  * Lat-long convention: v = acos(d.y) / pi (row 0 looks up, +y), u = 0.5 + atan2(d.x, -d.z) / (2 pi)
  * (the image centre looks along -z). The map is sampled in proportion to max(rgb) * sin(theta). */
 #ifndef SPECTRACK_LIGHT_H

@@ -2,7 +2,7 @@
  * steps the exponential flights of every tracker through them.
  *
  * Each medium has a sparse grid of (dmax, dmin) cells in its index space, walked by a 3D DDA
- * (after pbrt-v4's DDAMajorantIterator, ALGORITHMS.md 7.4). The merged DDA (st_segments) ends
+ * (after pbrt-v4's DDAMajorantIterator; docs/estimators.md, 'Walking the grid'). The merged DDA (st_segments) ends
  * its current segment at the first cell boundary or medium boundary of any medium; the plain
  * segment the trackers see (st_segment) holds [t0, t1) and its free-path components: the
  * control coefficients and the residual bound (segments_current). Cells with dmax = 0 give
@@ -22,7 +22,7 @@
  *
  * The DDA holds no state between launches: a path that stops (budget, scatter) restarts it at
  * its current t. That is exact because free flights restart at any point where no collision is
- * pending (memoryless property, ALGORITHMS.md 7.5). Compiled without fast/finite math, so
+ * pending (memoryless property, docs/estimators.md, 'Walking the grid'). Compiled without fast/finite math, so
  * 1/0 = inf for axis-parallel rays; -0.0 components are made +0.0.
  */
 #ifndef SPECTRACK_MAJORANT_H
@@ -293,7 +293,7 @@ inline float4 segments_sigma_maj(__constant const st_scene* scene, const st_segm
 }
 
 /* A majorant segment [t0, t1) as the trackers see it, with its free-path components
- * (ALGORITHMS.md 3, 5). Control: the homogeneous part dmin * minorant_scale of every medium,
+ * (docs/estimators.md, 'Decomposition tracking'). Control: the homogeneous part dmin * minorant_scale of every medium,
  * with per-channel coefficients sigma_a_c, sigma_s_c and a gray coefficient mu_bar_c = max over
  * the path's channels of their sum (control collisions can be null for thin channels; no lookup
  * is needed to classify them). Residual: everything else, tracked with the gray coefficient
@@ -348,7 +348,7 @@ inline st_segment segments_current(__constant const st_scene* scene, const st_se
  * SampleT_maj; OpenCL C has no callbacks, so the caller loops on walker_step and runs its own
  * per-collision body). Each step is one iteration of the budget: a flight of rate mu_bar from
  * w->t that ends either at a tentative collision inside the current segment or past its end,
- * where the walk restarts at the next segment (memoryless restart, ALGORITHMS.md 7.5; segments
+ * where the walk restarts at the next segment (memoryless restart, docs/estimators.md, 'Walking the grid'; segments
  * with mu_bar = 0 are crossed without drawing). Two modes:
  *   ST_WALK_SAMPLE_CONTROL: flights of rate mu_bar_c + mu_bar_r, so tentative collisions of both
  *     components (free-path sampling; the body tells control from residual collisions).

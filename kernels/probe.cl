@@ -94,7 +94,7 @@ __kernel void k_probe_transmittance(__constant const st_scene* scene, __global c
   out_stats[i] = (float4)((float)st.lookups, (float)st.dda_steps, 0.0f, 0.0f);
 }
 
-/* Infinite-medium albedo problem (ALGORITHMS.md 9.1.4): a walk from o in a random direction,
+/* Infinite-medium albedo problem (docs/estimators.md, 'Tests that catch bias'): a walk from o in a random direction,
  * isotropic scattering, until absorption. out_scatter: sum of the path weight after each real
  * scattering event (exact: albedo / (1 - albedo) per channel for a spatially constant albedo);
  * out_absorb: the emission score with Le = 1 (exact: 1); out_absorb.w = 1 if the walk escaped.

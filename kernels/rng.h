@@ -16,16 +16,16 @@
  * (Salmon et al. 2011, "Parallel random numbers: as easy as 1, 2, 3", SC11: 7 rounds already
  * pass; 10 is their recommended default), and the four 32-bit words of one counter are its
  * intended output: Random123's philox4x32 returns all four and its Engine adaptor hands them out
- * one after the other, as here. Keeping one word per call, as before issue 18, cost 4x the Philox
- * work, which was ~40% of the run time on PoCL (design/PERFORMANCE.md); a cheaper generator
+ * one after the other, as here. Keeping one word per call costs 4x the Philox
+ * work, ~40% of the run time on PoCL (bench/RESULTS.md, 'Random numbers, raygen launches'); a cheaper generator
  * (fewer rounds, a hash) would need its own published quality evidence, so we keep the
  * generator and stop discarding three quarters of it. The device code is checked against
  * Random123's known-answer vectors and by chi-square tests of uniformity and of pairs of
  * successive draws, across block boundaries and neighbouring streams (tests/test_rng.cpp, via
- * kernels/probe.cl). The new counter layout changes every image (not its expectation): renders
- * after issue 18 differ from those before it for the same seed.
+ * kernels/probe.cl). The counter layout is part of every image (not of its expectation): another layout gives
+ * other images for the same seed.
  *
- * Draw indices are 32-bit (2^32 draws per stream, as before). The block cached in st_rng lives in
+ * Draw indices are 32-bit (2^32 draws per stream). The block cached in st_rng lives in
  * registers while a kernel runs; only the draw index is stored between launches.
  */
 #ifndef SPECTRACK_RNG_H

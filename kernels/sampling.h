@@ -1,6 +1,6 @@
 /* sampling.h: small geometric and sampling helpers (float3 math, exponential free flights,
  * directions on the sphere and in a cone, orthonormal frames). Precise log/exp only: the
- * native_* functions have implementation-defined accuracy (ALGORITHMS.md 7.4). */
+ * native_* functions have implementation-defined accuracy (docs/estimators.md, 'Walking the grid'). */
 #ifndef SPECTRACK_SAMPLING_H
 #define SPECTRACK_SAMPLING_H
 

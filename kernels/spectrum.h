@@ -1,4 +1,4 @@
-/* spectrum.h: spectral mode's device functions (issue 15): the wavelengths of a path, an RGB
+/* spectrum.h: spectral mode's device functions (docs/spectral.md): the wavelengths of a path, an RGB
  * colour's smooth spectrum at them, and the film's linear sRGB from them. The device twin of
  * src/color/spectrum.h (read it first); tests/test_spectrum.cpp holds the two to each other.
  *

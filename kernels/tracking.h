@@ -1,5 +1,5 @@
 /* tracking.h: the per-collision bodies of free-path sampling and transmittance, on the integral
- * formulation of null-collision algorithms (ALGORITHMS.md 2.2); the loop around them (segments,
+ * formulation of null-collision algorithms (docs/estimators.md, 'The integral formulation'); the loop around them (segments,
  * exponential flights, iteration budget) is the walker of majorant.h.
  *
  * One routine serves every tracker. Per majorant segment a gray free-path coefficient mu_bar is
@@ -11,12 +11,12 @@
  *   delta:             mask = rgb, achromatic media, max    -> analog delta tracking
  *   spectral:          mask = rgb, the chosen scheme (max, average, history-max, history-average)
  *   decomposition, spectral-decomposition: the same with control and residual components
- *                      (ALGORITHMS.md 3, 5)
+ *                      (docs/estimators.md, 'Decomposition tracking')
  * The |.| in the probabilities keeps every tracker unbiased when a majorant does not bound
- * (negative null coefficient: weighted tracking, ALGORITHMS.md 2.5); with a bounding majorant
+ * (negative null coefficient: weighted tracking, docs/estimators.md, 'Bounds that do not bound'); with a bounding majorant
  * the delta trackers' weights are exactly analog.
  * Emission is scored at absorption events only: beta * mu_a Le / (mu_bar P_a / p_sum)
- * (ALGORITHMS.md 2.4), in the absorption=event mode; in the absorption=weight mode (paper 5.1.3)
+ * (docs/estimators.md, 'Absorption modes'), in the absorption=event mode; in the absorption=weight mode (paper 5.1.3)
  * there are no absorption events and emission is a collision estimator at every real collision
  * (see "absorption as a weight" below). Every walk has an iteration budget; when it is spent the routine returns
  * ST_EV_BUDGET (ratio_track: 0) with t at a point where no collision is pending, and the caller
@@ -71,7 +71,7 @@ inline float3 event_values(int scheme, float4 beta, float4 mask, float4 sigma_a,
  * of the two magnitudes keeps P_r > 0 wherever a residual component has sigma_a != 0 or
  * sigma_s != 0 even if they cancel), P_n = reduce(w |sigma_n|), w = 1 or |beta| (history schemes).
  *
- * Unbiasedness. The integral formulation (ALGORITHMS.md 2.2) at a tentative collision x with the
+ * Unbiasedness. The integral formulation (docs/estimators.md) at a tentative collision x with the
  * component's gray mu_bar is
  *   L(x) = [sigma_a Le + sigma_s (f_p * L_s) + sigma_n L(x')] / mu_bar   (per channel, then * beta).
  * We sample "real" with probability P_r / p_sum and "null" with P_n / p_sum. On "real" the path
@@ -89,7 +89,7 @@ inline float3 event_values(int scheme, float4 beta, float4 mask, float4 sigma_a,
  * the same formula as the event mode's absorption score with P_a replaced by P_r: it uses the
  * real collision's probability, so the absorption part of every real collision contributes,
  * not only the fraction sigma_a / sigma_t of them that the event mode turns into absorptions.
- * With decomposition the component's own coefficients (option A, ALGORITHMS.md 3.3) and density
+ * With decomposition the component's own coefficients (option A, docs/estimators.md, 'Decomposition tracking') and density
  * parts are used, so a control collision scores the control's sigma_a Le with the control's
  * density parts, and needs no density lookup (Le of a gridded emission still reads its grid).
  *
@@ -126,7 +126,7 @@ typedef struct {
 
 /* A tentative collision at p belongs to the control component with probability
  * mu_bar_c / (mu_bar_c + mu_bar_r) (the race of two exponential flights) and is classified with
- * that component's own coefficients (option A of ALGORITHMS.md 3.3): a control collision needs
+ * that component's own coefficients (option A of docs/estimators.md, 'Decomposition tracking'): a control collision needs
  * no lookup, a residual one looks the density up and subtracts the control. */
 inline st_collision collision_component(__constant const st_scene* scene, __global const uint* grids,
                                         const st_walker* w, float3 p, st_rng* rng, st_track_stats* st) {

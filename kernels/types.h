@@ -138,7 +138,7 @@ inline int st_tracker_uses_scheme(int t) { return ST_TRACKERS(ST_X_TRACKER_SCHEM
 inline int st_tracker_decomposes(int t) { return ST_TRACKERS(ST_X_TRACKER_DECOMPOSES) 0; }
 inline int st_tracker_default_absorption(int t) { return ST_TRACKERS(ST_X_TRACKER_ABSORPTION) ST_ABSORPTION_EVENT; }
 
-/* Spectral schemes (ALGORITHMS.md 4): X(ENUM suffix, name). */
+/* Spectral schemes (docs/estimators.md, 'Spectral tracking'): X(ENUM suffix, name). */
 #define ST_SCHEMES(X) X(MAX, "max") X(AVERAGE, "average") X(HISTORY_MAX, "history-max") X(HISTORY_AVERAGE, "history-average")
 #define ST_X_SCHEME_ENUM(E, name) ST_SCHEME_##E,
 enum st_scheme { ST_SCHEMES(ST_X_SCHEME_ENUM) ST_SCHEME_COUNT };
@@ -151,7 +151,7 @@ enum st_medium_type { ST_MEDIUM_VDB = 0, ST_MEDIUM_HOMOGENEOUS = 1 };
 enum st_color_mode { ST_COLOR_NONE = 0, ST_COLOR_ALBEDO = 1, ST_COLOR_SCATTERING = 2 };
 enum st_phase_type { ST_PHASE_ISOTROPIC = 0, ST_PHASE_HG = 1 };
 
-/* Layers of the film beyond the beauty (docs/aov.md; issue 14): X(ENUM suffix, --aov / film.aovs name).
+/* Layers of the film beyond the beauty (docs/aov.md): X(ENUM suffix, --aov / film.aovs name).
  *   alpha:       A = 1 - the camera ray's transmittance through every medium (its channel mean; AR,
  *                AG, AB per channel), from a transmittance estimate along the camera ray (its own
  *                random stream, ST_STREAM_CAMERA_T); the film becomes transparent: the lights at

@@ -1,4 +1,4 @@
-// test_aov.cpp: the film layers of issue 14 (docs/aov.md): alpha from a transmittance estimate
+// test_aov.cpp: the film layers (docs/aov.md): alpha from a transmittance estimate
 // along the camera ray (closed form on a slab, exactly 0 where the ray meets nothing, 1 behind an
 // opaque medium), the transparent film (R, G, B + environment = the beauty), the variance layer
 // against the variance computed from single-sample shards of the same render, exact merging of

@@ -502,8 +502,8 @@ TEST(CliInterrupt, SigtermWritesPartialImageAndExits130) { check_interrupt(SIGTE
 }  // namespace
 
 // A render that never finishes a batch: the camera inside a box of half-width 1e6 that scatters
-// and never absorbs (every path walks for ever; max_depth unlimited). Issue 16: a stop must not
-// wait for paths in flight.
+// and never absorbs (every path walks for ever; max_depth unlimited). A stop must not wait for
+// paths in flight (docs/cli.md, signals).
 json endless_scene() { return homogeneous_scene(16, 16, 4, 10.0, 0.0, 1e6); }
 
 TEST(CliInterrupt, SigtermStopsAnEndlessRenderWithinASecond) {
@@ -603,8 +603,7 @@ TEST(CliTimeLimit, BadLimitsAreRefused) {
 // The kernels are compiled (PoCL: per work-group size, at a kernel's first launch) before the
 // stage loop starts: a render with cold caches (a fresh spectrack kernel cache and a fresh PoCL
 // cache) spends its JIT time in seconds_kernel_build, and its seconds_render, the stage loop
-// alone, stays a small fraction of it. (Before issue 18 item 6 such a render reported seconds of
-// compilation as render time.)
+// alone, stays a small fraction of it (seconds of compilation are not render time).
 TEST(CliRender, ColdCacheJitIsInKernelBuildNotRender) {
   std::string dir = test_dir();
   std::string scene = write_scene(dir, "tiny.json", homogeneous_scene(8, 8, 1, 1.0, 0.1));
@@ -632,7 +631,7 @@ TEST(CliRender, ColdCacheJitIsInKernelBuildNotRender) {
   EXPECT_GE(j.value("seconds_total", -1.0), render + build - 1e-3);
 }
 
-// ---- 5. hostile inputs and outputs (issue 16) ----------------------------------------------------
+// ---- 5. hostile inputs and outputs (docs/limits.md) ---------------------------------------------
 // Images that OpenImageIO opens but spectrack would misread, light magnitudes the float kernels
 // cannot carry, inputs that are not regular files, outputs that collide with each other or with
 // inputs, and flags that contradict each other. Each must exit with its documented code, name

@@ -219,7 +219,7 @@ TEST(ColorGrid, EveryTrackerAgreesWithPerChannelDelta) {
     for (const Variant& v : variants()) {
       if (v.tracker == ST_TRACKER_DELTA_PER_CHANNEL && v.absorption == ST_ABSORPTION_EVENT) continue;
       // seed 201: with the majorant hierarchy, seed 200 gave spectral-mis one outlier (z = 4.47 in
-      // albedo mode) while ten other seeds gave 1.1-2.6 (issue 12's note): heavy-tailed weights
+      // albedo mode) while ten other seeds gave 1.1-2.6 (docs/majorant-hierarchy.md): heavy-tailed weights
       RenderResult r = render(t, dir, v.tracker, v.absorption, 201);
       EXPECT_EQ(r.stats.nonfinite_samples, 0u) << mode << ", " << v.name();
       EXPECT_LT(max_z(r, ref), 4.0) << mode << ", " << v.name();

@@ -425,7 +425,7 @@ json chromatic_scene(const std::string& dir) {
             {"render", {{"seed", 5}}},
             {"lights", {{{"type", "environment"}, {"radiance", {1, 1, 1}}}}},
             {"media", json::array()}};
-  // sigma_t = (100, 1, 0.01) with albedo (0.99, 0.5, 0.1) (ALGORITHMS.md 9.3)
+  // sigma_t = (100, 1, 0.01) with albedo (0.99, 0.5, 0.1) (docs/estimators.md, 'Tests that catch bias')
   s["media"].push_back({{"type", "vdb"}, {"file", "mild.vdb"}, {"sigma_s", {99.0, 0.5, 0.001}}, {"sigma_a", {1.0, 0.5, 0.009}}});
   return s;
 }

@@ -1,4 +1,4 @@
-// test_framing.cpp: the camera framing of docs/scene-format.md (scene/framing.h, issue 17):
+// test_framing.cpp: the camera framing of docs/scene-format.md (scene/framing.h):
 // "look_at": "media", "position": "auto" and "fit" put every medium's world box inside the
 // frustum, on the shipped scenes, on a translated smoke and through pack_scene; the parser's
 // refusals; the fixed bench/scenes/smoke1.json shows its whole smoke.

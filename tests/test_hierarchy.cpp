@@ -1,4 +1,4 @@
-// test_hierarchy.cpp: the adaptive majorant/minorant hierarchy (issue 12; kernels/majorant.h,
+// test_hierarchy.cpp: the adaptive majorant/minorant hierarchy (kernels/majorant.h,
 // build_majorant_hierarchy in src/volume/majorant_grid.cpp, docs/majorant-hierarchy.md):
 //   - host: every fine cell's bounds at its block's level contain the fine cell's own; an empty
 //     block is walked whole at zero, a uniform one whole, a block on a sharp interface at the

@@ -1,4 +1,4 @@
-// test_info.cpp: `spectrack info` on every file of ../shared/data/vdb (issue 17): the world boxes
+// test_info.cpp: `spectrack info` on every file of ../shared/data/vdb (docs/cli.md, `info`): the world boxes
 // it prints are checked against OpenVDB's own evalActiveVoxelBoundingBox through the grid's
 // transform, and the malformed files fail cleanly (exit 1, the file and a reason named, no crash).
 #include <openvdb/openvdb.h>

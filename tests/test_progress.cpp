@@ -1,4 +1,4 @@
-// test_progress.cpp: what `spectrack render` tells while and after it renders (issue 17): in a
+// test_progress.cpp: what `spectrack render` tells while and after it renders (docs/cli.md): in a
 // non-TTY run progress lines come at 0%, every 5 s and at 100% with samples done, samples/s and
 // an ETA, the fraction advances within a batch, and the last lines name every file written.
 #include <regex>

@@ -1,6 +1,6 @@
-// test_scene.cpp: the scene loader against the SCENE_FORMAT.md contract.
+// test_scene.cpp: the scene loader against the docs/scene-format.md contract.
 //
-// Design: most tests start from the full example of SCENE_FORMAT.md (as nlohmann::json), change
+// Design: most tests start from the full example of docs/scene-format.md (as nlohmann::json), change
 // one thing and check either the parsed value or the error. An error must start with the scene
 // name and the JSON path of the offending field, and carry a reason keyword, so each check pins
 // down where the loader looked, not just that it threw. Files named by scenes are empty dummies in
@@ -956,7 +956,7 @@ TEST_F(SceneTest, ErrorsInsideAMediumNameIt) {
   EXPECT_THAT(error(j), testing::Not(HasSubstr("in medium")));
 }
 
-// ---- hostile inputs (issue 16): magnitudes the float kernels cannot carry, files that are not
+// ---- hostile inputs (docs/limits.md): magnitudes the float kernels cannot carry, files that are not
 // files, images that would be misread, paths that collide ----
 
 TEST_F(SceneTest, LightMagnitudesThatOverflowFloatAreRefused) {

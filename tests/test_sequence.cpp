@@ -1,4 +1,4 @@
-// test_sequence.cpp: `spectrack render --frames A:B` (issue 17, sequences): the 3-frame Blender
+// test_sequence.cpp: `spectrack render --frames A:B` (docs/cli.md, `--frames`): the 3-frame Blender
 // smoke of ../shared/data/vdb/usd renders 3 images, later frames reuse the kernels (loaded from the
 // kernel cache, not compiled again), and a missing frame is an error naming it.
 #include "cli_util.h"

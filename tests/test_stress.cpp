@@ -1,4 +1,4 @@
-// test_stress.cpp: numerical stress cases (ALGORITHMS.md 9.3) for every tracker: densities from
+// test_stress.cpp: numerical stress cases (docs/estimators.md, 'Tests that catch bias') for every tracker: densities from
 // 1e-6 to 1e6 per unit length, 1:1000 chromatic ratios, HG g = +-0.999, majorants 10x too low
 // and minorants 10x too high, the camera inside a medium, rays along cell faces and grazing the
 // bounds, voxel sizes 1e-4 and 1e4, an all-background volume, a degenerate transform. Every
@@ -94,7 +94,7 @@ TEST(Stress, MajorantTenTimesTooLow) {
 TEST(Stress, MinorantTenTimesTooHighStaysFinite) {
   // Unbiased but of practically infinite variance: per channel, control collisions absorb ten
   // times too often and residual null collisions compensate with weights of 3 each; in this slab
-  // E[w^2] is about e^21 per sample, so a sample standard error means nothing (ALGORITHMS.md 9).
+  // E[w^2] is about e^21 per sample, so a sample standard error means nothing (docs/estimators.md, 'Tests that catch bias').
   // Unbiasedness of non-bounding minorants is tested at a 2x overshoot in Estimators.*; here
   // only finiteness and bounded time.
   std::string dir = temp_dir("minorant_high");
@@ -270,7 +270,7 @@ TEST(Stress, AbsurdFilmIsRefusedBeforeAllocation) {
 
 }  // namespace
 
-// ---- issue 16 item 2: what a float kernel cannot represent, and flights below the float spacing of t
+// ---- docs/limits.md, float range: what a float kernel cannot represent, and flights below the float spacing of t
 
 namespace {
 

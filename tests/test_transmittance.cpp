@@ -112,7 +112,7 @@ TEST(RayMarching, ClosedFormProfiles) {
             continue;
           // one level of 8-voxel cells: the twin's power was sized on them; the default hierarchy
           // walks this thin ramp in whole 16-voxel blocks, whose looser bounds give ray marching
-          // about twice the variance (issue 12's note)
+          // about twice the variance (docs/majorant-hierarchy.md)
           Estimate e = run(s, dir, tracker, mode, {-1.0f, 3.5f / 16.0f, 3.5f / 16.0f}, {1, 0, 0}, 20000, 256, lookup, 8);
           for (int c = 0; c < 3; ++c) {
             double exact = std::exp(-sig[c] * tau1);

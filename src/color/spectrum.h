@@ -1,5 +1,5 @@
 // spectrum.h: smooth spectra from RGB colours (Jakob and Hanika 2019) and the CIE illuminant D65,
-// the colour side of spectral mode (issue 15).
+// the colour side of spectral mode (docs/spectral.md).
 //
 // Design: a colour c in [0, 1]^3 (linear sRGB, a reflectance or an albedo) becomes the spectrum
 //   s(lambda) = scale * S(c0 u^2 + c1 u + c2),   u = (lambda - 360 nm) / 470 nm,

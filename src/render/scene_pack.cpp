@@ -1,5 +1,5 @@
 // scene_pack.cpp: see scene_pack.h. Transforms are composed in double precision (scale, then
-// rotations about x, y, z, then translation: SCENE_FORMAT.md) and only the final world-to-index
+// rotations about x, y, z, then translation: docs/scene-format.md, `transform`) and only the final world-to-index
 // rows are rounded to float.
 #include "render/scene_pack.h"
 #include "render/spectral_pack.h"
@@ -126,7 +126,7 @@ double max_sigma_t(const st_medium& m) {
   return std::max({double(s.x), double(s.y), double(s.z)});
 }
 
-// scale, then rotations about x, y, z, then translate (SCENE_FORMAT.md)
+// scale, then rotations about x, y, z, then translate (docs/scene-format.md, `transform`)
 Mat4 user_transform(const TransformDesc& t) {
   Mat4 S, Rx, Ry, Rz, T;
   for (int i = 0; i < 3; ++i) S.m[i][i] = t.scale[i];

@@ -1,6 +1,6 @@
 // majorant_grid.cpp: the sparse majorant/minorant grids of a density grid (volume.h).
 //
-// Design: the grid follows ALGORITHMS.md 7.2: cell boundaries sit on voxel centres, so a cell of
+// Design: the grid follows docs/estimators.md, 'The trilinear-support rule': cell boundaries sit on voxel centres, so a cell of
 // B voxels reads the (B+1)^3 voxels of its trilinear support and bounds the interpolated density
 // anywhere inside it. The adaptive hierarchy (build_majorant_hierarchy, docs/majorant-hierarchy.md)
 // walks each block of fine cells at the level its cost model picks: groups of r^3 cells bounded

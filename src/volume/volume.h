@@ -8,7 +8,7 @@
 // [origin, origin + dims * cell) with origin = index_min - 1; cell (i,j,k) spans
 // [origin + (i,j,k)*cell, origin + (i,j,k)*cell + cell) and stores the max and min over its
 // trilinear support, voxels origin + c*cell ... origin + (c+1)*cell inclusive on each axis
-// (ALGORITHMS.md 7.2), so dmin <= density(p) <= dmax for every p in the cell.
+// (docs/estimators.md, 'The trilinear-support rule'), so dmin <= density(p) <= dmax for every p in the cell.
 #pragma once
 #include <array>
 #include <string>

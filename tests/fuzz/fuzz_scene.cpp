@@ -44,7 +44,7 @@ void remove_root() {
 bool finite3(const spectrack::Vec3& v) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }
 bool nonneg3(const spectrack::Vec3& v) { return finite3(v) && v[0] >= 0 && v[1] >= 0 && v[2] >= 0; }
 
-// The documented meaning of an accepted scene (scene.h, SCENE_FORMAT.md, kernels/types.h).
+// The documented meaning of an accepted scene (scene.h, docs/scene-format.md, kernels/types.h).
 void check_scene(const spectrack::SceneDesc& s) {
   using namespace spectrack;
   check(s.path == kName, "SceneDesc::path is not the given name");
