@@ -578,13 +578,13 @@ def main():
                 stats=r["stats"]) for r in results]
     json.dump(dict(meta=meta, scenes=raw), open(os.path.join(results_dir, "issue4_raw.json"), "w"), indent=1)
     if not args.no_results_md and not args.quick:
-        splice(os.path.join(ROOT, "bench", "RESULTS.md"), SECTION, "## ", text)
-        readme = os.path.join(ROOT, "README.md")
+        splice(os.path.join(ROOT, "bench", "results", "log_2026-12.md"), SECTION, "## ", text)
+        readme = os.path.join(ROOT, "docs", "benchmarks.md")
         body = open(readme).read()
         b, e = "<!-- bench-headline:begin -->", "<!-- bench-headline:end -->"
         if b in body and e in body:
             block = "\n".join([b, f"Measured by `bench/run` on {meta['date']} ({meta['device']}, commit {meta['commit']}; "
-                               "details in bench/RESULTS.md):", ""] + H + [""] + [f"- {t}" for t in targets] + [e])
+                               "details in bench/results/log_2026-12.md):", ""] + H + [""] + [f"- {t}" for t in targets] + [e])
             body = body[:body.index(b)] + block + body[body.index(e) + len(e):]
             open(readme, "w").write(body)
     print(text)

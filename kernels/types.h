@@ -382,7 +382,7 @@ typedef struct {
   st_int has_env;               /* any environment light */
   st_int chromatic;             /* any medium with channel-dependent coefficients */
   st_int batches_in_flight;     /* ring size: batch b uses ring slot b % batches_in_flight */
-  st_int absorption;            /* st_absorption (event: 0, the layout's former padding) */
+  st_int absorption;            /* st_absorption (event: 0, the value of a zero-filled struct) */
   st_int light_sampling;        /* st_light_sampling */
   st_int transmittance;         /* st_transmittance_mode */
   float march_spacing;          /* ray-marching: majorant optical depth between the samples of one estimate */

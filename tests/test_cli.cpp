@@ -153,7 +153,7 @@ TEST_F(CliFlags, MissingSubcommandAndSceneAreUsageErrors) {
 
 TEST_F(CliFlags, UnknownTrackerListsValidOnes) {
   Proc p = run({"render", scene, "-o", dir + "/out.exr", "--tracker", "bogus", "--quiet"});
-  expect_error_exit(p, 2);  // a bad command line (README), found by CLI11
+  expect_error_exit(p, 2);  // a bad command line (docs/cli.md), found by CLI11
   EXPECT_THAT(p.out, HasSubstr("bogus")) << p.describe();
   for (const char* t : {"delta-per-channel", "delta", "spectral", "decomposition", "spectral-decomposition", "spectral-mis"})
     EXPECT_THAT(p.out, HasSubstr(t)) << p.describe();

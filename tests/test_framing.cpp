@@ -150,7 +150,7 @@ TEST(Framing, ShippedScenesFramed) {
   }
 }
 
-// bench/scenes/smoke1.json (its smoke was cut off at the right edge): now every box is in view,
+// bench/scenes/smoke1.json (a framing that cuts its smoke off at the right edge fails): every box is in view,
 // also through pack_scene's camera (the one the kernels get).
 TEST(Framing, BenchSmoke1ShowsAllItsSmoke) {
   const std::string f = kSrc + "/bench/scenes/smoke1.json";

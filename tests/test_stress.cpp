@@ -409,10 +409,10 @@ TEST(Stress, FlightsBelowTheFloatSpacingOfTStillAdvance) {
 }
 
 TEST(Stress, DensityScaleOneMillionOnSmoke1FarFromTheOrigin) {
-  // The case: smoke1 (world coordinates around 40) seen from 190 units away at
+  // A real case: smoke1 (world coordinates around 40) seen from 190 units away at
   // density_scale 1e6 (9e5 per voxel). With 8-voxel majorant cells a ray crossing the empty part
   // of a cell that holds dense voxels takes mu_bar * length (about 1e7) tentative collisions: the
-  // whole silhouette took longer than minutes. The majorant cells now shrink with the optical
+  // whole silhouette would take longer than minutes. The majorant cells shrink with the optical
   // depth (float_limits.h), so the render is bounded; its core must look like a thick medium of
   // albedo 0.91, as at density_scale 1e4 (also thick there).
   std::string dir = temp_dir("smoke1_1e6");

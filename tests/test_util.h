@@ -22,7 +22,7 @@
 namespace st_test {
 
 // The folders temp_dir made during the running test: removed when it ends without a failure (a
-// failed test's files stay for a look). Every test run used to leave ~130 folders in /tmp.
+// failed test's files stay for a look). Without it every test run leaves ~130 folders in /tmp.
 class RemoveDirsOnPass : public testing::EmptyTestEventListener {
  public:
   static std::vector<std::string>& dirs() {

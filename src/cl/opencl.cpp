@@ -208,7 +208,7 @@ std::string assemble_kernel_source(const std::vector<std::pair<std::string, std:
   for (auto& [k, v] : defines) out << "#define " << k << " " << v << "\n";
   // No contraction of a * b + c into one fma: OpenCL C allows it by default, and NVIDIA's compiler
   // contracts differently in each specialisation of a kernel, so specialised and generic kernels
-  // rendered different images there (bit for bit; the same on PoCL). Explicit fma() calls stay.
+  // would render different images there (bit for bit; the same on PoCL). Explicit fma() calls stay.
   out << "#pragma OPENCL FP_CONTRACT OFF\n";
   for (const std::string& name : order) {
     if (name == "film_table") {  // generated: src/color/spectrum.h's tables
