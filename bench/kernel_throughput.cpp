@@ -183,7 +183,7 @@ int main(int argc, char** argv) {
                                     {"mean_density", ssum / double(n_points)}};
     }
     // The same trilinear lookups on the host with NanoVDB's ReadAccessor (one per thread), on 1
-    // and 2 threads: the figure the kernels' PNanoVDB lookups are compared with (docs/architecture.md, 'Kernels').
+    // and 2 threads: the figure the kernels' PNanoVDB lookups are compared with (bench/RESULTS.md, 'PNanoVDB in the kernels against NanoVDB's host ReadAccessor').
     // The device figure includes the points' upload and the read-back; the host one does not.
     const nanovdb::FloatGrid* grid = g.handle.grid<float>();
     if (!grid) throw Error(scene_path + ": the medium's NanoVDB grid is not a float grid");

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# specialisation.sh [REPEATS] [SECTIONS]: the specialisation measurements (docs/architecture.md, 'Kernels') in one run, as markdown.
+# specialisation.sh [REPEATS] [SECTIONS]: the specialisation measurements (docs/architecture.md, 'Kernels, the feature mask and the kernel cache') in one run, as markdown.
 #   spec   specialised vs generic kernels (render seconds, interleaved, median of REPEATS) per scene
 #   cache  kernel build cold (empty cache, POCL_KERNEL_CACHE=0) and warm, and seconds to the first finished pass of the
 #          default scene (data/scenes/cloud.json) with a warm cache
