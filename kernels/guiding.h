@@ -16,7 +16,7 @@
  * its normaliser written with -expm1(-2 kappa) (no cancellation as kappa -> 0, where f -> 1/4pi)
  * and 1 - mu.w written as |w - mu|^2 / 2 (no cancellation near the mean, where a lobe of kappa
  * 1e4 lives within 0.01 rad). Sampling inverts the polar CDF in the stable form of W. Jakob's note
- * on vMF sampling: 1 - cos theta = -log1p(u expm1(-2 kappa)) / kappa, exact for every kappa > 0.
+ * on vMF sampling: 1 - cos theta = -log1p(u expm1(-2 kappa)) / kappa, for every kappa > 0.
  */
 #ifndef SPECTRACK_GUIDING_H
 #define SPECTRACK_GUIDING_H
@@ -86,12 +86,24 @@ inline void vmf_frame(st_vec3 n, st_vec3* t, st_vec3* b) {
 }
 
 /* A direction of the lobe (mu, kappa) from two uniforms in [0, 1): the polar angle by inverting
- * the CDF of 1 - cos theta (u = 0 gives the mean), the azimuth 2 pi u2. */
+ * the CDF of 1 - cos theta (u = 0 gives the mean), the azimuth 2 pi u2. The log's argument
+ * 1 + u expm1(-2 kappa) is written as (1 - u) + u exp(-2 kappa) where it is small (u near 1: the
+ * tail), a sum of two positive terms where the first form would cancel. Past the equator 1 + cos
+ * theta comes from its own form, log1p((1 - u) expm1(2 kappa)) / kappa, not from 2 - (1 - cos):
+ * near the antipode the difference cancels, and sin theta = sqrt((1 - cos)(1 + cos)) would carry
+ * the rounding of the log1p into the direction (as phase.h's product forms avoid for HG). Beyond
+ * kappa 40 the far hemisphere has probability below 1e-17, and expm1(2 kappa) overflows from 44. */
 inline st_vec3 vmf_sample(st_vec3 mu, float kappa, float u1, float u2) {
-  float omc = kappa > ST_VMF_KAPPA_UNIFORM ? -log1p(u1 * expm1(-2.0f * kappa)) / kappa : 2.0f * u1;
+  float omc = 2.0f * u1, opc = 2.0f * (1.0f - u1); /* 1 - cos theta, 1 + cos theta */
+  if (kappa > ST_VMF_KAPPA_UNIFORM) {
+    float x = u1 * expm1(-2.0f * kappa); /* the CDF's log argument minus 1, in (-1, 0] */
+    omc = -(x > -0.5f ? log1p(x) : log((1.0f - u1) + u1 * exp(-2.0f * kappa))) / kappa;
+    opc = omc > 1.0f && kappa < 40.0f ? log1p((1.0f - u1) * expm1(2.0f * kappa)) / kappa : 2.0f - omc;
+  }
   omc = fmin(fmax(omc, 0.0f), 2.0f);
-  float sin_theta = sqrt(omc * (2.0f - omc));
-  float cos_theta = 1.0f - omc;
+  opc = fmin(fmax(opc, 0.0f), 2.0f);
+  float sin_theta = sqrt(omc * opc);
+  float cos_theta = omc < opc ? 1.0f - omc : opc - 1.0f;
   float phi = 2.0f * ST_GUIDE_PI * u2;
   float sx = sin_theta * cos(phi), sy = sin_theta * sin(phi);
   st_vec3 t, b;
