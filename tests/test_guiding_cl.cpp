@@ -6,7 +6,8 @@
 //     Henyey-Greenstein) equal the host's for the same uniforms, and its mixture pdf and phase
 //     value are those the host computes at the device's direction;
 //   - the device's guided estimator, with a guide pointing away from the light, estimates the
-//     integral of f_phase g within 4 standard errors; twin: the pdf 3% off is detected.
+//     integral of f_phase g within 4 standard errors; twin: the pdf 3% off is detected;
+//   - the renderer's program does not contain guiding.h yet, so its images are unchanged.
 #include <map>
 
 #include "cl/opencl.h"
@@ -128,4 +129,12 @@ TEST(GuidingOpenCL, DeviceMatchesHost) {
   const double mean = s / n, se = std::sqrt((s2 / n - mean * mean) / (n - 1)), reference = phase_times_g(g_hg, wo, g);
   EXPECT_NEAR(mean, reference, 4 * se) << "the device's guided estimator with a guide pointing away";
   EXPECT_GT(std::fabs(mean / 1.03 - reference), 4 * se) << "twin: the pdf 3% off must be detected";
+}
+
+TEST(GuidingOpenCL, RendererProgramDoesNotIncludeGuidingYet) {
+  // guiding.h is embedded with every kernels/ file, but the renderer's source (and so its kernel
+  // cache key and its images) is what it was; the step that wires guiding in removes this test
+  const std::string src = spectrack::assemble_kernel_source({{"ST_KERNEL_MAX_MEDIA", "1"}});
+  EXPECT_EQ(src.find("st_vmf_mixture"), std::string::npos);
+  EXPECT_NE(probe_source().find("st_vmf_mixture"), std::string::npos);
 }

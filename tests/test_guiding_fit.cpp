@@ -4,7 +4,7 @@
 //     by its pdf (the form of radiance records), within 4 standard errors of each parameter
 //     (kappa: 1 / sqrt(n A'(kappa)); weight: binomial; mean: the tangent-plane spread); twins: the
 //     same fit compared with kappas or weights 3% off fails;
-//   - the fit is deterministic (same input, same bits), and a handful of samples gives finite,
+//   - the fit is deterministic (same input, same bits; weights in other units, same bits), and a handful of samples gives finite,
 //     broad lobes (the MAP prior), no samples the uniform mixture.
 #include <cstring>
 
@@ -117,6 +117,10 @@ TEST(GuidingFit, IsDeterministic) {
   spectrack::VmfFitResult a = spectrack::fit_vmf_mixture(xs), b = spectrack::fit_vmf_mixture(xs);
   EXPECT_EQ(std::memcmp(&a.mixture, &b.mixture, sizeof(st_vmf_mixture)), 0);
   EXPECT_EQ(a.iterations, b.iterations);
+  std::vector<DirectionalSample> scaled = xs;  // records in other units: weights x 4 (exact in float)
+  for (auto& x : scaled) x.weight *= 4.0f;
+  spectrack::VmfFitResult d = spectrack::fit_vmf_mixture(scaled);
+  EXPECT_EQ(std::memcmp(&a.mixture, &d.mixture, sizeof(st_vmf_mixture)), 0) << "the fit depends on relative weights only";
   VmfFitOptions other;
   other.seed = 2;  // another initialisation: another (valid) fit, so the comparison above can fail
   spectrack::VmfFitResult c = spectrack::fit_vmf_mixture(xs, other);
