@@ -1,0 +1,188 @@
+/* guiding.h: the directional distribution of volume path guiding (docs/guiding.md): a mixture of
+ * von Mises-Fisher (vMF) lobes on the sphere, evaluated and sampled exactly, and the pieces of the
+ * one-sample mixture of the phase function with it that a guided scatter event draws from.
+ *
+ * Design: one header in the common subset of C++17 and OpenCL C (as types.h), so the host's
+ * fitter and tests and the device's kernels run the same float arithmetic. Directions are st_vec3
+ * (float3 on the device, a struct of three floats on the host), read only through .x .y .z; the
+ * math is the float overloads both languages share (sqrt, exp, expm1, log1p, sin, cos, fmin, fmax;
+ * C++ takes them from <math.h>). A mixture is a fixed record of ST_VMF_LOBES lobes (unused lobes
+ * have weight 0), so a region's cache entry has one size and every loop one trip count. The
+ * renderer's program does not include this file yet (images are unchanged); the device-only part
+ * at the end needs phase.h before it.
+ *
+ * A lobe of unit mean direction mu and concentration kappa has the density
+ *     f(w) = kappa / (2 pi (1 - exp(-2 kappa))) * exp(-kappa (1 - mu.w)),
+ * its normaliser written with -expm1(-2 kappa) (no cancellation as kappa -> 0, where f -> 1/4pi)
+ * and 1 - mu.w written as |w - mu|^2 / 2 (no cancellation near the mean, where a lobe of kappa
+ * 1e4 lives within 0.01 rad). Sampling inverts the polar CDF in the stable form of W. Jakob's note
+ * on vMF sampling: 1 - cos theta = -log1p(u expm1(-2 kappa)) / kappa, for every kappa > 0.
+ */
+#ifndef SPECTRACK_GUIDING_H
+#define SPECTRACK_GUIDING_H
+
+#ifdef __OPENCL_VERSION__
+typedef float3 st_vec3;
+#define ST_GUIDE_GLOBAL __global
+inline st_vec3 vec3_make(float x, float y, float z) { return (float3)(x, y, z); }
+#else
+#include <math.h>
+
+#include "types.h"
+typedef struct {
+  float x, y, z;
+} st_vec3;
+#define ST_GUIDE_GLOBAL
+inline st_vec3 vec3_make(float x, float y, float z) {
+  st_vec3 v = {x, y, z};
+  return v;
+}
+#endif
+
+#define ST_GUIDE_PI 3.14159265358979323846f
+#define ST_GUIDE_INV_4PI 0.07957747154594767f
+#define ST_GUIDE_ONE_MINUS_EPS 0.99999994f /* the largest float below 1 */
+/* Below this kappa a lobe is the uniform density (the exact forms divide 0 by 0 at kappa = 0;
+ * at 1e-12 they differ from uniform by 1e-12, far below float resolution). */
+#define ST_VMF_KAPPA_UNIFORM 1e-12f
+
+/* Lobes per mixture: 8 lobes take 160 bytes, 8 exp per pdf evaluation. Incident radiance in a
+ * medium is smooth (the phase function blurs it at every bounce); a sun, a sky and a few bright
+ * neighbours fit in 8 lobes (docs/guiding.md, "Directional representation"). */
+#define ST_VMF_LOBES 8
+
+typedef struct {
+  st_float4 lobe[ST_VMF_LOBES]; /* xyz: the unit mean direction mu; w: the concentration kappa >= 0 */
+  float weight[ST_VMF_LOBES];   /* >= 0, unused lobes 0; the mixture is normalised by their sum,
+                                 * and with a zero sum it is the uniform density */
+} st_vmf_mixture;
+
+#define ST_SIZEOF_VMF_MIXTURE 160
+#ifdef __OPENCL_VERSION__
+typedef char st_check_vmf_mixture[(sizeof(st_vmf_mixture) == ST_SIZEOF_VMF_MIXTURE) ? 1 : -1];
+#else
+static_assert(sizeof(st_vmf_mixture) == ST_SIZEOF_VMF_MIXTURE, "st_vmf_mixture layout");
+#endif
+
+/* kappa / (2 pi (1 - exp(-2 kappa))): the density of a lobe at its mean. */
+inline float vmf_norm(float kappa) {
+  return kappa > ST_VMF_KAPPA_UNIFORM ? kappa / (2.0f * ST_GUIDE_PI * -expm1(-2.0f * kappa)) : ST_GUIDE_INV_4PI;
+}
+
+/* The density (per steradian) at unit direction w of the lobe (mu, kappa). */
+inline float vmf_eval(st_vec3 mu, float kappa, st_vec3 w) {
+  float dx = w.x - mu.x, dy = w.y - mu.y, dz = w.z - mu.z;
+  float one_minus_cos = 0.5f * (dx * dx + dy * dy + dz * dz);
+  return vmf_norm(kappa) * exp(-kappa * one_minus_cos);
+}
+
+/* An orthonormal frame (t, b) around the unit vector n (Duff et al. 2017). */
+inline void vmf_frame(st_vec3 n, st_vec3* t, st_vec3* b) {
+  float s = n.z >= 0.0f ? 1.0f : -1.0f;
+  float a = -1.0f / (s + n.z);
+  float c = n.x * n.y * a;
+  *t = vec3_make(1.0f + s * n.x * n.x * a, s * c, -s * n.x);
+  *b = vec3_make(c, s + n.y * n.y * a, -n.y);
+}
+
+/* A direction of the lobe (mu, kappa) from two uniforms in [0, 1): the polar angle by inverting
+ * the CDF of 1 - cos theta (u = 0 gives the mean), the azimuth 2 pi u2. The log's argument
+ * 1 + u expm1(-2 kappa) is written as (1 - u) + u exp(-2 kappa) where it is small (u near 1: the
+ * tail), a sum of two positive terms where the first form would cancel. Past the equator 1 + cos
+ * theta comes from its own form, log1p((1 - u) expm1(2 kappa)) / kappa, not from 2 - (1 - cos):
+ * near the antipode the difference cancels, and sin theta = sqrt((1 - cos)(1 + cos)) would carry
+ * the rounding of the log1p into the direction (as phase.h's product forms avoid for HG). Beyond
+ * kappa 40 the far hemisphere has probability below 1e-17, and expm1(2 kappa) overflows from 44. */
+inline st_vec3 vmf_sample(st_vec3 mu, float kappa, float u1, float u2) {
+  float omc = 2.0f * u1, opc = 2.0f * (1.0f - u1); /* 1 - cos theta, 1 + cos theta */
+  if (kappa > ST_VMF_KAPPA_UNIFORM) {
+    float x = u1 * expm1(-2.0f * kappa); /* the CDF's log argument minus 1, in (-1, 0] */
+    omc = -(x > -0.5f ? log1p(x) : log((1.0f - u1) + u1 * exp(-2.0f * kappa))) / kappa;
+    opc = omc > 1.0f && kappa < 40.0f ? log1p((1.0f - u1) * expm1(2.0f * kappa)) / kappa : 2.0f - omc;
+  }
+  omc = fmin(fmax(omc, 0.0f), 2.0f);
+  opc = fmin(fmax(opc, 0.0f), 2.0f);
+  float sin_theta = sqrt(omc * opc);
+  float cos_theta = omc < opc ? 1.0f - omc : opc - 1.0f;
+  float phi = 2.0f * ST_GUIDE_PI * u2;
+  float sx = sin_theta * cos(phi), sy = sin_theta * sin(phi);
+  st_vec3 t, b;
+  vmf_frame(mu, &t, &b);
+  return vec3_make(sx * t.x + sy * b.x + cos_theta * mu.x, sx * t.y + sy * b.y + cos_theta * mu.y,
+                   sx * t.z + sy * b.z + cos_theta * mu.z);
+}
+
+inline st_vec3 vmf_lobe_mean(st_float4 lobe) { return vec3_make(lobe.x, lobe.y, lobe.z); }
+
+/* The mixture's density at unit direction w: sum_k weight_k f_k(w) / sum_k weight_k. */
+inline float vmf_mixture_pdf(ST_GUIDE_GLOBAL const st_vmf_mixture* m, st_vec3 w) {
+  float sum = 0.0f, total = 0.0f;
+  for (int k = 0; k < ST_VMF_LOBES; ++k) {
+    float wk = m->weight[k];
+    total += wk;
+    if (wk > 0.0f) sum += wk * vmf_eval(vmf_lobe_mean(m->lobe[k]), m->lobe[k].w, w);
+  }
+  return total > 0.0f ? sum / total : ST_GUIDE_INV_4PI;
+}
+
+/* A direction of the mixture: u_lobe picks lobe k with probability weight_k / sum (the last lobe
+ * of positive weight takes what rounding leaves over), u1 and u2 sample it. */
+inline st_vec3 vmf_mixture_sample(ST_GUIDE_GLOBAL const st_vmf_mixture* m, float u_lobe, float u1, float u2) {
+  float total = 0.0f;
+  for (int k = 0; k < ST_VMF_LOBES; ++k) total += m->weight[k];
+  if (!(total > 0.0f)) return vmf_sample(vec3_make(0.0f, 0.0f, 1.0f), 0.0f, u1, u2);
+  float target = u_lobe * total, cdf = 0.0f;
+  int chosen = -1, last = 0;
+  for (int k = 0; k < ST_VMF_LOBES; ++k) {
+    float wk = m->weight[k];
+    if (!(wk > 0.0f)) continue;
+    last = k;
+    if (chosen < 0 && target < cdf + wk) chosen = k;
+    cdf += wk;
+  }
+  int k = chosen < 0 ? last : chosen;
+  return vmf_sample(vmf_lobe_mean(m->lobe[k]), m->lobe[k].w, u1, u2);
+}
+
+/* ---- the one-sample mixture of the phase function and the guide ----
+ * A guided scatter event samples the guide with probability alpha (the region's selection
+ * probability) and the phase function otherwise, and weighs the direction w by
+ *     f_phase(w) / (alpha p_guide(w) + (1 - alpha) p_phase(w)),
+ * whichever strategy drew it. For 0 <= alpha < 1 the denominator is positive wherever f_phase is,
+ * so the estimator is unbiased for any guide, however wrong (docs/guiding.md). */
+
+/* The choice of strategy from one uniform u: returns 1 for the guide (u < alpha) and 0 for the
+ * phase function, and writes u rescaled to [0, 1) within the chosen part (the guide's lobe choice
+ * reuses it). */
+inline int guide_choose(float alpha, float u, float* u_reuse) {
+  int guide = u < alpha;
+  float r = guide ? u / alpha : (u - alpha) / (1.0f - alpha);
+  *u_reuse = fmin(fmax(r, 0.0f), ST_GUIDE_ONE_MINUS_EPS);
+  return guide;
+}
+
+/* The density with which the one-sample mixture draws a direction. */
+inline float guide_mixture_pdf(float alpha, float pdf_guide, float pdf_phase) {
+  return alpha * pdf_guide + (1.0f - alpha) * pdf_phase;
+}
+
+#ifdef __OPENCL_VERSION__
+/* The guided scatter direction around the propagation direction wo (needs phase.h): three
+ * uniforms (strategy and lobe, then the two of the chosen sampler); writes the mixture's pdf and
+ * the phase function's value at the direction, so the path's weight is f_phase / pdf_mix. */
+inline float3 guided_phase_sample(__global const st_vmf_mixture* m, float alpha, int phase_type, float g, float3 wo,
+                                  float u0, float u1, float u2, float* pdf_mix, float* f_phase) {
+  float u_lobe;
+  float3 wi;
+  if (guide_choose(alpha, u0, &u_lobe)) {
+    wi = vmf_mixture_sample(m, u_lobe, u1, u2);
+    *f_phase = phase_eval_any(phase_type, g, dot(wo, wi));
+  } else {
+    wi = phase_sample_any(phase_type, g, wo, u1, u2, f_phase);
+  }
+  *pdf_mix = guide_mixture_pdf(alpha, vmf_mixture_pdf(m, wi), *f_phase);
+  return wi;
+}
+#endif
+
+#endif /* SPECTRACK_GUIDING_H */
