@@ -50,7 +50,7 @@ TEST_F(CliValues, IntegerOptionsRefuseWrapsOctalHexAndSpaces) {
     }
   }
   expect_usage({"--seed", "4294967296"}, {"--seed", "outside [0, 4294967295]"});
-  expect_usage({"--spp", "010"}, {"--spp", "'010' is not a decimal integer"});
+  expect_usage({"--spp", "010"}, {"--spp", "'010' has a leading zero"});
   expect_usage({"--majorant-step-cost", "nan"}, {"--majorant-step-cost", "nan"});
 }
 
@@ -77,6 +77,22 @@ TEST_F(CliValues, HalfWithAPngIsRefused) {
   EXPECT_THAT(p.out, HasSubstr("--half")) << p.describe();
   EXPECT_THAT(p.out, HasSubstr("PNG")) << p.describe();
   EXPECT_FALSE(fs::exists(dir + "/x.png")) << p.describe();
+}
+
+// A render whose path slots and shadow rays cannot fit: the refusal names the options that size
+// them (4 lights x a shadow ring of 8 x 2^24 slots is far above any device's memory).
+TEST_F(CliValues, DeviceMemoryRefusalNamesPathSlotsAndShadowRing) {
+  json s = homogeneous_scene(64, 64, 4096, 1.0, 0.0);
+  for (int i = 0; i < 3; ++i)
+    s["lights"].push_back({{"type", "directional"}, {"to_light", {0, 1, 0.1 * i}}, {"irradiance", {1, 1, 1}}});
+  scene = write_scene(dir, "big.json", s);
+  RunOptions o;
+  o.timeout_s = 300;  // may include a cold kernel build
+  Proc p = run({"render", scene, "-o", dir + "/x.exr", "--quiet", "--path-slots", "16777216", "--shadow-ring", "8"}, o);
+  expect_error_exit(p, 1);
+  EXPECT_THAT(p.out, HasSubstr("--path-slots 16777216 x 4 light(s) x --shadow-ring 8")) << p.describe();
+  EXPECT_THAT(p.out, HasSubstr("a lower --path-slots or a lower --shadow-ring")) << p.describe();
+  EXPECT_FALSE(fs::exists(dir + "/x.exr"));
 }
 
 // ---- frame sequences ---------------------------------------------------------------------------

@@ -2,10 +2,11 @@
 //   spectrack render SCENE [-o FILE] [--spp N | --spp-range A:B] [--pixel-bounds x0,x1,y0,y1]
 //                    [--seed S] [--tracker T] [--scheme S] [--device D|all|D1,D2] [--mpi]
 //                    [--stats-json FILE] [--preview FILE.png] [--quiet]
-//   spectrack merge OUT.exr IN.exr... [--preview FILE.png]
+//   spectrack merge OUT.exr IN.exr... [--preview FILE.png]   (cli/merge.cpp)
 //   (tuning: [--majorant-cell N] [--majorant-block N] [--generic-kernels] [--batches-in-flight N])
 //   spectrack devices
 //   spectrack info FILE... [--json]   (cli/info.cpp)
+// The values of the options are checked by the validators of cli/options.h (exit 2).
 // A render is a FilmPiece (render/film.h): the window and sample range it holds, with exact
 // per-pixel sums; shards, tiles, devices and MPI ranks all combine through merge_pieces.
 // Exit codes: 0 success; 1 a user-facing error (message on stderr names file, field and reason);
