@@ -6,19 +6,28 @@
 //     tracker is a warning (a scene may set both and be rendered with several trackers). Trackers
 //     without a scheme then run and are recorded with max, the analog probabilities they use.
 //   - render_outputs / scene_inputs / merge inputs feed check_distinct_paths (util/files.h).
+//   - check_no_nul, check_frame_files, check_half: scene paths with a NUL byte, every frame's
+//     volume files before a sequence renders, --half with a PNG output.
 //   - nonfinite_verdict: a render that dropped non-finite samples exits 1. Its image is still
 //     written, marked with spectrack:nonfinite_samples, for diagnosis; dropping samples is never a
 //     success (it is a bug, or an input the float kernels cannot represent).
 #pragma once
 #include <fmt/format.h>
 
+#include <sys/stat.h>
+
+#include <cctype>
+#include <cerrno>
 #include <cstdint>
+#include <cstring>
+#include <filesystem>
 #include <iostream>
 #include <string>
 #include <vector>
 
 #include "image/image.h"
 #include "render/renderer.h"
+#include "scene/frames.h"
 #include "scene/scene.h"
 #include "util/files.h"
 
@@ -58,6 +67,62 @@ inline std::vector<NamedPath> scene_inputs(const SceneDesc& scene) {
   for (const LightDesc& l : scene.lights)
     if (!l.map.empty()) in.push_back({"the environment map of " + l.json_path + "/map", l.map});
   return in;
+}
+
+// A path as a message shows it: a NUL byte (which JSON strings may hold, but no file name can) as \0.
+inline std::string shown_path(const std::string& path) {
+  std::string s;
+  for (char c : path) s += c == '\0' ? std::string("\\0") : std::string(1, c);
+  return s;
+}
+
+// The system would read a path only up to a NUL byte, so a scene path holding one names another
+// file than the scene says: refused, naming the field.
+inline void check_no_nul(const SceneDesc& scene, const std::string& output) {
+  auto check = [&](const std::string& field, const std::string& path) {
+    if (path.find('\0') != std::string::npos)
+      throw Error(fmt::format("{}: {}: \"{}\" holds a NUL byte, which no file name can hold", scene.path, field,
+                              shown_path(path)));
+  };
+  for (const MediumDesc& m : scene.media) check(m.json_path + "/file", m.file);
+  for (const LightDesc& l : scene.lights) check(l.json_path + "/map", l.map);
+  check("/film/output (the output)", output);
+}
+
+// Every frame's volume files exist as regular files before the first frame renders; the message
+// names the frame, the field and the reason (errno's, "symlink loop" for ELOOP).
+inline void check_frame_files(const SceneDesc& scene, long long first, long long last) {
+  for (long long f = first; f <= last; ++f)
+    for (const MediumDesc& m : scene.media) {
+      if (m.type != ST_MEDIUM_VDB) continue;  // a homogeneous medium has no file
+      const std::string file = expand_frame(m.file, f);
+      const std::string context = fmt::format("{}: {}/file: frame {}", scene.path, m.json_path, f);
+      struct stat st;
+      if (::stat(file.c_str(), &st) != 0) {
+        const int err = errno;
+        const std::string why = err == ENOENT  ? std::string("no such file")
+                                : err == ELOOP ? std::string("symlink loop (too many levels of symbolic links)")
+                                               : std::string("cannot stat: ") + std::strerror(err);
+        throw Error(fmt::format("{}: {}: {}", context, shown_path(file), why));
+      }
+      check_input_file(file, context);  // a regular file (not a FIFO, a device or a folder)
+    }
+}
+
+// --half stores EXR channels as 16-bit floats; a PNG holds 8-bit values whatever is asked, so
+// the flag with a PNG output is refused (exit 2), and film.half of the scene is a warning (a
+// scene may be rendered to either format).
+inline void check_half(bool half_flag, const SceneDesc& scene, const std::string& output, bool quiet) {
+  std::string e = std::filesystem::path(output).extension().string();
+  for (char& c : e) c = char(std::tolower(static_cast<unsigned char>(c)));
+  if (e != ".png") return;
+  if (half_flag)
+    throw UsageError(fmt::format("--half: the output {} is a PNG, which holds 8-bit values; --half applies to EXR "
+                                 "outputs only (drop it, or write an .exr)",
+                                 output));
+  if (scene.film.half && !quiet)
+    std::cerr << fmt::format("warning: {}: /film/half is ignored for the PNG output {} (8-bit values)\n", scene.path,
+                             output);
 }
 
 inline std::vector<NamedPath> merge_inputs(const std::vector<std::string>& files) {

@@ -2,10 +2,11 @@
 //   spectrack render SCENE [-o FILE] [--spp N | --spp-range A:B] [--pixel-bounds x0,x1,y0,y1]
 //                    [--seed S] [--tracker T] [--scheme S] [--device D|all|D1,D2] [--mpi]
 //                    [--stats-json FILE] [--preview FILE.png] [--quiet]
-//   spectrack merge OUT.exr IN.exr... [--preview FILE.png]
+//   spectrack merge OUT.exr IN.exr... [--preview FILE.png]   (cli/merge.cpp)
 //   (tuning: [--majorant-cell N] [--majorant-block N] [--generic-kernels] [--batches-in-flight N])
 //   spectrack devices
 //   spectrack info FILE... [--json]   (cli/info.cpp)
+// The values of the options are checked by the validators of cli/options.h (exit 2).
 // A render is a FilmPiece (render/film.h): the window and sample range it holds, with exact
 // per-pixel sums; shards, tiles, devices and MPI ranks all combine through merge_pieces.
 // Exit codes: 0 success; 1 a user-facing error (message on stderr names file, field and reason);
@@ -34,6 +35,8 @@
 #include <unistd.h>
 
 #include "cli/checks.h"
+#include "cli/merge.h"
+#include "cli/options.h"
 #include "cl/opencl.h"
 #include "cli/info.h"
 #include "cli/progress.h"
@@ -114,72 +117,6 @@ struct RenderArgs {
   bool quiet = false;
   bool mpi = false;
 };
-
-struct MergeArgs {
-  std::string output, preview, compression;
-  bool half = false;
-  std::vector<std::string> inputs;
-  bool quiet = false;
-};
-
-// "A:B" with 0 <= A < B <= 2^32 and B - A <= 2^24 (a CLI11 check: a malformed range exits 2).
-bool parse_spp_range(const std::string& text, int64_t* a, int64_t* b) {
-  long long x = 0, y = 0;
-  char extra = 0;
-  if (std::sscanf(text.c_str(), "%lld:%lld%c", &x, &y, &extra) != 2) return false;
-  if (text.find_first_not_of("0123456789:") != std::string::npos) return false;
-  if (x < 0 || y <= x || y > (1LL << 32) || y - x > (1LL << 24)) return false;
-  *a = x, *b = y;
-  return true;
-}
-
-// "x0,x1,y0,y1" of non-negative integers with x0 < x1, y0 < y1 (the film size is checked later).
-bool parse_pixel_bounds(const std::string& text, std::array<int, 4>* out) {
-  int v[4];
-  char extra = 0;
-  if (text.find_first_not_of("0123456789,") != std::string::npos) return false;
-  if (std::sscanf(text.c_str(), "%d,%d,%d,%d%c", &v[0], &v[1], &v[2], &v[3], &extra) != 4) return false;
-  if (!(v[0] < v[1] && v[2] < v[3])) return false;
-  *out = {v[0], v[1], v[2], v[3]};
-  return true;
-}
-
-// A CLI11 check that the value is one of `names` (the tables of scene/names.cpp): exit 2 otherwise.
-CLI::Validator one_of(const std::string& what, const std::vector<std::string>& names) {
-  return CLI::Validator(
-      [what, names](std::string& v) {
-        for (auto& n : names)
-          if (v == n) return std::string();
-        std::string list;
-        for (auto& n : names) list += (list.empty() ? "" : ", ") + n;
-        return "unknown " + what + " '" + v + "' (one of: " + list + ")";
-      },
-      "NAME");
-}
-
-// A CLI11 check that a preview is a .png (an EXR is written with -o).
-// A finite number in [lo, hi] (CLI::Range lets "nan" through: every comparison with NaN is false).
-CLI::Validator finite_range(double lo, double hi) {
-  return CLI::Validator(
-      [lo, hi](std::string& s) -> std::string {
-        char* end = nullptr;
-        const double v = std::strtod(s.c_str(), &end);
-        if (end == s.c_str() || *end != '\0' || !std::isfinite(v) || v < lo || v > hi)
-          return fmt::format("{} is not a number in [{}, {}]", s, lo, hi);
-        return "";
-      },
-      fmt::format("NUMBER in [{}, {}]", lo, hi));
-}
-
-CLI::Validator png_file() {
-  return CLI::Validator(
-      [](std::string& v) {
-        std::string e = std::filesystem::path(v).extension().string();
-        std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-        return e == ".png" ? std::string() : "a preview is a PNG file (FILE.png), got '" + v + "'";
-      },
-      "FILE.png");
-}
 
 std::string join(const std::vector<std::string>& v, const char* sep) {
   std::string s;
@@ -301,12 +238,12 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
   if (a.spp > 0) opt.spp = a.spp;
   if (!a.spp_range.empty()) {
     int64_t b = 0;
-    parse_spp_range(a.spp_range, &opt.sample_begin, &b);  // checked by CLI11 already
+    check_spp_range(a.spp_range, &opt.sample_begin, &b);  // checked by CLI11 already
     opt.spp = int(b - opt.sample_begin);
   }
   if (!a.pixel_bounds.empty()) {
     std::array<int, 4> bounds;
-    parse_pixel_bounds(a.pixel_bounds, &bounds);
+    check_pixel_bounds(a.pixel_bounds, &bounds);  // checked by CLI11 already
     opt.pixel_bounds = bounds;
   }
   return opt;
@@ -412,6 +349,7 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   const bool quiet = a.quiet || !root;
   RenderOptions opt = render_options(a, quiet);
   opt.aovs = film_layers(a, scene, output);
+  check_half(a.half, scene, output, quiet);  // --half with a PNG: exit 2
   check_tracker_scheme(scene, opt, a.scheme, a.tracker);  // --scheme with a tracker that ignores it: exit 2
   const RenderSettings set = resolve_settings(scene, opt);
   const double time_limit = a.time_limit > 0 ? a.time_limit : scene.render.time_limit;
@@ -454,14 +392,6 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   return (r.piece.interrupted && !r.time_limit_reached) ? 130 : 0;
 }
 
-// "A:B", integers with A <= B (a CLI11 check).
-bool parse_frames(const std::string& text, long long* a, long long* b) {
-  char extra = 0;
-  if (text.find_first_not_of("0123456789:-") != std::string::npos) return false;
-  if (std::sscanf(text.c_str(), "%lld:%lld%c", a, b, &extra) != 2) return false;
-  return *a <= *b && *b - *a < 1000000;
-}
-
 // A render, or with --frames A:B a sequence: frame patterns (frames.h) in the media's files and
 // in the output, preview and statistics names are replaced per frame; every frame's files are
 // checked before the first render, and a missing one is named.
@@ -470,6 +400,7 @@ int cmd_render(const RenderArgs& a, MpiArg& mpi) {
   install_stop_handlers();  // before loading: a stop must never wait for a slow or blocked input
   SceneDesc scene = load_scene(a.scene);
   const std::string output = a.output.empty() ? scene.film.output : a.output;
+  check_no_nul(scene, output);
   if (a.frames.empty()) {
     for (const MediumDesc& m : scene.media)
       if (has_frame_pattern(fs::path(m.file).filename().string()))
@@ -477,17 +408,11 @@ int cmd_render(const RenderArgs& a, MpiArg& mpi) {
     return render_scene(a, mpi, scene, output, t0);
   }
   long long first = 0, last = 0;
-  parse_frames(a.frames, &first, &last);  // checked by CLI11 already
+  check_frames(a.frames, &first, &last);  // checked by CLI11 already
   if (!has_frame_pattern(fs::path(output).filename().string()))
     throw Error(fmt::format("--frames {}: the output {} has no frame pattern (e.g. out_####.exr or out_$F4.exr), so "
                             "every frame would overwrite it", a.frames, output));
-  for (long long f = first; f <= last; ++f)
-    for (const MediumDesc& m : scene.media) {
-      const std::string file = expand_frame(m.file, f);
-      std::error_code ec;
-      if (!fs::is_regular_file(file, ec))
-        throw Error(fmt::format("{}: {}/file: frame {}: {}: no such file", scene.path, m.json_path, f, file));
-    }
+  check_frame_files(scene, first, last);
   for (long long f = first; f <= last; ++f) {
     SceneDesc frame = scene;
     for (MediumDesc& m : frame.media) m.file = expand_frame(m.file, f);
@@ -505,63 +430,18 @@ int cmd_render(const RenderArgs& a, MpiArg& mpi) {
   return 0;
 }
 
-int cmd_merge(const MergeArgs& a) {
-  std::string ext = std::filesystem::path(a.output).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  if (ext != ".exr") throw Error(fmt::format("{}: the merged image must be an EXR (use --preview for a PNG)", a.output));
-  check_output_path(a.output);
-  if (!a.preview.empty()) check_output_path(a.preview);
-  check_distinct_paths({{"the merged image", a.output}, {"--preview", a.preview}}, merge_inputs(a.inputs));
-  std::error_code ec;
-  std::vector<FilmPiece> pieces;
-  double seconds = 0;
-  std::vector<std::string> devices;
-  std::string scene;
-  for (auto& in : a.inputs) {
-    if (std::filesystem::exists(a.output, ec) && std::filesystem::equivalent(in, a.output, ec))
-      throw Error(fmt::format("{}: is both an input and the output of the merge", in));
-    Metadata head;  // the other metadata, for the record
-    pieces.push_back(read_piece(in, &head));
-    check_merge_input(in, head);
-    if (auto f = head.find("render_seconds"); f != head.end() && std::holds_alternative<float>(f->second))
-      seconds += std::get<float>(f->second);
-    if (auto d = head.find("device"); d != head.end() && std::holds_alternative<std::string>(d->second))
-      if (std::find(devices.begin(), devices.end(), std::get<std::string>(d->second)) == devices.end())
-        devices.push_back(std::get<std::string>(d->second));
-    if (auto s = head.find("scene"); s != head.end() && std::holds_alternative<std::string>(s->second))
-      scene = std::get<std::string>(s->second);
-    if (pieces.back().interrupted && !a.quiet)
-      std::cerr << fmt::format("warning: {} is an interrupted render: it holds samples {} only\n", in,
-                               format_ranges(pieces.back().ranges));
-  }
-  FilmPiece m = merge_pieces(pieces);
-  Metadata meta;
-  meta["render_seconds"] = float(seconds);
-  meta["device"] = join(devices, ", ");
-  meta["scene"] = scene;
-  meta["merged_inputs"] = int(pieces.size());
-  write_piece(a.output, m, meta, exr_options(a.half, a.compression, FilmDesc{}));
-  if (!a.preview.empty()) write_piece(a.preview, m, meta);
-  if (!a.quiet)
-    std::cerr << fmt::format("merged {} inputs: samples {} of pixels {},{},{},{} (x0,x1,y0,y1) of the {}x{} film -> {}\n",
-                             pieces.size(), format_ranges(m.ranges), m.x0, m.x0 + m.width, m.y0, m.y0 + m.height,
-                             m.id.full_width, m.id.full_height, a.output);
-  return 0;
-}
-
 // The `render` subcommand's arguments and flags.
 CLI::App* add_render_command(CLI::App& app, RenderArgs& ra) {
   auto* render = app.add_subcommand("render", "render a scene file to EXR or PNG");
   render->add_option("scene", ra.scene, "scene file (spectrack-scene/1 JSON)")->required();
   render->add_option("-o,--output", ra.output, "output image (.exr or .png); default: the scene's film.output");
-  auto* o_spp = render->add_option("--spp", ra.spp, "samples per pixel (overrides film.spp)")->check(CLI::Range(1, 1 << 24));
+  auto* o_spp = render->add_option("--spp", ra.spp, "samples per pixel (overrides film.spp)")->check(integer_in(1, 1 << 24));
   render->add_option("--spp-range", ra.spp_range,
                      "render samples A..B-1 of every pixel of the full sequence (a shard; merge with `spectrack merge`)")
       ->check(CLI::Validator(
           [](std::string& v) {
             int64_t a = 0, b = 0;
-            return parse_spp_range(v, &a, &b) ? std::string()
-                                              : "expected A:B with 0 <= A < B <= 2^32 and B - A <= 2^24, got '" + v + "'";
+            return check_spp_range(v, &a, &b);
           },
           "A:B"))
       ->excludes(o_spp);
@@ -570,8 +450,7 @@ CLI::App* add_render_command(CLI::App& app, RenderArgs& ra) {
       ->check(CLI::Validator(
           [](std::string& v) {
             std::array<int, 4> b;
-            return parse_pixel_bounds(v, &b) ? std::string()
-                                             : "expected x0,x1,y0,y1 with 0 <= x0 < x1 and 0 <= y0 < y1, got '" + v + "'";
+            return check_pixel_bounds(v, &b);
           },
           "x0,x1,y0,y1"));
   render->add_option("--frames", ra.frames,
@@ -580,10 +459,10 @@ CLI::App* add_render_command(CLI::App& app, RenderArgs& ra) {
       ->check(CLI::Validator(
           [](std::string& v) {
             long long a = 0, b = 0;
-            return parse_frames(v, &a, &b) ? std::string() : "expected A:B with A <= B, got '" + v + "'";
+            return check_frames(v, &a, &b);
           },
           "A:B"));
-  render->add_option("--seed", ra.seed, "random seed (overrides render.seed)")->check(CLI::Range(int64_t(0), int64_t(4294967295LL)));
+  render->add_option("--seed", ra.seed, "random seed (overrides render.seed)")->check(integer_in(0, 4294967295LL));
   render->add_option("--tracker", ra.tracker, "tracker: " + tracker_names())->check(one_of("tracker", tracker_name_list()));
   render->add_option("--scheme", ra.scheme, "spectral scheme (spectral trackers only): " + scheme_names())
       ->check(one_of("scheme", scheme_name_list()));
@@ -617,36 +496,37 @@ CLI::App* add_render_command(CLI::App& app, RenderArgs& ra) {
       ->check(finite_range(1e-3, 1e3));
   render->add_option("--device", ra.device,
                      "OpenCL device: P:D or a name substring, 'all', or a comma-separated list to share the samples "
-                     "(env SPECTRACK_DEVICE)");
+                     "(env SPECTRACK_DEVICE)")
+      ->check(not_blank("device"));
   render->add_option("--chunk-spp", ra.chunk_spp, "samples per pixel a device takes at a time with several devices")
-      ->check(CLI::Range(1, 1 << 24));
+      ->check(integer_in(1, 1 << 24));
   render->add_flag("--mpi", ra.mpi, "under mpirun: each rank renders a disjoint sample range, rank 0 writes the image");
   render->add_option("--stats-json", ra.stats_json, "write render statistics as JSON");
   render->add_option("--preview", ra.preview, "also write a PNG preview")->check(png_file());
-  render->add_option("--path-slots", ra.path_slots, "paths in flight (default: 65536 on CPUs, 1M on GPUs)")->check(CLI::Range(1, 1 << 24));
-  render->add_option("--budget", ra.budget, "tracking iterations per path and kernel launch")->check(CLI::Range(1, 1 << 20));
+  render->add_option("--path-slots", ra.path_slots, "paths in flight (default: 65536 on CPUs, 1M on GPUs)")->check(integer_in(1, 1 << 24));
+  render->add_option("--budget", ra.budget, "tracking iterations per path and kernel launch")->check(integer_in(1, 1 << 20));
   render->add_option("--majorant-cell", ra.majorant_cell,
                      "voxels per fine majorant-cell edge (0: automatic, 2 voxels or coarser for huge grids)")
-      ->check(CLI::Range(0, 1024))
+      ->check(integer_in(0, 1024))
       ->capture_default_str();
   render->add_option("--majorant-block", ra.majorant_block,
                      "fine cells per block edge of the adaptive majorant hierarchy, each block walked whole or "
                      "refined by a cost model (0 or 1: one level, every fine cell walked)")
-      ->check(CLI::Range(0, 1024))
+      ->check(integer_in(0, 1024))
       ->capture_default_str();
   render->add_option("--majorant-step-cost", ra.majorant_step_cost,
                      "the majorant hierarchy's cost model: one DDA step in density lookups; lower refines more, "
                      "higher walks more blocks whole (default -1: automatic, 0.6, or 2 for spectral-decomposition)")
-      ->check(CLI::Range(-1.0, 1e6))
+      ->check(finite_range(-1.0, 1e6))
       ->capture_default_str();
   render->add_option("--batches-in-flight", ra.batches_in_flight,
                      "batches of samples in flight, 1-" + std::to_string(ST_MAX_BATCHES_IN_FLIGHT) + " (default: the maximum)")
-      ->check(CLI::Range(1, ST_MAX_BATCHES_IN_FLIGHT));
+      ->check(integer_in(1, ST_MAX_BATCHES_IN_FLIGHT));
   render->add_option("--shadow-ring", ra.shadow_ring,
                      "shadow-ray entries per path and light, 1-" + std::to_string(ST_MAX_SHADOW_RING) +
                          ": a path scatters again while the shadow rays of its last N-1 bounces run (default 2; "
                          "the image is the same)")
-      ->check(CLI::Range(1, ST_MAX_SHADOW_RING));
+      ->check(integer_in(1, ST_MAX_SHADOW_RING));
   render->add_option("--time-limit", ra.time_limit,
                      "stop cleanly after this many seconds from the start (the finished samples are written, "
                      "exit 0; overrides render.time_limit)")
@@ -676,14 +556,7 @@ int main(int argc, char** argv) {
   RenderArgs ra;
   add_render_command(app, ra);
   MergeArgs ma;
-  auto* merge = app.add_subcommand("merge", "combine sample-range shards and tiles (EXR) into one EXR");
-  merge->add_option("output", ma.output, "the merged EXR")->required();
-  merge->add_option("inputs", ma.inputs, "EXR outputs of `spectrack render` (shards and/or tiles)")->required()->expected(1, -1);
-  merge->add_option("--preview", ma.preview, "also write a PNG preview")->check(png_file());
-  merge->add_flag("-q,--quiet", ma.quiet, "no summary line");
-  merge->add_flag("--half", ma.half, "16-bit half-float EXR channels (the result cannot be merged again)");
-  merge->add_option("--compression", ma.compression, "EXR compression (default zip)")
-      ->check(one_of("compression", exr_compressions()));
+  add_merge_command(app, ma);
   app.add_subcommand("devices", "list OpenCL platforms and devices");
   std::vector<std::string> info_files;
   bool info_json = false;

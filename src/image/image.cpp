@@ -1,6 +1,7 @@
 // image.cpp: see image.h. sRGB encoding for PNG previews is done here (the OETF of IEC 61966-2-1)
 // so that the preview matches what an EXR viewer shows for the same linear values.
 #include "image/image.h"
+#include "image/image_open.h"
 #include "scene/scene.h"
 #include "util/files.h"
 
@@ -14,6 +15,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <memory>
 #include <unistd.h>
 
 namespace spectrack {
@@ -44,13 +47,13 @@ void check_writable_file(const std::string& path) {
     throw Error(fmt::format("{}: output file is not writable", path));
 }
 
-static float srgb_encode(float v) {
+float srgb_encode(float v) {
   if (!(v > 0.0f)) return 0.0f;
   if (v >= 1.0f) return 1.0f;
   return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
 }
 
-static void set_exr_spec(OIIO::ImageSpec& spec, const Metadata& meta, const PixelWindow& window, const ExrOptions& exr) {
+void set_exr_spec(OIIO::ImageSpec& spec, const Metadata& meta, const PixelWindow& window, const ExrOptions& exr) {
   for (auto& [k, v] : meta) {
     std::string key = "spectrack:" + k;
     if (auto s = std::get_if<std::string>(&v)) spec.attribute(key, *s);
@@ -282,42 +285,101 @@ static void check_png_chunks(const std::string& path, std::istream& f, uint64_t 
 // Design: the header is checked in full against what will be read before any pixel buffer is
 // allocated (the buffer is at most 2^28 pixels x 3 floats, whatever the file claims), so an image
 // OpenImageIO opens but spectrack would misread (a VDB as a stack of slices, a multi-part EXR, a
-// deep or 2-channel image, a cropped data window) is refused by name, never guessed at.
-RgbImage read_image(const std::string& path, ImageUse use) {
+// deep or 2-channel image, a cropped data window) is refused by name, never guessed at. The
+// checks (open_checked) are shared by read_image and FilmPieceRows, which reads a band of rows at
+// a time.
+namespace {
+
+// Volumes are refused by their magic number (OIIO's openvdb reader would parse a damaged VDB
+// before any check here), and EXR headers and PNG chunks are walked before a library reads them.
+void check_magic(const std::string& path, const char* what, uint64_t file_bytes) {
+  unsigned char magic[8] = {};
+  std::ifstream f(path, std::ios::binary);
+  f.read(reinterpret_cast<char*>(magic), 8);
+  const bool vdb = magic[0] == 0x20 && magic[1] == 0x42 && magic[2] == 0x44 && magic[3] == 0x56;  // OPENVDB_MAGIC
+  const bool nvdb = std::memcmp(magic, "NanoVDB", 7) == 0;
+  if (vdb || nvdb)
+    throw Error(fmt::format("{}: is a{} volume (a 3-D image to OpenImageIO's openvdb reader); {} must be a 2-D image",
+                            path, vdb ? "n OpenVDB" : " NanoVDB", what));
+  if (std::memcmp(magic, "\x76\x2f\x31\x01", 4) == 0) check_exr_header(path, f, file_bytes);
+  if (std::memcmp(magic, "\x89PNG\r\n\x1a\n", 8) == 0) check_png_chunks(path, f, file_bytes);
+}
+
+// An environment map: the whole display window, and channels it can read without guessing.
+void check_environment_spec(OpenedImage& o, bool cropped, bool rgb_named, const std::function<void(const std::string&)>& fail) {
+  const OIIO::ImageSpec& spec = o.spec;
+  const RgbImage& img = o.img;
+  const int nc = spec.nchannels;
+  if (cropped)
+    fail(fmt::format("its data window ({}x{} pixels at {},{}) is not its {}x{} display window (a tile or a crop); "
+                     "an environment map must cover the whole sphere",
+                     img.width, img.height, img.window.x0, img.window.y0, img.window.full_width, img.window.full_height));
+  if (nc == 1 && spec.alpha_channel != 0 && spec.z_channel != 0) o.gray = 0;
+  else if (nc == 2 && spec.alpha_channel == 1) o.gray = 0;  // gray + alpha: the alpha is ignored
+  else if (!rgb_named)
+    fail(fmt::format("has {} channel(s) ({}); an environment map needs one gray channel, gray + alpha, or R, G, B "
+                     "first (further channels are ignored)",
+                     nc, channel_list(spec)));
+}
+
+// A merge input: spectrack's channels only, 32-bit float, its data window inside its display window.
+void check_film_piece_spec(const OpenedImage& o, bool rgb_named, const std::function<void(const std::string&)>& fail) {
+  const OIIO::ImageSpec& spec = o.spec;
+  const RgbImage& img = o.img;
+  const int nc = spec.nchannels;
+  const size_t max_pixels = size_t(1) << 28;
+  if (img.format != "openexr")
+    fail(fmt::format("a {} image cannot be merged: only spectrack's EXR outputs hold the float pixels and sample "
+                     "ranges a merge needs",
+                     img.format));
+  // R, G, B first (OpenImageIO orders an EXR's R, G, B, A first), then film layers only
+  bool layers_known = rgb_named && spec.channelnames.size() == size_t(nc);
+  for (int c = 3; c < nc && layers_known; ++c) layers_known = film_layer_channel(spec.channelnames[c]);
+  if (!layers_known)
+    fail(fmt::format("has {} channel(s) ({}); spectrack's EXR outputs have R, G, B and its film layers only (A, AR, "
+                     "AG, AB, environment.*, variance.*, emission.*, direct.*, indirect.*, albedo.*, depth.Z, collision.fraction)",
+                     nc, channel_list(spec)));
+  if (size_t(spec.width) * size_t(spec.height) * size_t(nc) > 3 * max_pixels)
+    fail(fmt::format("{}x{} pixels of {} channels are more than a merge input can hold (3 * 2^28 values)", spec.width,
+                     spec.height, nc));
+  bool all_float = spec.format == OIIO::TypeDesc::FLOAT;
+  for (auto& t : spec.channelformats) all_float = all_float && t == OIIO::TypeDesc::FLOAT;
+  if (!all_float)
+    fail(fmt::format("holds {} pixels; spectrack's EXR outputs hold 32-bit float (a converted file loses the exact "
+                     "sums a merge needs)",
+                     spec.format.c_str()));
+  if (img.window.x0 < 0 || img.window.y0 < 0 || int64_t(img.window.x0) + img.width > img.window.full_width ||
+      int64_t(img.window.y0) + img.height > img.window.full_height)
+    fail(fmt::format("its data window ({}x{} pixels at {},{}) leaves its {}x{} display window", img.width, img.height,
+                     img.window.x0, img.window.y0, img.window.full_width, img.window.full_height));
+}
+
+}  // namespace
+
+OpenedImage open_checked(const std::string& path, ImageUse use) {
   const bool env = use == ImageUse::kEnvironmentMap;
   const char* what = env ? "an environment map" : "a merge input";
   auto fail = [&](const std::string& reason) -> void { throw Error(path + ": " + reason); };
   const uint64_t file_bytes = check_input_file(path, "");  // a FIFO would block OpenImageIO, a device never end
-  {
-    // OIIO's openvdb reader would parse a VDB (damaged ones included) before any check here:
-    // volumes are refused by their magic number, whatever their name
-    unsigned char magic[8] = {};
-    std::ifstream f(path, std::ios::binary);
-    f.read(reinterpret_cast<char*>(magic), 8);
-    const bool vdb = magic[0] == 0x20 && magic[1] == 0x42 && magic[2] == 0x44 && magic[3] == 0x56;  // OPENVDB_MAGIC
-    const bool nvdb = std::memcmp(magic, "NanoVDB", 7) == 0;
-    if (vdb || nvdb)
-      fail(fmt::format("is a{} volume (a 3-D image to OpenImageIO's openvdb reader); {} must be a 2-D image",
-                       vdb ? "n OpenVDB" : " NanoVDB", what));
-    if (std::memcmp(magic, "\x76\x2f\x31\x01", 4) == 0) check_exr_header(path, f, file_bytes);
-    if (std::memcmp(magic, "\x89PNG\r\n\x1a\n", 8) == 0) check_png_chunks(path, f, file_bytes);
-  }
+  check_magic(path, what, file_bytes);
   OIIO::ImageSpec config;
   config.attribute("oiio:UnassociatedAlpha", 1);  // colours as stored, not multiplied by alpha
-  auto in = OIIO::ImageInput::open(path, &config);
-  if (!in) fail(fmt::format("cannot read image: {}", OIIO::geterror()));
-  const OIIO::ImageSpec spec = in->spec();  // a copy: seek_subimage replaces in->spec()
-  RgbImage img;
-  img.format = in->format_name();
+  OpenedImage o;
+  o.in = OIIO::ImageInput::open(path, &config);
+  if (!o.in) fail(fmt::format("cannot read image: {}", OIIO::geterror()));
+  o.spec = o.in->spec();  // a copy: seek_subimage replaces in->spec()
+  const OIIO::ImageSpec& spec = o.spec;
+  RgbImage& img = o.img;
+  img.format = o.in->format_name();
   const size_t max_pixels = size_t(1) << 28;
   if (spec.depth > 1 || spec.tile_depth > 1)
     fail(fmt::format("is a 3-D image ({}x{}x{} voxels, read by OpenImageIO's {} reader); {} must be a 2-D image",
                      spec.width, spec.height, spec.depth, img.format, what));
   if (spec.deep) fail(fmt::format("is a deep image (several samples per pixel); {} must be a flat image", what));
-  if (in->seek_subimage(1, 0))
+  if (o.in->seek_subimage(1, 0))
     fail(fmt::format("holds more than one subimage (a multi-part or multi-frame {} file); {} must be a single image",
                      img.format, what));
-  if (!in->seek_subimage(0, 0)) fail(fmt::format("cannot read image: {}", in->geterror()));
+  if (!o.in->seek_subimage(0, 0)) fail(fmt::format("cannot read image: {}", o.in->geterror()));
   const int nc = spec.nchannels;
   if (spec.width <= 0 || spec.height <= 0 || nc <= 0 || size_t(spec.width) * size_t(spec.height) > max_pixels)
     fail(fmt::format("unsupported image size {}x{} with {} channels (at most 2^28 pixels)", spec.width, spec.height, nc));
@@ -334,87 +396,9 @@ RgbImage read_image(const std::string& path, ImageUse use) {
                        img.window.full_height != img.height;
   auto base = [&](int c) { return c < int(spec.channelnames.size()) ? channel_base(spec.channelnames[c]) : ""; };
   const bool rgb_named = nc >= 3 && base(0) == "R" && base(1) == "G" && base(2) == "B";
-  int gray = -1;  // the channel replicated to RGB, or -1 for R, G, B
-  if (env) {
-    if (cropped)
-      fail(fmt::format("its data window ({}x{} pixels at {},{}) is not its {}x{} display window (a tile or a crop); "
-                       "an environment map must cover the whole sphere",
-                       img.width, img.height, img.window.x0, img.window.y0, img.window.full_width,
-                       img.window.full_height));
-    if (nc == 1 && spec.alpha_channel != 0 && spec.z_channel != 0) gray = 0;
-    else if (nc == 2 && spec.alpha_channel == 1) gray = 0;  // gray + alpha: the alpha is ignored
-    else if (!rgb_named)
-      fail(fmt::format("has {} channel(s) ({}); an environment map needs one gray channel, gray + alpha, or R, G, B "
-                       "first (further channels are ignored)",
-                       nc, channel_list(spec)));
-  } else {
-    if (img.format != "openexr")
-      fail(fmt::format("a {} image cannot be merged: only spectrack's EXR outputs hold the float pixels and sample "
-                       "ranges a merge needs",
-                       img.format));
-    // R, G, B first (OpenImageIO orders an EXR's R, G, B, A first), then film layers only
-    bool layers_known = rgb_named && spec.channelnames.size() == size_t(nc);
-    for (int c = 3; c < nc && layers_known; ++c) layers_known = film_layer_channel(spec.channelnames[c]);
-    if (!layers_known)
-      fail(fmt::format("has {} channel(s) ({}); spectrack's EXR outputs have R, G, B and its film layers only (A, AR, "
-                       "AG, AB, environment.*, variance.*, emission.*, direct.*, indirect.*, albedo.*, depth.Z, collision.fraction)",
-                       nc, channel_list(spec)));
-    if (size_t(spec.width) * size_t(spec.height) * size_t(nc) > 3 * max_pixels)
-      fail(fmt::format("{}x{} pixels of {} channels are more than a merge input can hold (3 * 2^28 values)", spec.width,
-                       spec.height, nc));
-    bool all_float = spec.format == OIIO::TypeDesc::FLOAT;
-    for (auto& t : spec.channelformats) all_float = all_float && t == OIIO::TypeDesc::FLOAT;
-    if (!all_float)
-      fail(fmt::format("holds {} pixels; spectrack's EXR outputs hold 32-bit float (a converted file loses the exact "
-                       "sums a merge needs)",
-                       spec.format.c_str()));
-    if (img.window.x0 < 0 || img.window.y0 < 0 || int64_t(img.window.x0) + img.width > img.window.full_width ||
-        int64_t(img.window.y0) + img.height > img.window.full_height)
-      fail(fmt::format("its data window ({}x{} pixels at {},{}) leaves its {}x{} display window", img.width,
-                       img.height, img.window.x0, img.window.y0, img.window.full_width, img.window.full_height));
-  }
-  const size_t n = size_t(img.width) * size_t(img.height);
-  const int nread = gray >= 0 ? 1 : (env ? 3 : nc);  // a film piece: every channel (its layers)
-  img.rgb.resize(n * 3);
-  std::vector<float> g;
-  if (gray >= 0 || nread > 3) g.resize(n * size_t(nread));
-  float* dst = !g.empty() ? g.data() : img.rgb.data();
-  if (!in->read_image(0, 0, gray >= 0 ? gray : 0, (gray >= 0 ? gray : 0) + nread, OIIO::TypeDesc::FLOAT, dst))
-    fail(fmt::format("cannot read pixels: {}", in->geterror()));
-  if (gray < 0 && nread > 3) {
-    const size_t ne = size_t(nread) - 3;
-    img.extra_names.assign(spec.channelnames.begin() + 3, spec.channelnames.begin() + nread);
-    img.extra.resize(n * ne);
-    for (size_t i = 0; i < n; ++i) {
-      for (int c = 0; c < 3; ++c) img.rgb[i * 3 + c] = g[i * nread + c];
-      for (size_t c = 0; c < ne; ++c) img.extra[i * ne + c] = g[i * nread + 3 + c];
-    }
-  }
-  if (gray >= 0)
-    for (size_t i = 0; i < n; ++i) img.rgb[i * 3] = img.rgb[i * 3 + 1] = img.rgb[i * 3 + 2] = g[i];
-  if (env) {
-    // 8-bit PNG and JPEG files hold sRGB-encoded values; radiance is linear
-    std::string cs = spec.get_string_attribute("oiio:ColorSpace");
-    std::string lower = cs;
-    std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-    if (lower == "srgb") {
-      for (float& v : img.rgb) v = srgb_decode(v);
-    } else if (lower.rfind("gammacorrected", 0) == 0) {
-      float gamma = std::strtof(cs.c_str() + 14, nullptr);
-      if (!(gamma > 0.0f && gamma < 10.0f)) fail(fmt::format("unsupported colour space {}", cs));
-      for (float& v : img.rgb) v = v > 0.0f ? std::pow(v, gamma) : 0.0f;
-    }
-  } else {
-    for (size_t i = 0; i < img.extra.size(); ++i)
-      if (!std::isfinite(img.extra[i]))
-        fail(fmt::format("channel {} holds a non-finite value ({}); spectrack writes finite pixels only",
-                         img.extra_names[i % img.extra_names.size()], img.extra[i]));
-    for (size_t i = 0; i < img.rgb.size(); ++i)
-      if (!std::isfinite(img.rgb[i]))
-        fail(fmt::format("pixel {},{} holds a non-finite value ({}); spectrack writes finite pixels only",
-                         img.window.x0 + int((i / 3) % size_t(img.width)), img.window.y0 + int(i / 3 / size_t(img.width)),
-                         img.rgb[i]));
-  }
+  if (env) check_environment_spec(o, cropped, rgb_named, fail);
+  else check_film_piece_spec(o, rgb_named, fail);
+  if (!env && nc > 3) img.extra_names.assign(spec.channelnames.begin() + 3, spec.channelnames.begin() + nc);
   for (const auto& a : spec.extra_attribs) {
     std::string n = a.name().string();
     if (n.rfind("spectrack:", 0) != 0) continue;
@@ -423,7 +407,69 @@ RgbImage read_image(const std::string& path, ImageUse use) {
     else if (a.type() == OIIO::TypeDesc::FLOAT) img.meta[k] = a.get_float();
     else img.meta[k] = a.get_string();
   }
-  in->close();
+  return o;
+}
+
+void check_finite(const std::string& path, const RgbImage& img, int row0, const float* rgb, const float* extra,
+                  size_t npix) {
+  const size_t ne = img.extra_names.size();
+  for (size_t i = 0; i < npix * ne; ++i)
+    if (!std::isfinite(extra[i]))
+      throw Error(fmt::format("{}: channel {} holds a non-finite value ({}); spectrack writes finite pixels only", path,
+                              img.extra_names[i % ne], extra[i]));
+  const size_t first = size_t(row0) * size_t(img.width);
+  for (size_t i = 0; i < npix * 3; ++i)
+    if (!std::isfinite(rgb[i]))
+      throw Error(fmt::format("{}: pixel {},{} holds a non-finite value ({}); spectrack writes finite pixels only", path,
+                              img.window.x0 + int((first + i / 3) % size_t(img.width)),
+                              img.window.y0 + int((first + i / 3) / size_t(img.width)), rgb[i]));
+}
+
+namespace {
+
+// 8-bit PNG and JPEG files hold sRGB-encoded values; radiance is linear.
+void decode_colour_space(const OIIO::ImageSpec& spec, std::vector<float>& rgb, const std::function<void(const std::string&)>& fail) {
+  std::string cs = spec.get_string_attribute("oiio:ColorSpace");
+  std::string lower = cs;
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  if (lower == "srgb") {
+    for (float& v : rgb) v = srgb_decode(v);
+  } else if (lower.rfind("gammacorrected", 0) == 0) {
+    float gamma = std::strtof(cs.c_str() + 14, nullptr);
+    if (!(gamma > 0.0f && gamma < 10.0f)) fail(fmt::format("unsupported colour space {}", cs));
+    for (float& v : rgb) v = v > 0.0f ? std::pow(v, gamma) : 0.0f;
+  }
+}
+
+}  // namespace
+
+RgbImage read_image(const std::string& path, ImageUse use) {
+  const bool env = use == ImageUse::kEnvironmentMap;
+  auto fail = [&](const std::string& reason) -> void { throw Error(path + ": " + reason); };
+  OpenedImage o = open_checked(path, use);
+  RgbImage& img = o.img;
+  const int gray = o.gray;
+  const size_t n = size_t(img.width) * size_t(img.height);
+  const int nread = gray >= 0 ? 1 : (env ? 3 : o.spec.nchannels);  // a film piece: every channel (its layers)
+  img.rgb.resize(n * 3);
+  std::vector<float> g;
+  if (gray >= 0 || nread > 3) g.resize(n * size_t(nread));
+  float* dst = !g.empty() ? g.data() : img.rgb.data();
+  if (!o.in->read_image(0, 0, gray >= 0 ? gray : 0, (gray >= 0 ? gray : 0) + nread, OIIO::TypeDesc::FLOAT, dst))
+    fail(fmt::format("cannot read pixels: {}", o.in->geterror()));
+  if (gray < 0 && nread > 3) {
+    const size_t ne = size_t(nread) - 3;
+    img.extra.resize(n * ne);
+    for (size_t i = 0; i < n; ++i) {
+      for (int c = 0; c < 3; ++c) img.rgb[i * 3 + c] = g[i * nread + c];
+      for (size_t c = 0; c < ne; ++c) img.extra[i * ne + c] = g[i * nread + 3 + c];
+    }
+  }
+  if (gray >= 0)
+    for (size_t i = 0; i < n; ++i) img.rgb[i * 3] = img.rgb[i * 3 + 1] = img.rgb[i * 3 + 2] = g[i];
+  if (env) decode_colour_space(o.spec, img.rgb, fail);
+  else check_finite(path, img, 0, img.rgb.data(), img.extra.data(), n);
+  o.in->close();
   return img;
 }
 

@@ -20,8 +20,9 @@ cl::Buffer DeviceScene::buffer(cl_mem_flags flags, size_t bytes, const void* hos
   }
   if (bytes > dev.max_alloc)
     throw Error(fmt::format("{} needs {:.1f} MiB in one buffer but device '{}' allows at most {:.1f} MiB per "
-                            "allocation (global memory {:.1f} MiB); choose another device with --device",
-                            what, bytes / 1048576.0, dev.name, dev.max_alloc / 1048576.0, dev.global_mem / 1048576.0));
+                            "allocation (global memory {:.1f} MiB); {}choose another device with --device",
+                            what, bytes / 1048576.0, dev.name, dev.max_alloc / 1048576.0, dev.global_mem / 1048576.0,
+                            std::string(what).find("--") != std::string::npos ? "lower the option named, or " : ""));
   cl::Buffer b(ctx, flags | (host ? CL_MEM_COPY_HOST_PTR : 0), bytes, const_cast<void*>(host), &err);
   ST_CL_CHECK(err, (std::string("clCreateBuffer(") + what + ")").c_str());
   return b;

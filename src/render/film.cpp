@@ -180,7 +180,8 @@ static std::string window_text(int x0, int x1, int y0, int y1) {
 namespace {
 
 // Every piece belongs to the render of the first one and holds samples inside the film.
-void check_one_render(const std::vector<FilmPiece>& pieces) {
+// (with_sums: and holds the sums of its window; a header read for a streamed merge holds none).
+void check_one_render(const std::vector<FilmPiece>& pieces, bool with_sums) {
   const FilmPiece& a = pieces[0];
   for (auto& p : pieces) {
     auto differ = [&](const std::string& what, const std::string& va, const std::string& vb) {
@@ -204,8 +205,9 @@ void check_one_render(const std::vector<FilmPiece>& pieces) {
     if (p.id.version != a.id.version) differ("the spectrack version", a.id.version, p.id.version);
     if (p.id.scene_hash != a.id.scene_hash) differ("the scene (spectrack:scene_hash)", a.id.scene_hash, p.id.scene_hash);
     if (p.width <= 0 || p.height <= 0 || p.x0 < 0 || p.y0 < 0 || p.x0 + p.width > p.id.full_width ||
-        p.y0 + p.height > p.id.full_height || p.sum.size() != size_t(p.width) * p.height * 3 ||
-        p.aov_sum.size() != size_t(p.width) * p.height * aov_sum_channels(p.id.aovs).size())
+        p.y0 + p.height > p.id.full_height ||
+        (with_sums && (p.sum.size() != size_t(p.width) * p.height * 3 ||
+                       p.aov_sum.size() != size_t(p.width) * p.height * aov_sum_channels(p.id.aovs).size())))
       throw Error(fmt::format("merge: {}: pixel window {} is not inside the {}x{} film", p.source,
                               window_text(p.x0, p.x0 + p.width, p.y0, p.y0 + p.height), p.id.full_width,
                               p.id.full_height));
@@ -239,11 +241,9 @@ std::vector<SampleRange> cell_ranges(const std::vector<FilmPiece>& pieces, int c
   return join_ranges(rs);
 }
 
-}  // namespace
-
-FilmPiece merge_pieces(const std::vector<FilmPiece>& pieces) {
+FilmPiece merge_layout(const std::vector<FilmPiece>& pieces, bool with_sums) {
   if (pieces.empty()) throw Error("merge: no input");
-  check_one_render(pieces);
+  check_one_render(pieces, with_sums);
   const FilmPiece& a = pieces[0];
   std::vector<int> xs, ys;
   for (auto& p : pieces) {
@@ -280,11 +280,21 @@ FilmPiece merge_pieces(const std::vector<FilmPiece>& pieces) {
                                 cell, format_ranges(rs), first_cell_text, format_ranges(out.ranges)));
       }
     }
+  for (auto& p : pieces) out.interrupted |= p.interrupted;
+  return out;
+}
+
+}  // namespace
+
+FilmPiece plan_merge(const std::vector<FilmPiece>& pieces) { return merge_layout(pieces, false); }
+
+FilmPiece merge_pieces(const std::vector<FilmPiece>& pieces) {
+  FilmPiece out = merge_layout(pieces, true);
+  const FilmPiece& a = pieces[0];
   const size_t na = aov_sum_channels(a.id.aovs).size();
   out.sum.assign(size_t(out.width) * out.height * 3, 0.0);
   out.aov_sum.assign(size_t(out.width) * out.height * na, 0.0);
   for (auto& p : pieces) {
-    out.interrupted |= p.interrupted;
     for (auto [from, to, nc] : {std::tuple{&p.sum, &out.sum, size_t(3)}, std::tuple{&p.aov_sum, &out.aov_sum, na}})
       for (int y = 0; y < p.height && nc > 0; ++y) {
         const double* src = &(*from)[size_t(y) * p.width * nc];
@@ -293,243 +303,6 @@ FilmPiece merge_pieces(const std::vector<FilmPiece>& pieces) {
       }
   }
   return out;
-}
-
-Metadata piece_metadata(const FilmPiece& p) {
-  Metadata m;
-  m["spp"] = int(p.samples());
-  m["spp_ranges"] = format_ranges(p.ranges);
-  if (p.ranges.size() == 1) {
-    m["spp_begin"] = int(p.ranges[0].begin);
-    m["spp_end"] = int(p.ranges[0].end);
-  }
-  // an int where it fits (every seed below 2^31), else the decimal text
-  if (p.id.seed <= 2147483647) m["seed"] = int(p.id.seed);
-  else m["seed"] = std::to_string(p.id.seed);
-  m["tracker"] = p.id.tracker;
-  m["scheme"] = p.id.scheme;
-  m["absorption"] = p.id.absorption;
-  m["light_sampling"] = p.id.light_sampling;
-  m["transmittance"] = p.id.transmittance;
-  m["lookup"] = p.id.lookup;
-  m["color"] = p.id.color;
-  m["version"] = p.id.version;
-  m["scene_hash"] = p.id.scene_hash;
-  m["pixel_bounds"] = fmt::format("{},{},{},{}", p.x0, p.x0 + p.width, p.y0, p.y0 + p.height);
-  m["full_resolution"] = fmt::format("{}x{}", p.id.full_width, p.id.full_height);
-  m["interrupted"] = p.interrupted ? 1 : 0;
-  return m;
-}
-
-// The EXR channels of a piece (docs/aov.md) from its sums, n samples: R, G, B (with alpha the
-// transparent film's: premultiplied, without the environment layer), A
-// (the mean of AR, AG, AB) and AR, AG, AB, environment.R/G/B, variance.R/G/B (the variance of the
-// pixel's mean: (S2 - S1^2 / n) / (n (n - 1)), 0 below 2 samples), emission.R/G/B, direct.R/G/B,
-// indirect.R/G/B (means), albedo.R/G/B and depth.Z (means over the samples whose camera ray
-// collided, 0 where none did) and collision.fraction (the fraction that collided, their weight in a merge).
-static std::vector<std::string> exr_channels(const FilmPiece& p, std::vector<float>* px) {
-  const uint32_t aovs = p.id.aovs;
-  const bool alpha = aovs & ST_AOV_BIT(ALPHA);
-  const std::vector<std::string> sums = aov_sum_channels(aovs);
-  auto at = [&](const std::string& name) { return size_t(std::find(sums.begin(), sums.end(), name) - sums.begin()); };
-  // each channel's recipe, decided once (not per pixel), in the table's order (aov_exr_channels)
-  enum Kind { kBeauty, kAlphaMean, kMean, kVariance, kPerCollision, kCollisionFraction };
-  struct Channel {
-    Kind kind;
-    size_t col = 0;      // its sum's column in aov_sum (kVariance: the second moment's)
-    int k = 0;           // kBeauty, kVariance: the colour channel
-    size_t env_col = 0;  // kVariance with alpha: the environment's column (the whole beauty)
-  };
-  std::vector<std::string> names = {"R", "G", "B"};
-  std::vector<Channel> recipe = {{kBeauty, 0, 0}, {kBeauty, 0, 1}, {kBeauty, 0, 2}};
-  for (int k = 0; k < ST_AOV_COUNT; ++k) {
-    if (!(aovs & (1u << k))) continue;
-    const std::vector<std::string>& chans = aov_exr_channels(k);
-    for (size_t c = 0; c < chans.size(); ++c) {
-      names.push_back(chans[c]);
-      if (k == ST_AOV_INDEX_ALPHA) recipe.push_back(c == 0 ? Channel{kAlphaMean} : Channel{kMean, at(chans[c])});
-      else if (k == ST_AOV_INDEX_VARIANCE)
-        recipe.push_back({kVariance, at("moment2." + chans[c].substr(chans[c].size() - 1)), int(c),
-                          alpha ? at("environment." + chans[c].substr(chans[c].size() - 1)) : 0});
-      else if (k == ST_AOV_INDEX_ALBEDO || k == ST_AOV_INDEX_DEPTH) recipe.push_back({kPerCollision, at(chans[c])});
-      else recipe.push_back({kMean, at(chans[c])});
-    }
-  }
-  const bool collisions = aovs & (ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH));
-  if (collisions) {
-    names.push_back(kCollisionChannel);
-    recipe.push_back({kCollisionFraction, at(kCollisionChannel)});
-  }
-  const size_t hits_col = collisions ? at(kCollisionChannel) : 0;
-  const size_t a_col[3] = {at("AR"), at("AG"), at("AB")};
-  const size_t na = sums.size(), nc = names.size(), npix = size_t(p.width) * p.height;
-  const double n = double(p.samples());
-  px->assign(npix * nc, 0.0f);
-  if (n <= 0) return names;
-  for (size_t i = 0; i < npix; ++i) {
-    const double* a = na ? &p.aov_sum[i * na] : nullptr;
-    float* o = &(*px)[i * nc];
-    for (size_t c = 0; c < nc; ++c) {
-      const Channel& ch = recipe[c];
-      switch (ch.kind) {
-        case kBeauty: o[c] = float(p.sum[i * 3 + size_t(ch.k)] / n); break;
-        case kAlphaMean: o[c] = float((a[a_col[0]] + a[a_col[1]] + a[a_col[2]]) / (3.0 * n)); break;
-        case kMean: o[c] = float(a[ch.col] / n); break;
-        case kVariance: {
-          const double s1 = p.sum[i * 3 + size_t(ch.k)] + (alpha ? a[ch.env_col] : 0.0);  // the whole beauty
-          const double s2 = a[ch.col];
-          // finite always: a sum of squares that overflowed float (samples above ~1e19) is written
-          // as the largest float, not inf, which no reader (nor merge) would accept
-          const double var = n >= 2 ? std::max(0.0, (s2 - s1 * s1 / n) / (n * (n - 1))) : 0.0;
-          o[c] = std::isfinite(var) ? float(std::min(var, double(std::numeric_limits<float>::max())))
-                                    : std::numeric_limits<float>::max();
-          break;
-        }
-        case kPerCollision: o[c] = a[hits_col] != 0 ? float(a[ch.col] / a[hits_col]) : 0.0f; break;
-        case kCollisionFraction: o[c] = float(a[ch.col] / n); break;
-      }
-    }
-  }
-  return names;
-}
-
-void write_piece(const std::string& path, const FilmPiece& p, const Metadata& extra, const ExrOptions& exr) {
-  Metadata m = extra;
-  for (auto& [k, v] : piece_metadata(p)) m[k] = v;
-  PixelWindow w;
-  w.full_width = p.id.full_width;
-  w.full_height = p.id.full_height;
-  w.x0 = p.x0;
-  w.y0 = p.y0;
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  if (ext != ".exr") {  // a PNG preview: the whole beauty (a transparent film's environment added back)
-    std::vector<float> rgb = p.mean();
-    const std::vector<std::string> sums = aov_sum_channels(p.id.aovs);
-    const size_t na = sums.size();
-    const size_t e = size_t(std::find(sums.begin(), sums.end(), "environment.R") - sums.begin());
-    if ((p.id.aovs & ST_AOV_BIT(ALPHA)) && p.samples() > 0)
-      for (size_t i = 0; i < rgb.size(); ++i)
-        rgb[i] = float((p.sum[i] + p.aov_sum[(i / 3) * na + e + i % 3]) / double(p.samples()));
-    write_image(path, p.width, p.height, rgb, m, w);
-    return;
-  }
-  std::vector<float> px;
-  std::vector<std::string> names = exr_channels(p, &px);
-  write_exr_channels(path, p.width, p.height, names, px, m, w, exr);
-}
-
-FilmPiece read_piece(const std::string& path, Metadata* meta) {
-  RgbImage img = read_image(path, ImageUse::kFilmPiece);
-  if (meta) *meta = img.meta;
-  if (img.format != "openexr")
-    throw Error(fmt::format("{}: a {} image cannot be merged: only spectrack's EXR outputs hold the float pixels and "
-                            "sample ranges a merge needs",
-                            path, img.format));
-  auto str = [&](const char* key) -> std::string {
-    auto it = img.meta.find(key);
-    if (it == img.meta.end())
-      throw Error(fmt::format("{}: not a spectrack render that can be merged: metadata spectrack:{} is missing", path,
-                              key));
-    if (auto s = std::get_if<std::string>(&it->second)) return *s;
-    if (auto i = std::get_if<int>(&it->second)) return std::to_string(*i);
-    return fmt::format("{}", std::get<float>(it->second));
-  };
-  FilmPiece p;
-  p.source = path;
-  p.id.scene_hash = str("scene_hash");
-  p.id.tracker = str("tracker");
-  p.id.scheme = str("scheme");
-  if (img.meta.count("absorption")) p.id.absorption = str("absorption");
-  if (img.meta.count("light_sampling")) p.id.light_sampling = str("light_sampling");
-  if (img.meta.count("transmittance")) p.id.transmittance = str("transmittance");
-  if (img.meta.count("lookup")) p.id.lookup = str("lookup");
-  if (img.meta.count("color")) p.id.color = str("color");
-  p.id.version = str("version");
-  try {
-    p.id.seed = std::stoll(str("seed"));
-  } catch (const std::invalid_argument&) {
-    throw Error(fmt::format("{}: metadata spectrack:seed '{}' is not a number", path, str("seed")));
-  }
-  p.ranges = join_ranges(parse_ranges(str("spp_ranges"), path + ": metadata spectrack:spp_ranges"));
-  p.interrupted = str("interrupted") != "0";
-  p.id.full_width = img.window.full_width;
-  p.id.full_height = img.window.full_height;
-  p.x0 = img.window.x0;
-  p.y0 = img.window.y0;
-  p.width = img.width;
-  p.height = img.height;
-  // the layers: each one whole, or the file is not one of ours
-  const std::vector<std::string>& have = img.extra_names;
-  auto has = [&](const std::string& c) { return std::find(have.begin(), have.end(), c) != have.end(); };
-  for (int k = 0; k < ST_AOV_COUNT; ++k) {
-    const std::vector<std::string>& chans = aov_exr_channels(k);
-    size_t found = 0;
-    for (auto& c : chans) found += has(c);
-    if (found == chans.size()) p.id.aovs |= 1u << k;
-    else if (found > 0)
-      throw Error(fmt::format("{}: the {} layer is incomplete (it needs channels {}); a merge needs every channel of "
-                              "a layer",
-                              path, aov_name(k), fmt::join(chans, ", ")));
-  }
-  if ((p.id.aovs & ST_AOV_BIT(ALPHA)) && !(p.id.aovs & ST_AOV_BIT(ENVIRONMENT)))
-    throw Error(fmt::format("{}: has an alpha layer without the environment layer that its transparent R, G, B leave "
-                            "out; a merge cannot restore the beauty",
-                            path));
-  if ((p.id.aovs & (ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH))) && !has(kCollisionChannel))
-    throw Error(fmt::format("{}: has an albedo or depth layer without its collision.fraction channel (how many samples' "
-                            "camera rays collided), which a merge needs to weigh it",
-                            path));
-  const double n = double(p.samples());
-  const size_t npix = size_t(p.width) * p.height, ne = have.size();
-  auto column = [&](const std::string& c) { return size_t(std::find(have.begin(), have.end(), c) - have.begin()); };
-  const std::vector<std::string> sums = aov_sum_channels(p.id.aovs);
-  const size_t na = sums.size();
-  // each sum's columns in the file, found once (not per pixel): the channel itself, or for a
-  // second moment its variance.* channel and (alpha: transparent R, G, B) its environment.* one
-  struct Source {
-    size_t col = 0;
-    int moment_of = -1;  // second moments: the beauty channel 0..2
-    size_t env_col = 0;
-    bool per_collision = false;  // albedo, depth: a mean over the collided samples (collision.fraction n of them)
-  };
-  const bool alpha = p.id.aovs & ST_AOV_BIT(ALPHA);
-  std::vector<Source> src(na);
-  for (size_t c = 0; c < na; ++c) {
-    const std::string& name = sums[c];
-    if (name.rfind("moment2.", 0) == 0) {
-      const std::string ch(1, name.back());
-      src[c].moment_of = int(std::string("RGB").find(name.back()));
-      src[c].col = column("variance." + ch);
-      if (alpha) src[c].env_col = column("environment." + ch);
-    } else {
-      src[c].col = column(name);  // AR, AG, AB, environment.*, the passes, albedo, depth, collision.fraction
-      for (int k : {ST_AOV_INDEX_ALBEDO, ST_AOV_INDEX_DEPTH})
-        for (const std::string& a : aov_exr_channels(k)) src[c].per_collision = src[c].per_collision || name == a;
-    }
-  }
-  const size_t hits_col = column(kCollisionChannel);
-  p.sum.resize(npix * 3);
-  p.aov_sum.resize(npix * na);
-  for (size_t i = 0; i < npix; ++i) {
-    const float* e = ne ? &img.extra[i * ne] : nullptr;
-    for (int k = 0; k < 3; ++k) p.sum[i * 3 + k] = double(img.rgb[i * 3 + k]) * n;
-    for (size_t c = 0; c < na; ++c) {
-      const Source& sc = src[c];
-      double v = double(e[sc.col]);
-      if (sc.moment_of >= 0) {  // back from the variance of the mean (exr_channels)
-        double s1 = p.sum[i * 3 + size_t(sc.moment_of)];  // the whole beauty's sum
-        if (alpha) s1 += double(e[sc.env_col]) * n;
-        v = v * n * (n - 1) + (n > 0 ? s1 * s1 / n : 0.0);
-      } else if (sc.per_collision) {
-        v *= double(e[hits_col]) * n;
-      } else {
-        v *= n;
-      }
-      p.aov_sum[i * na + c] = v;
-    }
-  }
-  return p;
 }
 
 }  // namespace spectrack

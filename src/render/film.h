@@ -79,6 +79,10 @@ FilmPiece empty_piece(const RenderIdentity& id, const FilmWindow& w, const std::
 FilmPiece piece_from_result(const RenderResult& r, const RenderIdentity& id, const std::string& source);
 // Combines pieces into one over their bounding box; throws Error (naming the sources) as above.
 FilmPiece merge_pieces(const std::vector<FilmPiece>& pieces);
+// merge_pieces' checks and result without the sums: the pieces may be headers (no sums); the
+// result has the window, ranges, identity and interrupted flag of the merge (render/merge_files.h
+// adds the sums a band of rows at a time).
+FilmPiece plan_merge(const std::vector<FilmPiece>& pieces);
 
 // spp, spp_ranges (and spp_begin / spp_end when contiguous), seed, tracker, scheme, version,
 // scene_hash, pixel_bounds, full_resolution, interrupted.
@@ -90,5 +94,38 @@ void write_piece(const std::string& path, const FilmPiece& p, const Metadata& ex
 // Reads a piece written by write_piece; throws Error for PNGs and images without the metadata.
 // `meta`, when given, gets the file's other spectrack:* metadata (device, render_seconds, ...).
 FilmPiece read_piece(const std::string& path, Metadata* meta = nullptr);
+
+// The parts of write_piece and read_piece, for a merge that streams rows (render/film_io.cpp):
+// the EXR channels of p's pixels (names returned, values pixel-major in px), the beauty a PNG
+// gets, and p's place in the film.
+std::vector<std::string> piece_exr_channels(const FilmPiece& p, std::vector<float>* px);
+std::vector<float> piece_beauty(const FilmPiece& p);
+PixelWindow piece_window(const FilmPiece& p);
+// The piece a file header describes (identity, window, ranges, layers; no sums): the refusals of
+// read_piece that need no pixel, spp, spp_begin and spp_end checked against spp_ranges.
+FilmPiece piece_from_header(const std::string& path, const RgbImage& header);
+// Turns a piece file's pixels (R, G, B and the layers `extra_names`, as read) back into sums.
+class PieceDecoder {
+ public:
+  PieceDecoder(const FilmPiece& header, const std::vector<std::string>& extra_names);
+  // npix pixels: rgb 3 per pixel, extra extra_names.size() per pixel; sum 3 and aov_sum
+  // aov_sum_channels(aovs).size() per pixel.
+  void decode(const float* rgb, const float* extra, size_t npix, double* sum, double* aov_sum) const;
+
+ private:
+  // each sum's columns in the file: the channel itself, or for a second moment its variance.*
+  // channel and (alpha: transparent R, G, B) its environment.* one
+  struct Source {
+    size_t col = 0;
+    int moment_of = -1;  // second moments: the beauty channel 0..2
+    size_t env_col = 0;
+    bool per_collision = false;  // albedo, depth: a mean over the collided samples (collision.fraction of them)
+  };
+  double n_;
+  bool alpha_;
+  size_t ne_;
+  std::vector<Source> src_;
+  size_t hits_col_ = 0;
+};
 
 }  // namespace spectrack

@@ -76,6 +76,17 @@ void record_occupancy(RenderStats& S, const uint64_t* n_q, uint64_t Q) {
   if (occ < 0.5) S.iterations_below_half++;
 }
 
+// What sizes the buffers of path slots and shadow rays, for messages: the options given
+// (--path-slots, --shadow-ring) are named, so that a refusal says which one to lower.
+std::string slot_cause(const RenderOptions& opt, const BatchPlan& p, bool shadows) {
+  std::string s = opt.path_slots > 0 ? fmt::format("--path-slots {}", p.Q) : fmt::format("{} path slots", p.Q);
+  if (shadows)
+    s += fmt::format(" x {} light(s) x {}", p.NL / std::max<uint64_t>(1, p.shadow_ring),
+                     opt.shadow_ring > 0 ? fmt::format("--shadow-ring {}", p.shadow_ring)
+                                         : fmt::format("shadow ring {}", p.shadow_ring));
+  return s;
+}
+
 }  // namespace
 
 struct Renderer::Impl {
@@ -218,11 +229,15 @@ double Renderer::Impl::memory_need(const BatchPlan& p) const {
 void Renderer::Impl::check_memory(const BatchPlan& p) const {
   const double need = memory_need(p);
   if (need > double(ds.dev.global_mem))
-    throw Error(fmt::format("this render needs about {:.1f} MiB of device memory ({}x{} film, {} paths in flight) "
-                            "but device '{}' has {:.1f} MiB; use a smaller film, --path-slots, or another device "
-                            "with --device",
-                            need / 1048576.0, settings.window.width, settings.window.height, p.Q, ds.dev.name,
-                            ds.dev.global_mem / 1048576.0));
+    throw Error(fmt::format("this render needs about {:.1f} MiB of device memory ({}x{} film, {}) but device '{}' "
+                            "has {:.1f} MiB; use {}a smaller film, or another device with --device",
+                            need / 1048576.0, settings.window.width, settings.window.height, slot_cause(opt, p, true),
+                            ds.dev.name, ds.dev.global_mem / 1048576.0,
+                            opt.path_slots > 0 || opt.shadow_ring > 0
+                                ? fmt::format("{}{}{}, ", opt.path_slots > 0 ? "a lower --path-slots" : "",
+                                              opt.path_slots > 0 && opt.shadow_ring > 0 ? " or " : "",
+                                              opt.shadow_ring > 0 ? "a lower --shadow-ring" : "")
+                                : std::string("--path-slots (fewer paths in flight), ")));
 }
 
 // Batch b uses ring slot b % ring: the kernels read the ring size from the scene constants.
@@ -234,8 +249,10 @@ void Renderer::Impl::set_ring_size(uint64_t ring) {
 
 RenderBuffers Renderer::Impl::allocate(const BatchPlan& p) {
   RenderBuffers b;
-  b.paths = ds.buffer(CL_MEM_READ_WRITE, p.Q * sizeof(st_path), nullptr, "path states");
-  b.shadows = ds.buffer(CL_MEM_READ_WRITE, p.Q * p.NL * sizeof(st_shadow), nullptr, "shadow rays");
+  b.paths = ds.buffer(CL_MEM_READ_WRITE, p.Q * sizeof(st_path), nullptr,
+                      fmt::format("path states ({})", slot_cause(opt, p, false)).c_str());
+  b.shadows = ds.buffer(CL_MEM_READ_WRITE, p.Q * p.NL * sizeof(st_shadow), nullptr,
+                        fmt::format("shadow rays ({})", slot_cause(opt, p, true)).c_str());
   // every entry starts empty (st_shadow.state 0); a path leaves its entries empty when it finishes
   if (p.Q * p.NL > 0)
     ST_CL_CHECK(ds.queue.enqueueFillBuffer(b.shadows, cl_uint(ST_SHADOW_EMPTY), 0, p.Q * p.NL * sizeof(st_shadow)),
@@ -245,7 +262,8 @@ RenderBuffers Renderer::Impl::allocate(const BatchPlan& p) {
   const uint64_t per_parity = ST_Q_PATH_QUEUES * p.Q + p.Q * p.NL;
   std::vector<uint32_t> init_queue(2 * per_parity, 0u);
   for (uint64_t i = 0; i < p.Q; ++i) init_queue[i] = uint32_t(i);  // parity 0, FREE: every slot
-  b.queues = ds.buffer(CL_MEM_READ_WRITE, init_queue.size() * 4, init_queue.data(), "queues");
+  b.queues = ds.buffer(CL_MEM_READ_WRITE, init_queue.size() * 4, init_queue.data(),
+                       fmt::format("queues ({})", slot_cause(opt, p, true)).c_str());
   std::vector<uint32_t> counters(ST_C_COUNT, 0u);
   b.counters = ds.buffer(CL_MEM_READ_WRITE, counters.size() * 4, counters.data(), "counters");
   b.results = ds.buffer(CL_MEM_READ_WRITE, p.ring * p.batch_paths * p.L * sizeof(st_float4), nullptr, "batch results");
