@@ -10,22 +10,19 @@
 // A render is a FilmPiece (render/film.h): the window and sample range it holds, with exact
 // per-pixel sums; shards, tiles, devices and MPI ranks all combine through merge_pieces.
 // Exit codes: 0 success; 1 a user-facing error (message on stderr names file, field and reason);
-// 2 bad command line; 130 interrupted (the image of the finished samples is still written and
-// marked `interrupted` in its metadata).
+// 2 bad command line; 3 the time limit came before any sample finished (nothing written);
+// 130 interrupted (the image of the finished samples is still written and marked `interrupted`
+// in its metadata; cli/run_control.h).
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
-#include <nlohmann/json.hpp>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <cstdlib>
 #include <cstdint>
 #include <chrono>
-#include <csignal>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 #include <future>
 #include <memory>
@@ -40,11 +37,12 @@
 #include "cl/opencl.h"
 #include "cli/info.h"
 #include "cli/progress.h"
+#include "cli/render_outputs.h"
+#include "cli/run_control.h"
 #include "image/image.h"
 #include "render/film.h"
 #include "render/multi_device.h"
 #include "render/renderer.h"
-#include "render/stats_json.h"
 #include "scene/frames.h"
 #include "scene/scene.h"
 #ifdef SPECTRACK_HAVE_MPI
@@ -55,28 +53,6 @@ using namespace spectrack;
 namespace fs = std::filesystem;
 
 namespace {
-
-std::atomic<bool> g_stop{false};
-std::atomic<bool> g_loop_started{false};  // a stage loop runs: a stop has finished samples to save
-
-// SIGINT/SIGTERM: while a render's stage loop runs, ask it to stop at its next iteration (the
-// finished samples are written, exit 130); before that (loading, kernel builds) there is nothing
-// to save, and a second signal means "now": end the process at once with 130. Only
-// async-signal-safe calls here.
-extern "C" void on_signal(int) {
-  if (!g_loop_started.load() || g_stop.load()) {
-    static const char msg[] = "\nspectrack: interrupted (no finished samples to write)\n";
-    ssize_t ignored = ::write(2, msg, sizeof(msg) - 1);
-    (void)ignored;
-    ::_exit(130);
-  }
-  g_stop.store(true);
-}
-
-void install_stop_handlers() {
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
-}
 
 int cmd_devices() {
   auto devs = enumerate_devices(true);
@@ -122,62 +98,6 @@ std::string join(const std::vector<std::string>& v, const char* sep) {
   std::string s;
   for (auto& x : v) s += (s.empty() ? "" : sep) + x;
   return s;
-}
-
-void write_stats_json(const std::string& path, const MultiDeviceResult& r, double seconds_total,
-                      double seconds_to_renderer, int mpi_ranks, const Metadata& meta) {
-  nlohmann::json j = stats_to_json(r.stats);
-  const FilmPiece& p = r.piece;
-  j["spp"] = p.samples();
-  j["spp_requested"] = r.spp_requested;
-  j["spp_ranges"] = format_ranges(p.ranges);
-  j["interrupted"] = p.interrupted;
-  j["stop_reason"] = p.interrupted ? (r.time_limit_reached ? "time-limit" : "signal") : "";
-  if (auto t = meta.find("time_limit"); t != meta.end()) j["time_limit"] = std::get<float>(t->second);
-  j["seed"] = r.seed;
-  j["tracker"] = tracker_name(r.tracker);
-  j["scheme"] = scheme_name(r.scheme);
-  j["absorption"] = absorption_name(r.absorption);
-  j["light_sampling"] = light_sampling_name(r.light_sampling);
-  j["light_sampling_used"] = light_sampling_name(r.light_sampling_used);
-  j["transmittance"] = transmittance_name(r.transmittance);
-  j["lookup"] = lookup_name(r.lookup);
-  j["color"] = film_color_name(r.color);
-  j["film_layers"] = nlohmann::json::array();
-  for (int k = 0; k < ST_AOV_COUNT; ++k)
-    if (r.aovs & (1u << k)) j["film_layers"].push_back(aov_name(k));
-  j["device"] = join(r.devices, ", ");
-  j["devices"] = r.devices;
-  j["samples_per_device"] = r.samples_per_device;
-  j["mpi_ranks"] = mpi_ranks;
-  j["width"] = p.width;
-  j["height"] = p.height;
-  j["full_width"] = p.id.full_width;
-  j["full_height"] = p.id.full_height;
-  j["pixel_bounds"] = {p.x0, p.x0 + p.width, p.y0, p.y0 + p.height};
-  j["scene_hash"] = p.id.scene_hash;
-  j["seconds_render"] = r.seconds_render;
-  j["seconds_setup"] = r.seconds_setup;
-  j["seconds_kernel_build"] = r.seconds_build;
-  j["kernels_from_cache"] = r.kernels_from_cache;
-  j["seconds_first_pass"] = r.seconds_first_pass;
-  j["seconds_first_pass_from_start"] = seconds_to_renderer + r.seconds_first_pass;  // scene loading included
-  j["features"] = r.features;
-  j["generic_kernels"] = r.features == uint32_t(ST_FEATURES_ALL);
-  // each VDB medium's majorant structure (docs/majorant-hierarchy.md)
-  nlohmann::json maj = nlohmann::json::array();
-  for (const MajorantInfo& m : r.majorants)
-    maj.push_back({{"cell", m.cell}, {"block", m.block}, {"levels", m.levels}, {"blocks_per_level", m.blocks_per_level}, {"fine_cells", m.fine_cells},
-                   {"blocks_empty", m.blocks_empty}, {"blocks_whole", m.blocks_whole},
-                   {"blocks_refined", m.blocks_refined}, {"bytes", m.bytes}, {"seconds_build", m.seconds_build},
-                   {"chord_lookups", m.chord_lookups}});
-  j["majorant_grids"] = maj;
-  j["dda_steps_per_nonempty_cell"] = r.stats.dda_nonempty > 0 ? double(r.stats.dda_steps) / double(r.stats.dda_nonempty) : 0.0;
-  j["seconds_total"] = seconds_total;
-  j["paths_per_second"] = r.seconds_render > 0 ? double(r.stats.paths) / r.seconds_render : 0.0;
-  std::ofstream f(path);
-  if (!f) throw Error(fmt::format("{}: cannot write stats file", path));
-  f << j.dump(2) << "\n";
 }
 
 struct MpiArg {
@@ -317,31 +237,6 @@ ExrOptions exr_options(bool half, const std::string& compression, const FilmDesc
   return o;
 }
 
-// Rank 0: the image, the preview, the statistics, and the summary line.
-void write_render_outputs(const RenderArgs& a, const std::string& output, const SceneDesc& scene,
-                          const MultiDeviceResult& r, double seconds_total, double seconds_to_renderer, int mpi_ranks,
-                          double time_limit) {
-  Metadata meta;
-  if (time_limit > 0) meta["time_limit"] = float(time_limit);
-  if (r.piece.interrupted) meta["stop_reason"] = std::string(r.time_limit_reached ? "time-limit" : "signal");
-  if (r.stats.nonfinite_samples > 0) meta["nonfinite_samples"] = int(std::min<uint64_t>(r.stats.nonfinite_samples, INT32_MAX));
-  meta["spp_requested"] = r.spp_requested;
-  meta["device"] = join(r.devices, ", ");
-  meta["render_seconds"] = float(r.seconds_render);
-  meta["scene"] = scene.path;
-  if (a.mpi) meta["mpi_ranks"] = mpi_ranks;
-  write_piece(output, r.piece, meta, exr_options(a.half, a.compression, scene.film));
-  if (!a.preview.empty()) write_piece(a.preview, r.piece, meta);
-  if (!a.stats_json.empty()) write_stats_json(a.stats_json, r, seconds_total, seconds_to_renderer, mpi_ranks, meta);
-  if (!a.quiet) {
-    std::cerr << fmt::format("wrote {} ({} spp in {:.2f} s render, {:.2f} s total{})\n", output, r.piece.samples(),
-                             r.seconds_render, seconds_total,
-                             !r.piece.interrupted ? "" : r.time_limit_reached ? ", stopped at the time limit" : ", INTERRUPTED");
-    if (!a.preview.empty()) std::cerr << fmt::format("wrote {} (preview)\n", a.preview);
-    if (!a.stats_json.empty()) std::cerr << fmt::format("wrote {} (statistics)\n", a.stats_json);
-  }
-}
-
 // One render of a loaded scene (one frame of a sequence) to `output`.
 int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const std::string& output,
                  std::chrono::steady_clock::time_point t0) {
@@ -353,8 +248,14 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   check_tracker_scheme(scene, opt, a.scheme, a.tracker);  // --scheme with a tracker that ignores it: exit 2
   const RenderSettings set = resolve_settings(scene, opt);
   const double time_limit = a.time_limit > 0 ? a.time_limit : scene.render.time_limit;
-  if (time_limit > 0)
+  loop_started_flag()->store(false);  // this frame's loop: until it starts, a signal ends the process at once
+  if (time_limit > 0) {
     opt.deadline = t0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(time_limit));
+    if (std::chrono::steady_clock::now() >= *opt.deadline)  // spent before this frame's set-up began
+      throw TimeLimitError(time_limit_message(deadline_watch().context(), time_limit, phase_slot().load()));
+    deadline_watch().arm(*opt.deadline, time_limit);  // set-up phases: ends the process at the deadline
+  }
+  set_phase("output checks and device selection");
   check_distinct_paths({{"the image", output}, {"--preview", a.preview}, {"--stats-json", a.stats_json}},
                        scene_inputs(scene));
   if (root) {
@@ -372,8 +273,8 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   if (root) hash = std::async(std::launch::async, [&scene] { return scene_hash(scene); });
   const bool tty = ::isatty(2);
   opt.progress = progress_reporter(quiet, tty, double(process_samples(set, mpi)));
-  opt.stop = &g_stop;
-  opt.loop_started = &g_loop_started;
+  opt.stop = stop_flag();
+  opt.loop_started = loop_started_flag();
   if (!quiet)
     std::cerr << fmt::format("spectrack: {} on {} ({}x{}{}, samples {}:{}, tracker {}, scheme {}{})\n", scene.path,
                              devices.size() == 1 && devices[0].empty() ? select_device("").name : join(devices, ","),
@@ -382,22 +283,29 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
                              set.sample_begin + set.spp, tracker_name(set.tracker), scheme_name(set.scheme),
                              mpi.on ? fmt::format(", {} MPI ranks", mpi.size) : "");
   const double seconds_to_renderer = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  set_phase("renderer set-up");
   MultiDeviceResult r = render_share(scene, opt, set, devices, a.chunk_spp, mpi);
+  deadline_watch().disarm();  // the stage loop ran: what it finished is written whatever the time
   if (tty && !quiet) std::fprintf(stderr, "\n");
-  if (!root) return (r.piece.interrupted && !r.time_limit_reached) ? 130 : 0;
-  r.piece.id.scene_hash = hash.get();
-  double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  write_render_outputs(a, output, scene, r, total, seconds_to_renderer, mpi.size, time_limit);
-  if (r.stats.nonfinite_samples > 0) return nonfinite_verdict(r.stats.nonfinite_samples, output);
-  return (r.piece.interrupted && !r.time_limit_reached) ? 130 : 0;
+  const bool signalled = stop_flag()->load();
+  if (!root) return signalled || (r.piece.interrupted && !r.time_limit_reached) ? kExitInterrupted : 0;
+  if (r.piece.samples() > 0) r.piece.id.scene_hash = hash.get();
+  const RenderOutputs out{output, a.preview, a.stats_json, exr_options(a.half, a.compression, scene.film), a.quiet, a.mpi};
+  const RenderTimes times{std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), seconds_to_renderer};
+  return finish_render(out, scene, r, times, mpi.size, time_limit, signalled);
 }
 
 // A render, or with --frames A:B a sequence: frame patterns (frames.h) in the media's files and
 // in the output, preview and statistics names are replaced per frame; every frame's files are
 // checked before the first render, and a missing one is named.
 int cmd_render(const RenderArgs& a, MpiArg& mpi) {
-  auto t0 = std::chrono::steady_clock::now();
-  install_stop_handlers();  // before loading: a stop must never wait for a slow or blocked input
+  const auto t0 = command_start();
+  // --time-limit bounds the scene loading too (a scene's render.time_limit is known once it is loaded)
+  if (a.time_limit > 0)
+    deadline_watch().arm(t0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                  std::chrono::duration<double>(a.time_limit)),
+                         a.time_limit);
+  set_phase("scene loading");
   SceneDesc scene = load_scene(a.scene);
   const std::string output = a.output.empty() ? scene.film.output : a.output;
   check_no_nul(scene, output);
@@ -412,6 +320,7 @@ int cmd_render(const RenderArgs& a, MpiArg& mpi) {
   if (!has_frame_pattern(fs::path(output).filename().string()))
     throw Error(fmt::format("--frames {}: the output {} has no frame pattern (e.g. out_####.exr or out_$F4.exr), so "
                             "every frame would overwrite it", a.frames, output));
+  set_phase("the frames' file checks");
   check_frame_files(scene, first, last);
   for (long long f = first; f <= last; ++f) {
     SceneDesc frame = scene;
@@ -423,6 +332,7 @@ int cmd_render(const RenderArgs& a, MpiArg& mpi) {
     fa.preview = expand_frame(a.preview, f);
     fa.stats_json = expand_frame(a.stats_json, f);
     if (!a.quiet && mpi.rank == 0) std::cerr << fmt::format("frame {} ({} of {})\n", f, f - first + 1, last - first + 1);
+    deadline_watch().set_context(fmt::format("frame {}: ", f));  // each frame's limit counts from its start
     const int code = render_scene(fa, mpi, frame, expand_frame(output, f),
                                   f == first ? t0 : std::chrono::steady_clock::now());
     if (code != 0) return code;
@@ -529,7 +439,7 @@ CLI::App* add_render_command(CLI::App& app, RenderArgs& ra) {
       ->check(integer_in(1, ST_MAX_SHADOW_RING));
   render->add_option("--time-limit", ra.time_limit,
                      "stop cleanly after this many seconds from the start (the finished samples are written, "
-                     "exit 0; overrides render.time_limit)")
+                     "exit 0; if none finished, nothing is written, exit 3; overrides render.time_limit)")
       ->check(finite_range(1e-3, 1e9));
   render->add_flag("--alpha", ra.alpha,
                    "write A = 1 - the camera ray's transmittance (and AR, AG, AB) with a transparent, premultiplied "
@@ -550,6 +460,7 @@ CLI::App* add_render_command(CLI::App& app, RenderArgs& ra) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  install_signal_handlers();  // first: a signal in any phase ends the command with 130, never by the signal
   CLI::App app{"spectrack: spectral and decomposition tracking for heterogeneous volumes on OpenCL"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("spectrack ") + SPECTRACK_VERSION);
@@ -588,6 +499,12 @@ int main(int argc, char** argv) {
     if (mpi.on) mpi_finish();
 #endif
     return code;
+  } catch (const TimeLimitError& e) {
+    std::cerr << "error: " << e.what() << "\n";
+#ifdef SPECTRACK_HAVE_MPI
+    if (mpi.on) mpi_finish();
+#endif
+    return kExitTimeLimit;
   } catch (const UsageError& e) {
     std::cerr << "error: " << e.what() << "\n";
 #ifdef SPECTRACK_HAVE_MPI

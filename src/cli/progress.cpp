@@ -1,7 +1,7 @@
 // progress.cpp: see progress.h. The callback runs on the render's thread(s) (several devices call
 // it under the multi-device lock), so its state is behind a shared pointer and the clock is read
 // on each call; the rate is measured from the first call (the stage loop's start, so kernel
-// builds do not count against it).
+// builds do not count against it). A failed write to stderr (its reader gone) ends the output.
 #include "cli/progress.h"
 
 #include <fmt/format.h>
@@ -69,15 +69,17 @@ std::function<void(double)> progress_reporter(bool quiet, bool tty, double sampl
     const std::string eta = done ? fmt::format("took {}", duration_str(elapsed))
                                  : rate > 0 ? "ETA " + duration_str((samples - got) / rate) : std::string("ETA ?");
     const int pct = int(std::floor(f * 100.0));
+    int n = 0;
     if (tty) {
       const int bar = int(f * 30.0);
-      std::fprintf(stderr, "\r[%-30s] %3d%%  %s/%s spp  %s  %s\033[K", std::string(size_t(bar), '#').c_str(), pct,
-                   samples_str(got).c_str(), samples_str(samples).c_str(), rate_s.c_str(), eta.c_str());
+      n = std::fprintf(stderr, "\r[%-30s] %3d%%  %s/%s spp  %s  %s\033[K", std::string(size_t(bar), '#').c_str(), pct,
+                       samples_str(got).c_str(), samples_str(samples).c_str(), rate_s.c_str(), eta.c_str());
     } else {
-      std::fprintf(stderr, "progress: %d%% (%s/%s spp, %s, %s)\n", pct, samples_str(got).c_str(),
-                   samples_str(samples).c_str(), rate_s.c_str(), eta.c_str());
+      n = std::fprintf(stderr, "progress: %d%% (%s/%s spp, %s, %s)\n", pct, samples_str(got).c_str(),
+                       samples_str(samples).c_str(), rate_s.c_str(), eta.c_str());
     }
-    std::fflush(stderr);
+    // a reader of stderr that went away (EPIPE; SIGPIPE is ignored) stops the progress, not the render
+    if (std::fflush(stderr) != 0 || n < 0) st->finished = true;
   };
 }
 

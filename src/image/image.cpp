@@ -1,5 +1,4 @@
-// image.cpp: see image.h. sRGB encoding for PNG previews is done here (the OETF of IEC 61966-2-1)
-// so that the preview matches what an EXR viewer shows for the same linear values.
+// image.cpp: see image.h. Reading images; image_write.cpp writes them.
 #include "image/image.h"
 #include "image/image_open.h"
 #include "scene/scene.h"
@@ -17,102 +16,8 @@
 #include <fstream>
 #include <functional>
 #include <memory>
-#include <unistd.h>
 
 namespace spectrack {
-
-static std::string extension(const std::string& path) {
-  std::string e = std::filesystem::path(path).extension().string();
-  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  return e;
-}
-
-void check_output_path(const std::string& path) {
-  std::string e = extension(path);
-  if (e != ".exr" && e != ".png")
-    throw Error(fmt::format("{}: unsupported output format '{}' (use .exr or .png)", path, e));
-  check_writable_file(path);
-}
-
-void check_writable_file(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw Error(fmt::format("{}: is a folder, not a file", path));
-  std::filesystem::path dir = std::filesystem::path(path).parent_path();
-  if (dir.empty()) dir = ".";
-  if (!std::filesystem::is_directory(dir, ec))
-    throw Error(fmt::format("{}: output folder {} does not exist", path, dir.string()));
-  if (::access(dir.c_str(), W_OK) != 0)
-    throw Error(fmt::format("{}: output folder {} is not writable", path, dir.string()));
-  if (std::filesystem::exists(path, ec) && ::access(path.c_str(), W_OK) != 0)
-    throw Error(fmt::format("{}: output file is not writable", path));
-}
-
-float srgb_encode(float v) {
-  if (!(v > 0.0f)) return 0.0f;
-  if (v >= 1.0f) return 1.0f;
-  return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
-}
-
-void set_exr_spec(OIIO::ImageSpec& spec, const Metadata& meta, const PixelWindow& window, const ExrOptions& exr) {
-  for (auto& [k, v] : meta) {
-    std::string key = "spectrack:" + k;
-    if (auto s = std::get_if<std::string>(&v)) spec.attribute(key, *s);
-    else if (auto i = std::get_if<int>(&v)) spec.attribute(key, *i);
-    else if (auto f = std::get_if<float>(&v)) spec.attribute(key, *f);
-  }
-  spec.attribute("compression", exr.compression);
-  if (window.full_width > 0) {
-    spec.x = window.x0;
-    spec.y = window.y0;
-    spec.full_x = spec.full_y = 0;
-    spec.full_width = window.full_width;
-    spec.full_height = window.full_height;
-  }
-}
-
-void write_exr_channels(const std::string& path, int width, int height, const std::vector<std::string>& names,
-                        const std::vector<float>& px, const Metadata& meta, const PixelWindow& window,
-                        const ExrOptions& exr) {
-  check_output_path(path);
-  if (extension(path) != ".exr") throw Error(fmt::format("{}: internal: film layers need an EXR", path));
-  if (names.empty() || px.size() != size_t(width) * size_t(height) * names.size())
-    throw Error(fmt::format("{}: internal: image size mismatch", path));
-  auto out = OIIO::ImageOutput::create(path);
-  if (!out) throw Error(fmt::format("{}: cannot create image writer: {}", path, OIIO::geterror()));
-  OIIO::ImageSpec spec(width, height, int(names.size()), exr.half ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT);
-  spec.channelnames = names;
-  spec.alpha_channel = -1;
-  for (size_t c = 0; c < names.size(); ++c)
-    if (names[c] == "A") spec.alpha_channel = int(c);
-  set_exr_spec(spec, meta, window, exr);
-  if (!out->open(path, spec)) throw Error(fmt::format("{}: cannot open for writing: {}", path, out->geterror()));
-  if (!out->write_image(OIIO::TypeDesc::FLOAT, px.data()) || !out->close())
-    throw Error(fmt::format("{}: write failed: {}", path, out->geterror()));
-}
-
-void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb, const Metadata& meta,
-                 const PixelWindow& window, const ExrOptions& exr) {
-  check_output_path(path);
-  if (rgb.size() != size_t(width) * size_t(height) * 3) throw Error(fmt::format("{}: internal: image size mismatch", path));
-  if (extension(path) != ".png") {
-    write_exr_channels(path, width, height, {"R", "G", "B"}, rgb, meta, window, exr);
-    return;
-  }
-  auto out = OIIO::ImageOutput::create(path);
-  if (!out) throw Error(fmt::format("{}: cannot create image writer: {}", path, OIIO::geterror()));
-  OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
-  for (auto& [k, v] : meta) {
-    std::string key = "spectrack:" + k;
-    if (auto s = std::get_if<std::string>(&v)) spec.attribute(key, *s);
-    else if (auto i = std::get_if<int>(&v)) spec.attribute(key, *i);
-    else if (auto f = std::get_if<float>(&v)) spec.attribute(key, *f);
-  }
-  if (!out->open(path, spec)) throw Error(fmt::format("{}: cannot open for writing: {}", path, out->geterror()));
-  std::vector<unsigned char> px(rgb.size());
-  for (size_t i = 0; i < rgb.size(); ++i) px[i] = (unsigned char)std::lround(srgb_encode(rgb[i]) * 255.0f);
-  if (!out->write_image(OIIO::TypeDesc::UINT8, px.data()) || !out->close())
-    throw Error(fmt::format("{}: write failed: {}", path, out->geterror()));
-}
 
 bool film_layer_channel(const std::string& name) {
   if (name == kCollisionChannel) return true;

@@ -1,6 +1,8 @@
-// image.h: image output and input through OpenImageIO. EXR gets linear float RGB plus the
-// render's metadata as string/int/float attributes; PNG gets an 8-bit sRGB preview (clamped).
-// The format follows the file extension; anything else is refused before rendering.
+// image.h: image output (image_write.cpp) and input (image.cpp) through OpenImageIO. EXR gets
+// linear float RGB plus the render's metadata as string/int/float attributes; PNG gets an 8-bit
+// sRGB preview (clamped). The format follows the file extension; anything else is refused before
+// rendering. An image is written to a temporary file and renamed into place once every write
+// succeeded (util/output_file.h): a failed write leaves nothing under the final name.
 #pragma once
 #include <map>
 #include <string>
@@ -14,9 +16,10 @@ namespace spectrack {
 using MetaValue = std::variant<std::string, int, float>;
 using Metadata = std::map<std::string, MetaValue>;
 
-// Throws Error unless `path` has a writable extension (.exr, .png) and its folder is writable.
+// Throws Error unless `path` is not an existing folder, device or FIFO, has a writable extension
+// (.exr, .png) and check_writable_file holds.
 void check_output_path(const std::string& path);
-// Throws Error unless `path` can be written as a file (not a folder; its folder exists and is writable).
+// Throws Error unless a file can be created at `path` (check_creatable_file of util/output_file.h).
 void check_writable_file(const std::string& path);
 // Where an image sits in a larger film: an EXR of a pixel window (a tile) keeps the film as its
 // display window and the tile as its data window. full_width == 0: the image is the whole film.
@@ -33,6 +36,7 @@ struct ExrOptions {
 };
 
 // Writes width x height linear RGB floats (row 0 at the top). PNG previews hold the pixels only.
+// Both writers throw Error "<path>: cannot write: <reason>" when any write fails.
 void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb, const Metadata& meta,
                  const PixelWindow& window = {}, const ExrOptions& exr = {});
 // Writes an EXR with the named channels (pixel-major: px[pixel * names.size() + c]); a channel

@@ -18,9 +18,9 @@
 #include <iostream>
 
 #include "render/device_scene.h"
+#include "util/phase.h"
 
 namespace spectrack {
-
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -133,6 +133,7 @@ struct Renderer::Impl {
 void Renderer::Impl::setup() {
   auto t0 = Clock::now();
   settings = resolve_settings(scene, opt);
+  set_phase("scene packing (volumes, environment maps and their CDFs, majorant grids)");
   PackedScene packed = pack_scene(scene, settings, {opt.majorant_cell, opt.majorant_block, opt.iteration_budget, opt.majorant_step_cost});
   // the feature mask is in the source, hence in the kernel-cache key
   if (opt.generic_kernels) packed.features = ST_FEATURES_ALL;
@@ -140,6 +141,7 @@ void Renderer::Impl::setup() {
   const int max_media = opt.generic_kernels ? ST_MAX_MEDIA : std::max(1, packed.st.n_media);
   std::vector<std::pair<std::string, std::string>> defines = {
       {"ST_KERNEL_MAX_MEDIA", std::to_string(max_media)}, {"ST_FEATURES", fmt::format("0x{:x}u", packed.features)}};
+  set_phase("device upload and kernel build");
   ds = upload_scene(opt.device, std::move(packed), std::move(defines));
   auto tb = Clock::now();
   ProgramBuild pb = build_program(ds.ctx, ds.dev, assemble_kernel_source(ds.defines), "-cl-std=CL1.2", opt.quiet);
@@ -461,6 +463,7 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
     plan.NL = uint64_t(ds.packed.st.n_lights);
   }
   check_memory(plan);  // refuse what cannot fit before allocating anything
+  set_phase("film allocation");
   set_ring_size(plan.ring);
   RenderBuffers buf = allocate(plan);
   bind_stage_args(buf, plan);
@@ -511,40 +514,5 @@ uint32_t Renderer::features() const { return impl_->ds.packed.features; }
 const SceneDesc& Renderer::scene() const { return impl_->scene; }
 const RenderSettings& Renderer::settings() const { return impl_->settings; }
 DeviceScene& Renderer::device_scene() { return impl_->ds; }
-
-std::vector<std::string> aov_sum_channels(uint32_t aovs) {
-  std::vector<std::string> c;
-  for (int k = 0; k < ST_AOV_COUNT; ++k) {
-    if (!(aovs & (1u << k))) continue;
-    if (k == ST_AOV_INDEX_ALPHA) c.insert(c.end(), {"AR", "AG", "AB"});  // A is their mean
-    else if (k == ST_AOV_INDEX_VARIANCE) c.insert(c.end(), {"moment2.R", "moment2.G", "moment2.B"});
-    else c.insert(c.end(), aov_exr_channels(k).begin(), aov_exr_channels(k).end());
-  }
-  if (aovs & (ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH))) c.push_back(kCollisionChannel);
-  return c;
-}
-
-const std::vector<std::pair<const char*, RenderStats::Counter>>& RenderStats::counters() {
-#define ST_X_DEVICE_ENTRY(E, field, key) {key, &RenderStats::field},
-#define ST_X_HOST_ENTRY(field, key) {key, &RenderStats::field},
-  static const std::vector<std::pair<const char*, Counter>> list = {ST_SUM_COUNTERS(ST_X_DEVICE_ENTRY)
-                                                                        ST_HOST_COUNTERS(ST_X_HOST_ENTRY)};
-  return list;
-}
-
-void RenderStats::add(const RenderStats& o) {
-  // occupancy: the mean over all iterations of both, the minimum of both
-  if (o.iterations > 0) {
-    occupancy_min = iterations > 0 ? std::min(occupancy_min, o.occupancy_min) : o.occupancy_min;
-    occupancy_mean = (occupancy_mean * double(iterations) + o.occupancy_mean * double(o.iterations)) /
-                     double(iterations + o.iterations);
-  }
-  for (auto& [key, member] : counters()) this->*member += o.*member;
-  max_throughput = std::max(max_throughput, o.max_throughput);
-  for (auto& [name, t] : o.kernels) {
-    kernels[name].seconds += t.seconds;
-    kernels[name].launches += t.launches;
-  }
-}
 
 }  // namespace spectrack
