@@ -395,8 +395,9 @@ GridData Packer::add_temperature_grid(st_medium& m, const MediumDesc& md, const 
   // T = value * a + b on the device: a and b in double, then float (their range checked)
   const double ta = e.temperature_scale, tb = -e.temperature_offset * e.temperature_scale;
   if (!(std::abs(ta) < 1e30) || !(std::abs(tb) < 1e30))
-    throw Error(fmt::format("{}: temperature_scale ({}) or temperature_offset x temperature_scale ({}) is beyond "
-                            "single precision's range (1e30)", ctx, ta, -tb));
+    throw Error(fmt::format("{}: temperature_scale ({}) or temperature_offset x temperature_scale ({}) is not below "
+                            "1e30, the bound on the float coefficients of T = value x temperature_scale - "
+                            "temperature_offset x temperature_scale in the kernels", ctx, ta, -tb));
   if (!(T_hi > e.temperature_cutoff)) {
     std::fprintf(stderr, "warning: %s: grid '%s' maps to temperatures of at most %g K, at or below the cutoff %g K: "
                  "the medium does not emit\n", ctx.c_str(), name.c_str(), T_hi, e.temperature_cutoff);
