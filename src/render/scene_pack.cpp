@@ -172,6 +172,7 @@ struct Packer {
   int tracker = 0;                     // st_tracker: the majorant hierarchy's cost model
   bool spectral = false;               // spectral mode (make_spectral follows): its bounds are checked too
   std::vector<Box3> media_boxes = {};  // world boxes, for the camera's framing
+  Vec3 camera_position = {};          // as placed (framing included), in double
   // Each light's power up to the common factor pi r^2 of pbrt-v4's Light::Phi (r: the scene
   // radius): the mean over channels of the irradiance a directional light gives, or 4 pi times the
   // mean radiance of an environment over the sphere.
@@ -599,6 +600,7 @@ double Packer::add_env_cdf(st_light& l, const RgbImage& img) {
 
 void Packer::set_camera() {
   const CameraDesc c = frame_camera(scene.camera, scene.film.width, scene.film.height, media_boxes, scene.path + ": /camera");
+  camera_position = c.position;
   st_camera& cam = st.camera;
   cam.type = c.type;
   cam.width = scene.film.width;
@@ -662,6 +664,7 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
   const int light_sampling = pk.resolve_light_sampling(s.light_sampling);
   pk.set_light_selection(light_sampling);
   pk.set_camera();
+  check_coordinates(scene, st, pk.media_boxes, pk.camera_position);  // volume/float_limits.h
   st.tracker = s.tracker;
   st.scheme = s.scheme;
   st.absorption = s.absorption;
