@@ -283,7 +283,7 @@ static void check_png_chunks(const std::string& path, std::istream& f, uint64_t 
 // allocated (the buffer is at most 2^28 pixels x 3 floats, whatever the file claims), so an image
 // OpenImageIO opens but spectrack would misread (a VDB as a stack of slices, a multi-part EXR, a
 // deep or 2-channel image, a cropped data window) is refused by name, never guessed at.
-RgbImage read_image(const std::string& path, ImageUse use) {
+RgbImage read_image(const std::string& path, ImageUse use, const std::function<void(int, int)>& before_pixels) {
   const bool env = use == ImageUse::kEnvironmentMap;
   const char* what = env ? "an environment map" : "a merge input";
   auto fail = [&](const std::string& reason) -> void { throw Error(path + ": " + reason); };
@@ -373,6 +373,7 @@ RgbImage read_image(const std::string& path, ImageUse use) {
       fail(fmt::format("its data window ({}x{} pixels at {},{}) leaves its {}x{} display window", img.width,
                        img.height, img.window.x0, img.window.y0, img.window.full_width, img.window.full_height));
   }
+  if (before_pixels) before_pixels(img.width, img.height);
   const size_t n = size_t(img.width) * size_t(img.height);
   const int nread = gray >= 0 ? 1 : (env ? 3 : nc);  // a film piece: every channel (its layers)
   img.rgb.resize(n * 3);

@@ -2,6 +2,7 @@
 // render's metadata as string/int/float attributes; PNG gets an 8-bit sRGB preview (clamped).
 // The format follows the file extension; anything else is refused before rendering.
 #pragma once
+#include <functional>
 #include <map>
 #include <string>
 #include <variant>
@@ -62,7 +63,10 @@ enum class ImageUse {
 // file and the reason for anything it cannot read as `use` says: not a regular file, volumes
 // (depth > 1), deep images, several subimages, no pixels or more than 2^28, channels it would
 // have to guess, tiles bigger than that bound.
-RgbImage read_image(const std::string& path, ImageUse use = ImageUse::kEnvironmentMap);
+// `before_pixels`, when given, sees the size (width, height) once the header is checked and before
+// any pixel memory is allocated; it may throw to refuse the image (a memory estimate).
+RgbImage read_image(const std::string& path, ImageUse use = ImageUse::kEnvironmentMap,
+                    const std::function<void(int, int)>& before_pixels = {});
 // The channel names a film piece may hold besides R, G, B (the EXR layers of docs/aov.md).
 bool film_layer_channel(const std::string& name);
 
