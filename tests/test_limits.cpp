@@ -140,6 +140,14 @@ TEST(LimitsMemory, FilmRefusedBeforeAllocation) {
   const std::string e = error_of([&] { Renderer(scene_from_json(j, dir), quiet_options()).render(); });
   EXPECT_NE(e.find("4096x4096 film"), std::string::npos) << e;
   EXPECT_NE(e.find("host memory"), std::string::npos) << e;
+  // --path-slots at its maximum: the slots alone need gigabytes
+  j["film"]["width"] = 512;
+  j["film"]["height"] = 512;
+  j["film"]["spp"] = 64;
+  RenderOptions o = quiet_options();
+  o.path_slots = 1 << 24;
+  const std::string e2 = error_of([&] { Renderer(scene_from_json(j, dir), o).render(); });
+  EXPECT_NE(e2.find("16777216 path slots"), std::string::npos) << e2;
 }
 
 TEST(LimitsMemory, EstimatePerPixelAndPerSlot) {
