@@ -86,6 +86,13 @@ TEST(LimitsCoordinates, InfiniteMediumStandInStillPacks) {
     j["media"].push_back(box(half));
     EXPECT_NO_THROW(pack(j, dir)) << half;
   }
+  // and renders as what it stands for: an absorbing medium all around the camera shows nothing
+  json j = base_scene();
+  j["camera"]["position"] = {0, 0, 0};
+  j["camera"]["look_at"] = {0, 0, 1};
+  j["media"].push_back(box(1e17));
+  const RenderResult r = Renderer(scene_from_json(j, dir), quiet_options()).render();
+  for (float v : r.rgb) EXPECT_EQ(v, 0.0f);
 }
 
 TEST(LimitsCoordinates, CameraBeyondTheFloatRange) {
