@@ -967,8 +967,10 @@ TEST_F(SceneTest, LightMagnitudesThatOverflowFloatAreRefused) {
   EXPECT_SCENE_ERROR(j, "/lights/0/radiance", "value 3e+38 is too large");
   j["lights"] = json::array({{{"type", "environment"}, {"radiance", {1e19, 1, 1}}}});  // 4 pi x 1e19 > 1e20
   EXPECT_SCENE_ERROR(j, "/lights/0/radiance", "too large");
-  j["lights"] = json::array({{{"type", "environment"}, {"map", "sky.exr"}, {"scale", 1e30}}});
-  EXPECT_SCENE_ERROR(j, "/lights/0/scale", "value 1e+30 is more than 1e+20");
+  // an environment map's scale is bounded through scale x its largest texel (once the map is read);
+  // alone it must be a float
+  j["lights"] = json::array({{{"type", "environment"}, {"map", "sky.exr"}, {"scale", 1e39}}});
+  EXPECT_SCENE_ERROR(j, "/lights/0/scale", "value 1e+39 is beyond the largest float");
   // a disc's radiance is irradiance / (pi sin^2(angle / 2)): a tiny disc overflows it, and its pdf
   j["lights"] = json::array({{{"type", "directional"}, {"to_light", {0, 1, 0}}, {"irradiance", {1e10, 1, 1}},
                               {"angle_deg", 1e-4}}});

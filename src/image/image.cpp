@@ -348,11 +348,12 @@ void decode_colour_space(const OIIO::ImageSpec& spec, std::vector<float>& rgb, c
 
 }  // namespace
 
-RgbImage read_image(const std::string& path, ImageUse use) {
+RgbImage read_image(const std::string& path, ImageUse use, const std::function<void(int, int)>& before_pixels) {
   const bool env = use == ImageUse::kEnvironmentMap;
   auto fail = [&](const std::string& reason) -> void { throw Error(path + ": " + reason); };
   OpenedImage o = open_checked(path, use);
   RgbImage& img = o.img;
+  if (before_pixels) before_pixels(img.width, img.height);
   const int gray = o.gray;
   const size_t n = size_t(img.width) * size_t(img.height);
   const int nread = gray >= 0 ? 1 : (env ? 3 : o.spec.nchannels);  // a film piece: every channel (its layers)

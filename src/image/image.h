@@ -4,6 +4,7 @@
 // rendering. An image is written to a temporary file and renamed into place once every write
 // succeeded (util/output_file.h): a failed write leaves nothing under the final name.
 #pragma once
+#include <functional>
 #include <map>
 #include <string>
 #include <variant>
@@ -66,7 +67,10 @@ enum class ImageUse {
 // file and the reason for anything it cannot read as `use` says: not a regular file, volumes
 // (depth > 1), deep images, several subimages, no pixels or more than 2^28, channels it would
 // have to guess, tiles bigger than that bound.
-RgbImage read_image(const std::string& path, ImageUse use = ImageUse::kEnvironmentMap);
+// `before_pixels`, when given, sees the size (width, height) once the header is checked and before
+// any pixel memory is allocated; it may throw to refuse the image (a memory estimate).
+RgbImage read_image(const std::string& path, ImageUse use = ImageUse::kEnvironmentMap,
+                    const std::function<void(int, int)>& before_pixels = {});
 // The channel names a film piece may hold besides R, G, B (the EXR layers of docs/aov.md).
 bool film_layer_channel(const std::string& name);
 

@@ -1,5 +1,6 @@
 // device_scene.cpp: see device_scene.h.
 #include "render/device_scene.h"
+#include "render/memory_budget.h"
 
 #include <fmt/format.h>
 
@@ -47,10 +48,22 @@ DeviceScene upload_scene(const std::string& device_spec, PackedScene packed,
   if (sizeof(p.st) > d.dev.max_constant)
     throw Error(fmt::format("device '{}' has {} bytes of constant memory; spectrack needs {}", d.dev.name,
                             d.dev.max_constant, sizeof(p.st)));
+  // the scene's buffers against the device (and, for a CPU device, the host whose memory it uses)
+  const double scene_bytes = d.scene_bytes = (p.grid_words.size() + p.maj_cells.size() + p.env_data.size()) * 4.0;
+  const std::string what = fmt::format("the scene's grids, majorants and environment maps ({:.1f} MiB)",
+                                       scene_bytes / 1048576.0);
+  if (scene_bytes > double(d.dev.global_mem))
+    throw Error(fmt::format("{} do not fit device '{}' ({:.1f} MiB of global memory); choose another device with "
+                            "--device", what, d.dev.name, d.dev.global_mem / 1048576.0));
+  if (d.dev.type & CL_DEVICE_TYPE_CPU) check_host_memory(scene_bytes, what, "choose another device with --device");
   d.b_scene = d.buffer(CL_MEM_READ_ONLY, sizeof(p.st), &p.st, "scene constants");
   d.b_grids = d.buffer(CL_MEM_READ_ONLY, p.grid_words.size() * 4, p.grid_words.data(), "NanoVDB grids");
   d.b_maj = d.buffer(CL_MEM_READ_ONLY, p.maj_cells.size() * 4, p.maj_cells.data(), "majorant grids");
   d.b_env = d.buffer(CL_MEM_READ_ONLY, p.env_data.size() * 4, p.env_data.data(), "environment maps");
+  // the device holds them now (CL_MEM_COPY_HOST_PTR copies at creation): the host copies go
+  std::vector<uint32_t>().swap(d.packed.grid_words);
+  std::vector<float>().swap(d.packed.maj_cells);
+  std::vector<float>().swap(d.packed.env_data);
   return d;
 }
 

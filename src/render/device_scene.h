@@ -21,7 +21,8 @@ struct DeviceScene {
   DeviceInfo dev;
   cl::Context ctx;
   cl::CommandQueue queue;  // in order, with profiling
-  PackedScene packed;
+  PackedScene packed;     // its grid, majorant and environment buffers are released once uploaded
+  double scene_bytes = 0;  // what they take on the device
   // the kernel source defines this scene's programs are built with (feature mask, media count)
   std::vector<std::pair<std::string, std::string>> defines;
   cl::Buffer b_scene, b_grids, b_maj, b_env;

@@ -18,6 +18,7 @@
 #include <iostream>
 
 #include "render/device_scene.h"
+#include "render/memory_budget.h"
 #include "util/phase.h"
 
 namespace spectrack {
@@ -113,7 +114,7 @@ struct Renderer::Impl {
   // is on the film early), then the whole ring.
   static uint64_t batches_ahead(uint64_t accumulated, uint64_t ring) { return accumulated == 0 ? 1 : ring; }
   BatchPlan plan_batches(int spp) const;
-  double memory_need(const BatchPlan& plan) const;  // bytes of device memory a render with this plan takes
+  MemoryNeed memory_need(const BatchPlan& plan) const;  // what a render with this plan takes (memory_budget.h)
   void check_memory(const BatchPlan& plan) const;
   void set_ring_size(uint64_t ring);
   RenderBuffers allocate(const BatchPlan& plan);
@@ -221,25 +222,41 @@ BatchPlan Renderer::Impl::plan_batches(int spp) const {
   return p;
 }
 
-double Renderer::Impl::memory_need(const BatchPlan& p) const {
-  const PackedScene& ps = ds.packed;
-  return double(p.Q) * (sizeof(st_path) + p.NL * sizeof(st_shadow) + 2 * (ST_Q_PATH_QUEUES + p.NL) * 4) +
-         double(p.ring) * p.batch_paths * p.L * sizeof(st_float4) + 2.0 * p.npix * p.film_layers() * sizeof(st_float4) +
-         ps.grid_words.size() * 4.0 + ps.maj_cells.size() * 4.0 + ps.env_data.size() * 4.0;
+MemoryNeed Renderer::Impl::memory_need(const BatchPlan& p) const {
+  RenderShape r;
+  r.npix = p.npix;
+  r.film_layers = p.film_layers();
+  r.aov_channels = aov_sum_channels(settings.aovs).size();
+  r.path_slots = p.Q;
+  r.path_bytes = sizeof(st_path) + p.NL * sizeof(st_shadow);
+  r.queue_words = 2 * (ST_Q_PATH_QUEUES + p.NL);
+  r.result_values = p.ring * p.batch_paths * p.L;
+  r.scene_bytes = ds.scene_bytes;
+  return render_memory(r);
 }
 
 void Renderer::Impl::check_memory(const BatchPlan& p) const {
-  const double need = memory_need(p);
-  if (need > double(ds.dev.global_mem))
-    throw Error(fmt::format("this render needs about {:.1f} MiB of device memory ({}x{} film, {}) but device '{}' "
-                            "has {:.1f} MiB; use {}a smaller film, or another device with --device",
-                            need / 1048576.0, settings.window.width, settings.window.height, slot_cause(opt, p, true),
-                            ds.dev.name, ds.dev.global_mem / 1048576.0,
-                            opt.path_slots > 0 || opt.shadow_ring > 0
-                                ? fmt::format("{}{}{}, ", opt.path_slots > 0 ? "a lower --path-slots" : "",
-                                              opt.path_slots > 0 && opt.shadow_ring > 0 ? " or " : "",
-                                              opt.shadow_ring > 0 ? "a lower --shadow-ring" : "")
-                                : std::string("--path-slots (fewer paths in flight), ")));
+  const MemoryNeed need = memory_need(p);
+  const std::string what = fmt::format("this render ({}x{} film of {} layers: {:.1f} MiB; {} path slots: {:.1f} MiB, "
+                                       "from {}; batch results: {:.1f} MiB)",
+                                       settings.window.width, settings.window.height, p.film_layers(),
+                                       need.film_device / 1048576.0, p.Q, need.slots_device / 1048576.0,
+                                       slot_cause(opt, p, true), need.results_device / 1048576.0);
+  const std::string slots_advice =
+      opt.path_slots > 0 || opt.shadow_ring > 0
+          ? fmt::format("{}{}{}", opt.path_slots > 0 ? "a lower --path-slots" : "",
+                        opt.path_slots > 0 && opt.shadow_ring > 0 ? " or " : "",
+                        opt.shadow_ring > 0 ? "a lower --shadow-ring" : "")
+          : std::string("fewer --path-slots");
+  const std::string advice = "use " + slots_advice +
+                             ", a smaller film (or a tile with --pixel-bounds), fewer film layers, or another device "
+                             "with --device";
+  if (need.device > double(ds.dev.global_mem))
+    throw Error(fmt::format("{} needs about {:.1f} MiB of device memory but device '{}' has {:.1f} MiB; {}", what,
+                            need.device / 1048576.0, ds.dev.name, ds.dev.global_mem / 1048576.0, advice));
+  // a CPU device's global memory is the host's
+  const bool shared = (ds.dev.type & CL_DEVICE_TYPE_CPU) != 0;
+  check_host_memory(need.host + (shared ? need.device - need.scene_device : 0.0), what, advice);
 }
 
 // Batch b uses ring slot b % ring: the kernels read the ring size from the scene constants.
@@ -269,9 +286,12 @@ RenderBuffers Renderer::Impl::allocate(const BatchPlan& p) {
   std::vector<uint32_t> counters(ST_C_COUNT, 0u);
   b.counters = ds.buffer(CL_MEM_READ_WRITE, counters.size() * 4, counters.data(), "counters");
   b.results = ds.buffer(CL_MEM_READ_WRITE, p.ring * p.batch_paths * p.L * sizeof(st_float4), nullptr, "batch results");
-  // film: per layer, per pixel the running sum, then its Kahan compensation terms (finish.cl)
-  std::vector<st_float4> film(2 * p.npix * p.film_layers(), st_float4{0, 0, 0, 0});
-  b.film = ds.buffer(CL_MEM_READ_WRITE, film.size() * sizeof(st_float4), film.data(), "film");
+  // film: per layer, per pixel the running sum, then its Kahan compensation terms (finish.cl),
+  // cleared on the device (no host copy of zeros)
+  const size_t film_bytes = 2 * p.npix * p.film_layers() * sizeof(st_float4);
+  b.film = ds.buffer(CL_MEM_READ_WRITE, film_bytes, nullptr, "film");
+  ST_CL_CHECK(ds.queue.enqueueFillBuffer(b.film, cl_uint(0), 0, film_bytes), "clear the film");
+  ST_CL_CHECK(ds.queue.finish(), "clear the film");
   return b;
 }
 
@@ -400,25 +420,37 @@ RenderResult Renderer::Impl::result_header(int64_t sample_begin, int spp) const 
 }
 
 void Renderer::Impl::read_film(const RenderBuffers& b, const BatchPlan& p, const LoopState& s, RenderResult& res) {
-  std::vector<st_float4> film(2 * p.npix * p.film_layers());
-  ST_CL_CHECK(ds.queue.enqueueReadBuffer(b.film, CL_TRUE, 0, film.size() * sizeof(st_float4), film.data()), "read film");
   res.spp_done = int(s.samples_done);
   res.interrupted = s.samples_done < p.spp;
   res.time_limit_reached = s.time_limit_reached;
-  // Kahan: the exact sum of layer l is (to float rounding of the terms) sum - compensation
-  auto layer = [&](uint64_t l, uint64_t i, int k) {
-    const st_float4& f = film[2 * l * p.npix + i];
-    const st_float4& c = film[(2 * l + 1) * p.npix + i];
-    const float* fv = &f.x;
-    const float* cv = &c.x;
-    return double(fv[k]) - double(cv[k]);
-  };
   res.aov_channels = aov_sum_channels(settings.aovs);
   const size_t na = res.aov_channels.size();
   res.rgb.assign(p.npix * 3, 0.0f);
   res.sum.assign(p.npix * 3, 0.0);
   res.aov_sum.assign(p.npix * na, 0.0);
+  // the film comes back in chunks of pixels (every layer's sums and compensations of the chunk),
+  // so the host never holds a copy of the whole device film
+  const uint64_t segments = 2 * p.film_layers(), chunk = std::min<uint64_t>(p.npix, uint64_t(1) << 16);
+  std::vector<st_float4> film(segments * chunk);
+  uint64_t i0 = 0;
+  // Kahan: the exact sum of layer l is (to float rounding of the terms) sum - compensation
+  auto layer = [&](uint64_t l, uint64_t i, int k) {
+    const st_float4& f = film[2 * l * chunk + (i - i0)];
+    const st_float4& c = film[(2 * l + 1) * chunk + (i - i0)];
+    const float* fv = &f.x;
+    const float* cv = &c.x;
+    return double(fv[k]) - double(cv[k]);
+  };
   for (uint64_t i = 0; i < p.npix; ++i) {
+    if (i == i0 + chunk || i == 0) {
+      i0 = i;
+      const uint64_t n = std::min(chunk, p.npix - i0);
+      for (uint64_t g = 0; g < segments; ++g)
+        ST_CL_CHECK(ds.queue.enqueueReadBuffer(b.film, CL_FALSE, (g * p.npix + i0) * sizeof(st_float4),
+                                               n * sizeof(st_float4), film.data() + g * chunk),
+                    "read film");
+      ST_CL_CHECK(ds.queue.finish(), "read film");
+    }
     size_t a = 0;  // next aov channel, in aov_sum_channels order: alpha, environment, variance
     for (int k = 0; k < 3; ++k) {
       // the environment layer is the part of the beauty the paths did not keep (shade.cl): a
@@ -458,7 +490,7 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
   BatchPlan plan = plan_batches(spp);
   // the default shadow ring falls back to one entry per (path, light) where two would not fit (the
   // image is the same; paths may wait for their shadow rays)
-  if (opt.shadow_ring == 0 && plan.shadow_ring > 1 && memory_need(plan) > double(ds.dev.global_mem)) {
+  if (opt.shadow_ring == 0 && plan.shadow_ring > 1 && memory_need(plan).device > double(ds.dev.global_mem)) {
     plan.shadow_ring = 1;
     plan.NL = uint64_t(ds.packed.st.n_lights);
   }

@@ -19,6 +19,7 @@
 #include "scene/radiance.h"
 #include "volume/float_limits.h"
 #include "render/media_bounds.h"
+#include "render/memory_budget.h"
 #include "scene/framing.h"
 #include "volume/volume.h"
 
@@ -172,6 +173,7 @@ struct Packer {
   int tracker = 0;                     // st_tracker: the majorant hierarchy's cost model
   bool spectral = false;               // spectral mode (make_spectral follows): its bounds are checked too
   std::vector<Box3> media_boxes = {};  // world boxes, for the camera's framing
+  Vec3 camera_position = {};          // as placed (framing included), in double
   // Each light's power up to the common factor pi r^2 of pbrt-v4's Light::Phi (r: the scene
   // radius): the mean over channels of the irradiance a directional light gives, or 4 pi times the
   // mean radiance of an environment over the sphere.
@@ -189,7 +191,7 @@ struct Packer {
   void add_light(int i, const LightDesc& ld);
   // both return the map's mean radiance over the sphere (before its scale)
   double add_env_map(st_light& l, const LightDesc& ld);
-  double add_env_cdf(st_light& l, const RgbImage& img);
+  double add_env_cdf(st_light& l);
   void set_light_selection(int light_sampling);
   int resolve_light_sampling(int requested) const;
   void set_camera();
@@ -395,8 +397,9 @@ GridData Packer::add_temperature_grid(st_medium& m, const MediumDesc& md, const 
   // T = value * a + b on the device: a and b in double, then float (their range checked)
   const double ta = e.temperature_scale, tb = -e.temperature_offset * e.temperature_scale;
   if (!(std::abs(ta) < 1e30) || !(std::abs(tb) < 1e30))
-    throw Error(fmt::format("{}: temperature_scale ({}) or temperature_offset x temperature_scale ({}) is beyond "
-                            "single precision's range (1e30)", ctx, ta, -tb));
+    throw Error(fmt::format("{}: temperature_scale ({}) or temperature_offset x temperature_scale ({}) is not below "
+                            "1e30, the bound on the float coefficients of T = value x temperature_scale - "
+                            "temperature_offset x temperature_scale in the kernels", ctx, ta, -tb));
   if (!(T_hi > e.temperature_cutoff)) {
     std::fprintf(stderr, "warning: %s: grid '%s' maps to temperatures of at most %g K, at or below the cutoff %g K: "
                  "the medium does not emit\n", ctx.c_str(), name.c_str(), T_hi, e.temperature_cutoff);
@@ -538,38 +541,45 @@ double Packer::add_env_map(st_light& l, const LightDesc& ld) {
   l.type = ST_LIGHT_ENV_MAP;
   RgbImage img;
   try {
-    img = read_image(ld.map);
+    img = read_image(ld.map, ImageUse::kEnvironmentMap, [&](int w, int h) { check_env_map_memory(ld.map, w, h); });
   } catch (const Error& e) {
     throw Error(fmt::format("{}: {}/map: {}", scene.path, ld.json_path, e.what()));
   }
   check_env_map_bounds(scene.path + ": " + ld.json_path + "/map", ld.map, img.rgb, img.width, img.height, ld.scale);
   l.radiance = f4(ld.scale, ld.scale, ld.scale);
+  const size_t W = size_t(img.width), H = size_t(img.height);
   l.map_width = img.width;
   l.map_height = img.height;
   l.map_offset = uint32_t(env_data.size());
-  for (size_t p = 0; p < size_t(img.width) * img.height; ++p) {
+  env_data.reserve(env_data.size() + W * H * 4 + (H + 1) + H * (W + 1));  // texels, then the CDFs
+  for (size_t p = 0; p < W * H; ++p) {
     for (int c = 0; c < 3; ++c) env_data.push_back(img.rgb[p * 3 + c]);
     env_data.push_back(0.0f);
   }
-  return add_env_cdf(l, img);
+  std::vector<float>().swap(img.rgb);  // the CDFs read the packed texels
+  return add_env_cdf(l);
 }
 
 // sampling distribution: f(u, v) = max(rgb) * sin(theta), piecewise constant per texel; the
-// marginal CDF over rows, then one conditional CDF per row, after the texels in env_data
-double Packer::add_env_cdf(st_light& l, const RgbImage& img) {
-  int W = img.width, H = img.height;
+// marginal CDF over rows, then one conditional CDF per row, after the texels in env_data (read
+// from there; f is evaluated again per texel rather than held)
+double Packer::add_env_cdf(st_light& l) {
+  const int W = l.map_width, H = l.map_height;
+  auto texel = [&](int x, int y) { return &env_data[l.map_offset + (size_t(y) * W + x) * 4]; };
+  auto f = [&](int x, int y, double s) {
+    const float* px = texel(x, y);
+    return std::max({px[0], px[1], px[2]}) * s;
+  };
   double mean_radiance = 0;
   std::vector<double> row_sum(H, 0.0);
-  std::vector<double> f(size_t(W) * H);
   for (int y = 0; y < H; ++y) {
     double s = std::sin(M_PI * (y + 0.5) / H);
     for (int x = 0; x < W; ++x) {
-      const float* px = &img.rgb[(size_t(y) * W + x) * 3];
-      f[size_t(y) * W + x] = std::max({px[0], px[1], px[2]}) * s;
+      const float* px = texel(x, y);
       // the texel's solid angle over the whole sphere's: (2 pi / W) (cos theta0 - cos theta1) / (4 pi)
       double omega = (std::cos(M_PI * y / H) - std::cos(M_PI * (y + 1.0) / H)) / (2.0 * W);
       mean_radiance += (double(px[0]) + px[1] + px[2]) / 3.0 * omega;
-      row_sum[y] += f[size_t(y) * W + x];
+      row_sum[y] += f(x, y, s);
     }
   }
   double total = 0;
@@ -584,11 +594,12 @@ double Packer::add_env_cdf(st_light& l, const RgbImage& img) {
   }
   env_data[l.cdf_offset + H] = 1.0f;
   for (int y = 0; y < H; ++y) {
+    const double s = std::sin(M_PI * (y + 0.5) / H);
     double a = 0;
     size_t base = env_data.size();
     env_data.push_back(0.0f);
     for (int x = 0; x < W; ++x) {
-      a += f[size_t(y) * W + x];
+      a += f(x, y, s);
       env_data.push_back(row_sum[y] > 0 ? float(a / row_sum[y]) : float(x + 1) / W);
     }
     env_data[base + W] = 1.0f;
@@ -598,6 +609,7 @@ double Packer::add_env_cdf(st_light& l, const RgbImage& img) {
 
 void Packer::set_camera() {
   const CameraDesc c = frame_camera(scene.camera, scene.film.width, scene.film.height, media_boxes, scene.path + ": /camera");
+  camera_position = c.position;
   st_camera& cam = st.camera;
   cam.type = c.type;
   cam.width = scene.film.width;
@@ -661,6 +673,7 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
   const int light_sampling = pk.resolve_light_sampling(s.light_sampling);
   pk.set_light_selection(light_sampling);
   pk.set_camera();
+  check_coordinates(scene, st, pk.media_boxes, pk.camera_position);  // volume/float_limits.h
   st.tracker = s.tracker;
   st.scheme = s.scheme;
   st.absorption = s.absorption;

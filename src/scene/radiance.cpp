@@ -2,7 +2,9 @@
 #include "scene/radiance.h"
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
+#include <cstdio>
 #include <iomanip>
 #include <sstream>
 
@@ -10,6 +12,7 @@ namespace spectrack {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+constexpr double kMaxFloat = FLT_MAX;
 
 // 7 digits: values that come from floats (texels) print as written (1e+38, not 9.99999968e+37)
 std::string num(double v, int digits = 9) {
@@ -55,8 +58,11 @@ void check_radiance_bounds(const SceneDesc& s) {
              "value " + num(r) + " is too large: 4 pi x radiance must be at most " + num(kMaxRadiance) +
                  " (radiance at most " + num(kMaxRadiance / (4.0 * kPi)) + ")" + kWhy);
     } else if (l.type == ST_LIGHT_ENV_MAP) {
-      if (l.scale > kMaxRadiance)
-        fail(s, l.json_path + "/scale", "value " + num(l.scale) + " is more than " + num(kMaxRadiance) + kWhy);
+      // scale x the largest texel is bounded once the map is read (check_env_map_bounds); the kernels
+      // hold the scale itself in float
+      if (l.scale > kMaxFloat)
+        fail(s, l.json_path + "/scale", "value " + num(l.scale) + " is beyond the largest float (" + num(kMaxFloat) +
+                                            ")" + kWhy);
     } else if (l.type == ST_LIGHT_DIRECTIONAL) {
       const double e = max3(l.irradiance);
       const double half = l.angle_deg * 0.5 * kPi / 180.0;
@@ -84,6 +90,10 @@ void check_radiance_bounds(const SceneDesc& s) {
   }
   for (const MediumDesc& m : s.media) {
     if (!m.emission.present) continue;
+    const EmissionDesc& e = m.emission;
+    if (e.blackbody && e.temperature > 0 && !(e.temperature > e.temperature_cutoff))
+      std::fprintf(stderr, "warning: %s: %s/emission/temperature: %g K is at or below the cutoff %g K: the medium does "
+                   "not emit\n", s.path.c_str(), m.json_path.c_str(), e.temperature, e.temperature_cutoff);
     const double le = max3(m.emission.radiance) * m.emission.scale;
     if (le > kMaxRadiance)
       fail(s, m.json_path + "/emission",

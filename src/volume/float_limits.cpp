@@ -2,6 +2,7 @@
 #include "volume/float_limits.h"
 
 #include <algorithm>
+#include <array>
 #include <cfloat>
 #include <cmath>
 
@@ -72,9 +73,9 @@ void check_homogeneous(const MediumDesc& md, double mu, const std::string& conte
 
 }  // namespace
 
-// Longest world-space edge of one index-space unit: the column norms of index -> world, the
-// inverse of the packed world -> index rows.
-double longest_voxel_edge(const st_medium& m) {
+// World-space edges of one index-space unit: the column norms of index -> world, the inverse of
+// the packed world -> index rows.
+static std::array<double, 3> voxel_edges(const st_medium& m) {
   double a[3][3];
   for (int r = 0; r < 3; ++r) {
     a[r][0] = m.world_to_index[r].x;
@@ -91,15 +92,31 @@ double longest_voxel_edge(const st_medium& m) {
       const int r1 = (c + 1) % 3, r2 = (c + 2) % 3, c1 = (r + 1) % 3, c2 = (r + 2) % 3;
       inv[r][c] = (a[r1][c1] * a[r2][c2] - a[r1][c2] * a[r2][c1]) / det;
     }
-  double edge = 0;
-  for (int c = 0; c < 3; ++c) edge = std::max(edge, std::sqrt(inv[0][c] * inv[0][c] + inv[1][c] * inv[1][c] + inv[2][c] * inv[2][c]));
+  std::array<double, 3> edge{};
+  for (int c = 0; c < 3; ++c)
+    edge[size_t(c)] = std::sqrt(inv[0][c] * inv[0][c] + inv[1][c] * inv[1][c] + inv[2][c] * inv[2][c]);
   return edge;
+}
+
+double longest_voxel_edge(const st_medium& m) {
+  const std::array<double, 3> e = voxel_edges(m);
+  return std::max({e[0], e[1], e[2]});
+}
+
+double shortest_voxel_edge(const st_medium& m) {
+  const std::array<double, 3> e = voxel_edges(m);
+  return std::min({e[0], e[1], e[2]});
 }
 
 void check_float_limits(const MediumDesc& md, const st_medium& packed, const GridData* grid,
                         const std::string& context) {
   check_coefficient(context, "sigma_a", md.sigma_a, md.density_scale, packed.sigma_a);
   check_coefficient(context, "sigma_s", md.sigma_s, md.density_scale, packed.sigma_s);
+  if (!(md.majorant_scale >= kMinMajorantScale))
+    throw Error(fmt::format("{}/majorant_scale: {:g} is below 2^-24 (about 6e-8): the majorant s x mu is then less "
+                            "than half the float spacing of mu, so mu - s x mu rounds to mu and tentative collisions "
+                            "become too rare for any practical sample count to see the medium",
+                            context, md.majorant_scale));
   const double sigma_t = std::max({double(packed.sigma_a.x) + packed.sigma_s.x, double(packed.sigma_a.y) + packed.sigma_s.y,
                                    double(packed.sigma_a.z) + packed.sigma_s.z});
   const double density = grid ? (grid->empty ? 0.0 : double(grid->value_max)) : 1.0;
@@ -149,8 +166,68 @@ int auto_majorant_cell(const GridData& grid) {
     return n;
   };
   int cell = 2;
-  while (cell < 1024 && cells(cell) > kAutoMajorantCells) cell *= 2;
+  while (cell < kMaxMajorantCellEdge && cells(cell) > kAutoMajorantCells) cell *= 2;
   return cell;
+}
+
+
+namespace {
+
+double max_norm(const Vec3& v) { return std::max({std::abs(v[0]), std::abs(v[1]), std::abs(v[2])}); }
+double box_max_norm(const Box3& b) { return std::max(max_norm(b.lo), max_norm(b.hi)); }
+
+// The field of a medium that places and sizes its box: the bounds of a homogeneous box; for a VDB
+// medium the translate when it alone is beyond `limit`, else the transform's one given part (scale
+// or translate), the whole transform when several are given, the grid's file when none is.
+std::string placing_field(const MediumDesc& md, double limit) {
+  if (md.type == ST_MEDIUM_HOMOGENEOUS) return md.json_path + "/bounds";
+  const TransformDesc& t = md.transform;
+  if (max_norm(t.translate) > limit) return md.json_path + "/transform/translate";
+  const bool scaled = t.scale != Vec3{1, 1, 1}, rotated = t.rotate_deg != Vec3{0, 0, 0};
+  const bool moved = t.translate != Vec3{0, 0, 0};
+  if (!scaled && !rotated && !moved) return md.json_path + "/file";
+  if (int(scaled) + int(rotated) + int(moved) > 1) return md.json_path + "/transform";
+  return md.json_path + (scaled ? "/transform/scale" : moved ? "/transform/translate" : "/transform");
+}
+
+// The float spacing of coordinates of magnitude up to x: 2^-23 of x rounded down to a power of two.
+double float_spacing(double x) { return x > 0 ? std::ldexp(1.0, std::ilogb(x) - 23) : 0.0; }
+
+}  // namespace
+
+void check_coordinates(const SceneDesc& scene, const st_scene& st, const std::vector<Box3>& boxes,
+                       const Vec3& camera_position) {
+  const std::string why = " (about 1.2e18): the kernels square differences of float coordinates (distances, "
+                          "ray-box tests), which would overflow";
+  const double cam = max_norm(camera_position);
+  if (!(cam <= kMaxCoordinate))
+    throw Error(fmt::format("{}: /camera/position: ({:g}, {:g}, {:g}) is beyond 2^60{}", scene.path,
+                            camera_position[0], camera_position[1], camera_position[2], why));
+  for (size_t i = 0; i < scene.media.size() && i < boxes.size(); ++i) {
+    const MediumDesc& md = scene.media[i];
+    const double far = box_max_norm(boxes[i]);
+    if (!(far <= kMaxCoordinate))
+      throw Error(fmt::format("{}: {}: the medium's world box reaches {:g}, beyond 2^60{}, in medium \"{}\"",
+                              scene.path, placing_field(md, kMaxCoordinate), far, why, md.name));
+  }
+  for (size_t i = 0; i < scene.media.size() && i < boxes.size(); ++i) {
+    const MediumDesc& md = scene.media[i];
+    const double far = box_max_norm(boxes[i]);
+    const double spacing = float_spacing(std::max(far, cam));
+    const double edge = shortest_voxel_edge(st.media[i]);
+    if (spacing * kMinVoxelsPerSpacing <= edge) continue;
+    // the camera is to blame where the medium alone would be resolved
+    const bool camera_far = cam > far && float_spacing(far) * kMinVoxelsPerSpacing <= edge;
+    const std::string field = camera_far ? "/camera/position" : placing_field(md, kMaxCoordinate);
+    throw Error(fmt::format(
+        "{}: {}: {} {:g} from the origin, where float coordinates are {:g} apart, more than 1/16 of the medium's "
+        "shortest {} ({:g}): rays would reach it at positions rounded across {}; {}, in medium \"{}\"",
+        scene.path, field, camera_far ? "the camera is" : "the medium's world box reaches", std::max(far, cam),
+        spacing, md.type == ST_MEDIUM_HOMOGENEOUS ? "side" : "voxel edge", edge,
+        md.type == ST_MEDIUM_HOMOGENEOUS ? "the box" : "voxels",
+        camera_far ? "move the camera nearer the origin" : "move the medium nearer the origin or make it larger",
+        md.name));
+  }
 }
 
 }  // namespace spectrack

@@ -20,11 +20,29 @@
 //    no limit (an "infinite" medium is a box of any size); there the mean free path must exceed
 //    the float spacing of world coordinates at the box's point nearest the origin, or scattering
 //    points could not move.
+//  - majorant_scale must be at least 2^-24: below it the majorant s x mu is less than half the float
+//    spacing of mu, so mu - s x mu rounds to mu and the majorant drops out of the null-collision
+//    weights (tentative collisions 2^24 times rarer than real ones: the medium all but vanishes).
+// Coordinates (check_coordinates, once the camera is placed):
+//  - every world coordinate (the camera position, a homogeneous box's bounds, the corners of a
+//    VDB medium's world box, a transform's translate) must be at most 2^60 (about 1.2e18) in
+//    magnitude: the kernels square differences of coordinates (distances, ray-box tests), and
+//    3 x (2 x 2^60)^2 stays a factor 2^4 below FLT_MAX.
+//  - the float spacing of world coordinates at the farthest of the camera and the medium's box
+//    (2^-23 of that distance, rounded down to a power of two) must be at most 1/16 of the
+//    medium's shortest voxel edge (a homogeneous box: its shortest side): rays from the camera
+//    reach the medium at positions rounded to that spacing, and a coarser spacing moves lookups
+//    across voxels (a translate of 1e30 on a unit-voxel grid rounds positions to 7e22).
+//    A homogeneous box of half-width 1e6 around the origin (an "infinite" medium) has spacing
+//    0.06 against sides of 2e6.
 // Infinite or NaN voxels are refused when the grid is loaded (volume.cpp).
 #pragma once
 #include <string>
 
+#include <vector>
+
 #include "kernels/types.h"
+#include "scene/framing.h"
 #include "scene/scene.h"
 #include "volume/volume.h"
 
@@ -32,6 +50,9 @@ namespace spectrack {
 
 constexpr double kMaxExtinction = 1152921504606846976.0;  // 2^60
 constexpr double kMaxOpticalDepthPerVoxel = 16777216.0;    // 2^24
+constexpr double kMinMajorantScale = 1.0 / 16777216.0;     // 2^-24
+constexpr double kMaxCoordinate = 1152921504606846976.0;   // 2^60
+constexpr double kMinVoxelsPerSpacing = 16.0;               // spacing at most 1/16 of a voxel edge
 
 // Checks medium `md` as packed into `packed` (coefficients already times density_scale, world
 // to index rows set) with its density grid `grid` (nullptr for a homogeneous medium, whose
@@ -57,8 +78,18 @@ int majorant_cell_for(const st_medium& packed, const GridData& grid, double majo
 constexpr double kAutoMajorantCells = 4194304.0;  // 2^22
 int auto_majorant_cell(const GridData& grid);
 
+// Checks the world coordinates of a packed scene against the rules above: the camera's position
+// as placed (framing included), each medium's world box (`boxes`, in the order of scene.media)
+// and its shortest voxel edge (from st.media's world -> index rows). Throws Error naming the
+// field: /camera/position, /media/<i>/bounds, /media/<i>/transform/translate, /media/<i>/transform
+// or, for a grid's own transform, /media/<i>/file.
+void check_coordinates(const SceneDesc& scene, const st_scene& st, const std::vector<Box3>& boxes,
+                       const Vec3& camera_position);
+
 // Longest world-space edge of one index-space unit: the column norms of index -> world, the
 // inverse of the packed world -> index rows.
 double longest_voxel_edge(const st_medium& m);
+// Shortest, likewise.
+double shortest_voxel_edge(const st_medium& m);
 
 }  // namespace spectrack

@@ -30,6 +30,18 @@ using Leaf = nanovdb::NanoLeaf<float>;
 // per empty block; the Disney cloud (16x11x20 cells) takes a few ms. A grid with huge active
 // tiles still costs one probe per 8^3 block of its bbox (512^3 cells for a root tile at cell 8),
 // where a sparse build over the hierarchy's non-empty blocks would be the fix.
+namespace {
+// Cells of edge `cell` voxels over the grid's active box plus a voxel of margin on each side.
+double majorant_cells(const GridData& grid, int cell) {
+  double n = 1;
+  for (int a = 0; a < 3; ++a) {
+    const int64_t span = int64_t(grid.index_max[a]) - grid.index_min[a] + 2;
+    n *= double(std::max<int64_t>(1, (span + cell - 1) / cell));
+  }
+  return n;
+}
+}  // namespace
+
 MajorantGrid build_majorant_grid(const GridData& grid, int cell) {
   if (cell < 1) throw Error("build_majorant_grid: cell size must be >= 1, got " + std::to_string(cell));
   MajorantGrid mg;
@@ -49,10 +61,19 @@ MajorantGrid build_majorant_grid(const GridData& grid, int cell) {
   }
   const double cells = double(mg.dims[0]) * mg.dims[1] * mg.dims[2];
   if (cells > double(1 << 27)) {
-    throw Error(fmt::format("{}: grid \"{}\": its active bounding box ({}, {}, {}) .. ({}, {}, {}) needs {} majorant "
-                            "cells of {} voxels; use a larger cell size",
-                            grid.file, grid.name, grid.index_min[0], grid.index_min[1], grid.index_min[2],
-                            grid.index_max[0], grid.index_max[1], grid.index_max[2], uint64_t(cells), cell));
+    // the smallest cell edge, doubling up to the largest, whose grid fits
+    int fits = cell;
+    while (fits < kMaxMajorantCellEdge && majorant_cells(grid, fits) > double(1 << 27))
+      fits = std::min(2 * fits, kMaxMajorantCellEdge);
+    const std::string what =
+        fmt::format("{}: grid \"{}\": its active bounding box ({}, {}, {}) .. ({}, {}, {}) needs {} majorant cells "
+                    "of {} voxels, more than 2^27",
+                    grid.file, grid.name, grid.index_min[0], grid.index_min[1], grid.index_min[2], grid.index_max[0],
+                    grid.index_max[1], grid.index_max[2], uint64_t(cells), cell);
+    if (majorant_cells(grid, fits) <= double(1 << 27)) throw Error(fmt::format("{}; use --majorant-cell {} or larger", what, fits));
+    throw Error(fmt::format("{}, and even the largest cell edge, {} voxels, needs {}; the active voxels span too wide "
+                            "a box (a stray voxel far from the rest?): prune or crop the grid",
+                            what, kMaxMajorantCellEdge, uint64_t(majorant_cells(grid, kMaxMajorantCellEdge))));
   }
   const size_t n = size_t(cells);
   mg.dmax.assign(n, 0.0f);

@@ -61,6 +61,9 @@ struct MajorantGrid {
 // relative 1e-5 (float rounding of the interpolation), dmin deflated likewise. An empty grid
 // gives a single cell with dmax = dmin = 0.
 MajorantGrid build_majorant_grid(const GridData& grid, int cell = 8);
+// The largest majorant cell edge (voxels): --majorant-cell and the automatic choice stay within it.
+// A grid that needs more than 2^27 cells even at this edge is refused by build_majorant_grid.
+constexpr int kMaxMajorantCellEdge = 1024;
 
 // The blocks of a majorant grid walked whole (the coarsest level of the hierarchy below): blocks of `block`^3 cells of `fine` (partial
 // blocks at the far faces), each with the max dmax and min dmin of its cells, so a block with
