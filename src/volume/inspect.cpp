@@ -1,14 +1,16 @@
 // inspect.cpp: inspect_volume (inspect.h), for `spectrack info`. .vdb files are opened with the
-// loaders' pre-scan (vdb_open.h) and every grid read by OpenVDB; .nvdb files through the loaders'
+// loaders' pre-scan (vdb_open.h) and every grid whose tree it checked read by OpenVDB; .nvdb files through the loaders'
 // own .nvdb reader (nvdb_file.cpp), float grids through load_float_grid (validated value range).
 #include "volume/inspect.h"
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <iostream>  // nanovdb/util/GridValidator.h uses std::cerr
 #include <limits>
 #include <type_traits>
 
+#include <nanovdb/util/GridValidator.h>
 #include <nanovdb/util/OpenToNanoVDB.h>
 #include <openvdb/openvdb.h>
 
@@ -107,20 +109,54 @@ GridInfo vdb_grid(const openvdb::GridBase& g, const Fail& fail) {
   return out;
 }
 
+// Each grid read on its own after check_vdb_tree walked its tree; a grid whose tree type the walk
+// cannot check is listed from its metadata, not read.
 std::vector<GridInfo> inspect_vdb(const std::string& file, const Fail& fail) {
   std::vector<GridInfo> out;
   try {
-    auto f = open_vdb_checked(file, fail);
-    openvdb::GridPtrVecPtr grids = f->getGrids();
+    VdbLayout layout;
+    auto f = open_vdb_checked(file, fail, &layout);
+    for (const VdbGridSpan& span : layout.grids) {
+      const VdbGridSpan* tree = &span;
+      for (const VdbGridSpan& p : layout.grids)
+        if (!span.parent.empty() && p.unique_name == span.parent) tree = &p;
+      if (vdb_tree_checkable(*tree)) {
+        check_vdb_tree(file, layout, span.unique_name, fail);
+        out.push_back(vdb_grid(*f->readGrid(span.unique_name), fail));
+        continue;
+      }
+      openvdb::GridBase::ConstPtr meta = f->readGridMetadata(span.unique_name);
+      GridInfo gi;
+      gi.name = meta->getName();
+      gi.type = meta->valueType();
+      gi.cls = openvdb::GridBase::gridClassToString(meta->getGridClass());
+      gi.density_use = "no: tree type " + tree->tree_type + " is not read (spectrack cannot check its data)";
+      out.push_back(gi);
+    }
     f->close();
-    if (!grids) fail("cannot read OpenVDB file (no grids)");
-    for (const auto& g : *grids) out.push_back(vdb_grid(*g, fail));
+    if (layout.version < openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION || !layout.has_offsets)
+      check_vdb_tree(file, layout, "", fail);  // refuses the layouts it cannot walk
   } catch (const Error&) {
     throw;
   } catch (const std::exception& ex) {
     fail(std::string("cannot read OpenVDB file (corrupt or truncated?): ") + ex.what());
   }
   return out;
+}
+
+// The validation the loader runs on .nvdb grids (checksum, node pointers), for every value type
+// info lists, so info refuses what render refuses.
+void validate_nvdb(const nanovdb::GridHandle<nanovdb::HostBuffer>& h, const std::string& name, const Fail& fail) {
+  std::string why;
+  auto check = [&](auto* tag) {
+    using T = std::remove_pointer_t<decltype(tag)>;
+    if (const auto* g = h.grid<T>()) why = nanovdb::GridValidator<T>::check(*g, /*detailed=*/true);
+    return h.grid<T>() != nullptr;
+  };
+  check(static_cast<float*>(nullptr)) || check(static_cast<double*>(nullptr)) || check(static_cast<int32_t*>(nullptr)) ||
+      check(static_cast<int64_t*>(nullptr)) || check(static_cast<nanovdb::Vec3f*>(nullptr)) ||
+      check(static_cast<nanovdb::Vec3d*>(nullptr));
+  if (!why.empty()) fail("corrupt NanoVDB grid " + in_quotes(name) + ": " + why);
 }
 
 std::vector<GridInfo> inspect_nvdb(const std::string& file, const Fail& fail) {
@@ -147,6 +183,7 @@ std::vector<GridInfo> inspect_nvdb(const std::string& file, const Fail& fail) {
     }
     const nanovdb::GridMetaData* m = h.gridMetaData();
     if (!m) fail("cannot read NanoVDB grid " + in_quotes(e.name));
+    validate_nvdb(h, e.name, fail);
     gi.nanovdb_bytes = int64_t(h.size());
     gi.active_voxels = m->activeVoxelCount();
     const nanovdb::Vec3R vs = m->voxelSize();
@@ -189,6 +226,8 @@ std::vector<GridInfo> inspect_nvdb(const std::string& file, const Fail& fail) {
 }
 
 }  // namespace
+
+std::string printable_name(const std::string& s) { return printable(s); }
 
 std::vector<GridInfo> inspect_volume(const std::string& file) {
   const Fail fail{"", file};
