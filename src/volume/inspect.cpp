@@ -12,6 +12,7 @@
 
 #include <nanovdb/util/GridValidator.h>
 #include <nanovdb/util/OpenToNanoVDB.h>
+#include <openvdb/io/GridDescriptor.h>
 #include <openvdb/openvdb.h>
 
 #include "volume/vdb_open.h"
@@ -116,21 +117,26 @@ std::vector<GridInfo> inspect_vdb(const std::string& file, const Fail& fail) {
   try {
     VdbLayout layout;
     auto f = open_vdb_checked(file, fail, &layout);
-    for (const VdbGridSpan& span : layout.grids) {
-      const VdbGridSpan* tree = &span;
-      for (const VdbGridSpan& p : layout.grids)
-        if (!span.parent.empty() && p.unique_name == span.parent) tree = &p;
-      if (vdb_tree_checkable(*tree)) {
-        check_vdb_tree(file, layout, span.unique_name, fail);
-        out.push_back(vdb_grid(*f->readGrid(span.unique_name), fail));
+    // in io::File's order (its descriptor map's), as getGrids lists them
+    for (auto it = f->beginName(); it != f->endName(); ++it) {
+      const std::string key = it.gridName(), unique = openvdb::io::GridDescriptor::stringAsUniqueName(key);
+      const VdbGridSpan* tree = nullptr;
+      for (const VdbGridSpan& s : layout.grids)
+        if (s.unique_name == unique) tree = &s;
+      if (tree && !tree->parent.empty())
+        for (const VdbGridSpan& p : layout.grids)
+          if (p.unique_name == tree->parent) tree = &p;
+      if (!tree || vdb_tree_checkable(*tree)) {
+        check_vdb_tree(file, layout, key, fail);  // refuses a grid missing from the walk's list
+        out.push_back(vdb_grid(*f->readGrid(key), fail));
         continue;
       }
-      openvdb::GridBase::ConstPtr meta = f->readGridMetadata(span.unique_name);
+      openvdb::GridBase::ConstPtr meta = f->readGridMetadata(key);
       GridInfo gi;
       gi.name = meta->getName();
       gi.type = meta->valueType();
       gi.cls = openvdb::GridBase::gridClassToString(meta->getGridClass());
-      gi.density_use = "no: tree type " + tree->tree_type + " is not read (spectrack cannot check its data)";
+      gi.density_use = "no: tree type " + printable(tree->tree_type) + " is not read (spectrack cannot check its data)";
       out.push_back(gi);
     }
     f->close();

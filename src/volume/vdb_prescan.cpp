@@ -20,6 +20,7 @@
 #include <map>
 
 #include <openvdb/io/Compression.h>
+#include <openvdb/io/GridDescriptor.h>
 #include <openvdb/openvdb.h>
 
 namespace spectrack {
@@ -294,7 +295,8 @@ void check_vdb_tree(const std::string& file, const VdbLayout& layout, const std:
       if (g.unique_name == name) return &g;
     return nullptr;
   };
-  const VdbGridSpan* g = find(unique_name);
+  // io::File names a duplicate "name[1]"; its descriptor holds "name\x1e1"
+  const VdbGridSpan* g = find(openvdb::io::GridDescriptor::stringAsUniqueName(unique_name));
   if (g && !g->parent.empty()) g = find(g->parent);
   if (!g) fail("grid " + in_quotes(unique_name) + " (or its instance parent) is not in the file's grid list");
   Values v;
