@@ -72,13 +72,27 @@ struct Reader {
   }
 };
 
+// OpenVDB reads a metadata value of a fixed-size type as that many bytes, whatever size the file
+// gives it, so a size that disagrees would leave the walk and OpenVDB at different bytes.
+uint32_t fixed_metadata_size(const std::string& type) {
+  static const std::map<std::string, uint32_t> sizes = {
+      {"bool", 1}, {"int32", 4}, {"int64", 8}, {"float", 4}, {"double", 8}, {"vec2i", 8}, {"vec2s", 8},
+      {"vec2d", 16}, {"vec3i", 12}, {"vec3s", 12}, {"vec3d", 24}, {"vec4i", 16}, {"vec4s", 16}, {"vec4d", 32},
+      {"mat4s", 64}, {"mat4d", 128}};
+  auto it = sizes.find(type);
+  return it == sizes.end() ? 0 : it->second;
+}
+
 void skip_metamap(Reader& r) {
   const uint32_t count = r.get<uint32_t>("metadata count");
   if (count > (r.limit - r.pos) / 12) r.corrupt("implausible metadata count " + std::to_string(count));
   for (uint32_t i = 0; i < count; ++i) {
     r.skip(r.get<uint32_t>("metadata name"), "metadata name");
-    r.skip(r.get<uint32_t>("metadata type"), "metadata type");
-    r.skip(r.get<uint32_t>("metadata value"), "metadata value");
+    const std::string type = r.string("metadata type");
+    const uint32_t size = r.get<uint32_t>("metadata value"), fixed = fixed_metadata_size(type);
+    if (fixed != 0 && size != fixed)
+      r.corrupt("a " + printable(type) + " metadata value of " + std::to_string(size) + " bytes (it has " + std::to_string(fixed) + ")");
+    r.skip(size, "metadata value");
   }
 }
 
@@ -306,7 +320,7 @@ void check_vdb_tree(const std::string& file, const VdbLayout& layout, const std:
          ", whose data spectrack cannot check before reading");
   }
   Reader r(file, fail);
-  r.where = "grid " + in_quotes(g->unique_name) + ": ";
+  r.where = "grid " + in_quotes(openvdb::io::GridDescriptor::nameAsString(g->unique_name)) + ": ";
   r.limit = g->end_pos;
   r.seek(g->grid_pos);
   v.compression = r.get<uint32_t>("grid compression flags");
