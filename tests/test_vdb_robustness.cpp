@@ -131,6 +131,25 @@ TEST(VolumePrescan, BloscChunkLargerThanItsDataIsRefused) {
   }
 }
 
+// A fixed-size metadata value whose stored size disagrees with its type: OpenVDB reads the type's
+// size anyway, so the walk refuses it (fuzz_vdb: the next length then read as 2 GiB).
+TEST(VolumePrescan, MetadataSizeDisagreeingWithItsTypeIsRefused) {
+  TempDir d;
+  const std::string src = d.file("meta.vdb");
+  write_vdb(src, blob(), openvdb::io::COMPRESS_BLOSC);
+  std::string bytes = read_bytes(src);
+  const size_t at = bytes.find("file_bbox_min");
+  ASSERT_NE(at, std::string::npos);
+  const size_t size_field = at + std::string("file_bbox_min").size() + 4 + std::string("vec3i").size();
+  const uint32_t zero = 0;
+  std::memcpy(&bytes[size_field], &zero, 4);
+  const std::string path = d.file("bad.vdb");
+  write_bytes(path, bytes);
+  const std::string msg = error_of([&] { spectrack::load_float_grid(path, "density", -1, "test"); });
+  EXPECT_TRUE(contains(msg, "vec3i metadata value of 0 bytes")) << msg;
+  EXPECT_THROW(spectrack::list_grids(path), spectrack::Error);
+}
+
 // Every bit of the tree data, flipped one at a time, in blosc, zip, uncompressed and half-float
 // files: each load either succeeds or ends in an Error (under ASan: no out-of-bounds access).
 TEST(VolumePrescan, FlippedBitsLoadOrAreRefused) {
