@@ -260,12 +260,18 @@ VdbLayout prescan_vdb(const std::string& file, const Fail& fail) {
   Reader r(file, fail);
   if (r.get<int64_t>("magic number") != openvdb::OPENVDB_MAGIC) fail("not an OpenVDB file (bad magic number)");
   out.version = r.get<uint32_t>("file version");
-  if (out.version < openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION) return out;  // old layout: trees refused
+  if (out.version < openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION) {
+    fail("OpenVDB file format version " + std::to_string(out.version) +
+         " predates 222 (2013) and cannot be checked before reading; re-save the file with a current OpenVDB");
+  }
   r.skip(8, "library version");
   out.has_offsets = r.get<char>("header") != 0;
   r.skip(36, "file UUID");
   skip_metamap(r);
-  if (!out.has_offsets) return out;
+  if (!out.has_offsets) {
+    fail("OpenVDB stream without grid offsets: it cannot be checked before reading; re-save it as a file "
+         "with a current OpenVDB");
+  }
   const int32_t count = r.get<int32_t>("grid count");
   if (count < 0 || uint64_t(count) > (r.size - r.pos) / 36 + 1) r.corrupt("implausible grid count " + std::to_string(count));
   for (int32_t i = 0; i < count; ++i) {
