@@ -92,6 +92,13 @@ void skip_metamap(Reader& r) {
     const uint32_t size = r.get<uint32_t>("metadata value"), fixed = fixed_metadata_size(type);
     if (fixed != 0 && size != fixed)
       r.corrupt("a " + printable(type) + " metadata value of " + std::to_string(size) + " bytes (it has " + std::to_string(fixed) + ")");
+    if (type == "__delayedload" && size >= 4) {
+      // DelayedLoadMetadata sizes two arrays by its leading count before reading them
+      const uint32_t n = r.get<uint32_t>("delayed-load count");
+      if (n > size) r.corrupt("delayed-load metadata claims " + std::to_string(n) + " entries in " + std::to_string(size) + " bytes");
+      r.skip(size - 4, "metadata value");
+      continue;
+    }
     r.skip(size, "metadata value");
   }
 }
