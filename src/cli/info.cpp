@@ -58,7 +58,8 @@ void print_volume(const std::string& file, const std::vector<GridInfo>& grids) {
   std::cout << fmt::format("{}: {} grid{}\n", file, grids.size(), grids.size() == 1 ? "" : "s");
   for (size_t i = 0; i < grids.size(); ++i) {
     const GridInfo& g = grids[i];
-    std::cout << fmt::format("  [{}] {:<20} {} ({})\n", i, g.name.empty() ? "<unnamed>" : "\"" + g.name + "\"", g.type, g.cls);
+    std::cout << fmt::format("  [{}] {:<20} {} ({})\n", i, g.name.empty() ? "<unnamed>" : "\"" + printable_name(g.name) + "\"",
+                             printable_name(g.type), g.cls);
     if (g.empty) {
       std::cout << "      bbox           empty (no active values)\n";
     } else {
@@ -193,7 +194,7 @@ int cmd_info(const std::vector<std::string>& files, bool as_json) {
       ++failed;
     }
   }
-  if (as_json) std::cout << all.dump(2) << "\n";
+  if (as_json) std::cout << all.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";  // names from files need not be UTF-8
   return failed ? 1 : 0;
 }
 

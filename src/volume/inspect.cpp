@@ -1,15 +1,17 @@
 // inspect.cpp: inspect_volume (inspect.h), for `spectrack info`. .vdb files are opened with the
-// loaders' pre-scan (vdb_open.h) and every grid read by OpenVDB; .nvdb files through the loaders'
+// loaders' pre-scan (vdb_open.h) and every grid whose tree it checked read by OpenVDB; .nvdb files through the loaders'
 // own .nvdb reader (nvdb_file.cpp), float grids through load_float_grid (validated value range).
 #include "volume/inspect.h"
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <iostream>
 #include <limits>
 #include <type_traits>
 
 #include <nanovdb/util/OpenToNanoVDB.h>
+#include <openvdb/io/GridDescriptor.h>
 #include <openvdb/openvdb.h>
 
 #include "volume/vdb_open.h"
@@ -107,14 +109,38 @@ GridInfo vdb_grid(const openvdb::GridBase& g, const Fail& fail) {
   return out;
 }
 
+// Each grid read on its own after check_vdb_tree walked its tree; a grid whose tree type the walk
+// cannot check is listed from its metadata, not read.
 std::vector<GridInfo> inspect_vdb(const std::string& file, const Fail& fail) {
   std::vector<GridInfo> out;
   try {
-    auto f = open_vdb_checked(file, fail);
-    openvdb::GridPtrVecPtr grids = f->getGrids();
+    VdbLayout layout;
+    auto f = open_vdb_checked(file, fail, &layout);
+    // in io::File's order (its descriptor map's), as getGrids lists them
+    for (auto it = f->beginName(); it != f->endName(); ++it) {
+      const std::string key = it.gridName(), unique = openvdb::io::GridDescriptor::stringAsUniqueName(key);
+      const VdbGridSpan* tree = nullptr;
+      for (const VdbGridSpan& s : layout.grids)
+        if (s.unique_name == unique) tree = &s;
+      if (tree && !tree->parent.empty())
+        for (const VdbGridSpan& p : layout.grids)
+          if (p.unique_name == tree->parent) tree = &p;
+      if (!tree || vdb_tree_checkable(*tree)) {
+        check_vdb_tree(file, layout, key, fail);  // refuses a grid missing from the walk's list
+        out.push_back(vdb_grid(*f->readGrid(key), fail));
+        continue;
+      }
+      openvdb::GridBase::ConstPtr meta = f->readGridMetadata(key);
+      GridInfo gi;
+      gi.name = meta->getName();
+      gi.type = meta->valueType();
+      gi.cls = openvdb::GridBase::gridClassToString(meta->getGridClass());
+      gi.density_use = "no: tree type " + printable(tree->tree_type) + " is not read (spectrack cannot check its data)";
+      out.push_back(gi);
+    }
     f->close();
-    if (!grids) fail("cannot read OpenVDB file (no grids)");
-    for (const auto& g : *grids) out.push_back(vdb_grid(*g, fail));
+    if (layout.version < openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION || !layout.has_offsets)
+      check_vdb_tree(file, layout, "", fail);  // refuses the layouts it cannot walk
   } catch (const Error&) {
     throw;
   } catch (const std::exception& ex) {
@@ -168,6 +194,8 @@ std::vector<GridInfo> inspect_nvdb(const std::string& file, const Fail& fail) {
         gi.value_min = d.value_min, gi.value_max = d.value_max;
         gi.density_use = "yes";
       } catch (const Error& ex) {
+        // a grid render refuses as damaged (checksum, node pointers) fails info too
+        if (std::string(ex.what()).find("corrupt NanoVDB grid") != std::string::npos) throw;
         gi.density_use = std::string("no: ") + ex.what();
       }
     } else {
@@ -189,6 +217,8 @@ std::vector<GridInfo> inspect_nvdb(const std::string& file, const Fail& fail) {
 }
 
 }  // namespace
+
+std::string printable_name(const std::string& s) { return printable(s); }
 
 std::vector<GridInfo> inspect_volume(const std::string& file) {
   const Fail fail{"", file};

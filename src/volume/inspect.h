@@ -29,4 +29,8 @@ struct GridInfo {
 // a missing, unreadable, damaged or unknown file.
 std::vector<GridInfo> inspect_volume(const std::string& file);
 
+// A grid name or type from a file as text output prints it: control characters, backslash and
+// quote escaped (\x1b, \\, \").
+std::string printable_name(const std::string& s);
+
 }  // namespace spectrack

@@ -24,13 +24,8 @@ namespace spectrack {
 using FloatGrid = nanovdb::NanoGrid<float>;
 using Leaf = nanovdb::NanoLeaf<float>;
 
-// Each cell walks the 8^3 leaf-aligned blocks that meet its support: a leaf contributes the
-// voxels inside the support, a block without a leaf (a tile or background) its one constant
-// value. The cost is thus about (1 + 1/cell)^3 reads per voxel of allocated leaves plus a probe
-// per empty block; the Disney cloud (16x11x20 cells) takes a few ms. A grid with huge active
-// tiles still costs one probe per 8^3 block of its bbox (512^3 cells for a root tile at cell 8),
-// where a sparse build over the hierarchy's non-empty blocks would be the fix.
 namespace {
+
 // Cells of edge `cell` voxels over the grid's active box plus a voxel of margin on each side.
 double majorant_cells(const GridData& grid, int cell) {
   double n = 1;
@@ -40,8 +35,60 @@ double majorant_cells(const GridData& grid, int cell) {
   }
   return n;
 }
+
+int64_t floor_div(int64_t a, int64_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+
+// Marks the cells whose trilinear support meets the voxel box lo .. hi (inclusive). Cell c's
+// support on an axis is origin + c*cell .. origin + (c+1)*cell, so it meets lo .. hi when
+// c >= ceil((lo - origin) / cell) - 1 and c <= floor((hi - origin) / cell).
+void mark_box(const MajorantGrid& mg, const nanovdb::Coord& lo, int width, std::vector<uint8_t>& marked) {
+  int64_t c0[3], c1[3];
+  for (int a = 0; a < 3; ++a) {
+    const int64_t l = int64_t(lo[a]) - mg.origin[a], h = l + width - 1;
+    c0[a] = std::max<int64_t>(0, -floor_div(-l, mg.cell) - 1);
+    c1[a] = std::min<int64_t>(mg.dims[a] - 1, floor_div(h, mg.cell));
+    if (c0[a] > c1[a]) return;
+  }
+  for (int64_t z = c0[2]; z <= c1[2]; ++z)
+    for (int64_t y = c0[1]; y <= c1[1]; ++y)
+      for (int64_t x = c0[0]; x <= c1[0]; ++x)
+        marked[size_t(x) + size_t(mg.dims[0]) * (size_t(y) + size_t(mg.dims[1]) * size_t(z))] = 1;
+}
+
+// The cells whose support holds a leaf or an active tile of the tree. Every other cell reads
+// only inactive tiles and the background, which are 0 (the loader zeroes inactive values), so
+// its bounds are (0, 0) without a lookup: the build costs what the tree holds, not its bbox.
+std::vector<uint8_t> occupied_cells(const FloatGrid& g, const MajorantGrid& mg) {
+  std::vector<uint8_t> marked(mg.dmax.size(), 0);
+  const auto& root = g.tree().root();
+  for (uint32_t i = 0; i < root.tileCount(); ++i) {
+    const auto* t = root.data()->tile(i);
+    if (!t->isChild()) {
+      if (t->isActive()) mark_box(mg, t->origin(), nanovdb::NanoUpper<float>::DIM, marked);
+      continue;
+    }
+    const auto* u = root.data()->getChild(t);
+    for (uint32_t n = 0; n < nanovdb::NanoUpper<float>::SIZE; ++n) {
+      if (!u->data()->isChild(n)) {
+        if (u->data()->isActive(n)) mark_box(mg, u->offsetToGlobalCoord(n), nanovdb::NanoLower<float>::DIM, marked);
+        continue;
+      }
+      const auto* l = u->data()->getChild(n);
+      for (uint32_t m = 0; m < nanovdb::NanoLower<float>::SIZE; ++m) {
+        if (l->data()->isChild(m) || l->data()->isActive(m)) mark_box(mg, l->offsetToGlobalCoord(m), Leaf::DIM, marked);
+      }
+    }
+  }
+  return marked;
+}
+
 }  // namespace
 
+// Each occupied cell (occupied_cells) walks the 8^3 leaf-aligned blocks that meet its support: a
+// leaf contributes the voxels inside the support, a block without a leaf (a tile or background)
+// its one constant value. The cost is thus about (1 + 1/cell)^3 reads per voxel of allocated
+// leaves plus a probe per 8^3 block of active tiles and one byte per cell of the box; the Disney
+// cloud (16x11x20 cells) takes a few ms, and a few stray voxels far apart cost a few cells each.
 MajorantGrid build_majorant_grid(const GridData& grid, int cell) {
   if (cell < 1) throw Error("build_majorant_grid: cell size must be >= 1, got " + std::to_string(cell));
   MajorantGrid mg;
@@ -78,9 +125,11 @@ MajorantGrid build_majorant_grid(const GridData& grid, int cell) {
   const size_t n = size_t(cells);
   mg.dmax.assign(n, 0.0f);
   mg.dmin.assign(n, 0.0f);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16), [&](const tbb::blocked_range<size_t>& r) {
+  const std::vector<uint8_t> occupied = occupied_cells(*g, mg);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const tbb::blocked_range<size_t>& r) {
     auto acc = g->getAccessor();
     for (size_t idx = r.begin(); idx != r.end(); ++idx) {
+      if (!occupied[idx]) continue;  // (0, 0), as assigned
       const int cx = int(idx % size_t(mg.dims[0]));
       const int cy = int((idx / size_t(mg.dims[0])) % size_t(mg.dims[1]));
       const int cz = int(idx / (size_t(mg.dims[0]) * size_t(mg.dims[1])));

@@ -13,6 +13,7 @@
 #include "volume/volume_detail.h"
 #include "util/files.h"
 #include "volume/vdb_open.h"
+#include "volume/vdb_prescan.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_reduce.h>
@@ -35,6 +36,7 @@
 #include <openvdb/openvdb.h>
 
 #include <nanovdb/NanoVDB.h>
+#include <nanovdb/util/GridChecksum.h>
 #include <nanovdb/util/GridValidator.h>
 #include <nanovdb/util/IO.h>
 #include <nanovdb/util/OpenToNanoVDB.h>
@@ -94,84 +96,9 @@ std::vector<Entry> vdb_entries(openvdb::io::File& f) {
   return out;
 }
 
-// Bounds-checked reads over a file, for the structural pre-scan below.
-struct Reader {
-  std::ifstream is;
-  uint64_t size = 0, pos = 0;
-  const Fail& fail;
-  Reader(const std::string& file, const Fail& f) : is(file, std::ios::binary), size(fs::file_size(file)), fail(f) {}
-  void need(uint64_t n, const char* what) {
-    if (n > size - pos) {
-      fail(std::string("corrupt or truncated OpenVDB file: ") + what + " at byte " + std::to_string(pos) +
-           " runs past the end of the file");
-    }
-  }
-  template <class T>
-  T get(const char* what) {
-    need(sizeof(T), what);
-    T v{};
-    is.read(reinterpret_cast<char*>(&v), sizeof(T));
-    pos += sizeof(T);
-    return v;
-  }
-  void skip(uint64_t n, const char* what) {
-    need(n, what);
-    seek(pos + n);
-  }
-  void skip_string(const char* what) { skip(get<uint32_t>(what), what); }
-  void seek(uint64_t p) {
-    pos = p;
-    is.seekg(std::streamoff(p));
-  }
-};
-
-void skip_metamap(Reader& r) {
-  const uint32_t count = r.get<uint32_t>("metadata count");
-  if (count > (r.size - r.pos) / 12) r.fail("corrupt OpenVDB file: implausible metadata count " + std::to_string(count));
-  for (uint32_t i = 0; i < count; ++i) {
-    r.skip_string("metadata name");
-    r.skip_string("metadata type");
-    r.skip(r.get<uint32_t>("metadata value"), "metadata value");
-  }
-}
-
-// OpenVDB allocates every length-prefixed string and metadata blob before reading it, so a
-// damaged length means gigabytes touched (OIIO saw 12 GB). This walks the header, the file
-// metadata, the grid descriptors and each grid's metadata and transform type, checking every
-// length and offset against the file size before OpenVDB sees the file. Tree data is not
-// covered: its chunks are read into buffers that only grow as far as the file goes.
-void prescan_vdb(const std::string& file, const Fail& fail) {
-  Reader r(file, fail);
-  if (r.get<int64_t>("magic number") != openvdb::OPENVDB_MAGIC) fail("not an OpenVDB file (bad magic number)");
-  const uint32_t version = r.get<uint32_t>("file version");
-  if (version < openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION) return;  // old layout: OpenVDB alone
-  r.skip(8, "library version");
-  const bool has_offsets = r.get<char>("header") != 0;
-  r.skip(36, "file UUID");
-  skip_metamap(r);
-  if (!has_offsets) return;
-  const int32_t count = r.get<int32_t>("grid count");
-  if (count < 0 || uint64_t(count) > (r.size - r.pos) / 36 + 1) fail("corrupt OpenVDB file: implausible grid count " + std::to_string(count));
-  std::vector<int64_t> grid_pos;
-  for (int32_t i = 0; i < count; ++i) {
-    r.skip_string("grid name");
-    r.skip_string("grid type");
-    r.skip_string("instance parent name");
-    const int64_t g = r.get<int64_t>("grid offset"), b = r.get<int64_t>("grid offset"), e = r.get<int64_t>("grid offset");
-    if (g < int64_t(r.pos) || g > b || b > e || uint64_t(e) > r.size) fail("corrupt OpenVDB file: grid offsets outside the file");
-    grid_pos.push_back(g);
-    r.seek(uint64_t(e));  // each descriptor is followed by its grid's data
-  }
-  for (int64_t g : grid_pos) {
-    r.seek(uint64_t(g));
-    r.skip(4, "grid compression flags");
-    skip_metamap(r);
-    r.skip_string("transform type");
-  }
-}
-
-std::unique_ptr<openvdb::io::File> vdb_open(const std::string& file, const Fail& fail) {
-  prescan_vdb(file, fail);
+std::unique_ptr<openvdb::io::File> vdb_open(const std::string& file, const Fail& fail, VdbLayout* layout = nullptr) {
+  VdbLayout scanned = prescan_vdb(file, fail);
+  if (layout) *layout = std::move(scanned);
   init_openvdb();
   auto f = std::make_unique<openvdb::io::File>(file);
   f->open(/*delayLoad=*/false);
@@ -305,6 +232,46 @@ Scan scan_tree(const FloatGrid& g, const Fail& fail) {
   return s;
 }
 
+// Inactive voxels read 0 on the device and in every bound (volume.h), whatever the file stores
+// there: writers leave old values in voxels they deactivate (Houdini's VDB Activate), and a
+// stored +inf or 1e30 would otherwise blacken the image or stall every flight. Sets each inactive
+// leaf voxel and inactive tile that is not 0 to 0 (-0 stays, so grids without inactive values
+// stay bit-identical); node statistics cover active values only and so stay valid; the
+// checksum, where the grid has one, is recomputed. Runs after scan_tree checked the pointers.
+uint64_t zero_inactive_values(FloatGrid& g) {
+  uint64_t changed = 0;
+  auto zero = [&](float& v) {
+    if (v != 0.0f) { v = 0.0f; ++changed; }  // NaN too
+  };
+  auto* root = g.tree().root().data();
+  for (uint32_t i = 0; i < root->mTableSize; ++i) {
+    auto* t = root->tile(i);
+    if (!t->isChild()) {
+      if (!t->state) zero(t->value);
+      continue;
+    }
+    auto* u = root->getChild(t)->data();
+    for (uint32_t n = 0; n < Upper::SIZE; ++n) {
+      if (!u->isChild(n)) {
+        if (!u->mValueMask.isOn(n)) zero(u->mTable[n].value);
+        continue;
+      }
+      auto* l = u->getChild(n)->data();
+      for (uint32_t m = 0; m < Lower::SIZE; ++m) {
+        if (!l->isChild(m)) {
+          if (!l->mValueMask.isOn(m)) zero(l->mTable[m].value);
+          continue;
+        }
+        auto* leaf = l->getChild(m)->data();
+        for (auto it = leaf->mValueMask.beginOff(); it; ++it) zero(leaf->mValues[*it]);
+      }
+    }
+  }
+  if (changed > 0 && g.checksum() != nanovdb::GridChecksum::EMPTY)
+    nanovdb::updateChecksum(g, nanovdb::GridChecksum(g.checksum()).mode());
+  return changed;
+}
+
 std::string value_str(float v) {
   std::ostringstream s;
   s.precision(9);
@@ -368,6 +335,7 @@ void finish(GridData& out, const Fail& fail, bool untrusted) {
     const char* what = std::isfinite(s.bad_value) ? "is negative (densities must be >= 0)" : "is not finite";
     fail("grid " + gname + ": value " + value_str(s.bad_value) + " at " + where + " " + what);
   }
+  zero_inactive_values(*out.handle.grid<float>());
   out.empty = s.lo[0] > s.hi[0];
   if (out.empty) {
     out.index_min = {0, 0, 0};
@@ -431,11 +399,13 @@ GridData load_vdb(const std::string& file, const std::string& grid_name, int gri
   out.file = file;
   openvdb::FloatGrid::Ptr grid;
   try {
-    auto f = vdb_open(file, fail);
+    VdbLayout layout;
+    auto f = vdb_open(file, fail, &layout);
     const std::vector<Entry> entries = vdb_entries(*f);
     const Entry& e = select(entries, grid_name, grid_index, fail);
     check_entry(e, fail);
     out.name = e.name;
+    check_vdb_tree(file, layout, e.vdb_key, fail);
     grid = openvdb::gridPtrCast<openvdb::FloatGrid>(f->readGrid(e.vdb_key));
     f->close();
     if (!grid) fail("grid " + in_quotes(e.name) + " could not be read as a float grid");
@@ -493,9 +463,9 @@ GridData load_nvdb(const std::string& file, const std::string& grid_name, int gr
 
 // For `spectrack info` (vdb_open.h): the same checks as the loaders, on the whole file.
 namespace volume_detail {
-std::unique_ptr<openvdb::io::File> open_vdb_checked(const std::string& file, const Fail& fail) {
+std::unique_ptr<openvdb::io::File> open_vdb_checked(const std::string& file, const Fail& fail, VdbLayout* layout) {
   check_readable(file, fail);
-  return vdb_open(file, fail);
+  return vdb_open(file, fail, layout);
 }
 void check_vdb_file_bbox(const openvdb::GridBase& g, const Fail& fail) { check_file_bbox(g, fail); }
 }  // namespace volume_detail
@@ -523,7 +493,8 @@ std::array<GridData, 3> load_color_grid(const std::string& file, const std::stri
   check_readable(file, fail);
   openvdb::Vec3SGrid::Ptr grid;
   try {
-    auto f = vdb_open(file, fail);
+    VdbLayout layout;
+    auto f = vdb_open(file, fail, &layout);
     const std::vector<Entry> entries = vdb_entries(*f);
     const Entry* hit = nullptr;
     for (const Entry& e : entries)
@@ -538,6 +509,7 @@ std::array<GridData, 3> load_color_grid(const std::string& file, const std::stri
       fail("colour grid " + in_quotes(grid_name) + " has value type " + hit->type + " (class " + hit->cls +
            "); a colour grid must be a vec3s grid (e.g. Houdini's Cd)");
     }
+    check_vdb_tree(file, layout, hit->vdb_key, fail);
     grid = openvdb::gridPtrCast<openvdb::Vec3SGrid>(f->readGrid(hit->vdb_key));
     f->close();
     if (!grid) fail("colour grid " + in_quotes(grid_name) + " could not be read as a vec3s grid");

@@ -35,7 +35,20 @@ inline std::string coord_str(int x, int y, int z) {
   return s.str();
 }
 
-inline std::string in_quotes(const std::string& s) { return "\"" + s + "\""; }
+// A name from a file as it is printed: control characters (and backslash, quote) escaped, so a
+// name cannot move the terminal's cursor or forge a line of output.
+inline std::string printable(const std::string& s) {
+  static const char* hex = "0123456789abcdef";
+  std::string out;
+  for (unsigned char c : s) {
+    if (c == '\\' || c == '"') out += '\\', out += char(c);
+    else if (c < 0x20 || c == 0x7f) out += "\\x", out += hex[c >> 4], out += hex[c & 15];
+    else out += char(c);
+  }
+  return out;
+}
+
+inline std::string in_quotes(const std::string& s) { return "\"" + printable(s) + "\""; }
 
 // One grid of a file, as listed before its tree is read.
 struct Entry {
@@ -51,7 +64,7 @@ struct Entry {
 };
 
 inline std::string describe(const Entry& e) {
-  return (e.name.empty() ? std::string("<unnamed>") : e.name) + " (" + e.type + ", " + e.cls + ")";
+  return (e.name.empty() ? std::string("<unnamed>") : printable(e.name)) + " (" + printable(e.type) + ", " + e.cls + ")";
 }
 
 // .nvdb files (nvdb_file.cpp): the grids of a file, every size checked against the file length;

@@ -2,7 +2,7 @@
 // tests/fuzz/CMakeLists.txt: fuzz_vdb (FUZZ_VOLUME_EXT ".vdb") and fuzz_nvdb (".nvdb"). Seeds come
 // from tests/fuzz/make_seeds.cpp (scripts/fuzz.sh writes them into its scratch folder).
 //
-// Contract under test: load_float_grid() and list_grids() on any bytes either succeed with a grid
+// Contract under test: load_float_grid(), list_grids() and inspect_volume() on any bytes either succeed with a grid
 // that obeys volume.h (a float fog grid, a consistent active box, finite non-negative values, a
 // finite invertible transform) or throw spectrack::Error whose message names the file (for .vdb
 // files, load_color_grid() too: three float grids with finite non-negative values); the
@@ -21,6 +21,7 @@
 #include <iostream>
 #include <string>
 
+#include "volume/inspect.h"
 #include "volume/volume.h"
 #include "fuzz_contract.h"
 
@@ -60,6 +61,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   try {
     spectrack::list_grids(g_file);
+  } catch (const spectrack::Error& e) {
+    check_error(e);
+  }
+  try {
+    spectrack::inspect_volume(g_file);  // `spectrack info`: every grid of the file
   } catch (const spectrack::Error& e) {
     check_error(e);
   }
