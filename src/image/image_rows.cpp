@@ -4,7 +4,6 @@
 #include "image/image_rows.h"
 
 #include <fmt/format.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
@@ -13,6 +12,8 @@
 #include <filesystem>
 
 #include "image/image_open.h"
+#include "image/output_proxy.h"
+#include "util/output_file.h"
 
 namespace spectrack {
 
@@ -58,13 +59,18 @@ void FilmPieceRows::read(int y0, int y1, std::vector<float>* rgb, std::vector<fl
   check_finite(impl_->path, img, y0, rgb->data(), extra->data(), npix);
 }
 
+// Members are destroyed in reverse: the writer first, then the proxy, then the file, which
+// removes its temporary file unless committed.
 struct ImageRowWriter::Impl {
-  std::string path, temp;
+  std::string path;
+  std::unique_ptr<OutputFile> file;
+  std::unique_ptr<OutputProxy> proxy;
   std::unique_ptr<OIIO::ImageOutput> out;
   OIIO::ImageSpec spec;
   bool png = false, finished = false;
   int next_row = 0;
   std::vector<unsigned char> bytes;  // a PNG band
+  [[noreturn]] void fail();
 };
 
 ImageRowWriter::ImageRowWriter(const std::string& path, int width, int height, const std::vector<std::string>& names,
@@ -78,9 +84,9 @@ ImageRowWriter::ImageRowWriter(const std::string& path, int width, int height, c
   if (w.png && names != std::vector<std::string>{"R", "G", "B"})
     throw Error(fmt::format("{}: internal: a PNG holds R, G, B only", path));
   w.path = path;
-  const std::filesystem::path p(path);
-  w.temp = (p.parent_path() / ("." + p.filename().string() + fmt::format(".{}.partial", ::getpid()))).string();
-  w.out = OIIO::ImageOutput::create(path);  // the format of the path's extension, whatever the temporary name
+  w.file = std::make_unique<OutputFile>(path);
+  w.proxy = std::make_unique<OutputProxy>(*w.file);
+  w.out = OIIO::ImageOutput::create(path, w.proxy.get());  // the format of the path's extension
   if (!w.out) throw Error(fmt::format("{}: cannot create image writer: {}", path, OIIO::geterror()));
   if (w.png) {
     w.spec = OIIO::ImageSpec(width, height, 3, OIIO::TypeDesc::UINT8);
@@ -98,17 +104,17 @@ ImageRowWriter::ImageRowWriter(const std::string& path, int width, int height, c
       if (names[c] == "A") w.spec.alpha_channel = int(c);
     set_exr_spec(w.spec, meta, window, exr);
   }
-  if (!w.out->open(w.temp, w.spec)) {
-    const std::string why = w.out->geterror();
-    std::remove(w.temp.c_str());
-    throw Error(fmt::format("{}: cannot open for writing: {}", path, why));
-  }
+  if (!w.out->open(path, w.spec)) w.fail();
 }
 
-ImageRowWriter::~ImageRowWriter() {
-  if (impl_->finished) return;
-  if (impl_->out) impl_->out->close();
-  std::remove(impl_->temp.c_str());
+ImageRowWriter::~ImageRowWriter() = default;  // unfinished: the OutputFile removes its temporary file
+
+// Raises the first failure: the OutputFile's own (a write's errno) before the writer's message.
+void ImageRowWriter::Impl::fail() {
+  file->fail(out->geterror());
+  out.reset();
+  file->commit();  // throws "<path>: cannot write: <reason>" and removes the temporary file
+  throw Error(fmt::format("{}: cannot write", path));  // not reached: commit throws on a failed file
 }
 
 void ImageRowWriter::write(int y0, int y1, const std::vector<float>& px) {
@@ -124,7 +130,7 @@ void ImageRowWriter::write(int y0, int y1, const std::vector<float>& px) {
   } else {
     ok = w.out->write_scanlines(w.spec.y + y0, w.spec.y + y1, 0, OIIO::TypeDesc::FLOAT, px.data());
   }
-  if (!ok) throw Error(fmt::format("{}: write failed: {}", w.path, w.out->geterror()));
+  if (!ok || w.file->failed()) w.fail();
   w.next_row = y1;
 }
 
@@ -132,11 +138,10 @@ void ImageRowWriter::finish() {
   Impl& w = *impl_;
   if (w.next_row != w.spec.height)
     throw Error(fmt::format("{}: internal: {} of {} rows written", w.path, w.next_row, w.spec.height));
-  if (!w.out->close()) throw Error(fmt::format("{}: write failed: {}", w.path, w.out->geterror()));
+  if (!w.out->close() || w.out->has_error() || w.file->failed()) w.fail();
   w.out.reset();
-  std::error_code ec;
-  std::filesystem::rename(w.temp, w.path, ec);
-  if (ec) throw Error(fmt::format("{}: cannot rename the finished file {} to it: {}", w.path, w.temp, ec.message()));
+  if (w.file->size() == 0) w.file->fail("the image writer wrote nothing through spectrack's output file");
+  w.file->commit();
   w.finished = true;
 }
 

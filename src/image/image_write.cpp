@@ -10,6 +10,7 @@
 // reason.
 #include "image/image.h"
 #include "image/image_open.h"
+#include "image/output_proxy.h"
 #include "util/output_file.h"
 
 #include <OpenImageIO/filesystem.h>
@@ -41,37 +42,6 @@ float srgb_encode(float v) {
 }
 
 namespace {
-
-// OpenImageIO's view of an OutputFile: writes at the proxy's position (or at an offset), checked
-// and recorded by the OutputFile; nothing is read back.
-class OutputProxy : public OIIO::Filesystem::IOProxy {
- public:
-  explicit OutputProxy(OutputFile& f) : IOProxy(f.path(), Write), f_(f) {}
-  const char* proxytype() const override { return "spectrack-output"; }
-  size_t write(const void* buf, size_t size) override {
-    std::lock_guard<std::mutex> lock(mu_);
-    const size_t n = f_.write_at(buf, size, uint64_t(m_pos));
-    m_pos += int64_t(n);
-    return n;
-  }
-  size_t pwrite(const void* buf, size_t size, int64_t offset) override {
-    std::lock_guard<std::mutex> lock(mu_);
-    return offset < 0 ? 0 : f_.write_at(buf, size, uint64_t(offset));
-  }
-  bool seek(int64_t offset) override {
-    std::lock_guard<std::mutex> lock(mu_);
-    if (offset < 0) return false;
-    m_pos = offset;
-    return true;
-  }
-  size_t read(void*, size_t) override { return 0; }
-  size_t pread(void*, size_t, int64_t) override { return 0; }
-  size_t size() const override { return size_t(f_.size()); }
-
- private:
-  OutputFile& f_;
-  std::mutex mu_;
-};
 
 // Encodes `pixels` (of `type`, as `spec` says) into `path` through an OutputFile.
 void encode(const std::string& path, const OIIO::ImageSpec& spec, OIIO::TypeDesc type, const void* pixels) {

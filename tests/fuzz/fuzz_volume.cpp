@@ -22,6 +22,7 @@
 #include <string>
 
 #include "volume/inspect.h"
+#include "volume/float_limits.h"
 #include "volume/volume.h"
 #include "fuzz_contract.h"
 
@@ -85,7 +86,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
                                            g.index_min[1] + int64_t(g.index_max[2]) - g.index_min[2];
     if (span < 3 * 4096) {
       try {
-        spectrack::MajorantGrid mg = spectrack::build_majorant_grid(g, 8);
+        // the renderer's automatic cell (at least 8 voxels here, to keep small grids quick): at most
+        // about 2^22 cells, whatever the box; an explicit --majorant-cell may ask for up to 2^27
+        const int cell = std::max(8, spectrack::auto_majorant_cell(g));
+        spectrack::MajorantGrid mg = spectrack::build_majorant_grid(g, cell);
         check(mg.dmax.size() == mg.dmin.size(), "majorant arrays differ in size");
         if (!g.empty) {
           const double x = g.index_min[0] + 0.37, y = g.index_min[1] + 0.61, z = g.index_min[2] + 0.13;
