@@ -8,8 +8,9 @@
  * math is the float overloads both languages share (sqrt, exp, expm1, log1p, sin, cos, fmin, fmax;
  * C++ takes them from <math.h>). A mixture is a fixed record of ST_VMF_LOBES lobes (unused lobes
  * have weight 0), so a region's cache entry has one size and every loop one trip count. The
- * renderer's program does not include this file yet (images are unchanged); the device-only part
- * at the end needs phase.h before it.
+ * renderer's program includes this file after light.h; its kernels use it only where the feature
+ * mask has ST_FEATURE_GUIDING (features.h), so with guiding off images are unchanged. The
+ * device-only part at the end needs phase.h before it.
  *
  * A lobe of unit mean direction mu and concentration kappa has the density
  *     f(w) = kappa / (2 pi (1 - exp(-2 kappa))) * exp(-kappa (1 - mu.w)),
@@ -144,6 +145,58 @@ inline st_vec3 vmf_mixture_sample(ST_GUIDE_GLOBAL const st_vmf_mixture* m, float
   return vmf_sample(vmf_lobe_mean(m->lobe[k]), m->lobe[k].w, u1, u2);
 }
 
+/* ---- the guide cache: regions of a uniform grid over the media, and radiance records ----
+ * The cache is one buffer: an st_guide_header, then one st_guide_region per grid cell (x fastest).
+ * A scatter position maps to the cell that holds it, clamped to the grid (any region is a valid
+ * guide: the estimator is unbiased for every cache). Records are appended by training passes to a
+ * second buffer: one uint count (padded to 16 bytes), then st_guide_record entries. */
+typedef struct {
+  st_float4 origin;   /* xyz: the grid's world-space corner; w: 1 when guided sampling is on */
+  st_float4 inv_cell; /* xyz: cells per world unit along each axis; w: 1 when records are collected */
+  st_int dims[4];     /* xyz: cells per axis; w: record capacity of the record buffer */
+  st_float4 pad;
+} st_guide_header;
+
+typedef struct {
+  st_vmf_mixture mix; /* the incident radiance's directional distribution */
+  float alpha;        /* selection probability of the guide (0: phase sampling only) */
+  float records;      /* records the fit used */
+  float radiance;     /* mean record weight (luminance of incident radiance / pdf) */
+  float pad;
+} st_guide_region;
+
+/* One radiance record: a finished shadow ray's estimate of the radiance arriving at a scatter
+ * position from the direction it was sent in. */
+typedef struct {
+  st_float4 pos;  /* xyz: the scatter position; w: the region index (its bits) */
+  st_float4 dir;  /* xyz: the direction towards the light; w: the weight (mean of the lanes of Le T / pdf) */
+  st_uint key[4]; /* pixel, sample, channel, shadow stream: the record's place in a canonical order */
+} st_guide_record;
+
+#define ST_SIZEOF_GUIDE_HEADER 64
+#define ST_SIZEOF_GUIDE_REGION 176
+#define ST_SIZEOF_GUIDE_RECORD 48
+#ifdef __OPENCL_VERSION__
+typedef char st_check_guide_header[(sizeof(st_guide_header) == ST_SIZEOF_GUIDE_HEADER) ? 1 : -1];
+typedef char st_check_guide_region[(sizeof(st_guide_region) == ST_SIZEOF_GUIDE_REGION) ? 1 : -1];
+typedef char st_check_guide_record[(sizeof(st_guide_record) == ST_SIZEOF_GUIDE_RECORD) ? 1 : -1];
+#else
+static_assert(sizeof(st_guide_header) == ST_SIZEOF_GUIDE_HEADER, "st_guide_header layout");
+static_assert(sizeof(st_guide_region) == ST_SIZEOF_GUIDE_REGION, "st_guide_region layout");
+static_assert(sizeof(st_guide_record) == ST_SIZEOF_GUIDE_RECORD, "st_guide_record layout");
+#endif
+
+/* The region (grid cell) of world position (x, y, z), clamped to the grid. */
+inline int guide_region_index(ST_GUIDE_GLOBAL const st_guide_header* h, float x, float y, float z) {
+  float c[3] = {(x - h->origin.x) * h->inv_cell.x, (y - h->origin.y) * h->inv_cell.y, (z - h->origin.z) * h->inv_cell.z};
+  int i[3];
+  for (int a = 0; a < 3; ++a) {
+    float f = fmin(fmax(c[a], 0.0f), (float)(h->dims[a] - 1));
+    i[a] = (int)f;
+  }
+  return (i[2] * h->dims[1] + i[1]) * h->dims[0] + i[0];
+}
+
 /* ---- the one-sample mixture of the phase function and the guide ----
  * A guided scatter event samples the guide with probability alpha (the region's selection
  * probability) and the phase function otherwise, and weighs the direction w by
@@ -182,6 +235,27 @@ inline float3 guided_phase_sample(__global const st_vmf_mixture* m, float alpha,
   }
   *pdf_mix = guide_mixture_pdf(alpha, vmf_mixture_pdf(m, wi), *f_phase);
   return wi;
+}
+
+/* The regions follow the header in the cache buffer. */
+inline __global const st_guide_region* guide_regions(__global const st_guide_header* h) {
+  return (__global const st_guide_region*)(h + 1);
+}
+
+/* Appends one record (the count is the buffer's first uint; the records start 16 bytes in). The
+ * host drains the buffer after every iteration, and its capacity is the shadow queue's, so no
+ * record is lost. */
+inline void guide_record_push(__global uint* rec, uint capacity, float3 pos, int region, float3 dir, float weight,
+                              uint4 key) {
+  uint i = atomic_inc(&rec[0]);
+  if (i >= capacity) return;
+  __global st_guide_record* r = (__global st_guide_record*)(rec + 4) + i;
+  r->pos = (float4)(pos, as_float(region));
+  r->dir = (float4)(dir, weight);
+  r->key[0] = key.x;
+  r->key[1] = key.y;
+  r->key[2] = key.z;
+  r->key[3] = key.w;
 }
 #endif
 

@@ -16,7 +16,7 @@
   __constant const st_scene *scene, __global const uint *grids, __global const float2 *maj,       \
       __global const float *env, __global st_path *paths, __global st_shadow *shadows,            \
       __global uint *queues, __global uint *counters, __global float4 *results, uint Q, uint NL,   \
-      st_iteration it
+      st_iteration it, __global const st_guide_header *guide, __global uint *guide_records
 
 inline uint queue_offset(uint Q, uint NL, uint parity, int k) {
   return parity * ((uint)ST_Q_PATH_QUEUES * Q + Q * NL) + (uint)k * Q;

@@ -8,7 +8,10 @@
  * paths end). The shadow rays of the last R - 1 bounces (R: the shadow ring, queues.h) may still
  * be running: a path waits here (re-queued) only while an entry of bounce depth - R, whose place this
  * bounce's shadow rays take, is still running; the finished ones are added to their light's
- * accumulator first (queues.h, "shadow-ray entries"). */
+ * accumulator first (queues.h, "shadow-ray entries"). With guiding (features.h), the scattered
+ * direction comes from the one-sample mixture of the phase function and the region's guide
+ * (guiding.h), beta takes f_phase / p_mix and d.w holds p_mix, which the light samples' MIS weights
+ * use too; training passes leave in each shadow entry's d.w what turns its result into a record. */
 __kernel void k_scatter(ST_STAGE_ARGS) {
   const uint cur = it.cur, n = it.n_queue[ST_Q_SCATTER];
   uint gid = get_global_id(0);
@@ -37,6 +40,13 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
   __constant const st_medium* m = &scene->media[p.medium];
   float3 wo = p.d.xyz;
   const float4 mask = path_mask(scene, &p);
+  /* guiding: the region's mixture and selection probability (alpha 0: plain phase sampling) */
+  __global const st_guide_region* region = 0;
+  float alpha = 0.0f;
+  if (ST_HAS_GUIDING && guide->origin.w > 0.0f) {
+    region = guide_regions(guide) + guide_region_index(guide, p.o.x, p.o.y, p.o.z);
+    alpha = region->alpha;
+  }
   int l_begin = 0, l_end = scene->n_lights;
   float pick_pmf = 1.0f; /* the probability of a one-light choice */
   if (scene->light_sampling != ST_LIGHT_SAMPLING_ALL && scene->n_lights > 1) {
@@ -56,13 +66,20 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     float pdf_l;
     float4 Le_over_pdf = light_sample(light, env, u1, u2, &wi, &pdf_l, rng.lambda);
     float f = phase_eval(m->phase_type, m->g, dot(wo, wi));
-    float w = pdf_l > 0.0f ? power_heuristic(light->select_pmf * pdf_l, f) : 1.0f;
+    /* the direction's density under the sampler of the scattered ray: the one-sample mixture
+     * with guiding (the same p_mix that k_escape reads from d.w), else the phase function */
+    float p_dir = f;
+    if (ST_HAS_GUIDING && alpha > 0.0f) p_dir = guide_mixture_pdf(alpha, vmf_mixture_pdf(&region->mix, wi), f);
+    float w = pdf_l > 0.0f ? power_heuristic(light->select_pmf * pdf_l, p_dir) : 1.0f;
     float4 weight = p.beta * mask * Le_over_pdf * (f * w / pick_pmf);
     if (!(masked_max(fabs(weight), mask) > 0.0f)) continue;
     uint id = shadow_entry(slot, NL, scene->n_lights, p.depth, l);
     __global st_shadow* sh = &shadows[id];
     sh->o = (float4)(p.o.xyz, 0.0f);
     sh->d = (float4)(wi, 0.0f);
+    /* training: what divides the shadow ray's weight into the record's Le T / pdf (shadow.cl) */
+    if (ST_HAS_GUIDING && guide->inv_cell.w > 0.0f)
+      sh->d.w = masked_avg(p.beta * mask, mask) * f * w / pick_pmf;
     sh->weight = weight;
     st_trans tr;
     transmittance_begin(&tr, mask);
@@ -75,9 +92,17 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     queue_push(queues, counters, Q, NL, cur, ST_Q_SHADOW, id);
   }
   float pdf;
-  float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
-  float3 wi = phase_sample(m->phase_type, m->g, wo, u1, u2, &pdf);
-  /* exact sampling: f / pdf = 1, beta unchanged */
+  float3 wi;
+  if (ST_HAS_GUIDING && alpha > 0.0f) {
+    /* the one-sample mixture of phase function and guide: weight f_phase / p_mix, unbiased for any guide */
+    float u0 = rng_uniform(&rng), u1 = rng_uniform(&rng), u2 = rng_uniform(&rng), f;
+    wi = guided_phase_sample(&region->mix, alpha, m->phase_type, m->g, wo, u0, u1, u2, &pdf, &f);
+    p.beta *= pdf > 0.0f ? f / pdf : 0.0f;
+  } else {
+    float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
+    wi = phase_sample(m->phase_type, m->g, wo, u1, u2, &pdf);
+    /* exact sampling: f / pdf = 1, beta unchanged */
+  }
   p.d = (float4)(wi, pdf);
   p.o.w = 0.0f;
   p.depth += 1;

@@ -214,7 +214,8 @@ enum st_feature {
   ST_FEATURE_STOCHASTIC_LOOKUP = 1 << 11, /* density lookups read one voxel chosen at random (st_lookup_mode) */
   ST_FEATURE_AOV = 1 << 12,           /* film layers with per-path work: alpha, environment, the passes (st_scene.aovs) */
   ST_FEATURE_SPECTRAL = 1 << 13,      /* spectral mode: the lanes are wavelengths (st_film_color) */
-  ST_FEATURES_ALL = (1 << 14) - 1
+  ST_FEATURE_GUIDING = 1 << 14,       /* volume path guiding: guided scatter directions, radiance records (guiding.h) */
+  ST_FEATURES_ALL = (1 << 15) - 1
 };
 
 /* Queues of the wavefront. Each stage reads the current buffer of its queue and pushes into the
@@ -261,7 +262,8 @@ enum st_counter {
 };
 
 /* Arguments of every stage kernel, in order (kernels/queues.h ST_STAGE_ARGS spells the same list;
- * the host binds by these names). The last one, st_iteration, changes every iteration. */
+ * the host binds by these names). st_iteration changes every iteration; the guide cache and the
+ * radiance records (kernels/guiding.h) are read only by kernels compiled with guiding. */
 enum st_stage_arg {
   ST_ARG_SCENE = 0,
   ST_ARG_GRIDS,
@@ -275,6 +277,8 @@ enum st_stage_arg {
   ST_ARG_SLOTS,      /* Q: path slots */
   ST_ARG_LIGHTS,     /* NL: shadow-ray entries per path slot (lights * shadow ring) */
   ST_ARG_ITERATION,  /* st_iteration */
+  ST_ARG_GUIDE,      /* the guide cache: st_guide_header, then its regions */
+  ST_ARG_GUIDE_RECORDS, /* radiance records: a uint count, then st_guide_record entries */
   ST_ARG_COUNT
 };
 

@@ -1,13 +1,13 @@
 // test_guiding_cl.cpp: kernels/guiding.h compiled as OpenCL C on the default device (PoCL here)
 // in a small program of its own (types.h, features.h, sampling.h, phase.h, guiding.h and a probe
-// kernel; the renderer's program does not include guiding.h yet):
+// kernel):
 //   - the device's lobe and mixture pdfs equal the host's within float rounding (kappa 0 to 1e4);
 //   - the device's vMF samples and guided scatter directions (one-sample mixture with
 //     Henyey-Greenstein) equal the host's for the same uniforms, and its mixture pdf and phase
 //     value are those the host computes at the device's direction;
 //   - the device's guided estimator, with a guide pointing away from the light, estimates the
 //     integral of f_phase g within 4 standard errors; twin: the pdf 3% off is detected;
-//   - the renderer's program does not contain guiding.h yet, so its images are unchanged.
+//   - the renderer's program contains guiding.h (its kernels use it only with ST_FEATURE_GUIDING).
 #include <map>
 
 #include "cl/opencl.h"
@@ -131,10 +131,11 @@ TEST(GuidingOpenCL, DeviceMatchesHost) {
   EXPECT_GT(std::fabs(mean / 1.03 - reference), 4 * se) << "twin: the pdf 3% off must be detected";
 }
 
-TEST(GuidingOpenCL, RendererProgramDoesNotIncludeGuidingYet) {
-  // guiding.h is embedded with every kernels/ file, but the renderer's source (and so its kernel
-  // cache key and its images) is what it was; the step that wires guiding in removes this test
+TEST(GuidingOpenCL, RendererProgramIncludesGuiding) {
+  // the renderer's kernels read the guide cache where the feature mask has ST_FEATURE_GUIDING;
+  // with guiding off images are unchanged (bench/bit_identity.sh, GuidingRender tests)
   const std::string src = spectrack::assemble_kernel_source({{"ST_KERNEL_MAX_MEDIA", "1"}});
-  EXPECT_EQ(src.find("st_vmf_mixture"), std::string::npos);
+  EXPECT_NE(src.find("st_vmf_mixture"), std::string::npos);
+  EXPECT_NE(src.find("ST_HAS_GUIDING"), std::string::npos);
   EXPECT_NE(probe_source().find("st_vmf_mixture"), std::string::npos);
 }

@@ -198,7 +198,7 @@ std::string assemble_kernel_source(const std::vector<std::pair<std::string, std:
                                    const std::vector<std::string>& extra_files) {
   static const std::vector<std::string> renderer_files = {
       "types.h",    "features.h", "rng.h",    "sampling.h", "film_table", "spectrum.h", "phase.h",
-      "pnanovdb_cl.h", "PNanoVDB.h", "medium.h", "majorant.h", "tracking.h", "light.h", "queues.h",
+      "pnanovdb_cl.h", "PNanoVDB.h", "medium.h", "majorant.h", "tracking.h", "light.h", "guiding.h", "queues.h",
       "raygen.cl",  "track.cl",   "shade.cl", "scatter.cl", "shadow.cl",  "finish.cl"};
   std::vector<std::string> order = renderer_files;
   order.insert(order.end(), extra_files.begin(), extra_files.end());

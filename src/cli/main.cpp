@@ -74,7 +74,7 @@ int cmd_devices() {
 
 struct RenderArgs {
   std::string scene, output, stats_json, preview, device, tracker, scheme, absorption, light_sampling, transmittance,
-      lookup, spp_range, pixel_bounds, frames, aov, compression;
+      lookup, spp_range, pixel_bounds, frames, aov, compression, guiding;
   bool alpha = false, no_alpha = false, half = false, spectral = false;
   double march_spacing = 0, pilot_spacing = 0;  // 0: not given
   int spp = -1;
@@ -147,6 +147,7 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
     if (*opt.lookup < 0)
       throw Error(fmt::format("--lookup {}: unknown density lookup mode (one of: {})", a.lookup, lookup_names()));
   }
+  if (!a.guiding.empty()) opt.guiding = guiding_from_name(a.guiding);  // checked by CLI11
   if (a.spectral) opt.color = ST_FILM_COLOR_SPECTRAL;
   if (a.march_spacing > 0) opt.march_spacing = a.march_spacing;
   if (a.pilot_spacing > 0) opt.pilot_spacing = a.pilot_spacing;
@@ -265,6 +266,9 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   }
   std::vector<std::string> devices = parse_device_list(a.device);
   check_chunk_spp(a.chunk_spp, devices, a.device);  // meaningless with one device: exit 2
+  if (set.guiding && mpi.on)
+    throw UsageError("--mpi: guiding renders in one process for now (each rank would train its own cache); use "
+                     "--guiding off");
 #ifdef SPECTRACK_HAVE_MPI
   if (mpi.on && devices.size() == 1 && devices[0].empty()) devices[0] = mpi_default_device(mpi.world);
 #endif
@@ -395,6 +399,10 @@ CLI::App* add_render_command(CLI::App& app, RenderArgs& ra) {
                      "voxels around the point; default) or stochastic (one of them, chosen with its trilinear weight: "
                      "the same expectation, cheaper lookups, more noise)")
       ->check(one_of("lookup", lookup_name_list()));
+  render->add_option("--guiding", ra.guiding,
+                     "volume path guiding (overrides render.guiding): on (training passes learn a radiance cache, "
+                     "scattered directions follow it), off, or auto (default; off until measurements say where it pays)")
+      ->check(one_of("guiding", {"off", "on", "auto"}));
   render->add_flag("--spectral", ra.spectral,
                    "spectral mode (overrides render.color): each path carries three wavelengths, colours become smooth "
                    "spectra (Jakob and Hanika 2019), the film turns them into linear sRGB (docs/spectral.md)");

@@ -63,6 +63,13 @@ void write_stats_json(const std::string& path, const MultiDeviceResult& r, doubl
   j["seconds_first_pass_from_start"] = seconds_to_renderer + r.seconds_first_pass;  // scene loading included
   j["features"] = r.features;
   j["generic_kernels"] = r.features == uint32_t(ST_FEATURES_ALL);
+  j["guiding_used"] = r.guide.used;
+  j["guide_cache_bytes"] = r.guide.bytes;
+  j["guide_regions"] = r.guide.regions;
+  j["guide_regions_guided"] = r.guide.regions_guided;
+  j["guide_training_passes"] = r.guide.training_passes;
+  j["guide_training_records"] = r.guide.records;
+  j["seconds_guide_training"] = r.guide.seconds_training;
   // each VDB medium's majorant structure (docs/majorant-hierarchy.md)
   nlohmann::json maj = nlohmann::json::array();
   for (const MajorantInfo& m : r.majorants)

@@ -76,6 +76,7 @@ class MultiDeviceRun {
     uint32_t features = 0;
     int light_sampling_used = 0;
     std::vector<MajorantInfo> majorants;
+    GuideInfo guide;
   };
   bool stopped() const {
     return failed_.load() || (base_.stop && base_.stop->load()) ||
@@ -130,6 +131,7 @@ void MultiDeviceRun::add_chunk(size_t i, int64_t begin, const RenderResult& res)
     d.features = res.features;
     d.light_sampling_used = res.light_sampling_used;
     d.majorants = res.majorants;
+    d.guide = res.guide;
   }
   d.render += res.seconds_render;
   for (size_t k = 0; k < res.sum.size(); ++k) p.sum[k] += res.sum[k];
@@ -212,6 +214,7 @@ MultiDeviceResult MultiDeviceRun::combine() const {
       out.features = d.features;
       out.light_sampling_used = d.light_sampling_used;
       out.majorants = d.majorants;
+      out.guide = d.guide;
     }
   }
   out.record_settings(settings_);
@@ -234,6 +237,9 @@ MultiDeviceResult render_multi_device(const SceneDesc& scene, const RenderOption
   const size_t n_dev = devices.size();
   if (n_dev == 0) throw Error("internal: no device to render on");
   if (spp < 1) throw Error("internal: empty sample range");
+  if (settings.guiding && n_dev > 1)
+    throw UsageError("guiding renders on one device for now (each device would train its own cache); use --guiding "
+                     "off with several devices");
   if (chunk_spp <= 0) chunk_spp = n_dev == 1 ? spp : std::max(1, (spp + int(4 * n_dev) - 1) / int(4 * n_dev));
   MultiDeviceRun run(scene, base, settings, devices, sample_begin, spp, chunk_spp);
   run.run();

@@ -32,6 +32,7 @@ struct MultiDeviceResult : RenderChoices {
   uint32_t features = 0;          // the kernels' feature mask (the same on every device)
   int light_sampling_used = 0;    // st_light_sampling the kernels ran ("auto" resolved; the same on every device)
   std::vector<MajorantInfo> majorants;  // each VDB medium's majorant structure (the same on every device)
+  GuideInfo guide;                      // volume path guiding (one device only)
   int spp_requested = 0;
   bool time_limit_reached = false;  // some device stopped at RenderOptions::deadline
 };

@@ -6,7 +6,10 @@
 // iterations (launch the stages, read the counters, fold them into the statistics, add finished
 // batches to the film), read the film back. What a scene lacks costs nothing: a scene without
 // lights gets no shadow-ray buffer or queue, and one whose escaping rays see no light gets no
-// escape launch (track sends them straight to finish).
+// escape launch (track sends them straight to finish). With guiding, the first render trains the
+// guide cache (docs/guiding.md): a few passes over the full film with random streams of their own,
+// whose images are dropped and whose radiance records are drained after every iteration and fitted
+// on the host; the render then runs with the cache, its training time counted in seconds_render.
 #include "render/renderer.h"
 
 #include <fmt/format.h>
@@ -17,6 +20,7 @@
 #include <cstring>
 #include <iostream>
 
+#include "guiding/guide_cache.h"
 #include "render/device_scene.h"
 #include "render/memory_budget.h"
 #include "util/phase.h"
@@ -100,9 +104,21 @@ struct Renderer::Impl {
   double seconds_setup = 0, seconds_build = 0;
   bool from_cache = false;
 
+  // volume path guiding: the cache (an empty header when off) and the training passes' records
+  GuideCache guide;
+  cl::Buffer b_guide, b_records;
+  GuideInfo guide_info;
+  bool guide_trained = false;
+
   void setup();
   void warm_kernels();
   RenderResult render(int64_t sample_begin, int spp);
+  // The stage loop over samples [sample_begin, sample_begin + spp); with `records`, a training
+  // pass: the radiance records are collected into it and the film is the caller's to drop.
+  RenderResult run_stage_loop(int64_t sample_begin, int spp, std::vector<st_guide_record>* records);
+  void upload_guide();
+  void drain_records(std::vector<st_guide_record>& out);
+  double train_guide();  // returns its seconds
 
   // Paths per batch (rounded up to whole samples): 2Q with two batches in flight, so one batch
   // fills the slots while the other finishes; Q with the ring, so the first pass is done sooner.
@@ -139,11 +155,19 @@ void Renderer::Impl::setup() {
   // the feature mask is in the source, hence in the kernel-cache key
   if (opt.generic_kernels) packed.features = ST_FEATURES_ALL;
   packed.features |= opt.feature_floor & uint32_t(ST_FEATURES_ALL);
+  if (settings.guiding) packed.features |= ST_FEATURE_GUIDING;
   const int max_media = opt.generic_kernels ? ST_MAX_MEDIA : std::max(1, packed.st.n_media);
   std::vector<std::pair<std::string, std::string>> defines = {
       {"ST_KERNEL_MAX_MEDIA", std::to_string(max_media)}, {"ST_FEATURES", fmt::format("0x{:x}u", packed.features)}};
   set_phase("device upload and kernel build");
   ds = upload_scene(opt.device, std::move(packed), std::move(defines));
+  // guiding off: a header of zeros (nothing guides, nothing records); the kernels compiled without
+  // ST_FEATURE_GUIDING never read it
+  if (settings.guiding) guide = make_guide_cache(ds.packed.st, opt.guide_grid_cells > 0 ? opt.guide_grid_cells : kGuideGridCells);
+  const std::vector<unsigned char> g = guide.serialize();
+  b_guide = ds.buffer(CL_MEM_READ_ONLY, g.size(), g.data(), "guide cache");
+  const uint32_t no_records[4] = {0, 0, 0, 0};
+  b_records = ds.buffer(CL_MEM_READ_WRITE, sizeof(no_records), no_records, "guide records");
   auto tb = Clock::now();
   ProgramBuild pb = build_program(ds.ctx, ds.dev, assemble_kernel_source(ds.defines), "-cl-std=CL1.2", opt.quiet);
   launcher = std::make_unique<KernelLauncher>(ds.queue, pb.program);
@@ -170,7 +194,9 @@ void Renderer::Impl::warm_kernels() {
     k.setArg(ST_ARG_GRIDS, ds.b_grids);
     k.setArg(ST_ARG_MAJORANTS, ds.b_maj);
     k.setArg(ST_ARG_ENV, ds.b_env);
-    for (int a : {ST_ARG_PATHS, ST_ARG_SHADOWS, ST_ARG_QUEUES, ST_ARG_COUNTERS, ST_ARG_RESULTS}) k.setArg(a, none);
+    for (int a : {ST_ARG_PATHS, ST_ARG_SHADOWS, ST_ARG_QUEUES, ST_ARG_COUNTERS, ST_ARG_RESULTS, ST_ARG_GUIDE,
+                  ST_ARG_GUIDE_RECORDS})
+      k.setArg(a, none);
     k.setArg(ST_ARG_SLOTS, cl_uint(0));
     k.setArg(ST_ARG_LIGHTS, cl_uint(0));
     k.setArg(ST_ARG_ITERATION, idle);
@@ -228,10 +254,10 @@ MemoryNeed Renderer::Impl::memory_need(const BatchPlan& p) const {
   r.film_layers = p.film_layers();
   r.aov_channels = aov_sum_channels(settings.aovs).size();
   r.path_slots = p.Q;
-  r.path_bytes = sizeof(st_path) + p.NL * sizeof(st_shadow);
+  r.path_bytes = sizeof(st_path) + p.NL * sizeof(st_shadow) + (settings.guiding ? p.NL * sizeof(st_guide_record) : 0);
   r.queue_words = 2 * (ST_Q_PATH_QUEUES + p.NL);
   r.result_values = p.ring * p.batch_paths * p.L;
-  r.scene_bytes = ds.scene_bytes;
+  r.scene_bytes = ds.scene_bytes + (settings.guiding ? double(guide.bytes()) : 0.0);
   return render_memory(r);
 }
 
@@ -309,6 +335,8 @@ void Renderer::Impl::bind_stage_args(const RenderBuffers& b, const BatchPlan& p)
     k.setArg(ST_ARG_RESULTS, b.results);
     k.setArg(ST_ARG_SLOTS, cl_uint(p.Q));
     k.setArg(ST_ARG_LIGHTS, cl_uint(p.NL));
+    k.setArg(ST_ARG_GUIDE, b_guide);
+    k.setArg(ST_ARG_GUIDE_RECORDS, b_records);
   }
   cl::Kernel& acc = launcher->kernel("k_accumulate");
   acc.setArg(0, b.results);
@@ -485,6 +513,71 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
   if (sample_begin < 0 || spp < 1 || uint64_t(sample_begin) + uint64_t(spp) > (uint64_t(1) << 32))
     throw Error(fmt::format("sample range {}:{} is not a non-empty range of sample indices 0 .. 2^32",
                             sample_begin, sample_begin + spp));
+  const double seconds_training = settings.guiding && !guide_trained ? train_guide() : 0.0;
+  RenderResult res = run_stage_loop(sample_begin, spp, nullptr);
+  res.seconds_render += seconds_training;  // efficiency counts the training
+  res.guide = guide_info;
+  return res;
+}
+
+void Renderer::Impl::upload_guide() {
+  const std::vector<unsigned char> g = guide.serialize();
+  ST_CL_CHECK(ds.queue.enqueueWriteBuffer(b_guide, CL_TRUE, 0, g.size(), g.data()), "upload the guide cache");
+}
+
+// Appends the records of the last iteration (their order is the device's; the fit sorts them)
+// and empties the buffer. Its capacity is the shadow queue's, the most rays one iteration finishes.
+void Renderer::Impl::drain_records(std::vector<st_guide_record>& out) {
+  uint32_t n = 0;
+  ST_CL_CHECK(ds.queue.enqueueReadBuffer(b_records, CL_TRUE, 0, 4, &n), "read the guide record count");
+  if (n == 0) return;
+  if (n > uint32_t(guide.header.dims[3]))
+    throw Error(fmt::format("internal: {} guide records in one iteration, above the capacity {}", n, guide.header.dims[3]));
+  const size_t first = out.size();
+  out.resize(first + n);
+  ST_CL_CHECK(ds.queue.enqueueReadBuffer(b_records, CL_TRUE, 16, size_t(n) * sizeof(st_guide_record), &out[first]),
+              "read the guide records");
+  const uint32_t zero = 0;
+  ST_CL_CHECK(ds.queue.enqueueWriteBuffer(b_records, CL_TRUE, 0, 4, &zero), "reset the guide record count");
+}
+
+// The training passes: 1, 2, 4, ... samples per pixel (samples 0, 1-2, 3-6, ... of a seed of their
+// own), each guided by the cache the previous one fitted; records are fitted once per pass.
+double Renderer::Impl::train_guide() {
+  auto t0 = Clock::now();
+  const uint32_t seed = ds.packed.st.seed;
+  ds.packed.st.seed = seed ^ kGuideTrainingSeed;
+  ds.write_scene_constants();
+  const auto progress = opt.progress;
+  opt.progress = nullptr;
+  std::vector<st_guide_record> records;
+  int64_t begin = 0;
+  guide_info = GuideInfo{};
+  for (int k = 0; k < kGuideTrainingPasses; ++k) {
+    records.clear();
+    const RenderResult pass = run_stage_loop(begin, 1 << k, &records);
+    begin += 1 << k;
+    guide_info.regions_guided = fit_guide_cache(guide, records);
+    if (opt.guide_cache_hook) opt.guide_cache_hook(guide);
+    guide.header.origin.w = 1.0f;  // the next passes and the render sample the guide
+    guide_info.records = records.size();
+    guide_info.training_passes = k + 1;
+    if (pass.interrupted) break;
+  }
+  guide.header.inv_cell.w = 0.0f;  // no records in the render
+  upload_guide();
+  opt.progress = progress;
+  ds.packed.st.seed = seed;
+  ds.write_scene_constants();
+  guide_trained = true;
+  guide_info.used = true;
+  guide_info.bytes = guide.bytes();
+  guide_info.regions = int(guide.regions.size());
+  guide_info.seconds_training = seconds_since(t0);
+  return guide_info.seconds_training;
+}
+
+RenderResult Renderer::Impl::run_stage_loop(int64_t sample_begin, int spp, std::vector<st_guide_record>* records) {
   RenderResult res = result_header(sample_begin, spp);
   launcher->times().clear();
   BatchPlan plan = plan_batches(spp);
@@ -498,6 +591,15 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
   set_phase("film allocation");
   set_ring_size(plan.ring);
   RenderBuffers buf = allocate(plan);
+  if (settings.guiding) {  // training: records on, a record buffer for one iteration's shadow rays
+    const uint64_t capacity = records ? std::max<uint64_t>(1, plan.Q * plan.NL) : 0;
+    const uint32_t head[4] = {0, 0, 0, 0};
+    b_records = ds.buffer(CL_MEM_READ_WRITE, 16 + capacity * sizeof(st_guide_record), nullptr, "guide records");
+    ST_CL_CHECK(ds.queue.enqueueWriteBuffer(b_records, CL_TRUE, 0, sizeof(head), head), "clear the guide record count");
+    guide.header.dims[3] = int(capacity);
+    guide.header.inv_cell.w = records ? 1.0f : 0.0f;
+    upload_guide();
+  }
   bind_stage_args(buf, plan);
 
   LoopState s;
@@ -511,6 +613,7 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
     if (!begin_iteration(s, plan, sample_begin)) break;
     ST_CL_CHECK(ds.queue.enqueueReadBuffer(buf.counters, CL_TRUE, 0, s.counters.size() * 4, s.counters.data()), "read counters");
     ST_CL_CHECK(ds.queue.enqueueWriteBuffer(buf.counters, CL_FALSE, 0, zeros.size() * 4, zeros.data()), "reset counters");
+    if (records) drain_records(*records);
     launcher->collect_profiling();
     res.stats.iterations++;
     fold_counters(s, plan, res.stats);

@@ -51,6 +51,16 @@ struct RenderStats {
   std::map<std::string, KernelTime> kernels;
 };
 
+// Volume path guiding in a render (docs/guiding.md): whether it ran, its cache and its training.
+struct GuideInfo {
+  bool used = false;
+  size_t bytes = 0;           // device memory of the cache
+  int regions = 0, regions_guided = 0;  // grid cells, and those whose fit guides (alpha > 0)
+  int training_passes = 0;
+  uint64_t records = 0;       // radiance records of the last training pass
+  double seconds_training = 0;  // part of seconds_render
+};
+
 struct RenderResult : RenderChoices {
   int width = 0, height = 0;           // the pixel window rendered
   int full_width = 0, full_height = 0; // the film
@@ -77,6 +87,7 @@ struct RenderResult : RenderChoices {
   uint32_t features = 0;          // st_feature mask the kernels were compiled for (ST_FEATURES_ALL: generic)
   int light_sampling_used = 0;    // st_light_sampling the kernels ran (light_sampling "auto" resolved: scene_pack.cpp)
   std::vector<MajorantInfo> majorants;  // each VDB medium's majorant structure
+  GuideInfo guide;                // volume path guiding (its training time is in seconds_render)
   RenderStats stats;
 };
 

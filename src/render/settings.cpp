@@ -73,6 +73,14 @@ RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) 
   s.full_width = scene.film.width;
   s.full_height = scene.film.height;
   s.channels_per_sample = st_paths_per_sample(s.tracker, s.color);
+  // guiding: auto resolves to off until measurements say where it pays (docs/guiding.md); the
+  // cache is trained over the full film and every sample from 0, so a window or a sample range
+  // would train another cache than the single render's: refused for now
+  const int guiding = o.guiding.value_or(scene.render.guiding >= 0 ? scene.render.guiding : int(kGuidingAuto));
+  s.guiding = guiding == kGuidingOn;
+  if (s.guiding && (o.pixel_bounds || s.sample_begin != 0))
+    throw UsageError("guiding does not work with --pixel-bounds or --spp-range yet (its cache is trained over the "
+                     "full film); use --guiding off for shards and tiles");
   if (st_tracker_achromatic_only(s.tracker)) {
     for (auto& m : scene.media) {
       if (!achromatic(m.sigma_a) || !achromatic(m.sigma_s))

@@ -21,6 +21,8 @@
 
 namespace spectrack {
 
+struct GuideCache;  // guiding/guide_cache.h
+
 // Light sampling of next-event estimation when neither the command line nor the scene chooses
 // (bench/RESULTS.md, "One light per scatter event" and "Light sampling by contribution").
 constexpr int kDefaultLightSampling = ST_LIGHT_SAMPLING_AUTO;
@@ -58,6 +60,11 @@ struct RenderOptions {
   std::optional<int> lookup;            // st_lookup_mode, else render.lookup, else kDefaultLookup
   std::optional<int> color;             // st_film_color, else render.color (--spectral)
   std::optional<uint32_t> aovs;         // film layers, ST_AOV_BIT bits; else film.aovs (+ alpha if film.alpha)
+  std::optional<int> guiding;           // GuidingMode (scene.h), else render.guiding, else auto
+  // Testing: called with the guide cache after every training pass's fit, before its upload (a
+  // deliberately wrong cache must still give an unbiased image).
+  std::function<void(GuideCache&)> guide_cache_hook;
+  int guide_grid_cells = 0;             // guide regions along the media box's longest axis; 0: kGuideGridCells
   std::string device;                   // "P:D", name substring, or "" (SPECTRACK_DEVICE, then default)
   int path_slots = 0;                   // paths in flight; 0 = by device type
   int iteration_budget = 256;           // tentative collisions + DDA steps per item and launch
@@ -105,6 +112,7 @@ struct RenderSettings {
   FilmWindow window;            // the pixels rendered
   int full_width = 0, full_height = 0;  // the film
   int channels_per_sample = 1;  // paths per (pixel, sample): the per-channel trackers' lanes (st_paths_per_sample)
+  bool guiding = false;         // volume path guiding on (auto resolved: off for now)
 };
 
 // What a result records of the settings it was rendered with: the estimator choices and the seed

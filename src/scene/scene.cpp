@@ -379,7 +379,7 @@ void Parser::render(const json& j, const std::string& path, RenderDesc& r) {
   expect_object(j, path);
   fields(j, path,
          {"tracker", "spectral_scheme", "absorption", "light_sampling", "transmittance", "lookup", "color", "max_depth", "seed",
-          "time_limit"});
+          "time_limit", "guiding"});
   // a name from one of the enum tables of kernels/types.h (scene/names.cpp): its value, or the
   // field named with the valid names
   auto named = [&](const char* key, const char* what, int (*from_name)(const std::string&), std::string (*names)(),
@@ -398,6 +398,7 @@ void Parser::render(const json& j, const std::string& path, RenderDesc& r) {
   named("transmittance", "transmittance estimator", transmittance_from_name, transmittance_names, &r.transmittance);
   named("lookup", "density lookup mode", lookup_from_name, lookup_names, &r.lookup);
   named("color", "colour mode", film_color_from_name, film_color_names, &r.color);
+  named("guiding", "guiding mode", guiding_from_name, guiding_names, &r.guiding);
   r.max_depth = static_cast<int>(integer(j, path, "max_depth", r.max_depth, -1, std::numeric_limits<int>::max()));
   r.seed = static_cast<uint32_t>(integer(j, path, "seed", r.seed, 0, 0xffffffffll));
   if (find(j, "time_limit")) r.time_limit = number(j, path, "time_limit", 0.0, Range{0, 1e9, true, false});

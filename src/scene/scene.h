@@ -125,7 +125,15 @@ struct RenderDesc {
   int max_depth = -1;
   uint32_t seed = 0;
   double time_limit = 0;  // seconds from the start of the command after which the render stops cleanly; 0: none
+  int guiding = -1;       // GuidingMode (render.guiding); -1: the default, auto
 };
+
+// Volume path guiding (docs/guiding.md): off, on, or auto (the renderer decides per scene; it
+// resolves to off until measurements say where guiding pays).
+enum GuidingMode { kGuidingOff = 0, kGuidingOn = 1, kGuidingAuto = 2 };
+inline int guiding_from_name(const std::string& n) { return n == "off" ? 0 : n == "on" ? 1 : n == "auto" ? 2 : -1; }
+inline std::string guiding_names() { return "off, on, auto"; }
+inline const char* guiding_name(int mode) { return mode == 0 ? "off" : mode == 1 ? "on" : "auto"; }
 
 struct SceneDesc {
   std::string path;  // the scene file as given

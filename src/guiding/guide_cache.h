@@ -1,0 +1,50 @@
+// guide_cache.h: the host side of the guide cache (kernels/guiding.h): its regions over the media,
+// and the fit of every region's mixture from the radiance records of a training pass.
+//
+// Design: the regions are the cells of one uniform grid over the union of the media's world boxes
+// (the longest axis cut into kGuideGridCells cells, the others into as many cells of about the same
+// edge). A grid is the simplest structure that the scatter kernel reaches with one index and whose
+// memory is known before training: cells x 176 bytes. The fit sorts the records by (region, key),
+// so its input does not depend on the order in which the device appended them, and fits each
+// region with enough records by fit_vmf_mixture (a pure function of its input): the cache after a
+// training pass depends only on the records' contents, which depend only on the scene, the
+// settings and the seed.
+#pragma once
+#include <cstddef>
+#include <functional>
+#include <vector>
+
+#include "kernels/types.h"
+#include "kernels/guiding.h"
+
+namespace spectrack {
+
+// Cells along the longest axis of the media's box.
+constexpr int kGuideGridCells = 8;
+// A region guides (alpha > 0) from this many records on; below, phase sampling alone.
+constexpr int kGuideMinRecords = 32;
+// Records of one region that the fit reads at most (every k-th in key order beyond).
+constexpr int kGuideMaxRecordsPerRegion = 2048;
+// The selection probability of the guide in a region that has a fit.
+constexpr float kGuideAlpha = 0.5f;
+// Training passes: 1, 2, 4, ... samples per pixel over the full film.
+constexpr int kGuideTrainingPasses = 3;
+// The training passes' random streams: the render's seed xor this.
+constexpr uint32_t kGuideTrainingSeed = 0x6a09e667u;
+
+struct GuideCache {
+  st_guide_header header{};
+  std::vector<st_guide_region> regions;
+  size_t bytes() const { return sizeof(st_guide_header) + regions.size() * sizeof(st_guide_region); }
+  // The device buffer's contents: the header, then the regions.
+  std::vector<unsigned char> serialize() const;
+};
+
+// An empty cache (every alpha 0, guided sampling and training off) over the media of `st`.
+GuideCache make_guide_cache(const st_scene& st, int cells_longest_axis = kGuideGridCells);
+
+// Refits every region from `records` (any order; sorted here); regions with fewer than
+// kGuideMinRecords records get alpha 0 and the uniform mixture. Returns the regions that guide.
+int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records);
+
+}  // namespace spectrack
