@@ -10,6 +10,7 @@
 #include <OpenImageIO/imageio.h>
 
 #include <cmath>
+#include <cstdlib>
 
 #include "cli/checks.h"
 #include "cli_util.h"
@@ -617,8 +618,15 @@ TEST(CliRender, ColdCacheJitIsInKernelBuildNotRender) {
   std::string stats = dir + "/s.json";
   RunOptions o;
   o.timeout_s = 300;  // a cold build of every kernel
+  // Under scripts/sanitize.sh, LeakSanitizer's exit-time stop-the-world tracer itself crashes
+  // ("Tracer caught signal 11") in about half the runs of this cold PoCL JIT under the test
+  // runner, with no ASan or leak report before it: the leak check is off for this one child
+  // (every other ASan check stays on; the warm-cache renders of the other Cli tests keep it).
+  const char* asan = std::getenv("ASAN_OPTIONS");
+  const std::string asan_options = std::string("ASAN_OPTIONS=") + (asan ? std::string(asan) + ":" : "") + "detect_leaks=0";
   Proc p = run_command({"/usr/bin/env", "SPECTRACK_KERNEL_CACHE_DIR=" + dir + "/st_cache", "POCL_CACHE_DIR=" + dir + "/pocl_cache",
-                        kBinary, "render", scene, "--spp", "2", "-o", dir + "/x.exr", "--stats-json", stats, "--quiet"},
+                        asan_options, kBinary, "render", scene, "--spp", "2", "-o", dir + "/x.exr", "--stats-json", stats,
+                        "--quiet"},
                        o);
   ASSERT_TRUE(p.exited && p.code == 0) << p.describe();
   json j;
