@@ -11,6 +11,7 @@
 #include "image/image.h"
 #include "image/image_open.h"
 #include "image/output_proxy.h"
+#include "util/files.h"
 #include "util/output_file.h"
 
 #include <OpenImageIO/filesystem.h>
@@ -79,19 +80,6 @@ void set_exr_spec(OIIO::ImageSpec& spec, const Metadata& meta, const PixelWindow
     spec.full_height = window.full_height;
   }
 }
-
-namespace {
-
-const char* kind_of(mode_t m) {
-  if (S_ISDIR(m)) return "a folder";
-  if (S_ISCHR(m)) return "a character device";
-  if (S_ISFIFO(m)) return "a FIFO (named pipe)";
-  if (S_ISBLK(m)) return "a block device";
-  if (S_ISSOCK(m)) return "a socket";
-  return "not a regular file";
-}
-
-}  // namespace
 
 void check_output_path(const std::string& path) {
   struct stat st;

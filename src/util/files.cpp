@@ -18,14 +18,6 @@ std::string prefix(const std::string& context, const std::string& path) {
   return (context.empty() ? "" : context + ": ") + path + ": ";
 }
 
-const char* kind_of(mode_t m) {
-  if (S_ISDIR(m)) return "a folder";
-  if (S_ISFIFO(m)) return "a FIFO (named pipe)";
-  if (S_ISCHR(m)) return "a character device";
-  if (S_ISBLK(m)) return "a block device";
-  if (S_ISSOCK(m)) return "a socket";
-  return "not a regular file";
-}
 
 [[noreturn]] void refuse(const std::string& context, const std::string& path, const std::string& reason) {
   throw Error(prefix(context, path) + reason);
@@ -76,6 +68,15 @@ bool same(const Identity& a, const Identity& b) {
 }
 
 }  // namespace
+
+const char* kind_of(mode_t m) {
+  if (S_ISDIR(m)) return "a folder";
+  if (S_ISFIFO(m)) return "a FIFO (named pipe)";
+  if (S_ISCHR(m)) return "a character device";
+  if (S_ISBLK(m)) return "a block device";
+  if (S_ISSOCK(m)) return "a socket";
+  return "not a regular file";
+}
 
 uint64_t check_input_file(const std::string& path, const std::string& context, uint64_t max_bytes) {
   struct stat st;

@@ -16,6 +16,8 @@
 
 #include "util/error.h"
 
+#include <sys/stat.h>
+
 namespace spectrack {
 
 // `what` names the path in messages: "scene file", "/media/0/file", "--stats-json".
@@ -37,5 +39,9 @@ std::string read_input_file(const std::string& path, const std::string& context,
 void check_distinct_paths(const std::vector<NamedPath>& outputs, const std::vector<NamedPath>& inputs);
 // Whether a and b name the same file (existing or not), as check_distinct_paths compares them.
 bool same_file(const std::string& a, const std::string& b);
+
+// What a file of mode `m` is, in words ("a folder", "a FIFO (named pipe)", ...), for messages
+// that refuse it.
+const char* kind_of(mode_t m);
 
 }  // namespace spectrack
