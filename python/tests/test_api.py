@@ -1,6 +1,8 @@
 """The Python module against the command line (same scene and seed: bit-identical arrays), shards
 merged in Python, and refused input (ValueError naming the JSON field path, wrong arrays)."""
+import os
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -117,3 +119,15 @@ def test_sparse_volume_and_devices():
     assert v.active_voxels == 6 and v.shape == [8, 8, 8]
     devs = spectrack.devices()
     assert devs and {"spec", "name", "type"} <= set(devs[0])
+
+
+def test_without_usd_core_the_rest_works(tmp_path):
+    code = ("import sys; sys.modules['pxr'] = None\n"
+            "import spectrack\n"
+            "assert spectrack.load_dict({'format': 'spectrack-scene/1', 'film': {'width': 2, 'height': 2, 'spp': 1}})"
+            ".render().spp == 1\n"
+            "try:\n    spectrack.load_usd('x.usda')\nexcept ImportError as e:\n    print(e)\n")
+    env = {**os.environ, "PYTHONPATH": os.path.dirname(os.path.dirname(spectrack.__file__))}
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, env=env)
+    assert r.returncode == 0, r.stderr
+    assert "pip install usd-core" in r.stdout

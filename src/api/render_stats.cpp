@@ -1,19 +1,13 @@
 // render_stats.cpp: see render_stats.h.
 #include "api/render_stats.h"
 
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
 #include "render/film.h"
 #include "render/stats_json.h"
 
 namespace spectrack {
-namespace {
-
-std::string join(const std::vector<std::string>& v, const char* sep) {
-  std::string s;
-  for (auto& x : v) s += (s.empty() ? "" : sep) + x;
-  return s;
-}
-
-}  // namespace
 
 nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_total, double seconds_to_renderer,
                                  int mpi_ranks, const Metadata& meta) {
@@ -37,7 +31,7 @@ nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_tota
   j["film_layers"] = nlohmann::json::array();
   for (int k = 0; k < ST_AOV_COUNT; ++k)
     if (r.aovs & (1u << k)) j["film_layers"].push_back(aov_name(k));
-  j["device"] = join(r.devices, ", ");
+  j["device"] = fmt::format("{}", fmt::join(r.devices, ", "));
   j["devices"] = r.devices;
   j["samples_per_device"] = r.samples_per_device;
   j["mpi_ranks"] = mpi_ranks;
