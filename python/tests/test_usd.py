@@ -78,3 +78,49 @@ def test_usd2scene_writes_a_scene_the_cli_renders(spectrack_binary, tmp_path):
     assert "warning:" in r.stderr and "Mesh: not mapped" in r.stderr
     subprocess.run([spectrack_binary, "render", str(out), "-o", str(tmp_path / "x.exr"), "-q"], check=True)
     assert np.asarray(spectrack.read_exr(str(tmp_path / "x.exr"))["R"]).max() > 0
+
+
+def test_a_made_stage_maps_fields_dome_texture_and_warns_by_name(tmp_path):
+    from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdVol
+    env = tmp_path / "sky.png"
+    spectrack.load_dict({"format": "spectrack-scene/1", "film": {"width": 8, "height": 4, "spp": 1},
+                         "lights": [{"type": "environment", "radiance": [0.2, 0.4, 0.8]}]}).render().write(str(env))
+    stage = Usd.Stage.CreateNew(str(tmp_path / "made.usda"))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    vol = UsdVol.Volume.Define(stage, "/fire")
+    vol.AddTranslateOp().Set(Gf.Vec3d(1, 2, 3))
+    vol.AddScaleOp().Set(Gf.Vec3f(2, 2, 2))
+    for name, field in (("density", "density"), ("temperature", "heat"), ("vel", "v")):
+        asset = UsdVol.OpenVDBAsset.Define(stage, f"/fire/{name}")
+        asset.CreateFilePathAttr().Set(Sdf.AssetPath(str(USD / "densityAndHeat.vdb")))
+        asset.CreateFieldNameAttr().Set(field)
+        vol.CreateFieldRelationship(name, asset.GetPath())
+    dome = UsdLux.DomeLight.Define(stage, "/sky")
+    dome.CreateTextureFileAttr().Set(Sdf.AssetPath(str(env)))
+    dome.CreateIntensityAttr().Set(0.5)
+    dome.CreateExposureAttr().Set(1.0)
+    sun = UsdLux.DistantLight.Define(stage, "/sun")
+    sun.CreateAngleAttr().Set(0.53)
+    sun.AddRotateXOp().Set(-90.0)  # its +z turned to +y: it shines along -y
+    UsdLux.SphereLight.Define(stage, "/bulb")
+    cam = UsdGeom.Camera.Define(stage, "/cam")
+    cam.AddTranslateOp().Set(Gf.Vec3d(0, -30, 5))
+    cam.AddRotateXOp().Set(90.0)  # looking along +y, up +z
+    stage.GetRootLayer().Save()
+
+    scene, warns = stage_to_dict(tmp_path / "made.usda", width=32, temperature_scale=2600)
+    (m,) = scene["media"]
+    assert m["transform"]["scale"] == pytest.approx([2, 2, 2]) and m["transform"]["translate"] == pytest.approx([1, 2, 3])
+    assert m["emission"]["temperature_grid"] == "heat" and m["emission"]["temperature_scale"] == 2600
+    dome_l, sun_l = sorted(scene["lights"], key=lambda x: x["type"])[::-1]
+    assert dome_l == {"type": "environment", "map": str(env), "scale": pytest.approx(1.0)}
+    assert sun_l["to_light"] == pytest.approx([0, 1, 0], abs=1e-9)
+    assert sun_l["angle_deg"] == pytest.approx(0.53)
+    assert scene["camera"]["look_at"] == pytest.approx([0, -29, 5], abs=1e-9)
+    assert scene["camera"]["up"] == pytest.approx([0, 0, 1], abs=1e-9)
+    assert any("/bulb: SphereLight: not mapped" in w for w in warns)
+    assert any("/fire: field vel: velocity is not used" in w for w in warns)
+    with warnings.catch_warnings(record=True):
+        warnings.simplefilter("always")
+        img = spectrack.load_usd(tmp_path / "made.usda", width=32, spp=1, temperature_scale=2600).render()
+    assert img.rgb.max() > 0
