@@ -131,3 +131,16 @@ def test_without_usd_core_the_rest_works(tmp_path):
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, env=env)
     assert r.returncode == 0, r.stderr
     assert "pip install usd-core" in r.stdout
+
+
+def test_volume_from_file_is_the_file():
+    cloud = str(ROOT / "data" / "volumes" / "cloud.vdb")
+    base = {**SLAB, "media": [{"type": "vdb", "file": cloud, "density_scale": 4, "sigma_s": [1, 1, 1],
+                               "sigma_a": [0.1, 0.1, 0.1]}], "camera": {"look_at": "media", "fit": 1.1}}
+    by_path = spectrack.load_dict(base).render(spp=1)
+    vol = spectrack.Volume.from_file(cloud)
+    by_volume = spectrack.load_dict({**base, "media": [{**base["media"][0], "file": vol}]}).render(spp=1)
+    np.testing.assert_array_equal(by_volume.rgb, by_path.rgb)
+    assert by_path.rgb.max() > 0
+    with pytest.raises(ValueError, match="no such volume file"):
+        spectrack.Volume.from_file(str(ROOT / "missing.vdb"))
