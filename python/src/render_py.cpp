@@ -126,6 +126,11 @@ Image render(const SceneDesc& scene, const RenderArgs& args) {
   std::optional<py::error_already_set> pending = watch(done, stop, fraction, args.progress);
   worker.join();
   if (failure) std::rethrow_exception(failure);
+  if (!pending && r.piece.samples() == 0 && r.time_limit_reached) {
+    PyErr_SetString(PyExc_TimeoutError, fmt::format("{}: the time limit of {} s came before any sample finished",
+                                                    scene.path, *args.time_limit).c_str());
+    throw py::error_already_set();
+  }
   Image im;
   im.piece = r.piece;
   im.counters = r.stats;

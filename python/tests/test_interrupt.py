@@ -40,3 +40,14 @@ def test_keyboard_interrupt_stops_within_a_second():
     assert img.interrupted and 0 < img.spp < (1 << 20)
     assert img.stats["interrupted"] and img.stats["spp"] == img.spp
     assert len(ticks) > 20, "another thread did not run while rendering (the GIL was held)"
+
+
+def test_time_limit_keeps_the_samples_done():
+    scene = spectrack.load_dict({**SLAB, "film": {"width": 64, "height": 64, "spp": 1}})
+    scene.render(spp=1)
+    t0 = time.monotonic()
+    img = scene.render(spp=1 << 20, time_limit=2.0)
+    assert time.monotonic() - t0 < 4.0
+    assert img.interrupted and img.spp > 0 and img.stats["stop_reason"] == "time-limit"
+    with pytest.raises(TimeoutError, match="time limit"):
+        scene.render(spp=1 << 20, time_limit=1e-6)
