@@ -25,7 +25,7 @@ inline __global const float* env_texel_at(__constant const st_light* l, __global
 }
 
 /* The texel's rgb (w = 0); in spectral mode (l->spectral) texels hold the sigmoid coefficients of
- * their colour instead (src/render/spectral_pack.cpp: rgb2spec_unbounded_lookup, whose scale, lane
+ * their colour instead (src/scene/spectral_pack.cpp: rgb2spec_unbounded_lookup, whose scale, lane
  * w, is exactly twice the colour's largest component). */
 inline float4 env_texel(__constant const st_light* l, __global const float* env, float2 uv) {
   __global const float* px = env_texel_at(l, env, uv);

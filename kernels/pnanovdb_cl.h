@@ -1,7 +1,7 @@
 /* pnanovdb_cl.h: the settings that let Debian's PNanoVDB.h (nanovdb/PNanoVDB.h of libnanovdb-dev,
  * NanoVDB 32.4, C path) compile as OpenCL C and read the NanoVDB grids in the device buffer
  * (docs/architecture.md, "NanoVDB on the device").
- * The kernel assembler (assemble_kernel_source and rewrite_pnanovdb in src/cl/opencl.cpp)
+ * The kernel assembler (assemble_kernel_source and rewrite_pnanovdb in src/device/opencl.cpp)
  * includes a copy of PNanoVDB.h right after this file, with its <stdint.h>/<string.h> includes
  * replaced by comments and its program-scope tables moved to __constant memory (OpenCL 1.2
  * drivers reject program-scope `static const`).

@@ -124,7 +124,7 @@ inline float4 blackbody_over_norm(float4 lambda, float T, float log_norm) {
   return select(v, (float4)(0.0f), islessequal(lambda, (float4)(0.0f)));
 }
 
-/* st_film_table (generated into every program by the host, src/cl/opencl.cpp film_table_source):
+/* st_film_table (generated into every program by the host, src/device/opencl.cpp film_table_source):
  * entry i is the wavelength 360 + i nm: xyz = the film's weights F (film_rgb_weights), w = CIE D65
  * (cie_d65), both linear between the entries as on the host; 0 outside 360..830 nm. */
 inline float4 film_table_at(float lambda) {

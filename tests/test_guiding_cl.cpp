@@ -10,7 +10,7 @@
 //   - the renderer's program contains guiding.h (its kernels use it only with ST_FEATURE_GUIDING).
 #include <map>
 
-#include "cl/opencl.h"
+#include "device/opencl.h"
 #include "guiding_util.h"
 
 namespace spectrack {

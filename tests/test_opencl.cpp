@@ -7,7 +7,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "cl/opencl.h"
+#include "device/opencl.h"
 
 using namespace spectrack;
 

@@ -26,7 +26,7 @@
 #include <vector>
 
 #include "image/image.h"
-#include "render/renderer.h"
+#include "integrator/renderer.h"
 #include "scene/frames.h"
 #include "scene/scene.h"
 #include "util/files.h"

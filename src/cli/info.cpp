@@ -1,5 +1,5 @@
 // info.cpp: `spectrack info` (info.h). Volumes through inspect_volume (volume/inspect.h), scenes
-// through load_scene and the loaders (render/media_bounds.h); the camera as framing resolves it.
+// through load_scene and the loaders (scene/media_bounds.h); the camera as framing resolves it.
 #include "cli/info.h"
 
 #include <fmt/format.h>
@@ -10,7 +10,7 @@
 #include <filesystem>
 #include <iostream>
 
-#include "render/media_bounds.h"
+#include "scene/media_bounds.h"
 #include "scene/framing.h"
 #include "scene/scene.h"
 #include "util/error.h"

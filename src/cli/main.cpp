@@ -7,7 +7,7 @@
 //   spectrack devices
 //   spectrack info FILE... [--json]   (cli/info.cpp)
 // The values of the options are checked by the validators of cli/options.h (exit 2).
-// A render is a FilmPiece (render/film.h): the window and sample range it holds, with exact
+// A render is a FilmPiece (film/film.h): the window and sample range it holds, with exact
 // per-pixel sums; shards, tiles, devices and MPI ranks all combine through merge_pieces.
 // Exit codes: 0 success; 1 a user-facing error (message on stderr names file, field and reason);
 // 2 bad command line; 3 the time limit came before any sample finished (nothing written);
@@ -34,15 +34,15 @@
 #include "cli/checks.h"
 #include "cli/merge.h"
 #include "cli/options.h"
-#include "cl/opencl.h"
+#include "device/opencl.h"
 #include "cli/info.h"
 #include "cli/progress.h"
 #include "cli/render_outputs.h"
 #include "cli/run_control.h"
 #include "image/image.h"
-#include "render/film.h"
-#include "render/multi_device.h"
-#include "render/renderer.h"
+#include "film/film.h"
+#include "integrator/multi_device.h"
+#include "integrator/renderer.h"
 #include "scene/frames.h"
 #include "scene/scene.h"
 #ifdef SPECTRACK_HAVE_MPI

@@ -2,9 +2,9 @@
 // combines sample-range shards and pixel tiles of one render into one EXR.
 //
 // Design: every input's header is read and checked first (a spectrack EXR, no dropped samples,
-// consistent sample counts), the merge is planned on the headers (render/film.h: plan_merge),
+// consistent sample counts), the merge is planned on the headers (film/film.h: plan_merge),
 // and only then are the pixels streamed through, a band of rows at a time
-// (render/merge_files.h), so memory stays bounded whatever the number and size of the inputs.
+// (film/merge_files.h), so memory stays bounded whatever the number and size of the inputs.
 // The merged image and its preview appear whole or not at all.
 #include "cli/merge.h"
 
@@ -16,8 +16,8 @@
 
 #include "cli/checks.h"
 #include "cli/options.h"
-#include "render/film.h"
-#include "render/merge_files.h"
+#include "film/film.h"
+#include "film/merge_files.h"
 #include "scene/scene.h"
 
 namespace spectrack {

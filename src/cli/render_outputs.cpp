@@ -10,8 +10,8 @@
 
 #include "cli/checks.h"
 #include "cli/run_control.h"
-#include "render/film.h"
-#include "render/stats_json.h"
+#include "film/film.h"
+#include "integrator/stats_json.h"
 #include "util/output_file.h"
 
 namespace spectrack {

@@ -1,5 +1,5 @@
 // probe.cpp: see probe.h.
-#include "render/probe.h"
+#include "device/probe.h"
 
 #include <fmt/format.h>
 
@@ -7,7 +7,7 @@
 #include <functional>
 
 #include "color/spectrum.h"
-#include "render/device_scene.h"
+#include "device/device_scene.h"
 
 namespace spectrack {
 

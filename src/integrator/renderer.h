@@ -18,7 +18,7 @@
 #include <utility>
 #include <vector>
 
-#include "render/settings.h"
+#include "integrator/settings.h"
 #include "scene/scene.h"
 
 namespace spectrack {
@@ -119,7 +119,7 @@ class Renderer {
   uint32_t features() const;  // the kernels' st_feature mask
   const SceneDesc& scene() const;
   const RenderSettings& settings() const;
-  // The scene as uploaded to the device (for the test probes of render/probe.h).
+  // The scene as uploaded to the device (for the test probes of device/probe.h).
   DeviceScene& device_scene();
 
  private:

@@ -2,7 +2,7 @@
 // binary, size) followed by the device binary; anything that does not verify is rebuilt from
 // source and rewritten. Source assembly inlines the kernels/ files in a fixed order so that the
 // cache key covers the exact text the compiler sees.
-#include "cl/opencl.h"
+#include "device/opencl.h"
 
 #include "color/spectrum.h"
 

@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "render/settings.h"
+#include "integrator/settings.h"
 #include "scene/scene.h"
 
 namespace spectrack {

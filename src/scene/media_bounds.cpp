@@ -1,6 +1,6 @@
 // media_bounds.cpp: see media_bounds.h. The medium transform is composed as in scene_pack.cpp
 // (T * Rz * Ry * Rx * S applied to the grid's world point).
-#include "render/media_bounds.h"
+#include "scene/media_bounds.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,6 +1,6 @@
 // probe.h: the kernels' own device functions run in isolation, for tests and benchmarks.
 //
-// Design: a Probe works on a Renderer's uploaded scene (render/device_scene.h) but builds its own
+// Design: a Probe works on a Renderer's uploaded scene (device/device_scene.h) but builds its own
 // OpenCL program, the renderer's source plus kernels/probe.cl, so no production program carries
 // the probe kernels; this file is compiled into the spectrack_probe library, which only the test
 // and benchmark programs link. Every probe is one named, profiled launch with its own random
@@ -13,7 +13,7 @@
 #include <utility>
 #include <vector>
 
-#include "render/renderer.h"
+#include "integrator/renderer.h"
 
 namespace cl {
 class Buffer;

@@ -2,7 +2,7 @@
 //
 // Design: DeviceScene owns the device's context and queue and the scene's read-only buffers
 // (st_scene constants, NanoVDB grids, majorant cells, environment data) uploaded from a
-// PackedScene. The renderer and the test probes (render/probe.h) each build their own program
+// PackedScene. The renderer and the test probes (device/probe.h) each build their own program
 // on it and launch through a KernelLauncher, which names every launch and sums its OpenCL
 // profiling time per kernel name (--stats-json "kernels").
 #pragma once
@@ -11,9 +11,9 @@
 #include <utility>
 #include <vector>
 
-#include "cl/opencl.h"
-#include "render/renderer.h"
-#include "render/scene_pack.h"
+#include "device/opencl.h"
+#include "integrator/renderer.h"
+#include "scene/scene_pack.h"
 
 namespace spectrack {
 

@@ -1,5 +1,5 @@
 // merge_files.cpp: see merge_files.h.
-#include "render/merge_files.h"
+#include "film/merge_files.h"
 
 #include <fmt/format.h>
 

@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "image/image.h"
-#include "render/film.h"
+#include "film/film.h"
 
 namespace spectrack {
 

@@ -1,6 +1,6 @@
 // device_scene.cpp: see device_scene.h.
-#include "render/device_scene.h"
-#include "render/memory_budget.h"
+#include "device/device_scene.h"
+#include "integrator/memory_budget.h"
 
 #include <fmt/format.h>
 

@@ -1,5 +1,5 @@
 // memory_budget.cpp: see memory_budget.h.
-#include "render/memory_budget.h"
+#include "integrator/memory_budget.h"
 
 #include <fmt/format.h>
 

@@ -2,7 +2,7 @@
 // between consecutive window edges; within one rectangle every pixel is covered by the same
 // pieces, so coverage, overlap and sample-set checks are done once per rectangle (a few thousand
 // for hundreds of tiles) and only the sums are added per pixel.
-#include "render/film.h"
+#include "film/film.h"
 
 #include <OpenImageIO/hash.h>
 #include <fmt/format.h>

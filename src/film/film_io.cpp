@@ -2,8 +2,8 @@
 // and the film layers of docs/aov.md, with the identity and sample ranges as spectrack:*
 // metadata; reading one turns the means back into sums. Both directions work per pixel
 // (piece_exr_channels, PieceDecoder), so that a merge can stream a band of rows at a time
-// (render/merge_files.h) with the very operations of a whole-image read and write.
-#include "render/film.h"
+// (film/merge_files.h) with the very operations of a whole-image read and write.
+#include "film/film.h"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>

@@ -1,6 +1,6 @@
 // renderer_tables.cpp: what renderer.h declares besides the Renderer itself: the sum channels of
 // the film layers, and RenderStats' list of counters (one X-macro table, types.h) and their sum.
-#include "render/renderer.h"
+#include "integrator/renderer.h"
 
 #include <algorithm>
 

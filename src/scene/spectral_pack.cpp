@@ -1,5 +1,5 @@
 // spectral_pack.cpp: see spectral_pack.h.
-#include "render/spectral_pack.h"
+#include "scene/spectral_pack.h"
 
 #include <fmt/format.h>
 

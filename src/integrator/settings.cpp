@@ -1,6 +1,6 @@
 // settings.cpp: see settings.h. The tracker's properties come from the tracker table of
 // kernels/types.h (ST_TRACKERS), which the kernels read too.
-#include "render/settings.h"
+#include "integrator/settings.h"
 
 #include <fmt/format.h>
 

@@ -3,7 +3,7 @@
 #pragma once
 #include <nlohmann/json.hpp>
 
-#include "render/renderer.h"
+#include "integrator/renderer.h"
 
 namespace spectrack {
 

@@ -23,11 +23,11 @@
 // by one), in place, and the sampling distribution stays the one built on the rgb texels.
 // Colour grids stay rgb: the kernels turn each collision's colour into a spectrum through the
 // build-time table, which this pass puts in the grid buffer once (kernels/medium.h).
-// Film layers other than variance are refused (render/settings.cpp).
+// Film layers other than variance are refused (integrator/settings.cpp).
 #pragma once
 #include <string>
 
-#include "render/scene_pack.h"
+#include "scene/scene_pack.h"
 #include "scene/scene.h"
 
 namespace spectrack {

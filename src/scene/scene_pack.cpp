@@ -1,8 +1,8 @@
 // scene_pack.cpp: see scene_pack.h. Transforms are composed in double precision (scale, then
 // rotations about x, y, z, then translation: docs/scene-format.md, `transform`) and only the final world-to-index
 // rows are rounded to float.
-#include "render/scene_pack.h"
-#include "render/spectral_pack.h"
+#include "scene/scene_pack.h"
+#include "scene/spectral_pack.h"
 
 #include <fmt/format.h>
 
@@ -18,8 +18,8 @@
 #include "image/image.h"
 #include "scene/radiance.h"
 #include "volume/float_limits.h"
-#include "render/media_bounds.h"
-#include "render/memory_budget.h"
+#include "scene/media_bounds.h"
+#include "integrator/memory_budget.h"
 #include "scene/framing.h"
 #include "volume/volume.h"
 

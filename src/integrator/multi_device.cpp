@@ -1,7 +1,7 @@
 // multi_device.cpp: see multi_device.h. Threads share one mutex for the chunk counter, the
 // progress sums and the first error; everything else (renderer, piece, stats) is per device
 // (MultiDeviceRun::PerDevice).
-#include "render/multi_device.h"
+#include "integrator/multi_device.h"
 
 #include <fmt/format.h>
 
@@ -14,7 +14,7 @@
 #include <sstream>
 #include <thread>
 
-#include "cl/opencl.h"
+#include "device/opencl.h"
 
 namespace spectrack {
 

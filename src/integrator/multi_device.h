@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "render/film.h"
-#include "render/renderer.h"
+#include "film/film.h"
+#include "integrator/renderer.h"
 
 namespace spectrack {
 

@@ -1,5 +1,5 @@
 // stats_json.cpp: see stats_json.h. RenderStats::counters() (key, member) serves both directions.
-#include "render/stats_json.h"
+#include "integrator/stats_json.h"
 
 namespace spectrack {
 

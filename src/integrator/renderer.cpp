@@ -1,6 +1,6 @@
 // renderer.cpp: the wavefront stage loop on one device (see renderer.h for the design).
-// Set-up: resolve the settings (render/settings.h), pack the scene (render/scene_pack.h), choose
-// the device and upload (render/device_scene.h), build the kernels (cached) for the scene's
+// Set-up: resolve the settings (integrator/settings.h), pack the scene (scene/scene_pack.h), choose
+// the device and upload (device/device_scene.h), build the kernels (cached) for the scene's
 // st_feature mask (--generic-kernels: every feature and ST_MAX_MEDIA media). A render is then a
 // few named steps: plan the batches, check the memory, allocate, bind the stage arguments, run the
 // iterations (launch the stages, read the counters, fold them into the statistics, add finished
@@ -10,7 +10,7 @@
 // guide cache (docs/guiding.md): a few passes over the full film with random streams of their own,
 // whose images are dropped and whose radiance records are drained after every iteration and fitted
 // on the host; the render then runs with the cache, its training time counted in seconds_render.
-#include "render/renderer.h"
+#include "integrator/renderer.h"
 
 #include <fmt/format.h>
 
@@ -21,8 +21,8 @@
 #include <iostream>
 
 #include "guiding/guide_cache.h"
-#include "render/device_scene.h"
-#include "render/memory_budget.h"
+#include "device/device_scene.h"
+#include "integrator/memory_budget.h"
 #include "util/phase.h"
 
 namespace spectrack {

@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "image/image.h"
-#include "render/renderer.h"
+#include "integrator/renderer.h"
 #include "scene/scene.h"
 
 namespace spectrack {
@@ -80,7 +80,7 @@ FilmPiece piece_from_result(const RenderResult& r, const RenderIdentity& id, con
 // Combines pieces into one over their bounding box; throws Error (naming the sources) as above.
 FilmPiece merge_pieces(const std::vector<FilmPiece>& pieces);
 // merge_pieces' checks and result without the sums: the pieces may be headers (no sums); the
-// result has the window, ranges, identity and interrupted flag of the merge (render/merge_files.h
+// result has the window, ranges, identity and interrupted flag of the merge (film/merge_files.h
 // adds the sums a band of rows at a time).
 FilmPiece plan_merge(const std::vector<FilmPiece>& pieces);
 
@@ -95,7 +95,7 @@ void write_piece(const std::string& path, const FilmPiece& p, const Metadata& ex
 // `meta`, when given, gets the file's other spectrack:* metadata (device, render_seconds, ...).
 FilmPiece read_piece(const std::string& path, Metadata* meta = nullptr);
 
-// The parts of write_piece and read_piece, for a merge that streams rows (render/film_io.cpp):
+// The parts of write_piece and read_piece, for a merge that streams rows (film/film_io.cpp):
 // the EXR channels of p's pixels (names returned, values pixel-major in px), the beauty a PNG
 // gets, and p's place in the film.
 std::vector<std::string> piece_exr_channels(const FilmPiece& p, std::vector<float>* px);
