@@ -7,6 +7,12 @@
 #ifndef SPECTRACK_LIGHT_H
 #define SPECTRACK_LIGHT_H
 
+#include "types.h"
+#include "features.h"
+#include "sampling.h"
+#include "spectrum.h"
+#include "phase.h"
+
 inline float2 env_dir_to_uv(float3 d) {
   float v = acos(clamp(d.y, -1.0f, 1.0f)) / ST_PI;
   float u = 0.5f + atan2(d.x, -d.z) / (2.0f * ST_PI);

@@ -3,6 +3,15 @@
  * done, marks its entry done (the path adds weight * T to its light's accumulator: queues.h) and
  * releases the path. In training passes with guiding, a finished ray also appends a radiance
  * record (guiding.h): its position, direction and the estimate of Le T / pdf it carried. */
+#include "types.h"
+#include "features.h"
+#include "rng.h"
+#include "sampling.h"
+#include "tracking.h"
+#include "transmittance.h"
+#include "guiding.h"
+#include "queues.h"
+
 __kernel void k_shadow(ST_STAGE_ARGS) {
   const uint cur = it.cur, n = it.n_queue[ST_Q_SHADOW];
   uint gid = get_global_id(0);

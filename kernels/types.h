@@ -321,7 +321,7 @@ typedef struct {
   st_uint blackbody_offset;
   /* spectral mode: 1 when sigma_a, sigma_s and Le hold spectra, not rgb: the sigmoid coefficients
    * (c0, c1, c2, scale) of kernels/spectrum.h, Le's times CIE D65 (an illuminant); the majorants
-   * take the extinction at the path's wavelengths (majorant.h st_walker) */
+   * take the extinction at the path's wavelengths (walker.h st_walker) */
   st_int spectral;
   /* spectral mode, blackbody emission (0 otherwise, and in rgb mode): Le = scale times the film's
    * emission scale (src/color/spectrum.h film_emission_scale) in lanes xyz, and the spectrum is

@@ -1,10 +1,10 @@
 // opencl.cpp: see opencl.h. Design notes: the cache entry is a small header (magic, SHA-1 of the
 // binary, size) followed by the device binary; anything that does not verify is rebuilt from
-// source and rewritten. Source assembly inlines the kernels/ files in a fixed order so that the
-// cache key covers the exact text the compiler sees.
+// source and rewritten. The key is taken over the assembled source (kernel_source.cpp), so it
+// covers the exact text the compiler sees, every included kernel file with it.
 #include "device/opencl.h"
 
-#include "color/spectrum.h"
+#include "util/strings.h"
 
 #include <OpenImageIO/hash.h>
 #include <fmt/format.h>
@@ -23,8 +23,6 @@
 #include <unistd.h>
 
 namespace spectrack {
-
-const std::map<std::string, std::string>& embedded_kernel_sources();
 
 const char* cl_error_name(cl_int code) {
   switch (code) {
@@ -112,11 +110,6 @@ std::vector<DeviceInfo> enumerate_devices(bool warn) {
   return out;
 }
 
-static std::string lower(std::string s) {
-  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  return s;
-}
-
 static std::string device_list_text(const std::vector<DeviceInfo>& devs) {
   std::string s;
   for (auto& d : devs) s += fmt::format("\n  {}:{}  {} ({})", d.platform_index, d.device_index, d.name, d.type_name());
@@ -148,80 +141,9 @@ DeviceInfo select_device(const std::string& spec_in) {
     throw Error(fmt::format("{} {}: no such device; devices are:{}", source, spec, device_list_text(devs)));
   }
   for (auto& i : devs)
-    if (lower(i.name).find(lower(spec)) != std::string::npos || lower(i.platform_name).find(lower(spec)) != std::string::npos)
+    if (to_lower(i.name).find(to_lower(spec)) != std::string::npos || to_lower(i.platform_name).find(to_lower(spec)) != std::string::npos)
       return i;
   throw Error(fmt::format("{} '{}': no device name contains it; devices are:{}", source, spec, device_list_text(devs)));
-}
-
-// ---------------------------------------------------------------------------------------------
-// Source assembly
-
-static std::string rewrite_pnanovdb(std::string s) {
-  auto replace_all = [&](const std::string& a, const std::string& b) {
-    size_t n = 0;
-    for (size_t pos = s.find(a); pos != std::string::npos; pos = s.find(a, pos + b.size())) {
-      s.replace(pos, a.size(), b);
-      ++n;
-    }
-    return n;
-  };
-  replace_all("#include <stdint.h>", "/* stdint.h: types come from pnanovdb_cl.h */");
-  replace_all("#include <string.h>", "/* string.h: pnanovdb_memcpy comes from pnanovdb_cl.h */");
-  // program-scope tables: OpenCL 1.2 needs them in __constant memory
-  const std::string c_branch = "#define PNANOVDB_STATIC_CONST static const";
-  auto pos = s.find(c_branch);
-  if (pos == std::string::npos) throw Error("PNanoVDB.h: unexpected layout (no PNANOVDB_STATIC_CONST definition)");
-  s.replace(pos, c_branch.size(), "#define PNANOVDB_STATIC_CONST __constant");
-  return s;
-}
-
-// The film table of spectral mode (kernels/spectrum.h st_film_table): per nm from 360 to 830, the
-// film's weights F (film_rgb_weights) and CIE D65, as a program-scope __constant array, printed
-// with enough digits to read back the same floats.
-static const std::string& film_table_source() {
-  static const std::string text = [] {
-    const std::vector<Rgb>& F = film_rgb_weights();
-    std::ostringstream o;
-    o << "__constant float4 st_film_table[" << F.size() << "] = {\n";
-    for (size_t i = 0; i < F.size(); ++i) {
-      const double lambda = kSpectrumLambdaMin + double(i);
-      o << fmt::format("  (float4)({:.8e}f, {:.8e}f, {:.8e}f, {:.8e}f),\n", float(F[i][0]), float(F[i][1]),
-                       float(F[i][2]), float(cie_d65(lambda)));
-    }
-    o << "};\n";
-    return o.str();
-  }();
-  return text;
-}
-
-std::string assemble_kernel_source(const std::vector<std::pair<std::string, std::string>>& defines,
-                                   const std::vector<std::string>& extra_files) {
-  static const std::vector<std::string> renderer_files = {
-      "types.h",    "features.h", "rng.h",    "sampling.h", "film_table", "spectrum.h", "phase.h",
-      "pnanovdb_cl.h", "PNanoVDB.h", "medium.h", "majorant.h", "tracking.h", "light.h", "guiding.h", "queues.h",
-      "raygen.cl",  "track.cl",   "shade.cl", "scatter.cl", "shadow.cl",  "finish.cl"};
-  std::vector<std::string> order = renderer_files;
-  order.insert(order.end(), extra_files.begin(), extra_files.end());
-  const auto& files = embedded_kernel_sources();
-  std::ostringstream out;
-  out << "/* spectrack " << SPECTRACK_VERSION << ": assembled kernel source */\n";
-  for (auto& [k, v] : defines) out << "#define " << k << " " << v << "\n";
-  // No contraction of a * b + c into one fma: OpenCL C allows it by default, and NVIDIA's compiler
-  // contracts differently in each specialisation of a kernel, so specialised and generic kernels
-  // would render different images there (bit for bit; the same on PoCL). Explicit fma() calls stay.
-  out << "#pragma OPENCL FP_CONTRACT OFF\n";
-  for (const std::string& name : order) {
-    if (name == "film_table") {  // generated: src/color/spectrum.h's tables
-      out << "#line 1 \"<film_table: src/color/spectrum.cpp>\"\n" << film_table_source();
-      continue;
-    }
-    auto it = files.find(name);
-    if (it == files.end()) throw Error(fmt::format("internal: kernel file {} is not embedded", name));
-    std::string text = name == "PNanoVDB.h" ? rewrite_pnanovdb(it->second) : it->second;
-    std::string shown = name == "PNanoVDB.h" ? "nanovdb/PNanoVDB.h" : "kernels/" + name;
-    out << "#line 1 \"" << shown << "\"\n" << text << "\n";
-  }
-  return out.str();
 }
 
 // ---------------------------------------------------------------------------------------------

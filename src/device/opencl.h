@@ -52,11 +52,15 @@ struct ProgramBuild {
 ProgramBuild build_program(const cl::Context& ctx, const DeviceInfo& dev, const std::string& source,
                            const std::string& options, bool quiet);
 
-// The kernel source for a scene: defines, every kernels/ file of the renderer in dependency order
-// (with #line markers), a rewritten copy of PNanoVDB.h, then `extra_files` (kernels/ files not
-// in the renderer's program, such as the test probes' probe.cl).
+// The kernel source for a scene: defines, then kernels/renderer.cl with every file it includes,
+// each once (kernel_source.cpp), then `extra_files` (kernels/ files not in the renderer's program,
+// such as the test probes' probe.cl) with what they include that the renderer does not.
 std::string assemble_kernel_source(const std::vector<std::pair<std::string, std::string>>& defines,
                                    const std::vector<std::string>& extra_files = {});
+
+// The named kernels/ files with what they include, each file once, with #line markers; no
+// defines and no pragma (the test programs that compile one header with their own kernel).
+std::string kernel_files_source(const std::vector<std::string>& roots);
 
 // Directory of the kernel binary cache ("" when disabled).
 std::string kernel_cache_dir();
