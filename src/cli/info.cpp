@@ -16,6 +16,7 @@
 #include "util/error.h"
 #include "volume/inspect.h"
 #include "volume/volume.h"
+#include "util/strings.h"
 
 namespace spectrack {
 namespace {
@@ -176,8 +177,7 @@ int cmd_info(const std::vector<std::string>& files, bool as_json) {
   int failed = 0;
   for (const std::string& f : files) {
     try {
-      std::string ext = std::filesystem::path(f).extension().string();
-      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return char(std::tolower(ch)); });
+      std::string ext = lower_extension(f);
       if (ext == ".json") {
         std::string text;
         json j = scene_json(load_scene(f), &text);

@@ -19,6 +19,7 @@
 #include "film/film.h"
 #include "film/merge_files.h"
 #include "scene/scene.h"
+#include "util/strings.h"
 
 namespace spectrack {
 
@@ -64,8 +65,7 @@ Metadata merged_metadata(const std::vector<MergeInput>& inputs) {
 }  // namespace
 
 int cmd_merge(const MergeArgs& a) {
-  std::string ext = std::filesystem::path(a.output).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  std::string ext = lower_extension(a.output);
   if (ext != ".exr") throw Error(fmt::format("{}: the merged image must be an EXR (use --preview for a PNG)", a.output));
   check_output_path(a.output);
   if (!a.preview.empty()) check_output_path(a.preview);

@@ -4,6 +4,7 @@
 // (piece_exr_channels, PieceDecoder), so that a merge can stream a band of rows at a time
 // (film/merge_files.h) with the very operations of a whole-image read and write.
 #include "film/film.h"
+#include "util/strings.h"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -145,8 +146,7 @@ void write_piece(const std::string& path, const FilmPiece& p, const Metadata& ex
   Metadata m = extra;
   for (auto& [k, v] : piece_metadata(p)) m[k] = v;
   const PixelWindow w = piece_window(p);
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  std::string ext = lower_extension(path);
   if (ext != ".exr") {  // a PNG preview: the whole beauty (a transparent film's environment added back)
     write_image(path, p.width, p.height, piece_beauty(p), m, w);
     return;

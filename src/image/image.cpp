@@ -3,6 +3,7 @@
 #include "image/image_open.h"
 #include "scene/scene.h"
 #include "util/files.h"
+#include "util/strings.h"
 
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
@@ -335,8 +336,7 @@ namespace {
 // 8-bit PNG and JPEG files hold sRGB-encoded values; radiance is linear.
 void decode_colour_space(const OIIO::ImageSpec& spec, std::vector<float>& rgb, const std::function<void(const std::string&)>& fail) {
   std::string cs = spec.get_string_attribute("oiio:ColorSpace");
-  std::string lower = cs;
-  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  const std::string lower = to_lower(cs);
   if (lower == "srgb") {
     for (float& v : rgb) v = srgb_decode(v);
   } else if (lower.rfind("gammacorrected", 0) == 0) {

@@ -8,8 +8,6 @@ namespace spectrack {
 
 namespace {
 
-bool achromatic(const Vec3& v) { return v[0] == v[1] && v[1] == v[2]; }
-
 FilmWindow resolve_window(const SceneDesc& scene, const RenderOptions& o) {
   const int W = scene.film.width, H = scene.film.height;
   if (!o.pixel_bounds) return FilmWindow{0, 0, W, H};

@@ -27,6 +27,7 @@
 #include "scene/radiance.h"
 #include "util/files.h"
 #include "scene/frames.h"
+#include "util/strings.h"
 
 namespace spectrack {
 namespace {
@@ -369,8 +370,7 @@ void Parser::film(const json& j, const std::string& path, FilmDesc& f) {
     return;
   }
   f.output = file(j, path, "output", false);
-  std::string ext = fs::path(f.output).extension().string();
-  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  std::string ext = lower_extension(f.output);
   if (ext != ".exr" && ext != ".png")
     fail(path + "/output", "unsupported image type " + in_quotes(ext) + " (expected .exr or .png)");
 }

@@ -150,8 +150,6 @@ Vec3 cross(const Vec3& a, const Vec3& b) {
   return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
 }
 
-bool achromatic(const Vec3& v) { return v[0] == v[1] && v[1] == v[2]; }
-
 // The hierarchy's automatic step cost (docs/majorant-hierarchy.md, bench/RESULTS.md "Adaptive
 // majorant hierarchy"): 0.6 density lookups per DDA step, measured on PoCL, where the render time
 // stays level while lookups fall; 2 for spectral trackers that decompose, whose variance grows by

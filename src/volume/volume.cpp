@@ -14,6 +14,7 @@
 #include "util/files.h"
 #include "volume/vdb_open.h"
 #include "volume/vdb_prescan.h"
+#include "util/strings.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_reduce.h>
@@ -50,12 +51,6 @@ namespace fs = std::filesystem;
 void init_openvdb() {
   static std::once_flag once;
   std::call_once(once, [] { openvdb::initialize(); });
-}
-
-std::string lower_extension(const std::string& file) {
-  std::string ext = fs::path(file).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  return ext;
 }
 
 void check_readable(const std::string& file, const Fail& fail) {
