@@ -1,6 +1,6 @@
-/* tracking.h: the per-collision bodies of free-path sampling and transmittance, on the integral
+/* tracking.h: the per-collision bodies of free-path sampling (transmittance: transmittance.h), on the integral
  * formulation of null-collision algorithms (docs/estimators.md, 'The integral formulation'); the loop around them (segments,
- * exponential flights, iteration budget) is the walker of majorant.h.
+ * exponential flights, iteration budget) is the walker of walker.h.
  *
  * One routine serves every tracker. Per majorant segment a gray free-path coefficient mu_bar is
  * used; at each tentative collision the event (absorption, scattering, null) is chosen with
