@@ -9,7 +9,7 @@
 // by the fitter (exact to 1e-7 in linear sRGB; rgb2spec_unbounded) once per colour. Radiances are
 // illuminants: the kernels multiply their spectrum by CIE D65 (kernels/spectrum.h illuminant_at),
 // so a light of colour c gives the film c back. The majorants need nothing from here: the kernels
-// take each medium's extinction at a path's own wavelengths (kernels/majorant.h st_walker), the
+// take each medium's extinction at a path's own wavelengths (kernels/walker.h st_walker), the
 // exact bound over the wavelengths it carries; the extinction's largest value over all visible
 // wavelengths (spectrum_max, in closed form) is checked to stay a float.
 // Blackbody emission needs no upsampling: the kernels evaluate Planck's law at a path's
