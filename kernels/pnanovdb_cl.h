@@ -2,7 +2,7 @@
  * NanoVDB 32.4, C path) compile as OpenCL C and read the NanoVDB grids in the device buffer
  * (docs/architecture.md, "NanoVDB on the device").
  * The kernel assembler (assemble_kernel_source and rewrite_pnanovdb in src/device/kernel_source.cpp)
- * inlines the #include "nanovdb/PNanoVDB.h" at the end of this file with a copy of PNanoVDB.h, its <stdint.h>/<string.h> includes
+ * inlines, for the include of nanovdb/PNanoVDB.h at the end of this file, a copy of PNanoVDB.h with its <stdint.h>/<string.h> includes
  * replaced by comments and its program-scope tables moved to __constant memory (OpenCL 1.2
  * drivers reject program-scope `static const`).
  * A buffer is the word array of one grid: grids of all media share one device buffer and each
