@@ -8,7 +8,7 @@
 
 #include <fmt/format.h>
 
-#include "render/stats_json.h"
+#include "integrator/stats_json.h"
 
 namespace py = pybind11;
 

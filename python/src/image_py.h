@@ -1,4 +1,4 @@
-// image_py.h: the Python module's Image: a film piece (render/film.h) with its statistics, shown
+// image_py.h: the Python module's Image: a film piece (film/film.h) with its statistics, shown
 // to Python as numpy arrays. The arrays are made by the functions the EXR writer uses
 // (piece_beauty, piece_exr_channels), so an array holds exactly the floats a file would.
 #pragma once
@@ -7,8 +7,8 @@
 #include <nlohmann/json.hpp>
 
 #include "image/image.h"
-#include "render/film.h"
-#include "render/renderer.h"
+#include "film/film.h"
+#include "integrator/renderer.h"
 
 namespace spectrack {
 namespace python {

@@ -10,7 +10,7 @@
 #include <fmt/format.h>
 #include <openvdb/openvdb.h>
 
-#include "cl/opencl.h"
+#include "device/opencl.h"
 #include "image_py.h"
 #include "render_py.h"
 #include "scene/scene.h"

@@ -3,7 +3,7 @@
 
 #include <future>
 
-#include "render/film.h"
+#include "film/film.h"
 
 namespace spectrack {
 

@@ -10,8 +10,8 @@
 #pragma once
 #include <string>
 
-#include "render/multi_device.h"
-#include "render/settings.h"
+#include "integrator/multi_device.h"
+#include "integrator/settings.h"
 #include "scene/scene.h"
 
 namespace spectrack {

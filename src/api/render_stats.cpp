@@ -1,11 +1,9 @@
 // render_stats.cpp: see render_stats.h.
 #include "api/render_stats.h"
 
-#include <fmt/format.h>
-#include <fmt/ranges.h>
-
-#include "render/film.h"
-#include "render/stats_json.h"
+#include "film/film.h"
+#include "integrator/stats_json.h"
+#include "util/strings.h"
 
 namespace spectrack {
 
@@ -31,7 +29,7 @@ nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_tota
   j["film_layers"] = nlohmann::json::array();
   for (int k = 0; k < ST_AOV_COUNT; ++k)
     if (r.aovs & (1u << k)) j["film_layers"].push_back(aov_name(k));
-  j["device"] = fmt::format("{}", fmt::join(r.devices, ", "));
+  j["device"] = join(r.devices, ", ");
   j["devices"] = r.devices;
   j["samples_per_device"] = r.samples_per_device;
   j["mpi_ranks"] = mpi_ranks;

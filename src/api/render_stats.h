@@ -4,11 +4,11 @@
 #include <nlohmann/json.hpp>
 
 #include "image/image.h"
-#include "render/multi_device.h"
+#include "integrator/multi_device.h"
 
 namespace spectrack {
 
-// The counters (render/stats_json.h) with the samples, the settings the render ran, the devices,
+// The counters (integrator/stats_json.h) with the samples, the settings the render ran, the devices,
 // the window, the timings (seconds_total and seconds_to_renderer count from the command's start),
 // the guiding cache and each VDB medium's majorant structure. `meta` may hold "time_limit" (a float).
 nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_total, double seconds_to_renderer,
