@@ -3,12 +3,13 @@
 # (Release) into build/. Idempotent; used by render-default.sh, test.sh and .ci/run.
 # SETUP_PACKAGES_ONLY=1 installs the packages and builds nothing (sanitize.sh, fuzz.sh).
 # clang + libclang-rt-14-dev (libFuzzer, only recommended by clang) are for scripts/fuzz.sh.
+# pybind11-dev, python3-dev, python3-numpy, python3-pytest: the Python module and its tests (docs/python.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PKGS=(build-essential cmake pkg-config ocl-icd-opencl-dev opencl-clhpp-headers opencl-c-headers pocl-opencl-icd
       libopenvdb-dev libnanovdb-dev libopenimageio-dev openimageio-tools libcli11-dev nlohmann-json3-dev
       libfmt-dev libboost-iostreams-dev libgtest-dev libbenchmark-dev libtbb-dev libblosc-dev zlib1g-dev clinfo
-      clang libclang-rt-14-dev libopenmpi-dev openmpi-bin python3)
+      clang libclang-rt-14-dev libopenmpi-dev openmpi-bin python3 pybind11-dev python3-dev python3-numpy python3-pytest)
 missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -4,5 +4,11 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
+# USD in (docs/usd.md) is an optional extra from PyPI (Debian has no USD): installed for Debian's
+# python3 when the network allows; without it the USD tests skip and say why.
+if ! /usr/bin/python3 -c 'import pxr' 2>/dev/null; then
+  timeout 300 /usr/bin/python3 -m pip install --quiet --user --break-system-packages usd-core ||
+    echo "test.sh: usd-core could not be installed: the USD tests will skip"
+fi
 cd build
 ctest --output-on-failure -j "${TEST_JOBS:-2}" "$@"

@@ -86,9 +86,13 @@ std::string scene_hash(const SceneDesc& scene) {
   if (!f) throw Error(fmt::format("{}: cannot read the scene file to hash it", scene.path));
   std::stringstream text;
   text << f.rdbuf();
+  return scene_hash(scene, text.str());
+}
+
+std::string scene_hash(const SceneDesc& scene, const std::string& json_text) {
   nlohmann::json j;
   try {
-    j = nlohmann::json::parse(text.str());
+    j = nlohmann::json::parse(json_text);
   } catch (const std::exception& e) {
     throw Error(fmt::format("{}: cannot parse the scene file to hash it: {}", scene.path, e.what()));
   }

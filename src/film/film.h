@@ -55,6 +55,8 @@ struct RenderIdentity {
 // file it references (VDB files, environment maps), so a scene moved to another folder or
 // machine keeps its hash.
 std::string scene_hash(const SceneDesc& scene);
+// The same of a scene parsed from `json_text` (parse_scene: a scene made in memory).
+std::string scene_hash(const SceneDesc& scene, const std::string& json_text);
 // The identity of a render with these settings, without scene_hash: hashing reads every
 // referenced file, so the caller computes it where it does not delay the render (the CLI overlaps
 // it with rendering, on the rank that writes).

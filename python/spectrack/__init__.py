@@ -1,0 +1,137 @@
+"""spectrack from Python: load or build a scene, render it, get numpy arrays (docs/python.md).
+
+The renderer, the scene loader and its validation, and the film pieces are the library of the
+``spectrack`` command (the extension module ``spectrack._spectrack``); this file only turns
+Python values into scene JSON. A scene dict is the scene file's JSON as Python values, where a
+medium's ``file`` may also be a :class:`Volume`. Errors in a scene raise ``ValueError`` whose
+message names the file (``<dict>`` for a dict), the JSON field path and the reason.
+"""
+import copy
+import json
+import os
+
+from ._spectrack import Image, Volume, devices, merge, read, read_exr  # noqa: F401
+from . import _spectrack
+
+__all__ = ["Scene", "Image", "Volume", "load_file", "load_dict", "load_usd", "merge", "read", "read_exr",
+           "devices", "__version__"]
+__version__ = _spectrack.__version__
+
+
+class Scene:
+    """A validated scene; ``render`` renders it (the keyword arguments override the scene's values)."""
+
+    def __init__(self, desc, volumes=(), scene_dict=None, json_text=""):
+        self._desc = desc
+        self._text = json_text  # what a scene made in memory was parsed from: its identity for merging
+        self._volumes = list(volumes)  # kept alive: their files are the media's files
+        self.dict = scene_dict  # the scene JSON as a dict (None for a file loaded as it is)
+
+    path = property(lambda self: self._desc.path)
+    width = property(lambda self: self._desc.width)
+    height = property(lambda self: self._desc.height)
+    spp = property(lambda self: self._desc.spp)
+    seed = property(lambda self: self._desc.seed)
+
+    def render(self, spp=None, seed=None, device="", spp_range=None, pixel_bounds=None, tracker=None, scheme=None,
+               alpha=None, aovs=(), time_limit=None, chunk_spp=0, progress=None, verbose=False):
+        """Renders the scene and returns an :class:`Image`.
+
+        spp: samples per pixel (film.spp); seed: render.seed; device: "P:D", a name substring, "all"
+        or a comma-separated list ("" the default device); spp_range: (begin, end), samples
+        begin..end-1 of every pixel (a shard, for merge); pixel_bounds: (x0, x1, y0, y1);
+        tracker, scheme: names as `spectrack render` takes them; alpha: the alpha layers (default:
+        film.alpha, else off, so .rgb is the whole beauty); aovs: film layer names; time_limit: seconds;
+        progress: called with the fraction done, on the calling thread. The GIL is released while the
+        devices render. Ctrl-C stops the render at its next iteration and raises KeyboardInterrupt
+        with the finished samples' image as its ``image`` attribute.
+        """
+        return _spectrack.render(self._desc, spp=spp, seed=seed, device=device, spp_range=spp_range,
+                                 pixel_bounds=pixel_bounds, tracker=tracker, scheme=scheme, alpha=alpha,
+                                 aovs=list(aovs), time_limit=time_limit, chunk_spp=chunk_spp, verbose=verbose,
+                                 progress=progress, json_text=self._text)
+
+    def __repr__(self):
+        return f"<spectrack.Scene {self.path} {self.width}x{self.height}, {self.spp} spp>"
+
+
+def _with_volumes(value, volumes):
+    """The scene dict as JSON values: each Volume in a medium's "file" becomes its file (and "grid"
+    its grid, unless the medium names one); the Volumes are collected into `volumes`."""
+    if isinstance(value, dict):
+        out = {}
+        for k, v in value.items():
+            if isinstance(v, Volume):
+                volumes.append(v)
+                out[k] = v.file
+                if k == "file" and "grid" not in value:
+                    out["grid"] = v.grid
+            else:
+                out[k] = _with_volumes(v, volumes)
+        return out
+    if isinstance(value, (list, tuple)):
+        return [_with_volumes(v, volumes) for v in value]
+    if isinstance(value, Volume):
+        volumes.append(value)
+        return value.file
+    return value
+
+
+def _merge_patch(target, patch):
+    """RFC 7386 JSON merge patch: dicts merge key by key, None deletes, anything else replaces."""
+    if not isinstance(patch, dict):
+        return copy.deepcopy(patch)
+    out = dict(target) if isinstance(target, dict) else {}
+    for k, v in patch.items():
+        if v is None:
+            out.pop(k, None)
+        else:
+            out[k] = _merge_patch(out.get(k), v)
+    return out
+
+
+def _to_json(scene_dict, name):
+    try:
+        return json.dumps(scene_dict, allow_nan=False)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{name}: the scene dict is not JSON: {e}") from None
+
+
+def load_dict(scene_dict, base_dir=None, name="<dict>"):
+    """A scene from its JSON as a dict (docs/scene-format.md), validated as a scene file is; relative
+    paths resolve against base_dir (default: the current folder). ValueError names the field path."""
+    if not isinstance(scene_dict, dict):
+        raise TypeError(f"load_dict: a dict is needed, not {type(scene_dict).__name__}")
+    volumes = []
+    plain = _with_volumes(scene_dict, volumes)
+    text = _to_json(plain, name)
+    desc = _spectrack.parse_scene(text, name, os.path.abspath(base_dir or os.getcwd()))
+    return Scene(desc, volumes, plain, text)
+
+
+def load_file(path, **overrides):
+    """A scene file; each keyword (a top-level section: film, render, camera, lights, media) is merged
+    into the file's JSON as an RFC 7386 merge patch, e.g. ``load_file(p, film={"spp": 16})``."""
+    path = os.fspath(path)
+    if not overrides:
+        return Scene(_spectrack.load_scene(path))
+    with open(path, encoding="utf-8") as f:
+        try:
+            doc = json.load(f)
+        except json.JSONDecodeError as e:
+            raise ValueError(f"{path}: not JSON: {e}") from None
+    volumes = []
+    doc = _merge_patch(doc, _with_volumes(overrides, volumes))
+    text = _to_json(doc, path)
+    desc = _spectrack.parse_scene(text, path, os.path.dirname(os.path.abspath(path)))
+    return Scene(desc, volumes, doc, text)
+
+
+def load_usd(path, frame=None, **options):
+    """A scene from a USD stage (docs/usd.md); needs usd-core (``pip install usd-core``)."""
+    from .usd import stage_to_dict  # imports pxr
+    scene_dict, warnings_ = stage_to_dict(path, frame=frame, **options)
+    import warnings
+    for w in warnings_:
+        warnings.warn(w, stacklevel=2)
+    return load_dict(scene_dict, base_dir=os.path.dirname(os.path.abspath(path)), name=os.fspath(path))

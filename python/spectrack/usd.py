@@ -1,0 +1,261 @@
+"""A USD stage as a spectrack scene dict (docs/usd.md); needs usd-core (``pip install usd-core``).
+
+Mapped: ``Volume`` prims with their ``field:*`` relationships to ``OpenVDBAsset`` prims
+(``filePath``, ``fieldName``, ``fieldIndex``): the density field becomes a medium, a
+temperature/heat field its blackbody emission, a ``Cd`` field its per-voxel albedo, all read from
+the density's file; the ``UsdGeomCamera`` (transform, projection, focal length and apertures);
+``UsdLux`` ``DistantLight`` (a directional light), ``DomeLight`` (the environment, uniform or with
+its texture). Everything else that could shape the image (meshes, sphere and other lights, the
+camera's clipping range, focus, aperture offsets, velocity fields, shears, dome rotations) is
+named in a warning. The stage's axes and units are kept: coefficients are per stage unit.
+"""
+import math
+import os
+
+try:
+    from pxr import Gf, Usd, UsdGeom, UsdLux, UsdVol
+except ImportError as e:  # pragma: no cover - the message is the point
+    raise ImportError("spectrack's USD support needs usd-core: pip install usd-core (" + str(e) + ")") from None
+
+TEMPERATURE_FIELDS = ("temperature", "heat", "flame")
+SHAPES = ("Mesh", "Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Points", "BasisCurves", "NurbsPatch")
+
+
+class _Mapper:
+    def __init__(self, stage, time, options):
+        self.stage, self.time, self.o = stage, time, options
+        self.warnings = []
+        self.xf_cache = UsdGeom.XformCache(time)
+
+    def warn(self, prim, what):
+        self.warnings.append(f"{self.stage.GetRootLayer().identifier}: {prim.GetPath()}: {what}")
+
+    def world(self, prim):
+        return self.xf_cache.GetLocalToWorldTransform(prim)
+
+    def value(self, attr, default=None):
+        v = attr.Get(self.time) if attr and attr.HasAuthoredValue() else None
+        return default if v is None else v
+
+
+def _columns(m):
+    """USD matrices act on row vectors: the column-vector linear part A (3x3) and translation."""
+    a = [[m[j][i] for j in range(3)] for i in range(3)]
+    return a, [m[3][0], m[3][1], m[3][2]]
+
+
+def matrix_to_transform(m, warn):
+    """A spectrack medium transform (scale, then rotations about x, y, z, then translate) of a
+    USD matrix; a shear (not representable) is warned about and dropped."""
+    a, t = _columns(m)
+    scale = [math.sqrt(sum(a[r][c] ** 2 for r in range(3))) for c in range(3)]
+    if min(scale) <= 0:
+        raise ValueError("a transform with a zero scale")
+    r = [[a[i][j] / scale[j] for j in range(3)] for i in range(3)]
+    det = (r[0][0] * (r[1][1] * r[2][2] - r[1][2] * r[2][1]) - r[0][1] * (r[1][0] * r[2][2] - r[1][2] * r[2][0])
+           + r[0][2] * (r[1][0] * r[2][1] - r[1][1] * r[2][0]))
+    if det < 0:  # a mirror: a negative x scale
+        scale[0] = -scale[0]
+        for i in range(3):
+            r[i][0] = -r[i][0]
+    off = max(abs(sum(r[k][i] * r[k][j] for k in range(3)) - (i == j)) for i in range(3) for j in range(3))
+    if off > 1e-4:
+        warn(f"the transform has a shear ({off:.3g}), which spectrack cannot represent: dropped")
+    ry = math.asin(max(-1.0, min(1.0, -r[2][0])))
+    rx = math.atan2(r[2][1], r[2][2])
+    rz = math.atan2(r[1][0], r[0][0])
+    return {"scale": scale, "rotate_deg": [math.degrees(v) for v in (rx, ry, rz)], "translate": list(t)}
+
+
+def _asset_path(mp, prim, attr):
+    """The resolved file of an asset attribute: USD's resolver, then the `assets` map (authored
+    path -> file), then each folder of `search_paths`."""
+    v = mp.value(attr)
+    if v is None:
+        return None
+    authored = v.path
+    if authored in mp.o.get("assets", {}):
+        return os.path.abspath(mp.o["assets"][authored])
+    if v.resolvedPath and os.path.isfile(v.resolvedPath):
+        return v.resolvedPath
+    for d in mp.o.get("search_paths", ()):
+        p = os.path.join(d, os.path.basename(authored))
+        if os.path.isfile(p):
+            return os.path.abspath(p)
+    raise ValueError(f"{prim.GetPath()}: {attr.GetName()} @{authored}@ not found next to the stage, in `assets` or in "
+                     f"`search_paths`")
+
+
+def _field(mp, path):
+    prim = mp.stage.GetPrimAtPath(path)
+    asset = UsdVol.OpenVDBAsset(prim)
+    if not asset:
+        mp.warn(prim, f"field {path} is a {prim.GetTypeName()}, not an OpenVDBAsset: not mapped")
+        return None
+    return {"file": _asset_path(mp, prim, asset.GetFilePathAttr()),
+            "name": str(mp.value(asset.GetFieldNameAttr(), "")),
+            "index": mp.value(asset.GetFieldIndexAttr()), "prim": prim}
+
+
+def _material(mp, prim):
+    """sigma_s, sigma_a per unit density and the phase: options sigma_t and albedo, a constant
+    `albedo` primvar, or the inputs of a bound arnold:standard_volume shader."""
+    sigma_t, albedo, g = mp.o.get("sigma_t", 1.0), [mp.o.get("albedo", 0.8)] * 3, 0.0
+    pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar("albedo")
+    if pv and pv.HasAuthoredValue():
+        albedo = [float(pv.Get(mp.time))] * 3
+    for shader in _bound_shaders(mp, prim):
+        get = lambda n, d: mp.value(shader.GetPrim().GetAttribute("inputs:" + n), d)  # noqa: E731
+        sigma_t *= float(get("density", 1.0))
+        scatter, color = float(get("scatter", 1.0)), list(get("scatter_color", (0.5, 0.5, 0.5)))
+        albedo = [min(1.0, max(0.0, scatter * float(c))) for c in color]
+        g = float(get("scatter_anisotropy", 0.0))
+    sigma_s = [sigma_t * a for a in albedo]
+    phase = {"type": "hg", "g": g} if g != 0 else {"type": "isotropic"}
+    return sigma_s, [sigma_t - s for s in sigma_s], phase
+
+
+def _bound_shaders(mp, prim):
+    from pxr import UsdShade
+    mat, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
+    if not mat:
+        return []
+    out = []
+    for child in Usd.PrimRange(mat.GetPrim()):
+        sh = UsdShade.Shader(child)
+        if sh and sh.GetIdAttr().Get() == "arnold:standard_volume":
+            out.append(sh)
+    return out
+
+
+def _medium(mp, prim):
+    vol = UsdVol.Volume(prim)
+    fields = {name: _field(mp, path) for name, path in vol.GetFieldPaths().items()}
+    fields = {k: v for k, v in fields.items() if v}
+    density = fields.pop("density", None)
+    if density is None:
+        mp.warn(prim, f"no density field (fields: {', '.join(sorted(fields)) or 'none'}): not mapped")
+        return None
+    sigma_s, sigma_a, phase = _material(mp, prim)
+    xf = _field_to_world(mp, prim, density["prim"])
+    m = {"name": prim.GetName(), "type": "vdb", "file": density["file"], "grid": density["name"] or "density",
+         "sigma_s": sigma_s, "sigma_a": sigma_a, "phase": phase,
+         "transform": matrix_to_transform(xf, lambda w: mp.warn(prim, w))}
+    if density["index"] is not None:
+        m["grid_index"] = int(density["index"])
+    for name, f in fields.items():
+        _extra_field(mp, prim, m, name, f)
+    return m
+
+
+def _field_to_world(mp, volume, field):
+    """A field's transform is relative to its volume: its world transform when it is the volume's
+    descendant, else its own local transform placed in the volume's space."""
+    if field.GetPath().HasPrefix(volume.GetPath()):
+        return mp.world(field)
+    return UsdGeom.Xformable(field).GetLocalTransformation(mp.time) * mp.world(volume)
+
+
+def _extra_field(mp, prim, m, name, f):
+    same_file = f["file"] == m["file"]
+    if name.lower() in TEMPERATURE_FIELDS and same_file:
+        m["emission"] = {"type": "blackbody", "temperature_grid": f["name"] or name,
+                         "temperature_scale": mp.o.get("temperature_scale", 1.0),
+                         "normalization": mp.o.get("blackbody_normalization", "peak"),
+                         "scale": mp.o.get("emission_scale", 1.0)}
+    elif name == "Cd" and same_file:
+        m["color"] = {"grid": f["name"] or "Cd", "mode": "albedo"}
+    elif name.lower() in ("vel", "velocity", "v"):
+        mp.warn(prim, f"field {name}: velocity is not used (spectrack renders no motion blur)")
+    else:
+        mp.warn(prim, f"field {name} ({f['file']}): not mapped" + ("" if same_file else " (not in the density's file)"))
+
+
+def _camera(mp, prim, width):
+    cam = UsdGeom.Camera(prim)
+    gf = cam.GetCamera(mp.time)
+    m = mp.world(prim)
+    pos = m.Transform(Gf.Vec3d(0, 0, 0))
+    forward = m.TransformDir(Gf.Vec3d(0, 0, -1)).GetNormalized()
+    up = m.TransformDir(Gf.Vec3d(0, 1, 0))
+    h_ap, v_ap = gf.horizontalAperture, gf.verticalAperture
+    height = max(1, round(width * v_ap / h_ap))
+    short_ap = min(h_ap, v_ap)
+    c = {"position": list(pos), "look_at": list(pos + forward), "up": list(up)}
+    if gf.projection == Gf.Camera.Orthographic:
+        c.update(type="orthographic", height=short_ap * 0.1)  # apertures in tenths of a stage unit
+    else:
+        c.update(type="perspective", fov_deg=math.degrees(2 * math.atan(0.5 * short_ap / gf.focalLength)))
+    if gf.horizontalApertureOffset or gf.verticalApertureOffset:
+        mp.warn(prim, "aperture offsets are not applied (spectrack's frame is centred)")
+    if cam.GetClippingRangeAttr().HasAuthoredValue():
+        mp.warn(prim, f"clippingRange ({gf.clippingRange.min}, {gf.clippingRange.max}) is not applied "
+                      "(rays start at the camera and do not end)")
+    if gf.fStop > 0:
+        mp.warn(prim, f"fStop {gf.fStop} and focusDistance {gf.focusDistance}: no depth of field (a pinhole camera)")
+    return c, height
+
+
+def _intensity(mp, light):
+    color = list(mp.value(light.GetColorAttr(), (1.0, 1.0, 1.0)))
+    k = float(mp.value(light.GetIntensityAttr(), 1.0)) * 2.0 ** float(mp.value(light.GetExposureAttr(), 0.0))
+    return [k * c for c in color], k, color
+
+
+def _light(mp, prim):
+    if prim.IsA(UsdLux.DistantLight):
+        light = UsdLux.DistantLight(prim)
+        irradiance, _, _ = _intensity(mp, light)
+        to_light = mp.world(prim).TransformDir(Gf.Vec3d(0, 0, 1))  # the light shines along its -z
+        return {"type": "directional", "to_light": list(to_light), "irradiance": irradiance,
+                "angle_deg": float(mp.value(light.GetAngleAttr(), 0.0))}
+    if prim.IsA(UsdLux.DomeLight):
+        light = UsdLux.DomeLight(prim)
+        radiance, k, color = _intensity(mp, light)
+        if not Gf.IsClose(mp.world(prim).ExtractRotationMatrix(), Gf.Matrix3d(1), 1e-6):
+            mp.warn(prim, "the dome's rotation is not applied (spectrack's environment keeps the world axes)")
+        tex = light.GetTextureFileAttr()
+        if mp.value(tex) is not None and mp.value(tex).path:
+            if color != [1.0, 1.0, 1.0]:
+                mp.warn(prim, f"inputs:color {color} with a texture: only the intensity scales the map")
+            return {"type": "environment", "map": _asset_path(mp, prim, tex), "scale": k}
+        return {"type": "environment", "radiance": radiance}
+    mp.warn(prim, f"{prim.GetTypeName()}: not mapped (spectrack lights: DistantLight, DomeLight)")
+    return None
+
+
+def stage_to_dict(path, frame=None, camera=None, width=512, spp=64, **options):
+    """The scene dict of a stage at `frame` (default: the stage's default time) and the warnings.
+    options: sigma_t (1, per stage unit), albedo (0.8), temperature_scale (1: the grid in kelvin),
+    emission_scale, blackbody_normalization, search_paths (folders for files not found next to
+    the stage), assets (authored asset path -> file)."""
+    stage = Usd.Stage.Open(os.fspath(path))
+    if stage is None:
+        raise ValueError(f"{path}: not a USD stage")
+    time = Usd.TimeCode(frame) if frame is not None else Usd.TimeCode.Default()
+    mp = _Mapper(stage, time, options)
+    media, lights, cams = [], [], []
+    for prim in stage.Traverse():
+        if prim.IsA(UsdVol.Volume):
+            m = _medium(mp, prim)
+            if m:
+                media.append(m)
+        elif prim.IsA(UsdGeom.Camera):
+            cams.append(prim)
+        elif prim.HasAPI(UsdLux.LightAPI) or prim.IsA(UsdLux.BoundableLightBase) or prim.IsA(UsdLux.NonboundableLightBase):
+            lt = _light(mp, prim)
+            if lt:
+                lights.append(lt)
+        elif prim.GetTypeName() in SHAPES or prim.GetTypeName() == "PointInstancer":
+            mp.warn(prim, f"{prim.GetTypeName()}: not mapped (spectrack renders media only)")
+    scene = {"format": "spectrack-scene/1", "film": {"width": width, "height": width, "spp": spp},
+             "render": {}, "lights": lights, "media": media}
+    chosen = stage.GetPrimAtPath(camera) if camera else (cams[0] if cams else None)
+    if chosen:
+        scene["camera"], scene["film"]["height"] = _camera(mp, chosen, width)
+    else:
+        scene["camera"] = {"position": "auto"}
+        mp.warnings.append(f"{path}: no camera: the default framing of the media")
+    if not media:
+        raise ValueError(f"{path}: no Volume with a density OpenVDBAsset field")
+    return scene, mp.warnings

@@ -1,0 +1,86 @@
+// module.cpp: the extension module spectrack._spectrack (the Python package spectrack wraps it,
+// python/spectrack/__init__.py). Everything here calls the library the command line uses
+// (spectrack_core): the scene loader and its validation, the renderer, the film pieces.
+//
+// Errors: spectrack::Error (a bad scene field, file or option; its message names the file, the
+// JSON field path and the reason) becomes ValueError; anything else keeps pybind11's mapping.
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <fmt/format.h>
+#include <openvdb/openvdb.h>
+
+#include "device/opencl.h"
+#include "image_py.h"
+#include "render_py.h"
+#include "scene/scene.h"
+#include "volume_py.h"
+
+namespace py = pybind11;
+using namespace spectrack;
+
+namespace {
+
+py::list devices() {
+  py::list l;
+  for (const DeviceInfo& d : enumerate_devices(false)) {
+    py::dict e;
+    e["spec"] = fmt::format("{}:{}", d.platform_index, d.device_index);
+    e["name"] = d.name;
+    e["type"] = d.type_name();
+    e["compute_units"] = d.compute_units;
+    e["memory_bytes"] = d.global_mem;
+    e["max_alloc_bytes"] = d.max_alloc;
+    e["platform"] = d.platform_name;
+    e["driver"] = d.driver_version;
+    l.append(e);
+  }
+  return l;
+}
+
+void bind_scene(py::module_& m) {
+  py::class_<SceneDesc>(m, "SceneDesc", "a validated scene (spectrack-scene/1)")
+      .def_readonly("path", &SceneDesc::path)
+      .def_property_readonly("width", [](const SceneDesc& s) { return s.film.width; })
+      .def_property_readonly("height", [](const SceneDesc& s) { return s.film.height; })
+      .def_property_readonly("spp", [](const SceneDesc& s) { return s.film.spp; })
+      .def_property_readonly("seed", [](const SceneDesc& s) { return s.render.seed; })
+      .def_property_readonly("media", [](const SceneDesc& s) { return s.media.size(); })
+      .def_property_readonly("lights", [](const SceneDesc& s) { return s.lights.size(); });
+  m.def("load_scene", &load_scene, py::arg("path"), "parses and validates a scene file");
+  m.def("parse_scene", &parse_scene, py::arg("json_text"), py::arg("name"), py::arg("dir"),
+        "parses and validates scene JSON text; `name` stands for the file in messages, `dir` resolves relative paths");
+  m.def("render", [](const SceneDesc& scene, std::optional<int> spp, std::optional<int64_t> seed, std::string device,
+                     std::optional<std::pair<int64_t, int64_t>> spp_range, std::optional<std::array<int, 4>> pixel_bounds,
+                     std::optional<std::string> tracker, std::optional<std::string> scheme, std::optional<bool> alpha,
+                     std::vector<std::string> aovs, std::optional<double> time_limit, int chunk_spp, bool verbose,
+                     py::object progress, std::string json_text) {
+    python::RenderArgs a{spp, seed, std::move(device), spp_range, pixel_bounds, std::move(tracker), std::move(scheme),
+                         alpha, std::move(aovs), time_limit, chunk_spp, verbose, std::move(progress),
+                         std::move(json_text)};
+    return python::render(scene, a);
+  }, py::arg("scene"), py::arg("spp") = py::none(), py::arg("seed") = py::none(), py::arg("device") = "",
+     py::arg("spp_range") = py::none(), py::arg("pixel_bounds") = py::none(), py::arg("tracker") = py::none(),
+     py::arg("scheme") = py::none(), py::arg("alpha") = py::none(), py::arg("aovs") = std::vector<std::string>{},
+     py::arg("time_limit") = py::none(), py::arg("chunk_spp") = 0, py::arg("verbose") = false,
+     py::arg("progress") = py::none(), py::arg("json_text") = "");
+  m.def("devices", &devices, "the OpenCL devices: spec (P:D, what device= takes), name, type, memory");
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_spectrack, m) {
+  m.doc() = "spectrack: chromatic heterogeneous volume rendering (the library of the spectrack command)";
+  m.attr("__version__") = SPECTRACK_VERSION;
+  openvdb::initialize();  // Volume.from_numpy builds grids before any loader runs
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const Error& e) {
+      PyErr_SetString(PyExc_ValueError, e.what());
+    }
+  });
+  bind_scene(m);
+  python::bind_image(m);
+  python::bind_volume(m);
+}

@@ -1,0 +1,125 @@
+// volume_py.cpp: see volume_py.h. Array index (i, j, k) is voxel (x, y, z) = (i, j, k): voxel
+// centres sit at origin + (i, j, k) * voxel_size in world units, the renderer's convention
+// (src/volume/volume.h: values at integer index coordinates, trilinear between them).
+#include "volume_py.h"
+
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include <fmt/format.h>
+#include <openvdb/openvdb.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+
+#include "util/error.h"
+
+namespace py = pybind11;
+namespace fs = std::filesystem;
+
+namespace spectrack {
+namespace python {
+namespace {
+
+// The array as float64 C-contiguous values, after the checks: a floating dtype, three dimensions,
+// no empty axis; TypeError and ValueError name what is wrong.
+py::array_t<double, py::array::c_style | py::array::forcecast> checked_array(const py::array& a) {
+  const char kind = a.dtype().kind();
+  if (kind != 'f')
+    throw py::type_error(fmt::format("Volume.from_numpy: density has dtype {}; a floating dtype (float32 or float64) is "
+                                     "needed", std::string(py::str(a.dtype()))));
+  if (a.ndim() != 3)
+    throw py::value_error(fmt::format("Volume.from_numpy: density has {} dimensions; 3 (x, y, z) are needed", a.ndim()));
+  for (int d = 0; d < 3; ++d)
+    if (a.shape(d) < 1 || a.shape(d) > (1 << 20))
+      throw py::value_error(fmt::format("Volume.from_numpy: density axis {} has {} voxels (1 to 2^20)", d, a.shape(d)));
+  return py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+}
+
+std::array<double, 3> checked_origin(const std::vector<double>& origin) {
+  if (origin.size() != 3) throw py::value_error("Volume.from_numpy: origin needs 3 numbers (x, y, z)");
+  for (double v : origin)
+    if (!std::isfinite(v)) throw py::value_error("Volume.from_numpy: origin must be finite");
+  return {origin[0], origin[1], origin[2]};
+}
+
+// A temporary folder only this process writes to.
+std::string make_temp_dir() {
+  std::string pattern = (fs::temp_directory_path() / "spectrack-volume-XXXXXX").string();
+  if (!::mkdtemp(pattern.data())) throw Error(fmt::format("{}: cannot create a temporary folder", pattern));
+  return pattern;
+}
+
+std::unique_ptr<Volume> from_numpy(const py::array& density, double voxel_size, const std::vector<double>& origin_v,
+                                   const std::string& grid_name) {
+  auto arr = checked_array(density);
+  if (!(voxel_size > 0) || !std::isfinite(voxel_size))
+    throw py::value_error(fmt::format("Volume.from_numpy: voxel_size {} must be a positive finite number", voxel_size));
+  const std::array<double, 3> origin = checked_origin(origin_v);
+  auto v = std::make_unique<Volume>();
+  v->grid = grid_name;
+  for (int d = 0; d < 3; ++d) v->shape[size_t(d)] = int(arr.shape(d));
+  openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(0.0f);
+  grid->setName(grid_name);
+  grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+  openvdb::math::Transform::Ptr xf = openvdb::math::Transform::createLinearTransform(voxel_size);
+  xf->postTranslate(openvdb::Vec3d(origin[0], origin[1], origin[2]));
+  grid->setTransform(xf);
+  const double* src = arr.data();
+  {
+    py::gil_scoped_release unlocked;
+    auto acc = grid->getAccessor();
+    const int nx = v->shape[0], ny = v->shape[1], nz = v->shape[2];
+    for (int i = 0; i < nx; ++i)
+      for (int j = 0; j < ny; ++j)
+        for (int k = 0; k < nz; ++k) {
+          const double d = src[(size_t(i) * ny + j) * nz + k];
+          if (!std::isfinite(d) || d < 0)
+            throw Error(fmt::format("Volume.from_numpy: density[{}, {}, {}] = {}: values must be finite and >= 0", i,
+                                    j, k, d));
+          if (d == 0) continue;
+          acc.setValue(openvdb::Coord(i, j, k), float(d));
+          ++v->active_voxels;
+        }
+  }
+  v->temp_dir = make_temp_dir();
+  v->file = (fs::path(v->temp_dir) / "volume.vdb").string();
+  openvdb::io::File out(v->file);
+  out.write({grid});
+  out.close();
+  return v;
+}
+
+std::unique_ptr<Volume> from_file(const std::string& path, const std::string& grid) {
+  if (!fs::is_regular_file(path)) throw Error(fmt::format("{}: no such volume file", path));
+  auto v = std::make_unique<Volume>();
+  v->file = fs::absolute(path).string();
+  v->grid = grid;
+  return v;
+}
+
+}  // namespace
+
+Volume::~Volume() {
+  if (temp_dir.empty()) return;
+  std::error_code ec;
+  fs::remove_all(temp_dir, ec);
+}
+
+void bind_volume(py::module_& m) {
+  py::class_<Volume>(m, "Volume", "A float grid usable as a medium's density (docs/python.md)")
+      .def_static("from_numpy", &from_numpy, py::arg("density"), py::arg("voxel_size") = 1.0,
+                  py::arg("origin") = std::vector<double>{0, 0, 0}, py::arg("grid") = "density",
+                  "an OpenVDB grid of a 3-D float array (x, y, z), sparse where it is zero; voxel centres at origin + "
+                  "(i, j, k) * voxel_size")
+      .def_static("from_file", &from_file, py::arg("path"), py::arg("grid") = "density", "a grid of a .vdb or .nvdb file")
+      .def_property_readonly("file", [](const Volume& v) { return v.file; })
+      .def_property_readonly("grid", [](const Volume& v) { return v.grid; })
+      .def_property_readonly("shape", [](const Volume& v) { return v.shape; })
+      .def_property_readonly("active_voxels", [](const Volume& v) { return v.active_voxels; })
+      .def("__repr__", [](const Volume& v) { return fmt::format("<spectrack.Volume {} of {}>", v.grid, v.file); });
+}
+
+}  // namespace python
+}  // namespace spectrack

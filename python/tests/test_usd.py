@@ -1,0 +1,126 @@
+"""USD in: the real stages of ../shared/data/vdb (OpenUSD's and Arnold's test scenes) load with
+their volumes, camera and lights, and render; what is not mapped is named in a warning. Skipped,
+with the reason, when usd-core is not installed (scripts/test.sh installs it when it can)."""
+import math
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pxr", reason="usd-core is not installed (pip install usd-core): the USD tests need it")
+
+import spectrack  # noqa: E402
+from spectrack.usd import stage_to_dict  # noqa: E402
+from conftest import SHARED  # noqa: E402
+
+USD = SHARED / "usd"
+ARNOLD = SHARED / "arnold-usd"
+
+
+def test_openusd_vdb_volume_stage():
+    scene, warns = stage_to_dict(USD / "refs" / "vdbVolume.usda", search_paths=[str(USD)], width=64, spp=2)
+    (m,) = scene["media"]
+    assert m["file"].endswith("smoke_000002.vdb") and m["grid"] == "density"
+    assert m["transform"]["translate"] == pytest.approx([0, -4, 0])
+    assert m["transform"]["rotate_deg"] == pytest.approx([-90, 0, 0], abs=1e-9)
+    assert m["sigma_s"] == pytest.approx([0.2] * 3)  # the stage's constant albedo primvar
+    (sun,) = scene["lights"]
+    assert sun["type"] == "directional" and sun["to_light"] == pytest.approx([-1, 0, 0], abs=1e-9)
+    assert sun["irradiance"] == pytest.approx([16, 0, 0])  # color (1, 0, 0), exposure 4
+    cam = scene["camera"]
+    assert cam["position"] == pytest.approx([0, 0, 110]) and cam["look_at"] == pytest.approx([0, 0, 109])
+    assert cam["fov_deg"] == pytest.approx(math.degrees(2 * math.atan(0.5 * 15.2908 / 150)), rel=1e-5)
+    assert scene["film"]["height"] == round(64 * 15.2908 / 20.955)
+    assert any("Checkerboard: Mesh: not mapped" in w for w in warns)
+    assert any("fStop" in w for w in warns)
+    with warnings.catch_warnings(record=True):
+        warnings.simplefilter("always")
+        img = spectrack.load_usd(USD / "refs" / "vdbVolume.usda", search_paths=[str(USD)], width=64, spp=2).render()
+    assert img.rgb.shape == (47, 64, 3) and img.rgb[..., 0].max() > 0 and img.rgb[..., 1].max() == 0
+
+
+def test_time_samples_pick_the_frame():
+    stage = USD / "refs" / "vdbVolumeFallbackMaterial.usda"
+    files = {f: stage_to_dict(stage, frame=f, search_paths=[str(USD)])[0]["media"][0]["file"] for f in (1, 3)}
+    assert files[1] != files[3]
+
+
+def test_arnold_grids_by_index_with_dome_and_houdini_camera():
+    scene, warns = stage_to_dict(ARNOLD / "refs" / "test_2315" / "test.usda", search_paths=[str(ARNOLD)], width=48)
+    assert sorted(m["grid_index"] for m in scene["media"]) == [0, 1, 2]
+    assert {m["name"]: m["transform"]["translate"][2] for m in scene["media"]} == pytest.approx(
+        {"volume_0": 0, "volume_1": 1, "volume_2": 2})
+    assert scene["lights"] == [{"type": "environment", "radiance": [1.0, 1.0, 1.0]}]
+    assert scene["camera"]["type"] == "perspective" and any("clippingRange" in w for w in warns)
+    with warnings.catch_warnings(record=True):
+        warnings.simplefilter("always")
+        img = spectrack.load_usd(ARNOLD / "refs" / "test_2315" / "test.usda", search_paths=[str(ARNOLD)], width=48,
+                                 spp=2).render()
+    assert 0 < img.rgb.mean() < 1
+
+
+def test_instancer_is_named_and_assets_map_files():
+    stage = ARNOLD / "refs" / "test_0030" / "scene.usda"
+    with pytest.raises(ValueError, match="smoke.vdb@ not found"):
+        stage_to_dict(stage)
+    scene, warns = stage_to_dict(stage, assets={"./smoke.vdb": str(SHARED / "smoke1.vdb")})
+    assert scene["media"][0]["file"].endswith("smoke1.vdb")
+    assert any("PointInstancer: not mapped" in w for w in warns) and any("no camera" in w for w in warns)
+
+
+def test_usd2scene_writes_a_scene_the_cli_renders(spectrack_binary, tmp_path):
+    out = tmp_path / "scene.json"
+    r = subprocess.run([sys.executable, "-m", "spectrack.usd2scene", str(USD / "refs" / "vdbVolume.usda"), "-o", str(out),
+                        "--search-path", str(USD), "--width", "32", "--spp", "1"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "warning:" in r.stderr and "Mesh: not mapped" in r.stderr
+    subprocess.run([spectrack_binary, "render", str(out), "-o", str(tmp_path / "x.exr"), "-q"], check=True)
+    assert np.asarray(spectrack.read_exr(str(tmp_path / "x.exr"))["R"]).max() > 0
+
+
+def test_a_made_stage_maps_fields_dome_texture_and_warns_by_name(tmp_path):
+    from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdVol
+    env = tmp_path / "sky.png"
+    spectrack.load_dict({"format": "spectrack-scene/1", "film": {"width": 8, "height": 4, "spp": 1},
+                         "lights": [{"type": "environment", "radiance": [0.2, 0.4, 0.8]}]}).render().write(str(env))
+    stage = Usd.Stage.CreateNew(str(tmp_path / "made.usda"))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    vol = UsdVol.Volume.Define(stage, "/fire")
+    vol.AddTranslateOp().Set(Gf.Vec3d(1, 2, 3))
+    vol.AddScaleOp().Set(Gf.Vec3f(2, 2, 2))
+    for name, field in (("density", "density"), ("temperature", "heat"), ("vel", "v")):
+        asset = UsdVol.OpenVDBAsset.Define(stage, f"/fire/{name}")
+        asset.CreateFilePathAttr().Set(Sdf.AssetPath(str(USD / "densityAndHeat.vdb")))
+        asset.CreateFieldNameAttr().Set(field)
+        vol.CreateFieldRelationship(name, asset.GetPath())
+    dome = UsdLux.DomeLight.Define(stage, "/sky")
+    dome.CreateTextureFileAttr().Set(Sdf.AssetPath(str(env)))
+    dome.CreateIntensityAttr().Set(0.5)
+    dome.CreateExposureAttr().Set(1.0)
+    sun = UsdLux.DistantLight.Define(stage, "/sun")
+    sun.CreateAngleAttr().Set(0.53)
+    sun.AddRotateXOp().Set(-90.0)  # its +z turned to +y: it shines along -y
+    UsdLux.SphereLight.Define(stage, "/bulb")
+    cam = UsdGeom.Camera.Define(stage, "/cam")
+    cam.AddTranslateOp().Set(Gf.Vec3d(0, -30, 5))
+    cam.AddRotateXOp().Set(90.0)  # looking along +y, up +z
+    stage.GetRootLayer().Save()
+
+    scene, warns = stage_to_dict(tmp_path / "made.usda", width=32, temperature_scale=2600)
+    (m,) = scene["media"]
+    assert m["transform"]["scale"] == pytest.approx([2, 2, 2]) and m["transform"]["translate"] == pytest.approx([1, 2, 3])
+    assert m["emission"]["temperature_grid"] == "heat" and m["emission"]["temperature_scale"] == 2600
+    dome_l, sun_l = sorted(scene["lights"], key=lambda x: x["type"])[::-1]
+    assert dome_l == {"type": "environment", "map": str(env), "scale": pytest.approx(1.0)}
+    assert sun_l["to_light"] == pytest.approx([0, 1, 0], abs=1e-9)
+    assert sun_l["angle_deg"] == pytest.approx(0.53)
+    assert scene["camera"]["look_at"] == pytest.approx([0, -29, 5], abs=1e-9)
+    assert scene["camera"]["up"] == pytest.approx([0, 0, 1], abs=1e-9)
+    assert any("/bulb: SphereLight: not mapped" in w for w in warns)
+    assert any("/fire: field vel: velocity is not used" in w for w in warns)
+    with warnings.catch_warnings(record=True):
+        warnings.simplefilter("always")
+        img = spectrack.load_usd(tmp_path / "made.usda", width=32, spp=1, temperature_scale=2600).render()
+    assert img.rgb.max() > 0

@@ -1,0 +1,17 @@
+// render_stats.h: the statistics of a finished render as one JSON object: what `--stats-json`
+// writes and what the Python module's Image.stats holds (the one place that lists the keys).
+#pragma once
+#include <nlohmann/json.hpp>
+
+#include "image/image.h"
+#include "integrator/multi_device.h"
+
+namespace spectrack {
+
+// The counters (integrator/stats_json.h) with the samples, the settings the render ran, the devices,
+// the window, the timings (seconds_total and seconds_to_renderer count from the command's start),
+// the guiding cache and each VDB medium's majorant structure. `meta` may hold "time_limit" (a float).
+nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_total, double seconds_to_renderer,
+                                 int mpi_ranks, const Metadata& meta);
+
+}  // namespace spectrack
