@@ -215,7 +215,9 @@ enum st_feature {
   ST_FEATURE_AOV = 1 << 12,           /* film layers with per-path work: alpha, environment, the passes (st_scene.aovs) */
   ST_FEATURE_SPECTRAL = 1 << 13,      /* spectral mode: the lanes are wavelengths (st_film_color) */
   ST_FEATURE_GUIDING = 1 << 14,       /* volume path guiding: guided scatter directions, radiance records (guiding.h) */
-  ST_FEATURES_ALL = (1 << 15) - 1
+  ST_FEATURE_THIN_LENS = 1 << 21,     /* depth of field: the camera's lens radius is > 0 (raygen.cl camera_ray) */
+  ST_FEATURE_TIME = 1 << 22,          /* each path has a time in the shutter that something reads: camera motion */
+  ST_FEATURES_ALL = ((1 << 15) - 1) | ST_FEATURE_THIN_LENS | ST_FEATURE_TIME
 };
 
 /* Queues of the wavefront. Each stage reads the current buffer of its queue and pushes into the
@@ -336,14 +338,26 @@ typedef struct {
  * normalisations to float precision, the red end of the spectrum for luminance. */
 #define ST_BLACKBODY_T_FLOOR 100.0f
 
+/* The camera at shutter open. A thin lens (pbrt-v4's lensradius and focaldistance) moves each
+ * ray's origin to a point of the lens disc and aims it at the point its pinhole ray reaches at the
+ * focus distance along forward. A moving camera (camera motion) lerps position and look_at with
+ * the path's time in the shutter (queues.h path_shutter_u) and rebuilds the frame around up_world
+ * at that time. */
 typedef struct {
-  st_float4 position;
-  st_float4 forward; /* unit */
-  st_float4 right;   /* perspective: tan(fov/2) * unit right, scaled for the shorter side; ortho: half extent */
-  st_float4 up;      /* same for the up axis (image y grows downwards: pixel rows go along -up) */
-  st_int type;       /* st_camera_type */
+  st_float4 position; /* w: lens radius (world units; 0: pinhole) */
+  st_float4 forward;  /* unit; w: focus distance (world units along forward) */
+  st_float4 right;    /* perspective: tan(fov/2) * unit right, scaled for the shorter side; ortho: half extent */
+  st_float4 up;       /* same for the up axis (image y grows downwards: pixel rows go along -up) */
+  st_int type;        /* st_camera_type */
   st_int width, height;
-  st_int pad;
+  st_int moving;      /* 1: the camera moves during the shutter (the fields below) */
+  st_float4 position1; /* position at shutter close */
+  st_float4 look_at0;  /* xyz: look_at at shutter open; w: |right| (the scale of the unit right) */
+  st_float4 look_at1;  /* xyz: look_at at shutter close; w: |up| */
+  st_float4 up_world;  /* xyz: the camera's up as given; w: unused */
+  /* x, y: shutter open and close (seconds relative to the frame); z: the samples per pixel over
+   * which the paths' times are stratified (queues.h path_shutter_u); w: unused */
+  st_float4 shutter;
 } st_camera;
 
 typedef struct {
@@ -465,7 +479,7 @@ typedef struct {
 } st_iteration;
 
 #define ST_SIZEOF_MEDIUM 256
-#define ST_SIZEOF_CAMERA 80
+#define ST_SIZEOF_CAMERA 160
 #define ST_SIZEOF_LIGHT 96
 #define ST_SIZEOF_SCENE (ST_SIZEOF_CAMERA + ST_MAX_LIGHTS * ST_SIZEOF_LIGHT + ST_MAX_MEDIA * ST_SIZEOF_MEDIUM + 96)
 #define ST_SIZEOF_PATH 128

@@ -18,6 +18,7 @@
 #include "image/image.h"
 #include "scene/radiance.h"
 #include "volume/float_limits.h"
+#include "render/camera_pack.h"
 #include "render/media_bounds.h"
 #include "render/memory_budget.h"
 #include "scene/framing.h"
@@ -146,9 +147,6 @@ Vec3 normalize(Vec3 v) {
   double l = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
   return {v[0] / l, v[1] / l, v[2] / l};
 }
-Vec3 cross(const Vec3& a, const Vec3& b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
 
 bool achromatic(const Vec3& v) { return v[0] == v[1] && v[1] == v[2]; }
 
@@ -174,6 +172,7 @@ struct Packer {
   bool spectral = false;               // spectral mode (make_spectral follows): its bounds are checked too
   std::vector<Box3> media_boxes = {};  // world boxes, for the camera's framing
   Vec3 camera_position = {};          // as placed (framing included), in double
+  uint32_t camera_features = 0;       // st_feature bits of the lens and the shutter (render/camera_pack.h)
   // Each light's power up to the common factor pi r^2 of pbrt-v4's Light::Phi (r: the scene
   // radius): the mean over channels of the irradiance a directional light gives, or 4 pi times the
   // mean radiance of an environment over the sphere.
@@ -194,7 +193,7 @@ struct Packer {
   double add_env_cdf(st_light& l);
   void set_light_selection(int light_sampling);
   int resolve_light_sampling(int requested) const;
-  void set_camera();
+  void set_camera(const RenderSettings& s);
   uint32_t scene_features() const;
 };
 
@@ -607,23 +606,10 @@ double Packer::add_env_cdf(st_light& l) {
   return mean_radiance;
 }
 
-void Packer::set_camera() {
+void Packer::set_camera(const RenderSettings& s) {
   const CameraDesc c = frame_camera(scene.camera, scene.film.width, scene.film.height, media_boxes, scene.path + ": /camera");
   camera_position = c.position;
-  st_camera& cam = st.camera;
-  cam.type = c.type;
-  cam.width = scene.film.width;
-  cam.height = scene.film.height;
-  Vec3 fwd = normalize({c.look_at[0] - c.position[0], c.look_at[1] - c.position[1], c.look_at[2] - c.position[2]});
-  Vec3 right = normalize(cross(fwd, c.up));
-  Vec3 up = cross(right, fwd);
-  double shorter = std::min(cam.width, cam.height);
-  double half = c.type == ST_CAMERA_ORTHOGRAPHIC ? 0.5 * c.height : std::tan(0.5 * c.fov_deg * M_PI / 180.0);
-  double sx = half * cam.width / shorter, sy = half * cam.height / shorter;
-  cam.position = f4(c.position);
-  cam.forward = f4(fwd);
-  cam.right = f4(right[0] * sx, right[1] * sx, right[2] * sx);
-  cam.up = f4(up[0] * sy, up[1] * sy, up[2] * sy);
+  camera_features = pack_camera(c, scene.film.width, scene.film.height, s, st.camera, scene.path + ": /camera");
 }
 
 uint32_t Packer::scene_features() const {
@@ -650,7 +636,7 @@ uint32_t Packer::scene_features() const {
   if (st.tracker == ST_TRACKER_SPECTRAL_MIS) f |= ST_FEATURE_SPECTRAL_MIS;
   if (st.lookup == ST_LOOKUP_STOCHASTIC && (f & ST_FEATURE_VDB)) f |= ST_FEATURE_STOCHASTIC_LOOKUP;
   if (st.result_layers > 1) f |= ST_FEATURE_AOV;
-  return f;
+  return f | camera_features;
 }
 
 }  // namespace
@@ -672,7 +658,7 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
   for (int i = 0; i < st.n_lights; ++i) pk.add_light(i, scene.lights[i]);
   const int light_sampling = pk.resolve_light_sampling(s.light_sampling);
   pk.set_light_selection(light_sampling);
-  pk.set_camera();
+  pk.set_camera(s);
   check_coordinates(scene, st, pk.media_boxes, pk.camera_position);  // volume/float_limits.h
   st.tracker = s.tracker;
   st.scheme = s.scheme;
