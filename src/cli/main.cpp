@@ -36,6 +36,7 @@
 #include "cli/options.h"
 #include "cl/opencl.h"
 #include "cli/info.h"
+#include "render/sequence_camera.h"
 #include "cli/progress.h"
 #include "cli/render_outputs.h"
 #include "cli/run_control.h"
@@ -74,7 +75,7 @@ int cmd_devices() {
 
 struct RenderArgs {
   std::string scene, output, stats_json, preview, device, tracker, scheme, absorption, light_sampling, transmittance,
-      lookup, spp_range, pixel_bounds, frames, aov, compression, guiding;
+      lookup, spp_range, pixel_bounds, frames, aov, compression, guiding, shutter;
   bool alpha = false, no_alpha = false, half = false, spectral = false;
   double march_spacing = 0, pilot_spacing = 0;  // 0: not given
   int spp = -1;
@@ -88,6 +89,7 @@ struct RenderArgs {
   int batches_in_flight = 0;
   int shadow_ring = 0;
   uint32_t feature_floor = 0;  // RenderOptions::feature_floor (frame sequences)
+  std::optional<long long> frame;  // the frame a sequence renders (EXR metadata spectrack:frame)
   double time_limit = 0;
   bool generic_kernels = false;
   bool quiet = false;
@@ -161,6 +163,11 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
     int64_t b = 0;
     check_spp_range(a.spp_range, &opt.sample_begin, &b);  // checked by CLI11 already
     opt.spp = int(b - opt.sample_begin);
+  }
+  if (!a.shutter.empty()) {
+    std::array<double, 2> shutter{};
+    check_shutter(a.shutter, &shutter);  // checked by CLI11 already
+    opt.shutter = shutter;
   }
   if (!a.pixel_bounds.empty()) {
     std::array<int, 4> bounds;
@@ -294,6 +301,7 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   const bool signalled = stop_flag()->load();
   if (!root) return signalled || (r.piece.interrupted && !r.time_limit_reached) ? kExitInterrupted : 0;
   if (r.piece.samples() > 0) r.piece.id.scene_hash = hash.get();
+  if (a.frame) r.piece.id.frame = std::to_string(*a.frame);
   const RenderOutputs out{output, a.preview, a.stats_json, exr_options(a.half, a.compression, scene.film), a.quiet, a.mpi};
   const RenderTimes times{std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), seconds_to_renderer};
   return finish_render(out, scene, r, times, mpi.size, time_limit, signalled);
@@ -326,13 +334,18 @@ int cmd_render(const RenderArgs& a, MpiArg& mpi) {
                             "every frame would overwrite it", a.frames, output));
   set_phase("the frames' file checks");
   check_frame_files(scene, first, last);
+  // one camera for the whole sequence: framing from every frame's boxes (render/sequence_camera.h)
+  set_phase("the sequence's framing");
+  const CameraDesc camera = sequence_camera(scene, first, last, a.quiet || mpi.rank != 0).camera;
   for (long long f = first; f <= last; ++f) {
     SceneDesc frame = scene;
+    frame.camera = camera;
     for (MediumDesc& m : frame.media) m.file = expand_frame(m.file, f);
     RenderArgs fa = a;
     // the majorant hierarchy is compiled in for every frame (an empty frame has none), so that the
     // frames share one kernel build
     if (a.majorant_block > 1) fa.feature_floor = ST_FEATURE_COARSE_MAJORANT;
+    fa.frame = f;
     fa.preview = expand_frame(a.preview, f);
     fa.stats_json = expand_frame(a.stats_json, f);
     if (!a.quiet && mpi.rank == 0) std::cerr << fmt::format("frame {} ({} of {})\n", f, f - first + 1, last - first + 1);
@@ -359,6 +372,15 @@ CLI::App* add_render_command(CLI::App& app, RenderArgs& ra) {
           },
           "A:B"))
       ->excludes(o_spp);
+  render->add_option("--shutter", ra.shutter,
+                     "the shutter's open and close in seconds relative to the frame (overrides camera.shutter): each "
+                     "sample's time is drawn in it")
+      ->check(CLI::Validator(
+          [](std::string& v) {
+            std::array<double, 2> s{};
+            return check_shutter(v, &s);
+          },
+          "OPEN:CLOSE"));
   render->add_option("--pixel-bounds", ra.pixel_bounds,
                      "render only pixels x0..x1-1, y0..y1-1 of the film (a tile; merge with `spectrack merge`)")
       ->check(CLI::Validator(
@@ -482,6 +504,15 @@ int main(int argc, char** argv) {
   auto* info = app.add_subcommand("info", "print the grids of VDB/NanoVDB files and the media, lights and camera of scenes");
   info->add_option("files", info_files, "volume (.vdb, .nvdb) or scene (.json) files")->required()->expected(1, -1);
   info->add_flag("--json", info_json, "one JSON document instead of tables");
+  std::string info_frames;
+  info->add_option("--frames", info_frames,
+                   "frames A..B of frame patterns ('#' runs or $F<N>) in volume names and in scenes' media files")
+      ->check(CLI::Validator(
+          [](std::string& v) {
+            long long a = 0, b = 0;
+            return check_frames(v, &a, &b);
+          },
+          "A:B"));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -491,7 +522,15 @@ int main(int argc, char** argv) {
   try {
     if (app.got_subcommand("devices")) return cmd_devices();
     if (app.got_subcommand("merge")) return cmd_merge(ma);
-    if (app.got_subcommand("info")) return cmd_info(info_files, info_json);
+    if (app.got_subcommand("info")) {
+      std::optional<std::array<long long, 2>> frames;
+      if (!info_frames.empty()) {
+        std::array<long long, 2> ab{};
+        check_frames(info_frames, &ab[0], &ab[1]);  // checked by CLI11 already
+        frames = ab;
+      }
+      return cmd_info(info_files, info_json, frames);
+    }
     if (ra.mpi) {
 #ifdef SPECTRACK_HAVE_MPI
       mpi.world = mpi_start(&argc, &argv);
