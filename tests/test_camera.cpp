@@ -211,6 +211,19 @@ TEST(Shutter, MovingCameraAveragesTheEdgeOverTheShutter) {
   EXPECT_LT(e.worst_z, 4.0);
   EXPECT_NEAR(e.moved.mean, a / 2, 4 * e.moved.se);
   EXPECT_GT(std::abs(e.moved.mean - 1.03 * a / 2), 4 * e.moved.se) << "a 3% error must be detectable";
+  // the times are stratified over the pixel's samples: in the ramp a pixel's value varies over
+  // the rows far less than the binomial p (1 - p) / spp of independent times (only the strata
+  // the pixel's jitter reaches, 1/8 of the shutter here, are random)
+  double ratio = 0;
+  int n = 0;
+  for (int x = r.width / 2 - 3; x < r.width / 2 + 3; ++x) {
+    std::vector<double> col;
+    for (int y = 0; y < r.height; ++y) col.push_back(r.rgb[(size_t(y) * r.width + x) * 3]);
+    const Stats st = mean_se(col);
+    const double p = pixel_mean(x, [a](double X) { return std::clamp((X + a) / (2 * a), 0.0, 1.0); });
+    ratio += st.se * st.se * r.height / (p * (1 - p) / r.spp_done), ++n;
+  }
+  EXPECT_LT(ratio / n, 0.3) << "the sample times are not stratified";
   // without a shutter the camera stays where it opens: the sharp step at X = -a
   json still = s;
   still["camera"].erase("shutter");
