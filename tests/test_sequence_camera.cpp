@@ -2,7 +2,6 @@
 // framing from every frame's boxes, an empty frame warned by name and rendered with that camera,
 // `spectrack info --frames`, and the frame number and shutter in the EXR metadata (merge refuses
 // pieces of other frames).
-#include <variant>
 
 #include "cli_util.h"
 #include "image/image.h"
@@ -28,14 +27,6 @@ json framed_sequence(const std::string& pattern) {
   json s = vdb_scene(pattern);
   s["camera"] = {{"type", "perspective"}, {"position", "auto"}, {"up", {0, 1, 0}}, {"fov_deg", 40}};
   return s;
-}
-
-std::string meta_string(const spectrack::RgbImage& img, const std::string& key) {
-  auto it = img.meta.find(key);
-  if (it == img.meta.end()) return "<missing>";
-  if (auto s = std::get_if<std::string>(&it->second)) return *s;
-  if (auto i = std::get_if<int>(&it->second)) return std::to_string(*i);
-  return std::to_string(std::get<float>(it->second));
 }
 
 // The sequence's camera frames both cubes (aimed at the centre of their union), and an empty

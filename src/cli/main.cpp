@@ -357,6 +357,16 @@ int cmd_render(const RenderArgs& a, MpiArg& mpi) {
   return 0;
 }
 
+// The check of a --frames A:B value (render and info).
+CLI::Validator frames_check() {
+  return CLI::Validator(
+      [](std::string& v) {
+        long long a = 0, b = 0;
+        return check_frames(v, &a, &b);
+      },
+      "A:B");
+}
+
 // The `render` subcommand's arguments and flags.
 CLI::App* add_render_command(CLI::App& app, RenderArgs& ra) {
   auto* render = app.add_subcommand("render", "render a scene file to EXR or PNG");
@@ -392,12 +402,7 @@ CLI::App* add_render_command(CLI::App& app, RenderArgs& ra) {
   render->add_option("--frames", ra.frames,
                      "render frames A..B of a sequence: '#' runs or $F<N> in the media's file, the output, preview and "
                      "stats names become the frame number")
-      ->check(CLI::Validator(
-          [](std::string& v) {
-            long long a = 0, b = 0;
-            return check_frames(v, &a, &b);
-          },
-          "A:B"));
+      ->check(frames_check());
   render->add_option("--seed", ra.seed, "random seed (overrides render.seed)")->check(integer_in(0, 4294967295LL));
   render->add_option("--tracker", ra.tracker, "tracker: " + tracker_names())->check(one_of("tracker", tracker_name_list()));
   render->add_option("--scheme", ra.scheme, "spectral scheme (spectral trackers only): " + scheme_names())
@@ -507,12 +512,7 @@ int main(int argc, char** argv) {
   std::string info_frames;
   info->add_option("--frames", info_frames,
                    "frames A..B of frame patterns ('#' runs or $F<N>) in volume names and in scenes' media files")
-      ->check(CLI::Validator(
-          [](std::string& v) {
-            long long a = 0, b = 0;
-            return check_frames(v, &a, &b);
-          },
-          "A:B"));
+      ->check(frames_check());
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
