@@ -3,6 +3,18 @@
  * slot it lands in never changes the image. The launch covers the n_new slots it fills, the top
  * of the free stack (queues.h: places n_free - n_new .. n_free - 1); the free slots below them are
  * not touched and stay free. */
+#include "types.h"
+#include "features.h"
+#include "rng.h"
+#include "spectrum.h"
+#include "medium.h"
+#include "majorant.h"
+#include "walker.h"
+#include "tracking.h"
+#include "transmittance.h"
+#include "queues.h"
+#include "sampling.h"
+
 
 /* The camera ray's first collision for the albedo and depth layers (types.h ST_AOVS): a delta-tracking
  * free flight whose collision density is sigma_t T with sigma_t the mean over the lanes (channels or wavelengths) of the
@@ -97,7 +109,12 @@ inline void camera_layers_begin(__constant const st_scene* scene, __global const
   r[ST_RESULT_ALPHA] = alpha;
 }
 
-/* The camera's frame at the path's time: its own at shutter open, or, for a moving camera
+/* The camera (types.h st_camera) is given at shutter open. A thin lens (pbrt-v4's lensradius and
+ * focaldistance) moves each ray's origin to a point of the lens disc and aims it at the point its
+ * pinhole ray reaches at the focus distance along forward; a moving camera lerps position and
+ * look_at with the path's time in the shutter (queues.h path_shutter_u).
+ *
+ * The camera's frame at the path's time: its own at shutter open, or, for a moving camera
  * (st_camera.moving), position and look_at lerped to the time and the frame rebuilt around the
  * given up with the same scales (|right|, |up|) as at open. */
 inline void camera_frame(__constant const st_camera* cam, const st_path* p, __constant const st_scene* scene,

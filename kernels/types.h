@@ -76,7 +76,7 @@ enum st_absorption { ST_ABSORPTIONS(ST_X_ABSORPTION_ENUM) ST_ABSORPTION_COUNT };
 #define ST_X_LIGHT_SAMPLING_ENUM(E, name) ST_LIGHT_SAMPLING_##E,
 enum st_light_sampling { ST_LIGHT_SAMPLINGS(ST_X_LIGHT_SAMPLING_ENUM) ST_LIGHT_SAMPLING_COUNT };
 
-/* The transmittance estimator of shadow rays (and of every other transmittance; tracking.h):
+/* The transmittance estimator of shadow rays (and of every other transmittance; transmittance.h):
  * X(ENUM suffix, name).
  *   ratio:        (residual) ratio tracking, one lookup per tentative collision;
  *   ray-marching: the unbiased ray-marching estimator of Kettunen et al. 2021 (docs/transmittance.md):
@@ -323,7 +323,7 @@ typedef struct {
   st_uint blackbody_offset;
   /* spectral mode: 1 when sigma_a, sigma_s and Le hold spectra, not rgb: the sigmoid coefficients
    * (c0, c1, c2, scale) of kernels/spectrum.h, Le's times CIE D65 (an illuminant); the majorants
-   * take the extinction at the path's wavelengths (majorant.h st_walker) */
+   * take the extinction at the path's wavelengths (walker.h st_walker) */
   st_int spectral;
   /* spectral mode, blackbody emission (0 otherwise, and in rgb mode): Le = scale times the film's
    * emission scale (src/color/spectrum.h film_emission_scale) in lanes xyz, and the spectrum is
@@ -338,26 +338,16 @@ typedef struct {
  * normalisations to float precision, the red end of the spectrum for luminance. */
 #define ST_BLACKBODY_T_FLOOR 100.0f
 
-/* The camera at shutter open. A thin lens (pbrt-v4's lensradius and focaldistance) moves each
- * ray's origin to a point of the lens disc and aims it at the point its pinhole ray reaches at the
- * focus distance along forward. A moving camera (camera motion) lerps position and look_at with
- * the path's time in the shutter (queues.h path_shutter_u) and rebuilds the frame around up_world
- * at that time. */
 typedef struct {
-  st_float4 position; /* w: lens radius (world units; 0: pinhole) */
+  st_float4 position; /* w: lens radius (world units; 0: pinhole; raygen.cl camera_ray) */
   st_float4 forward;  /* unit; w: focus distance (world units along forward) */
   st_float4 right;    /* perspective: tan(fov/2) * unit right, scaled for the shorter side; ortho: half extent */
   st_float4 up;       /* same for the up axis (image y grows downwards: pixel rows go along -up) */
   st_int type;        /* st_camera_type */
   st_int width, height;
-  st_int moving;      /* 1: the camera moves during the shutter (the fields below) */
-  st_float4 position1; /* position at shutter close */
-  st_float4 look_at0;  /* xyz: look_at at shutter open; w: |right| (the scale of the unit right) */
-  st_float4 look_at1;  /* xyz: look_at at shutter close; w: |up| */
-  st_float4 up_world;  /* xyz: the camera's up as given; w: unused */
-  /* x, y: shutter open and close (seconds relative to the frame); z: the samples per pixel over
-   * which the paths' times are stratified (queues.h path_shutter_u); w: unused */
-  st_float4 shutter;
+  st_int moving;      /* 1: the camera moves during the shutter (raygen.cl camera_frame) */
+  st_float4 position1, look_at0, look_at1; /* motion: position at close; look_at at open, close (w: |right|, |up|) */
+  st_float4 up_world, shutter; /* motion: the up as given; x, y: shutter open, close (s), z: time strata (queues.h) */
 } st_camera;
 
 typedef struct {
@@ -432,7 +422,7 @@ typedef struct {
                        * (queues.h path_wavelengths) and read by every later kernel; rgb: 0 */
 } st_path;
 
-/* A transmittance estimate in progress, resumable across launches (tracking.h). Ratio tracking
+/* A transmittance estimate in progress, resumable across launches (transmittance.h). Ratio tracking
  * uses T only; ray marching (docs/transmittance.md) walks the ray once for the pilot and the
  * first estimate together (pass 0) and once more for each further term of the series. */
 typedef struct {

@@ -5,7 +5,7 @@
 
 #include "cli_util.h"
 #include "image/image.h"
-#include "render/sequence_camera.h"
+#include "scene/sequence_camera.h"
 #include "scene/framing.h"
 
 namespace {

@@ -1,5 +1,6 @@
 // options.cpp: see options.h.
 #include "cli/options.h"
+#include "util/strings.h"
 
 #include <fmt/format.h>
 
@@ -124,6 +125,15 @@ CLI::Validator one_of(const std::string& what, const std::vector<std::string>& n
       "NAME");
 }
 
+CLI::Validator frames_check() {
+  return CLI::Validator(
+      [](std::string& v) {
+        long long a = 0, b = 0;
+        return check_frames(v, &a, &b);
+      },
+      "A:B");
+}
+
 CLI::Validator finite_range(double lo, double hi) {
   return CLI::Validator(
       [lo, hi](std::string& s) -> std::string {
@@ -139,8 +149,7 @@ CLI::Validator finite_range(double lo, double hi) {
 CLI::Validator png_file() {
   return CLI::Validator(
       [](std::string& v) {
-        std::string e = std::filesystem::path(v).extension().string();
-        std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+        std::string e = lower_extension(v);
         return e == ".png" ? std::string() : "a preview is a PNG file (FILE.png), got '" + v + "'";
       },
       "FILE.png");

@@ -33,6 +33,8 @@ constexpr long long kMaxFrames = 1000000;
 constexpr long long kMaxFrameNumber = 999999999;
 // "A:B" with -10^9 < A <= B < 10^9 and B - A + 1 <= kMaxFrames (--frames).
 std::string check_frames(const std::string& text, long long* a, long long* b);
+// The CLI11 check of a --frames A:B value (render and info).
+CLI::Validator frames_check();
 
 // The value is one of `names`.
 CLI::Validator one_of(const std::string& what, const std::vector<std::string>& names);
