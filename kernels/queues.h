@@ -102,6 +102,23 @@ inline float4 path_wavelengths(__constant const st_scene* scene, const st_path* 
   return sample_wavelengths(rng_uniform(&r), 4);
 }
 
+/* The time of sample (pixel, sample) in the shutter, as a fraction u in [0, 1) of it (the time
+ * is open + u (close - open), st_camera.shutter): the pixel's N samples (shutter.z) are
+ * stratified, sample s in stratum s mod N with a uniform offset inside it, and the strata are
+ * rotated by a uniform per pixel (Cranley-Patterson), so every sample's u is uniform on its own and
+ * a pixel's N samples cover the shutter evenly. Draws 0 and 1 of the stream ST_STREAM_TIME of
+ * (pixel, sample) and of (pixel, 0) on channel 0: the time depends only on the seed, pixel and
+ * sample, so the paths of a per-channel tracker's sample share it and shards merge exactly. */
+inline float path_shutter_u(__constant const st_scene* scene, uint pixel, uint sample) {
+  const uint N = (uint)scene->camera.shutter.z;
+  st_rng r = rng_make(scene->seed, pixel, sample, 0u, ST_STREAM_TIME, 0u);
+  const float xi = rng_uniform(&r);
+  st_rng r0 = rng_make(scene->seed, pixel, 0u, 0u, ST_STREAM_TIME, 1u);
+  const float rotation = rng_uniform(&r0);
+  const float u = ((float)(sample % N) + xi) / (float)N + rotation;
+  return fmin(u - floor(u), 0x1.fffffep-1f);
+}
+
 /* The lanes a path carries: its own lane for a per-channel tracker, else every lane of the scene. */
 inline float4 path_mask(__constant const st_scene* scene, const st_path* p) {
   return scene->n_channels_per_sample > 1 ? one_hot((int)p->channel) : scene_lanes(scene);

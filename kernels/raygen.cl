@@ -13,6 +13,7 @@
 #include "tracking.h"
 #include "transmittance.h"
 #include "queues.h"
+#include "sampling.h"
 
 
 /* The camera ray's first collision for the albedo and depth layers (types.h ST_AOVS): a delta-tracking
@@ -108,6 +109,65 @@ inline void camera_layers_begin(__constant const st_scene* scene, __global const
   r[ST_RESULT_ALPHA] = alpha;
 }
 
+/* The camera (types.h st_camera) is given at shutter open. A thin lens (pbrt-v4's lensradius and
+ * focaldistance) moves each ray's origin to a point of the lens disc and aims it at the point its
+ * pinhole ray reaches at the focus distance along forward; a moving camera lerps position and
+ * look_at with the path's time in the shutter (queues.h path_shutter_u).
+ *
+ * The camera's frame at the path's time: its own at shutter open, or, for a moving camera
+ * (st_camera.moving), position and look_at lerped to the time and the frame rebuilt around the
+ * given up with the same scales (|right|, |up|) as at open. */
+inline void camera_frame(__constant const st_camera* cam, const st_path* p, __constant const st_scene* scene,
+                         float3* position, float3* forward, float3* right, float3* up) {
+  *position = cam->position.xyz;
+  *forward = cam->forward.xyz;
+  *right = cam->right.xyz;
+  *up = cam->up.xyz;
+  if (ST_HAS_TIME && cam->moving) {
+    const float u = path_shutter_u(scene, p->pixel, p->sample);
+    *position = mix(cam->position.xyz, cam->position1.xyz, u);
+    const float3 f = normalize(mix(cam->look_at0.xyz, cam->look_at1.xyz, u) - *position);
+    const float3 r = normalize(cross(f, cam->up_world.xyz));
+    *forward = f;
+    *right = cam->look_at0.w * r;
+    *up = cam->look_at1.w * cross(r, f);
+  }
+}
+
+/* The camera ray through film point (x + jx, y + jy). A pinhole's (lens radius 0) starts at the
+ * camera position (perspective) or on the camera plane (orthographic); a thin lens (pbrt-v4's
+ * PerspectiveCamera and OrthographicCamera) moves its origin by a uniform point of the lens disc,
+ * in the frame's unit right and up, and aims it at the point the pinhole ray reaches at the focus
+ * distance along forward, which therefore stays sharp; the lens point comes from the path's
+ * stream ST_STREAM_LENS, so the path's own stream is that of the pinhole. */
+inline void camera_ray(__constant const st_scene* scene, const st_path* p, int x, int y, float jx, float jy,
+                       float3* o, float3* d) {
+  __constant const st_camera* cam = &scene->camera;
+  float sx = 2.0f * ((float)x + jx) / (float)cam->width - 1.0f;
+  float sy = 1.0f - 2.0f * ((float)y + jy) / (float)cam->height;
+  float3 position, forward, right, up;
+  camera_frame(cam, p, scene, &position, &forward, &right, &up);
+  float3 pinhole_d; /* along forward, with a forward component of 1 */
+  if (cam->type == ST_CAMERA_ORTHOGRAPHIC) {
+    *o = position + sx * right + sy * up;
+    pinhole_d = forward;
+    *d = forward;
+  } else {
+    *o = position;
+    pinhole_d = forward + sx * right + sy * up;
+    *d = normalize(pinhole_d);
+  }
+  const float lens_radius = cam->position.w;
+  if (ST_HAS_THIN_LENS && lens_radius > 0.0f) {
+    st_rng lr = path_rng(scene, p, ST_STREAM_LENS, 0u);
+    const float u1 = rng_uniform(&lr), u2 = rng_uniform(&lr);
+    const float2 l = lens_radius * sample_concentric_disk(u1, u2);
+    const float3 focus = *o + cam->forward.w * pinhole_d;
+    *o += l.x * normalize(right) + l.y * normalize(up);
+    *d = normalize(focus - *o);
+  }
+}
+
 __kernel void k_raygen(ST_STAGE_ARGS) {
   const uint cur = it.cur, n_new = it.n_new;
   uint gid = get_global_id(0);
@@ -135,17 +195,8 @@ __kernel void k_raygen(ST_STAGE_ARGS) {
   st_rng rng = path_rng(scene, &p, 0u, 0u);
   float jx = rng_uniform(&rng), jy = rng_uniform(&rng);
 
-  __constant const st_camera* cam = &scene->camera;
-  float sx = 2.0f * ((float)x + jx) / (float)cam->width - 1.0f;
-  float sy = 1.0f - 2.0f * ((float)y + jy) / (float)cam->height;
   float3 o, d;
-  if (cam->type == ST_CAMERA_ORTHOGRAPHIC) {
-    o = cam->position.xyz + sx * cam->right.xyz + sy * cam->up.xyz;
-    d = cam->forward.xyz;
-  } else {
-    o = cam->position.xyz;
-    d = normalize(cam->forward.xyz + sx * cam->right.xyz + sy * cam->up.xyz);
-  }
+  camera_ray(scene, &p, x, y, jx, jy, &o, &d);
   p.o = (float4)(o, 0.0f);
   p.d = (float4)(d, 0.0f);
   /* spectral-mis: the hero channel, uniform (the one-sample MIS's choice of technique, tracking.h) */

@@ -45,6 +45,22 @@ inline float3 sample_uniform_sphere(float u1, float u2) {
   return (float3)(r * cos(phi), r * sin(phi), z);
 }
 
+/* A uniform point of the unit disc from two uniforms (Shirley and Chiu's concentric map, as
+ * pbrt-v4's SampleUniformDiskConcentric): strata of the square stay compact on the disc. */
+inline float2 sample_concentric_disk(float u1, float u2) {
+  const float a = 2.0f * u1 - 1.0f, b = 2.0f * u2 - 1.0f;
+  if (a == 0.0f && b == 0.0f) return (float2)(0.0f);
+  float r, theta;
+  if (fabs(a) > fabs(b)) {
+    r = a;
+    theta = 0.25f * ST_PI * (b / a);
+  } else {
+    r = b;
+    theta = 0.5f * ST_PI - 0.25f * ST_PI * (a / b);
+  }
+  return r * (float2)(cos(theta), sin(theta));
+}
+
 /* The direction at polar angle (cos_theta, sin_theta) and azimuth 2 pi u around a unit axis. */
 inline float3 direction_around(float3 axis, float cos_theta, float sin_theta, float u) {
   float s = sin_theta;

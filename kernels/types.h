@@ -215,7 +215,9 @@ enum st_feature {
   ST_FEATURE_AOV = 1 << 12,           /* film layers with per-path work: alpha, environment, the passes (st_scene.aovs) */
   ST_FEATURE_SPECTRAL = 1 << 13,      /* spectral mode: the lanes are wavelengths (st_film_color) */
   ST_FEATURE_GUIDING = 1 << 14,       /* volume path guiding: guided scatter directions, radiance records (guiding.h) */
-  ST_FEATURES_ALL = (1 << 15) - 1
+  ST_FEATURE_THIN_LENS = 1 << 21,     /* depth of field: the camera's lens radius is > 0 (raygen.cl camera_ray) */
+  ST_FEATURE_TIME = 1 << 22,          /* each path has a time in the shutter that something reads: camera motion */
+  ST_FEATURES_ALL = ((1 << 15) - 1) | ST_FEATURE_THIN_LENS | ST_FEATURE_TIME
 };
 
 /* Queues of the wavefront. Each stage reads the current buffer of its queue and pushes into the
@@ -337,13 +339,15 @@ typedef struct {
 #define ST_BLACKBODY_T_FLOOR 100.0f
 
 typedef struct {
-  st_float4 position;
-  st_float4 forward; /* unit */
-  st_float4 right;   /* perspective: tan(fov/2) * unit right, scaled for the shorter side; ortho: half extent */
-  st_float4 up;      /* same for the up axis (image y grows downwards: pixel rows go along -up) */
-  st_int type;       /* st_camera_type */
+  st_float4 position; /* w: lens radius (world units; 0: pinhole; raygen.cl camera_ray) */
+  st_float4 forward;  /* unit; w: focus distance (world units along forward) */
+  st_float4 right;    /* perspective: tan(fov/2) * unit right, scaled for the shorter side; ortho: half extent */
+  st_float4 up;       /* same for the up axis (image y grows downwards: pixel rows go along -up) */
+  st_int type;        /* st_camera_type */
   st_int width, height;
-  st_int pad;
+  st_int moving;      /* 1: the camera moves during the shutter (raygen.cl camera_frame) */
+  st_float4 position1, look_at0, look_at1; /* motion: position at close; look_at at open, close (w: |right|, |up|) */
+  st_float4 up_world, shutter; /* motion: the up as given; x, y: shutter open, close (s), z: time strata (queues.h) */
 } st_camera;
 
 typedef struct {
@@ -465,7 +469,7 @@ typedef struct {
 } st_iteration;
 
 #define ST_SIZEOF_MEDIUM 256
-#define ST_SIZEOF_CAMERA 80
+#define ST_SIZEOF_CAMERA 160
 #define ST_SIZEOF_LIGHT 96
 #define ST_SIZEOF_SCENE (ST_SIZEOF_CAMERA + ST_MAX_LIGHTS * ST_SIZEOF_LIGHT + ST_MAX_MEDIA * ST_SIZEOF_MEDIUM + 96)
 #define ST_SIZEOF_PATH 128

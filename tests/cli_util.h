@@ -18,12 +18,14 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <variant>
 #include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "image/image.h"
 #include "test_util.h"
 
 #ifndef SPECTRACK_BINARY
@@ -240,6 +242,15 @@ inline std::string small_vdb(const std::string& dir) {
   std::string path = dir + "/small.vdb";
   st_test::write_vdb(path, "density", openvdb::Coord(-4), openvdb::Coord(4), [](int, int, int) { return 0.5f; }, 0.2);
   return path;
+}
+
+// A spectrack:* metadata value of an EXR read back, as text ("<missing>" when absent).
+inline std::string meta_string(const spectrack::RgbImage& img, const std::string& key) {
+  auto it = img.meta.find(key);
+  if (it == img.meta.end()) return "<missing>";
+  if (auto s = std::get_if<std::string>(&it->second)) return *s;
+  if (auto i = std::get_if<int>(&it->second)) return std::to_string(*i);
+  return std::to_string(std::get<float>(it->second));
 }
 
 // Checks that `p` failed as a user-facing error: exit code 1, no signal, in time.

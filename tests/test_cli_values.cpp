@@ -1,6 +1,6 @@
 // test_cli_values.cpp: the command line's values end in a clear refusal, never a wrapped or
 // silently ignored value: integers that would wrap or be read as octal or hex, --pixel-bounds
-// past 2^32, --frames past the frame limit, an empty --device, --half with a PNG; and frame
+// past 2^32, --frames past the frame limit, --shutter values that are not finite or close before open, an empty --device, --half with a PNG; and frame
 // sequences: a homogeneous medium beside a VDB sequence, a symlink loop and a NUL in a path.
 //
 // Design: every case runs the real binary (cli_util.h) and checks the exit code (2 for the
@@ -58,6 +58,16 @@ TEST_F(CliValues, SppRangeValuesAreReadStrictly) {
   expect_usage({"--spp-range", "0:4294967297"}, {"--spp-range", "B", "outside"});
   expect_usage({"--spp-range", "0:0x10"}, {"--spp-range", "decimal"});
   expect_usage({"--spp-range", "0:16777217"}, {"--spp-range", "16777217 samples"});
+}
+
+TEST_F(CliValues, ShutterValuesAreReadStrictly) {
+  expect_usage({"--shutter", "0.02:0"}, {"--shutter", "CLOSE is before OPEN"});
+  expect_usage({"--shutter", "0:nan"}, {"--shutter", "'nan' is not a finite number"});
+  expect_usage({"--shutter", "0:1e999"}, {"--shutter", "not a finite number"});
+  expect_usage({"--shutter", "0"}, {"--shutter", "OPEN:CLOSE"});
+  expect_usage({"--shutter", ":1"}, {"--shutter", "'' is not a finite number"});
+  Proc ok = render({"--shutter", "-0.01:0.01"});
+  EXPECT_TRUE(ok.exited && ok.code == 0) << ok.describe();
 }
 
 TEST_F(CliValues, FramesPastTheLimitSaySo) {

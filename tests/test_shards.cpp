@@ -46,14 +46,6 @@ std::string shard_scene(const std::string& dir, const std::string& name = "scene
 // spectrack EXRs, tiles included (an environment map must be a whole image, a film piece need not)
 spectrack::RgbImage read(const std::string& path) { return spectrack::read_image(path, spectrack::ImageUse::kFilmPiece); }
 
-std::string meta_string(const spectrack::RgbImage& img, const std::string& key) {
-  auto it = img.meta.find(key);
-  if (it == img.meta.end()) return "<missing>";
-  if (auto s = std::get_if<std::string>(&it->second)) return *s;
-  if (auto i = std::get_if<int>(&it->second)) return std::to_string(*i);
-  return std::to_string(std::get<float>(it->second));
-}
-
 // Pixels of `a` (whose window may be a tile) that differ from the same pixels of the full image
 // `full` by more than `rel` of the pixel value; `worst` gets the largest relative difference.
 int count_differing(const spectrack::RgbImage& a, const spectrack::RgbImage& full, double rel, double* worst = nullptr) {

@@ -10,7 +10,9 @@
 #include <filesystem>
 #include <iostream>
 
+#include "scene/frames.h"
 #include "scene/media_bounds.h"
+#include "scene/sequence_camera.h"
 #include "scene/framing.h"
 #include "scene/scene.h"
 #include "util/error.h"
@@ -178,9 +180,37 @@ json scene_json(const SceneDesc& s, std::string* text) {
   return out;
 }
 
+// The files of a volume frame pattern over the frames (a plain name: itself).
+std::vector<std::string> volume_frames(const std::string& f, const std::optional<std::array<long long, 2>>& frames) {
+  if (!has_frame_pattern(std::filesystem::path(f).filename().string())) return {f};
+  if (!frames) throw Error(fmt::format("{}: is a frame pattern: give the frames with --frames A:B", f));
+  std::vector<std::string> out;
+  for (long long n = (*frames)[0]; n <= (*frames)[1]; ++n) out.push_back(expand_frame(f, n));
+  return out;
+}
+
+// A scene's frames, each with its media's files expanded and the sequence's camera
+// (scene/sequence_camera.h); a scene without frame patterns: itself.
+std::vector<SceneDesc> scene_frames(const SceneDesc& s, const std::optional<std::array<long long, 2>>& frames, bool quiet) {
+  bool patterned = false;
+  for (const MediumDesc& m : s.media) patterned |= has_frame_pattern(std::filesystem::path(m.file).filename().string());
+  if (!patterned) return {s};
+  if (!frames) throw Error(fmt::format("{}: its media's files are frame patterns: give the frames with --frames A:B", s.path));
+  const CameraDesc camera = sequence_camera(s, (*frames)[0], (*frames)[1], quiet).camera;
+  std::vector<SceneDesc> out;
+  for (long long n = (*frames)[0]; n <= (*frames)[1]; ++n) {
+    SceneDesc frame = s;
+    frame.camera = camera;
+    for (MediumDesc& m : frame.media) m.file = expand_frame(m.file, n);
+    frame.path = fmt::format("{} (frame {})", s.path, n);
+    out.push_back(frame);
+  }
+  return out;
+}
+
 }  // namespace
 
-int cmd_info(const std::vector<std::string>& files, bool as_json) {
+int cmd_info(const std::vector<std::string>& files, bool as_json, const std::optional<std::array<long long, 2>>& frames) {
   json all = json::array();
   int failed = 0;
   for (const std::string& f : files) {
@@ -188,13 +218,17 @@ int cmd_info(const std::vector<std::string>& files, bool as_json) {
       std::string ext = lower_extension(f);
       if (ext == ".json") {
         std::string text;
-        json j = scene_json(load_scene(f), &text);
-        all.push_back(j);
-        if (!as_json) std::cout << text;
+        for (const SceneDesc& s : scene_frames(load_scene(f), frames, as_json)) {
+          text.clear();
+          all.push_back(scene_json(s, &text));
+          if (!as_json) std::cout << text;
+        }
       } else {
-        const std::vector<GridInfo> grids = inspect_volume(f);
-        all.push_back(volume_json(f, grids));
-        if (!as_json) print_volume(f, grids);
+        for (const std::string& file : volume_frames(f, frames)) {
+          const std::vector<GridInfo> grids = inspect_volume(file);
+          all.push_back(volume_json(file, grids));
+          if (!as_json) print_volume(file, grids);
+        }
       }
     } catch (const std::exception& e) {
       std::cerr << "error: " << e.what() << "\n";

@@ -5,7 +5,7 @@
 //   spectrack merge OUT.exr IN.exr... [--preview FILE.png]   (cli/merge.cpp)
 //   (tuning: [--majorant-cell N] [--majorant-block N] [--generic-kernels] [--batches-in-flight N])
 //   spectrack devices   (cli/devices.cpp)
-//   spectrack info FILE... [--json]   (cli/info.cpp)
+//   spectrack info FILE... [--json] [--frames A:B]   (cli/info.cpp)
 // main only dispatches: each subcommand is its own file (render: cli/render.cpp and
 // cli/render_flags.cpp). The values of the options are checked by the validators of
 // cli/options.h (exit 2).
@@ -25,6 +25,7 @@
 #include "cli/devices.h"
 #include "cli/info.h"
 #include "cli/merge.h"
+#include "cli/options.h"
 #include "cli/render.h"
 #include "cli/run_control.h"
 #include "util/error.h"
@@ -46,6 +47,10 @@ int main(int argc, char** argv) {
   auto* info = app.add_subcommand("info", "print the grids of VDB/NanoVDB files and the media, lights and camera of scenes");
   info->add_option("files", info_files, "volume (.vdb, .nvdb) or scene (.json) files")->required()->expected(1, -1);
   info->add_flag("--json", info_json, "one JSON document instead of tables");
+  std::string info_frames;
+  info->add_option("--frames", info_frames,
+                   "frames A..B of frame patterns ('#' runs or $F<N>) in volume names and in scenes' media files")
+      ->check(frames_check());
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -55,7 +60,15 @@ int main(int argc, char** argv) {
   try {
     if (app.got_subcommand("devices")) return cmd_devices();
     if (app.got_subcommand("merge")) return cmd_merge(ma);
-    if (app.got_subcommand("info")) return cmd_info(info_files, info_json);
+    if (app.got_subcommand("info")) {
+      std::optional<std::array<long long, 2>> frames;
+      if (!info_frames.empty()) {
+        std::array<long long, 2> ab{};
+        check_frames(info_frames, &ab[0], &ab[1]);  // checked by CLI11 already
+        frames = ab;
+      }
+      return cmd_info(info_files, info_json, frames);
+    }
     if (ra.mpi) {
 #ifdef SPECTRACK_HAVE_MPI
       mpi.world = mpi_start(&argc, &argv);

@@ -63,6 +63,22 @@ std::string check_spp_range(const std::string& text, int64_t* a, int64_t* b) {
   return "";
 }
 
+std::string check_shutter(const std::string& text, std::array<double, 2>* out) {
+  const std::string form = "expected OPEN:CLOSE in seconds with OPEN <= CLOSE";
+  const std::vector<std::string> f = fields(text, ':');
+  if (f.size() != 2) return fmt::format("{}, got '{}'", form, text);
+  std::array<double, 2> v{};
+  for (int k = 0; k < 2; ++k) {
+    char* end = nullptr;
+    v[k] = std::strtod(f[k].c_str(), &end);
+    if (f[k].empty() || *end != '\0' || !std::isfinite(v[k]))
+      return fmt::format("{}, got '{}': '{}' is not a finite number", form, text, f[k]);
+  }
+  if (v[1] < v[0]) return fmt::format("{}, got '{}': CLOSE is before OPEN", form, text);
+  *out = v;
+  return "";
+}
+
 std::string check_pixel_bounds(const std::string& text, std::array<int, 4>* out) {
   const std::string form = "expected x0,x1,y0,y1 with 0 <= x0 < x1 <= 65536 and 0 <= y0 < y1 <= 65536";
   const std::vector<std::string> f = fields(text, ',');
@@ -107,6 +123,15 @@ CLI::Validator one_of(const std::string& what, const std::vector<std::string>& n
         return "unknown " + what + " '" + v + "' (one of: " + list + ")";
       },
       "NAME");
+}
+
+CLI::Validator frames_check() {
+  return CLI::Validator(
+      [](std::string& v) {
+        long long a = 0, b = 0;
+        return check_frames(v, &a, &b);
+      },
+      "A:B");
 }
 
 CLI::Validator finite_range(double lo, double hi) {

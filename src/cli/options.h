@@ -23,6 +23,8 @@ CLI::Validator integer_in(int64_t lo, int64_t hi);
 
 // "A:B" with 0 <= A < B <= 2^32 and B - A <= 2^24 (--spp-range).
 std::string check_spp_range(const std::string& text, int64_t* a, int64_t* b);
+// "A:B", finite seconds with A <= B (--shutter: the shutter's open and close).
+std::string check_shutter(const std::string& text, std::array<double, 2>* out);
 // "x0,x1,y0,y1" with 0 <= x0 < x1 <= 65536 and 0 <= y0 < y1 <= 65536 (--pixel-bounds; the
 // film's own size is checked later).
 std::string check_pixel_bounds(const std::string& text, std::array<int, 4>* out);
@@ -31,6 +33,8 @@ constexpr long long kMaxFrames = 1000000;
 constexpr long long kMaxFrameNumber = 999999999;
 // "A:B" with -10^9 < A <= B < 10^9 and B - A + 1 <= kMaxFrames (--frames).
 std::string check_frames(const std::string& text, long long* a, long long* b);
+// The CLI11 check of a --frames A:B value (render and info).
+CLI::Validator frames_check();
 
 // The value is one of `names`.
 CLI::Validator one_of(const std::string& what, const std::vector<std::string>& names);

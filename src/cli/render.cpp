@@ -34,6 +34,7 @@
 #include "integrator/multi_device.h"
 #include "integrator/renderer.h"
 #include "scene/frames.h"
+#include "scene/sequence_camera.h"
 #include "scene/scene.h"
 #include "util/strings.h"
 
@@ -95,6 +96,11 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
     int64_t b = 0;
     check_spp_range(a.spp_range, &opt.sample_begin, &b);  // checked by CLI11 already
     opt.spp = int(b - opt.sample_begin);
+  }
+  if (!a.shutter.empty()) {
+    std::array<double, 2> shutter{};
+    check_shutter(a.shutter, &shutter);  // checked by CLI11 already
+    opt.shutter = shutter;
   }
   if (!a.pixel_bounds.empty()) {
     std::array<int, 4> bounds;
@@ -227,6 +233,7 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   const bool signalled = stop_flag()->load();
   if (!root) return signalled || (r.piece.interrupted && !r.time_limit_reached) ? kExitInterrupted : 0;
   if (r.piece.samples() > 0) r.piece.id.scene_hash = hash.get();
+  if (a.frame) r.piece.id.frame = std::to_string(*a.frame);
   const RenderOutputs out{output, a.preview, a.stats_json, exr_options(a.half, a.compression, scene.film), a.quiet, a.mpi};
   const RenderTimes times{std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), seconds_to_renderer};
   return finish_render(out, scene, r, times, mpi.size, time_limit, signalled);
@@ -261,13 +268,18 @@ int cmd_render(const RenderArgs& a, MpiArg& mpi) {
                             "every frame would overwrite it", a.frames, output));
   set_phase("the frames' file checks");
   check_frame_files(scene, first, last);
+  // one camera for the whole sequence: framing from every frame's boxes (scene/sequence_camera.h)
+  set_phase("the sequence's framing");
+  const CameraDesc camera = sequence_camera(scene, first, last, a.quiet || mpi.rank != 0).camera;
   for (long long f = first; f <= last; ++f) {
     SceneDesc frame = scene;
+    frame.camera = camera;
     for (MediumDesc& m : frame.media) m.file = expand_frame(m.file, f);
     RenderArgs fa = a;
     // the majorant hierarchy is compiled in for every frame (an empty frame has none), so that the
     // frames share one kernel build
     if (a.majorant_block > 1) fa.feature_floor = ST_FEATURE_COARSE_MAJORANT;
+    fa.frame = f;
     fa.preview = expand_frame(a.preview, f);
     fa.stats_json = expand_frame(a.stats_json, f);
     if (!a.quiet && mpi.rank == 0) std::cerr << fmt::format("frame {} ({} of {})\n", f, f - first + 1, last - first + 1);

@@ -18,7 +18,7 @@ namespace spectrack {
 
 struct RenderArgs {
   std::string scene, output, stats_json, preview, device, tracker, scheme, absorption, light_sampling, transmittance,
-      lookup, spp_range, pixel_bounds, frames, aov, compression, guiding;
+      lookup, spp_range, pixel_bounds, frames, aov, compression, guiding, shutter;
   bool alpha = false, no_alpha = false, half = false, spectral = false;
   double march_spacing = 0, pilot_spacing = 0;  // 0: not given
   int spp = -1;
@@ -32,6 +32,7 @@ struct RenderArgs {
   int batches_in_flight = 0;
   int shadow_ring = 0;
   uint32_t feature_floor = 0;  // RenderOptions::feature_floor (frame sequences)
+  std::optional<long long> frame;  // the frame a sequence renders (EXR metadata spectrack:frame)
   double time_limit = 0;
   bool generic_kernels = false;
   bool quiet = false;

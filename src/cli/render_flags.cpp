@@ -42,12 +42,16 @@ void add_what_flags(CLI::App* render, RenderArgs& ra) {
   render->add_option("--frames", ra.frames,
                      "render frames A..B of a sequence: '#' runs or $F<N> in the media's file, the output, preview and "
                      "stats names become the frame number")
+      ->check(frames_check());
+  render->add_option("--shutter", ra.shutter,
+                     "the shutter's open and close in seconds relative to the frame (overrides camera.shutter): each "
+                     "sample's time is drawn in it")
       ->check(CLI::Validator(
           [](std::string& v) {
-            long long a = 0, b = 0;
-            return check_frames(v, &a, &b);
+            std::array<double, 2> s{};
+            return check_shutter(v, &s);
           },
-          "A:B"));
+          "OPEN:CLOSE"));
   render->add_option("--seed", ra.seed, "random seed (overrides render.seed)")->check(integer_in(0, 4294967295LL));
 }
 

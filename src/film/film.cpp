@@ -133,6 +133,7 @@ RenderIdentity render_identity(const RenderSettings& s) {
   id.lookup = lookup_name(s.lookup);
   id.color = film_color_name(s.color);
   id.aovs = s.aovs;
+  if (s.shutter) id.shutter = fmt::format("{}:{}/{}", (*s.shutter)[0], (*s.shutter)[1], s.time_strata);
   id.version = SPECTRACK_VERSION;
   return id;
 }
@@ -205,6 +206,11 @@ void check_one_render(const std::vector<FilmPiece>& pieces, bool with_sums) {
       differ("the transmittance estimator", a.id.transmittance, p.id.transmittance);
     if (p.id.lookup != a.id.lookup) differ("the density lookup mode", a.id.lookup, p.id.lookup);
     if (p.id.color != a.id.color) differ("the colour mode", a.id.color, p.id.color);
+    if (p.id.frame != a.id.frame)
+      differ("the frame", a.id.frame.empty() ? "none" : a.id.frame, p.id.frame.empty() ? "none" : p.id.frame);
+    if (p.id.shutter != a.id.shutter)
+      differ("the shutter (open:close/strata)", a.id.shutter.empty() ? "none" : a.id.shutter,
+             p.id.shutter.empty() ? "none" : p.id.shutter);
     if (p.id.aovs != a.id.aovs) differ("the film layers", layer_list(a.id.aovs), layer_list(p.id.aovs));
     if (p.id.version != a.id.version) differ("the spectrack version", a.id.version, p.id.version);
     if (p.id.scene_hash != a.id.scene_hash) differ("the scene (spectrack:scene_hash)", a.id.scene_hash, p.id.scene_hash);

@@ -46,6 +46,10 @@ struct RenderIdentity {
   std::string lookup = "trilinear";  // st_lookup_mode name (pieces written before the option: trilinear)
   std::string color = "rgb";         // st_film_color name (pieces written before spectral mode: rgb)
   uint32_t aovs = 0;  // the film layers (ST_AOV_BIT bits; pieces written before them: none)
+  // the shutter, "open:close" in seconds, and the samples the paths' times are stratified over
+  // ("0:0.02/64"); empty: no shutter (pieces written before it: none)
+  std::string shutter;
+  std::string frame;  // the frame number of a sequence's frame (--frames); empty: not a sequence
 };
 
 // A SHA-1 of the scene as it shapes the image: the scene file's JSON (keys sorted, whitespace

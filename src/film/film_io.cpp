@@ -42,6 +42,8 @@ Metadata piece_metadata(const FilmPiece& p) {
   m["transmittance"] = p.id.transmittance;
   m["lookup"] = p.id.lookup;
   m["color"] = p.id.color;
+  if (!p.id.shutter.empty()) m["shutter"] = p.id.shutter;
+  if (!p.id.frame.empty()) m["frame"] = p.id.frame;
   m["version"] = p.id.version;
   m["scene_hash"] = p.id.scene_hash;
   m["pixel_bounds"] = fmt::format("{},{},{},{}", p.x0, p.x0 + p.width, p.y0, p.y0 + p.height);
@@ -245,6 +247,8 @@ FilmPiece piece_from_header(const std::string& path, const RgbImage& img) {
   if (img.meta.count("transmittance")) p.id.transmittance = str("transmittance");
   if (img.meta.count("lookup")) p.id.lookup = str("lookup");
   if (img.meta.count("color")) p.id.color = str("color");
+  if (img.meta.count("shutter")) p.id.shutter = str("shutter");
+  if (img.meta.count("frame")) p.id.frame = str("frame");
   p.id.version = str("version");
   try {
     p.id.seed = std::stoll(str("seed"));

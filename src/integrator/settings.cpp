@@ -2,6 +2,7 @@
 // kernels/types.h (ST_TRACKERS), which the kernels read too.
 #include "integrator/settings.h"
 
+#include <cmath>
 #include <fmt/format.h>
 
 namespace spectrack {
@@ -63,6 +64,10 @@ RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) 
   if (s.aovs & ST_AOV_BIT(ALPHA)) s.aovs |= ST_AOV_BIT(ENVIRONMENT);
   s.seed = o.seed ? uint32_t(*o.seed) : scene.render.seed;
   s.spp = o.spp.value_or(scene.film.spp);
+  s.shutter = o.shutter ? o.shutter : scene.camera.shutter;
+  if (s.shutter && !(std::isfinite((*s.shutter)[0]) && std::isfinite((*s.shutter)[1]) && (*s.shutter)[1] >= (*s.shutter)[0]))
+    throw Error(fmt::format("shutter {}:{}: expected finite open <= close (seconds)", (*s.shutter)[0], (*s.shutter)[1]));
+  s.time_strata = scene.film.spp;
   s.sample_begin = o.sample_begin;
   if (s.sample_begin < 0 || s.spp < 1 || uint64_t(s.sample_begin) + uint64_t(s.spp) > (uint64_t(1) << 32))
     throw Error(fmt::format("sample range {}:{} is not a non-empty range of sample indices 0 .. 2^32", s.sample_begin,

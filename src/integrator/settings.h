@@ -61,6 +61,7 @@ struct RenderOptions {
   std::optional<int> color;             // st_film_color, else render.color (--spectral)
   std::optional<uint32_t> aovs;         // film layers, ST_AOV_BIT bits; else film.aovs (+ alpha if film.alpha)
   std::optional<int> guiding;           // GuidingMode (scene.h), else render.guiding, else auto
+  std::optional<std::array<double, 2>> shutter;  // [open, close] seconds (--shutter), else camera.shutter
   // Testing: called with the guide cache after every training pass's fit, before its upload (a
   // deliberately wrong cache must still give an unbiased image).
   std::function<void(GuideCache&)> guide_cache_hook;
@@ -113,6 +114,10 @@ struct RenderSettings {
   int full_width = 0, full_height = 0;  // the film
   int channels_per_sample = 1;  // paths per (pixel, sample): the per-channel trackers' lanes (st_paths_per_sample)
   bool guiding = false;         // volume path guiding on (auto resolved: off for now)
+  // The shutter [open, close] in seconds (none: every path at time 0); the paths' times are
+  // stratified over film.spp samples (the scene's, so every shard of a render has the same times)
+  std::optional<std::array<double, 2>> shutter;
+  int time_strata = 1;
 };
 
 // What a result records of the settings it was rendered with: the estimator choices and the seed

@@ -80,6 +80,7 @@ struct Packer {
   bool spectral = false;               // spectral mode (make_spectral follows): its bounds are checked too
   std::vector<Box3> media_boxes = {};  // world boxes, for the camera's framing
   Vec3 camera_position = {};          // as placed (framing included), in double
+  uint32_t camera_features = 0;       // st_feature bits of the lens and the shutter (pack_camera.cpp)
   // Each light's power up to the common factor pi r^2 of pbrt-v4's Light::Phi (r: the scene
   // radius): the mean over channels of the irradiance a directional light gives, or 4 pi times the
   // mean radiance of an environment over the sphere.
@@ -104,7 +105,8 @@ struct Packer {
   double add_env_cdf(st_light& l);
   void set_light_selection(int light_sampling);
   int resolve_light_sampling(int requested) const;
-  void set_camera();
+  // the camera (framed), its thin lens and its shutter and motion (the settings' shutter)
+  void set_camera(const RenderSettings& s);
   uint32_t scene_features() const;
 };
 

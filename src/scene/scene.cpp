@@ -110,16 +110,19 @@ SceneDesc Parser::scene(const json& root) {
 
 void Parser::camera(const json& j, const std::string& path, CameraDesc& c) {
   expect_object(j, path);
-  const Names all = {"type", "position", "look_at", "up", "fov_deg", "height", "fit"};
+  const Names all = {"type", "position", "look_at", "up", "fov_deg", "height", "fit", "aperture_radius",
+                     "focus_distance", "shutter", "position_close", "look_at_close"};
   fields(j, path, all);
   std::string type = string(j, path, "type", "perspective");
   if (type == "perspective") {
     c.type = ST_CAMERA_PERSPECTIVE;
-    fields(j, path, {"type", "position", "look_at", "up", "fov_deg", "fit"}, "a perspective camera", all);
+    fields(j, path, {"type", "position", "look_at", "up", "fov_deg", "fit", "aperture_radius", "focus_distance",
+                     "shutter", "position_close", "look_at_close"}, "a perspective camera", all);
     c.fov_deg = number(j, path, "fov_deg", c.fov_deg, Range{0, 180, true, true});
   } else if (type == "orthographic") {
     c.type = ST_CAMERA_ORTHOGRAPHIC;
-    fields(j, path, {"type", "position", "look_at", "up", "height", "fit"}, "an orthographic camera", all);
+    fields(j, path, {"type", "position", "look_at", "up", "height", "fit", "aperture_radius", "focus_distance",
+                     "shutter", "position_close", "look_at_close"}, "an orthographic camera", all);
     c.height = number(j, path, "height", c.height, kPositive);
   } else {
     fail(path + "/type", "unknown camera type " + in_quotes(type) + " (expected one of: perspective, orthographic)");
@@ -128,18 +131,49 @@ void Parser::camera(const json& j, const std::string& path, CameraDesc& c) {
   if (!c.position_auto) c.position = vec3(j, path, "position", c.position, kAny);
   if (!c.look_at_media) c.look_at = vec3(j, path, "look_at", c.look_at, kAny);
   c.up = vec3(j, path, "up", c.up, kAny);
+  camera_lens_time(j, path, c);
   const double ulen = std::sqrt(c.up[0] * c.up[0] + c.up[1] * c.up[1] + c.up[2] * c.up[2]);
   if (c.position_auto || c.look_at_media) {  // the view direction is known once the media are (scene/framing.h)
     if (!(ulen > 0)) fail(path + "/up", "is zero");
     return;
   }
-  const Vec3 d{c.look_at[0] - c.position[0], c.look_at[1] - c.position[1], c.look_at[2] - c.position[2]};
+  check_view(path, "", c.position, c.look_at, c.up);
+  if (c.position_close || c.look_at_close)
+    check_view(path, " at shutter close", c.position_close.value_or(c.position), c.look_at_close.value_or(c.look_at),
+               c.up);
+}
+
+// A view direction look_at - position that exists and is not parallel to up.
+void Parser::check_view(const std::string& path, const std::string& at, const Vec3& position, const Vec3& look_at,
+                        const Vec3& up) {
+  const double ulen = std::sqrt(up[0] * up[0] + up[1] * up[1] + up[2] * up[2]);
+  const Vec3 d{look_at[0] - position[0], look_at[1] - position[1], look_at[2] - position[2]};
   const double dlen = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-  if (!(dlen > 0)) fail(path + "/look_at", "equals the camera position (no view direction)");
-  const Vec3 x{d[1] * c.up[2] - d[2] * c.up[1], d[2] * c.up[0] - d[0] * c.up[2], d[0] * c.up[1] - d[1] * c.up[0]};
+  if (!(dlen > 0)) fail(path + (at.empty() ? "/look_at" : "/look_at_close"), "equals the camera position" + at + " (no view direction)");
+  const Vec3 x{d[1] * up[2] - d[2] * up[1], d[2] * up[0] - d[0] * up[2], d[0] * up[1] - d[1] * up[0]};
   // |d x up| = |d| |up| sin(angle): parallel (or zero) below a small angle.
   if (!(std::sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]) > 1e-6 * dlen * ulen) || !(ulen > 0))
-    fail(path + "/up", "is zero or parallel to the view direction (look_at - position)");
+    fail(path + "/up", "is zero or parallel to the view direction (look_at - position)" + at);
+}
+
+// Depth of field, shutter and camera motion (docs/scene-format.md, "Lens and time").
+void Parser::camera_lens_time(const json& j, const std::string& path, CameraDesc& c) {
+  c.aperture_radius = number(j, path, "aperture_radius", 0.0, kNonNegative);
+  c.focus_distance = number(j, path, "focus_distance", 0.0, kPositive);
+  if (const json* v = find(j, "shutter")) {
+    const std::string p = path + "/shutter";
+    if (!v->is_array() || v->size() != 2)
+      fail(p, std::string("expected [open, close] in seconds, got ") +
+                  (v->is_array() ? "an array of " + std::to_string(v->size()) + " values" : v->type_name()));
+    const std::array<double, 2> sh{number_at((*v)[0], p + "/0", kAny), number_at((*v)[1], p + "/1", kAny)};
+    if (!(sh[1] >= sh[0])) fail(p, "close " + num(sh[1]) + " is before open " + num(sh[0]));
+    c.shutter = sh;
+  }
+  if (find(j, "position_close")) c.position_close = vec3(j, path, "position_close", c.position, kAny);
+  if (find(j, "look_at_close")) c.look_at_close = vec3(j, path, "look_at_close", c.look_at, kAny);
+  const char* moving = c.position_close ? "/position_close" : "/look_at_close";
+  if ((c.position_close || c.look_at_close) && (c.position_auto || c.look_at_media))
+    fail(path + moving, "camera motion needs a position and look_at given as points (no framing)");
 }
 
 // Framing (docs/scene-format.md, scene/framing.h): "look_at": "media", "position": "auto", "fit".

@@ -102,6 +102,13 @@ struct CameraDesc {
   bool position_auto = false;  // "position": "auto": along the default direction (0, 0, 1), (0, 1, 0) if up is z
   double fit = 0;              // > 0: move along the view direction (orthographic: set height) so every
                                // medium's box fills at most 1/fit of the frame; 0: no fitting
+  // Thin lens (depth of field; pbrt-v4's lensradius and focaldistance): 0 is a pinhole.
+  double aperture_radius = 0;  // world units
+  double focus_distance = 0;   // world units along the view direction; 0: |look_at - position| once framed
+  // Shutter [open, close], seconds relative to the frame; none: every path at time 0.
+  std::optional<std::array<double, 2>> shutter;
+  // Camera motion: position and look_at at shutter close (at open: position and look_at).
+  std::optional<Vec3> position_close, look_at_close;
 };
 
 struct FilmDesc {

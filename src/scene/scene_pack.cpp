@@ -51,7 +51,7 @@ uint32_t Packer::scene_features() const {
   if (st.tracker == ST_TRACKER_SPECTRAL_MIS) f |= ST_FEATURE_SPECTRAL_MIS;
   if (st.lookup == ST_LOOKUP_STOCHASTIC && (f & ST_FEATURE_VDB)) f |= ST_FEATURE_STOCHASTIC_LOOKUP;
   if (st.result_layers > 1) f |= ST_FEATURE_AOV;
-  return f;
+  return f | camera_features;
 }
 
 }  // namespace packing
@@ -73,7 +73,7 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
   for (int i = 0; i < st.n_lights; ++i) pk.add_light(i, scene.lights[i]);
   const int light_sampling = pk.resolve_light_sampling(s.light_sampling);
   pk.set_light_selection(light_sampling);
-  pk.set_camera();
+  pk.set_camera(s);
   check_coordinates(scene, st, pk.media_boxes, pk.camera_position);  // volume/float_limits.h
   st.tracker = s.tracker;
   st.scheme = s.scheme;

@@ -88,6 +88,9 @@ class Parser {
  private:
   void camera(const json& j, const std::string& path, CameraDesc& c);
   void camera_framing(const json& j, const std::string& path, CameraDesc& c);
+  void camera_lens_time(const json& j, const std::string& path, CameraDesc& c);
+  void check_view(const std::string& path, const std::string& at, const Vec3& position, const Vec3& look_at,
+                  const Vec3& up);
   void film(const json& j, const std::string& path, FilmDesc& f);
   void render(const json& j, const std::string& path, RenderDesc& r);
   LightDesc light(const json& j, const std::string& path);
