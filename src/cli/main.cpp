@@ -38,6 +38,7 @@
 #include "cli/info.h"
 #include "cli/progress.h"
 #include "cli/render_outputs.h"
+#include "render/render_watch.h"
 #include "cli/run_control.h"
 #include "image/image.h"
 #include "render/film.h"
@@ -89,6 +90,9 @@ struct RenderArgs {
   int shadow_ring = 0;
   uint32_t feature_floor = 0;  // RenderOptions::feature_floor (frame sequences)
   double time_limit = 0;
+  double noise_target = 0;  // 0: not given
+  double checkpoint = 0;    // seconds between checkpoints; 0: none
+  bool resume = false;
   bool generic_kernels = false;
   bool quiet = false;
   bool mpi = false;
@@ -157,6 +161,7 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
       throw Error(fmt::format("--absorption {}: unknown absorption mode (one of: {})", a.absorption, absorption_names()));
   }
   if (a.spp > 0) opt.spp = a.spp;
+  if (a.noise_target > 0) opt.noise_target = a.noise_target;
   if (!a.spp_range.empty()) {
     int64_t b = 0;
     check_spp_range(a.spp_range, &opt.sample_begin, &b);  // checked by CLI11 already
@@ -196,11 +201,11 @@ MultiDeviceResult render_share(const SceneDesc& scene, const RenderOptions& opt,
     r.light_sampling_used = set.light_sampling;  // no scene packed here: the request ("auto" unresolved)
   }
   r.spp_requested = set.spp;
-  r.piece.interrupted = r.piece.interrupted || r.piece.samples() < my_end - my_begin;
+  r.piece.interrupted = r.piece.interrupted || (r.piece.samples() < my_end - my_begin && !r.noise_target_reached);
 #ifdef SPECTRACK_HAVE_MPI
   if (mpi.on) mpi_reduce_to_root(mpi.world, r);
 #endif
-  if (mpi.rank == 0) r.piece.interrupted = r.piece.interrupted || r.piece.samples() < set.spp;
+  if (mpi.rank == 0) r.piece.interrupted = r.piece.interrupted || (r.piece.samples() < set.spp && !r.noise_target_reached);
   return r;
 }
 
@@ -236,6 +241,49 @@ ExrOptions exr_options(bool half, const std::string& compression, const FilmDesc
   o.half = half || film.half;
   o.compression = compression.empty() ? film.compression : compression;
   return o;
+}
+
+// What the watch of a render (cli/render_watch.h) needs, or nothing when no flag asks for it. It
+// looks at one device's film in one process: a noise target, checkpoints and --resume refuse
+// several devices and --mpi (exit 2), a noise target also shards and tiles (each would stop at
+// its own noise); a preview with several devices or ranks is written at the end only.
+std::unique_ptr<RenderWatch> make_watch(const RenderArgs& a, const MpiArg& mpi, const SceneDesc& scene,
+                                        const RenderSettings& set, const std::vector<std::string>& devices,
+                                        const std::string& output, const std::function<std::string()>& hash) {
+  const bool several = devices.size() > 1 || mpi.on;
+  if (set.noise_target > 0 && several)
+    throw UsageError("--noise-target (render.noise_target) stops one device's render at its noise: it does not work "
+                     "with several devices or --mpi");
+  if (set.noise_target > 0 && (!a.spp_range.empty() || !a.pixel_bounds.empty()))
+    throw UsageError("--noise-target (render.noise_target) with --spp-range or --pixel-bounds: each shard or tile would "
+                     "stop at its own noise, and the pieces would not merge; render the whole film");
+  if ((a.checkpoint > 0 || a.resume) && (several || set.guiding))
+    throw UsageError("--checkpoint and --resume work with one device and no --mpi or guiding");
+  if (set.noise_target <= 0 && a.checkpoint <= 0 && !a.resume && (a.preview.empty() || several)) return nullptr;
+  WatchConfig c;
+  c.noise_target = set.noise_target;
+  c.preview = a.preview;
+  c.image = output;
+  c.checkpoint_seconds = a.checkpoint;
+  c.state_path = film_state_path(output);
+  c.id = render_identity(set);
+  c.exr = exr_options(a.half, a.compression, scene.film);
+  c.meta["scene"] = scene.path;
+  c.meta["spp_requested"] = set.spp;
+  c.spp = set.spp;
+  if (a.checkpoint > 0 || a.resume) {
+    c.id.scene_hash = hash();
+    c.state_key = film_state_key(c.id, set.window, set.sample_begin, set.spp);
+  }
+  auto w = std::make_unique<RenderWatch>(std::move(c));
+  if (a.resume && !a.quiet && mpi.rank == 0)
+    std::cerr << (w->load_resume() ? fmt::format("spectrack: resuming from {} ({} samples done)\n", film_state_path(output),
+                                                 w->resume()->samples_done)
+                                   : fmt::format("spectrack: no film state {}: rendering from the first sample\n",
+                                                 film_state_path(output)));
+  else if (a.resume)
+    w->load_resume();
+  return w;
 }
 
 // One render of a loaded scene (one frame of a sequence) to `output`.
@@ -275,8 +323,17 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   // The scene hash reads every VDB and map once more: on the writing rank only, beside the render.
   std::future<std::string> hash;
   if (root) hash = std::async(std::launch::async, [&scene] { return scene_hash(scene); });
+  std::string hash_value;
+  auto get_hash = [&] {
+    if (hash_value.empty()) hash_value = hash.get();
+    return hash_value;
+  };
+  std::unique_ptr<RenderWatch> watch = make_watch(a, mpi, scene, set, devices, output, get_hash);
+  opt.watch = watch.get();
   const bool tty = ::isatty(2);
-  opt.progress = progress_reporter(quiet, tty, double(process_samples(set, mpi)));
+  opt.progress = progress_reporter(quiet, tty, double(process_samples(set, mpi)), 5.0,
+                                   watch ? std::function<std::string()>([w = watch.get()] { return w->note(); })
+                                         : std::function<std::string()>());
   opt.stop = stop_flag();
   opt.loop_started = loop_started_flag();
   if (!quiet)
@@ -293,8 +350,9 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   if (tty && !quiet) std::fprintf(stderr, "\n");
   const bool signalled = stop_flag()->load();
   if (!root) return signalled || (r.piece.interrupted && !r.time_limit_reached) ? kExitInterrupted : 0;
-  if (r.piece.samples() > 0) r.piece.id.scene_hash = hash.get();
-  const RenderOutputs out{output, a.preview, a.stats_json, exr_options(a.half, a.compression, scene.film), a.quiet, a.mpi};
+  if (r.piece.samples() > 0) r.piece.id.scene_hash = get_hash();
+  const RenderOutputs out{output, a.preview, a.stats_json, exr_options(a.half, a.compression, scene.film), a.quiet, a.mpi,
+                          set.noise_target};
   const RenderTimes times{std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), seconds_to_renderer};
   return finish_render(out, scene, r, times, mpi.size, time_limit, signalled);
 }
@@ -420,7 +478,9 @@ CLI::App* add_render_command(CLI::App& app, RenderArgs& ra) {
       ->check(integer_in(1, 1 << 24));
   render->add_flag("--mpi", ra.mpi, "under mpirun: each rank renders a disjoint sample range, rank 0 writes the image");
   render->add_option("--stats-json", ra.stats_json, "write render statistics as JSON");
-  render->add_option("--preview", ra.preview, "also write a PNG preview")->check(png_file());
+  render->add_option("--preview", ra.preview,
+                     "also write a PNG preview, rewritten every few seconds during the render (one device, no --mpi)")
+      ->check(png_file());
   render->add_option("--path-slots", ra.path_slots, "paths in flight (default: 65536 on CPUs, 1M on GPUs)")->check(integer_in(1, 1 << 24));
   render->add_option("--budget", ra.budget, "tracking iterations per path and kernel launch")->check(integer_in(1, 1 << 20));
   render->add_option("--majorant-cell", ra.majorant_cell,
@@ -449,6 +509,18 @@ CLI::App* add_render_command(CLI::App& app, RenderArgs& ra) {
                      "stop cleanly after this many seconds from the start (the finished samples are written, "
                      "exit 0; if none finished, nothing is written, exit 3; overrides render.time_limit)")
       ->check(finite_range(1e-3, 1e9));
+  render->add_option("--noise-target", ra.noise_target,
+                     "stop once the image's relative error (the 95th percentile over its noisy pixels of the standard "
+                     "error over the mean, from the variance layer; docs/cli.md) is at or below this, or at --spp or "
+                     "the time limit (overrides render.noise_target; adds the variance layer)")
+      ->check(finite_range(1e-6, 1.0));
+  render->add_option("--checkpoint", ra.checkpoint,
+                     "every this many seconds, and when the render ends early, write the image and its film state "
+                     "(OUTPUT.resume), which --resume continues from")
+      ->check(finite_range(0.1, 1e9));
+  render->add_flag("--resume", ra.resume,
+                   "continue from OUTPUT.resume (a checkpoint) if it exists: the final sums equal the uninterrupted "
+                   "render's, bit for bit");
   render->add_flag("--alpha", ra.alpha,
                    "write A = 1 - the camera ray's transmittance (and AR, AG, AB) with a transparent, premultiplied "
                    "R, G, B; the environment seen straight from the camera goes to the environment layer (default for "
