@@ -51,15 +51,9 @@ TEST(NoiseEstimate, IsTheStandardErrorOverTheMeanOfTheNoisyPixels) {
 nlohmann::json noise_scene(const std::string& dir) {
   const std::string vdb = dir + "/lumpy.vdb";
   if (!fs::exists(vdb)) st_test::write_lumpy(vdb);
-  json s = vdb_scene(vdb);
+  json s = lumpy_sky_scene(vdb);
   s["film"]["width"] = 24;
   s["film"]["height"] = 16;
-  s["camera"]["fov_deg"] = 35;
-  s["media"][0]["density_scale"] = 6.0;
-  s["media"][0]["sigma_s"] = {1.0, 0.6, 0.3};
-  s["media"][0]["sigma_a"] = {0.05, 0.1, 0.2};
-  s["lights"] = json::array({{{"type", "environment"}, {"radiance", {0.3, 0.4, 0.6}}},
-                             {{"type", "directional"}, {"to_light", {-0.5, 1.0, -0.3}}, {"irradiance", {3, 3, 3}}}});
   return s;
 }
 
@@ -146,16 +140,6 @@ TEST(Resume, ContinuesTheSampleSequenceToTheUninterruptedSumsBitForBit) {
   for (size_t i = 0; i < whole.sum.size(); ++i) differ += part.sum[i] != whole.sum[i], lit += whole.sum[i] != 0;
   EXPECT_GT(lit, whole.sum.size() / 4);
   EXPECT_GE(differ, lit * 9 / 10);
-}
-
-std::vector<float> pixels_of(const std::string& path) {
-  auto in = OIIO::ImageInput::open(path);
-  EXPECT_TRUE(in) << path;
-  if (!in) return {};
-  const auto& spec = in->spec();
-  std::vector<float> px(size_t(spec.width) * spec.height * spec.nchannels);
-  in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, px.data());
-  return px;
 }
 
 std::string meta_of(const std::string& path, const std::string& key) {
@@ -245,7 +229,7 @@ TEST(CliResume, AnInterruptedCheckpointedRenderResumesToTheUninterruptedImage) {
   ASSERT_TRUE(r.exited && r.code == 0) << r.describe();
   EXPECT_THAT(r.out, HasSubstr("resuming from"));
   EXPECT_FALSE(fs::exists(dir + "/part.exr.resume")) << "a completed render leaves no state";
-  const std::vector<float> a = pixels_of(dir + "/whole.exr"), b = pixels_of(dir + "/part.exr");
+  const std::vector<float> a = image_pixels(dir + "/whole.exr"), b = image_pixels(dir + "/part.exr");
   ASSERT_EQ(a.size(), b.size());
   ASSERT_FALSE(a.empty());
   size_t differ = 0;
