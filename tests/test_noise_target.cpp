@@ -244,3 +244,29 @@ TEST(CliResume, AnInterruptedCheckpointedRenderResumesToTheUninterruptedImage) {
 }
 
 }  // namespace
+
+namespace {
+
+// The preview is written during the render, whole: a render killed (no chance to write at the end)
+// leaves a readable preview of the samples done by then.
+TEST(CliPreview, IsRewrittenDuringTheRender) {
+  const std::string dir = test_dir();
+  const std::string scene = write_scene(dir, "scene.json", noise_scene(dir));
+  st_cli::RunOptions o;
+  o.timeout_s = 120;
+  o.signal = SIGKILL;
+  o.signal_after_text = "progress: 0%";
+  o.signal_delay_s = 6.0;  // between the first and the second preview (kPreviewSeconds apart)
+  Proc p = run({"render", scene, "-o", dir + "/k.exr", "--spp", "1000000", "--preview", dir + "/k.png"}, o);
+  ASSERT_TRUE(p.signal_sent) << p.describe();
+  EXPECT_TRUE(p.signaled) << p.describe();
+  EXPECT_FALSE(fs::exists(dir + "/k.exr")) << "the image is written at the end only";
+  int channels = 0;
+  const std::vector<float> px = image_pixels(dir + "/k.png", &channels);
+  ASSERT_EQ(px.size(), size_t(24 * 16 * channels));
+  double sum = 0;
+  for (float v : px) sum += v;
+  EXPECT_GT(sum, 0.0) << "the preview holds the samples done";
+}
+
+}  // namespace
