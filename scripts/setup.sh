@@ -11,7 +11,7 @@ PKGS=(build-essential cmake pkg-config ocl-icd-opencl-dev opencl-clhpp-headers o
       libopenvdb-dev libnanovdb-dev libopenimageio-dev openimageio-tools libcli11-dev nlohmann-json3-dev
       libfmt-dev libboost-iostreams-dev libtbb-dev libblosc-dev zlib1g-dev)
 if [ -z "${SETUP_TARGETS:-}" ]; then
-  PKGS+=(libgtest-dev libbenchmark-dev clinfo clang libclang-rt-14-dev libopenmpi-dev openmpi-bin)
+  PKGS+=(libgtest-dev libbenchmark-dev clinfo clang libclang-rt-14-dev libopenmpi-dev openmpi-bin python3)
 fi
 missing=()
 for p in "${PKGS[@]}"; do

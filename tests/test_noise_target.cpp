@@ -1,5 +1,5 @@
-// test_noise_target.cpp: the noise target (render/noise.h), the watch of a render
-// (render/render_watch.h) and resuming a render from its film state (render/film_watch.h).
+// test_noise_target.cpp: the noise target (integrator/noise.h), the watch of a render
+// (integrator/render_watch.h) and resuming a render from its film state (integrator/film_watch.h).
 //
 // Design: the estimator is checked on films with known sums; a noise-target render must stop at
 // or below its target, hold exactly the image of a uniform render of as many samples (bit for
@@ -13,10 +13,10 @@
 #include <cmath>
 
 #include "cli_util.h"
-#include "render/film_watch.h"
-#include "render/noise.h"
-#include "render/render_watch.h"
-#include "render/renderer.h"
+#include "integrator/film_watch.h"
+#include "integrator/noise.h"
+#include "integrator/render_watch.h"
+#include "integrator/renderer.h"
 
 namespace {
 

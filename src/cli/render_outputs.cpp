@@ -11,19 +11,14 @@
 
 #include "cli/checks.h"
 #include "cli/run_control.h"
-#include "render/film.h"
-#include "render/noise.h"
-#include "render/stats_json.h"
+#include "film/film.h"
+#include "integrator/noise.h"
+#include "integrator/stats_json.h"
 #include "util/output_file.h"
+#include "util/strings.h"
 
 namespace spectrack {
 namespace {
-
-std::string join(const std::vector<std::string>& v, const char* sep) {
-  std::string s;
-  for (auto& x : v) s += (s.empty() ? "" : sep) + x;
-  return s;
-}
 
 // Why the render stopped before its requested samples ("" when it did not): noise-target,
 // time-limit or signal.
@@ -33,7 +28,7 @@ std::string stop_reason(const MultiDeviceResult& r) {
   return r.time_limit_reached ? "time-limit" : "signal";
 }
 
-// The relative error of the image (render/noise.h) when it has the variance layer.
+// The relative error of the image (integrator/noise.h) when it has the variance layer.
 std::optional<NoiseEstimate> film_noise(const FilmPiece& p) {
   if (!(p.id.aovs & ST_AOV_BIT(VARIANCE)) || p.samples() == 0) return std::nullopt;
   return estimate_film_noise(p.sum, p.aov_sum, aov_sum_channels(p.id.aovs), p.samples());

@@ -17,6 +17,8 @@
 namespace spectrack {
 
 using Vec3 = std::array<double, 3>;
+// Whether a colour (sigma_a, sigma_s, ...) is gray: the same value in every channel.
+inline bool achromatic(const Vec3& v) { return v[0] == v[1] && v[1] == v[2]; }
 
 struct TransformDesc {
   Vec3 scale{1, 1, 1};       // "scale": a number or a triple
@@ -125,7 +127,7 @@ struct RenderDesc {
   int max_depth = -1;
   uint32_t seed = 0;
   double time_limit = 0;  // seconds from the start of the command after which the render stops cleanly; 0: none
-  double noise_target = 0;  // relative error of the image at which the render stops (render/noise.h); 0: none
+  double noise_target = 0;  // relative error of the image at which the render stops (integrator/noise.h); 0: none
   int guiding = -1;       // GuidingMode (render.guiding); -1: the default, auto
 };
 

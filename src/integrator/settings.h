@@ -1,0 +1,172 @@
+// settings.h: what a render is asked for and what it resolves to.
+//
+// Design (pbrt-v4's PBRTOptions pattern): RenderOptions holds the caller's overrides of the scene
+// (command line, tests, benchmarks), each one std::optional so "not given" is not a sentinel
+// value; resolve_settings() combines them with the scene once, checks them against the scene and
+// the film, and returns plain RenderSettings (tracker, scheme, seed, samples, pixel window,
+// channels per sample). Every consumer (Renderer, the render identity of a film piece, the
+// multi-device and MPI drivers, the CLI) takes the resolved settings; nothing else re-derives them.
+#pragma once
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "scene/scene.h"
+
+namespace spectrack {
+
+struct GuideCache;  // guiding/guide_cache.h
+class FilmWatch;   // integrator/film_watch.h
+
+// Light sampling of next-event estimation when neither the command line nor the scene chooses
+// (bench/RESULTS.md, "One light per scatter event" and "Light sampling by contribution").
+constexpr int kDefaultLightSampling = ST_LIGHT_SAMPLING_AUTO;
+// Light sampling "auto" (types.h) picks "contribution" when the scene's media make a shadow ray
+// crossing them take at least this many density lookups (the residual majorant's optical depth
+// along the mean chord of each medium's box, summed over media: MajorantInfo::chord_lookups), and
+// "all" below. bench/RESULTS.md "Light sampling by contribution": the bench scenes' values and
+// where one shadow ray per event starts to pay.
+constexpr double kAutoContributionLookups = 2.0;
+// Transmittance estimator of shadow rays when neither the command line nor the scene chooses, and
+// the ray-marching spacings (majorant optical depth between samples; bench/RESULTS.md,
+// "Ray-marching transmittance").
+constexpr int kDefaultTransmittance = ST_TRANSMITTANCE_RATIO;
+constexpr double kDefaultMarchSpacing = 1.0;
+constexpr double kDefaultPilotSpacing = 2.0;
+// Density lookups when neither the command line nor the scene chooses (bench/RESULTS.md,
+// "Stochastic one-voxel lookups": on PoCL the variance it adds outweighs the time it saves).
+constexpr int kDefaultLookup = ST_LOOKUP_TRILINEAR;
+// Shadow-ray entries per (path, light) (types.h; bench/RESULTS.md, "No waiting paths").
+constexpr int kDefaultShadowRing = 2;
+
+struct RenderOptions {
+  std::optional<int> spp;               // samples per pixel (else film.spp)
+  int64_t sample_begin = 0;             // first sample index of the full sequence (sample-range shards)
+  // Pixel window x0, x1, y0, y1 (x1, y1 exclusive, pbrt's --pixelbounds); else the whole film.
+  std::optional<std::array<int, 4>> pixel_bounds;
+  std::optional<int64_t> seed;          // else render.seed
+  std::optional<int> tracker;           // st_tracker, else render.tracker
+  std::optional<int> scheme;            // st_scheme, else render.spectral_scheme
+  std::optional<int> absorption;        // st_absorption, else render.absorption, else the tracker's default
+  std::optional<int> light_sampling;    // st_light_sampling, else render.light_sampling, else kDefaultLightSampling
+  std::optional<int> transmittance;     // st_transmittance_mode, else render.transmittance, else kDefaultTransmittance
+  std::optional<double> march_spacing;  // ray marching: majorant optical depth between samples (kDefaultMarchSpacing)
+  std::optional<double> pilot_spacing;  // ray marching: the same for the pilot (kDefaultPilotSpacing)
+  std::optional<int> lookup;            // st_lookup_mode, else render.lookup, else kDefaultLookup
+  std::optional<int> color;             // st_film_color, else render.color (--spectral)
+  std::optional<uint32_t> aovs;         // film layers, ST_AOV_BIT bits; else film.aovs (+ alpha if film.alpha)
+  std::optional<int> guiding;           // GuidingMode (scene.h), else render.guiding, else auto
+  // Testing: called with the guide cache after every training pass's fit, before its upload (a
+  // deliberately wrong cache must still give an unbiased image).
+  std::function<void(GuideCache&)> guide_cache_hook;
+  int guide_grid_cells = 0;             // guide regions along the media box's longest axis; 0: kGuideGridCells
+  std::string device;                   // "P:D", name substring, or "" (SPECTRACK_DEVICE, then default)
+  int path_slots = 0;                   // paths in flight; 0 = by device type
+  int iteration_budget = 256;           // tentative collisions + DDA steps per item and launch
+  int majorant_cell = 0;                // voxels per fine majorant-cell edge; 0: automatic (2, coarser for huge grids)
+  int majorant_block = 8;               // fine cells per block edge of the adaptive majorant hierarchy; 0 or 1 = one level
+  double majorant_step_cost = -1;       // the hierarchy's cost model: one DDA step, in density lookups; < 0: automatic
+  bool generic_kernels = false;         // the generic kernel (every feature) instead of one specialised to the scene
+  int batches_in_flight = 0;            // batch result buffers in the ring (0: ST_MAX_BATCHES_IN_FLIGHT; 2: the old scheme)
+  int shadow_ring = 0;                  // shadow-ray entries per (path, light), 1..ST_MAX_SHADOW_RING (types.h); 0: kDefaultShadowRing
+  // st_feature bits compiled in whatever the scene needs (a kernel with more features renders the
+  // same image): a frame sequence asks for the bits that depend on a frame's grid data, so every
+  // frame uses the one kernel build
+  uint32_t feature_floor = 0;
+  bool quiet = false;
+  std::function<void(double)> progress;     // fraction of samples done
+  // Set asynchronously to stop: the stage loop ends at its next iteration and the result holds
+  // the batches finished by then (RenderResult::interrupted).
+  const std::atomic<bool>* stop = nullptr;
+  // Stop the same way once this time has come (--time-limit, render.time_limit).
+  std::optional<std::chrono::steady_clock::time_point> deadline;
+  // Set to true when a stage loop starts (from then on a stop has finished samples to save).
+  std::atomic<bool>* loop_started = nullptr;
+  // Relative error at which to stop (integrator/noise.h), else render.noise_target; 0: none. Adds the
+  // variance layer, which the error is measured from.
+  std::optional<double> noise_target;
+  // Looks at the film during the stage loop: stops it at a noise target, writes previews and
+  // checkpoints, resumes from a checkpoint (integrator/film_watch.h); not owned.
+  FilmWatch* watch = nullptr;
+};
+
+// A pixel window of the film: pixels x0 .. x0 + width - 1, y0 .. y0 + height - 1.
+struct FilmWindow {
+  int x0 = 0, y0 = 0, width = 0, height = 0;
+  int x1() const { return x0 + width; }
+  int y1() const { return y0 + height; }
+  uint64_t pixels() const { return uint64_t(width) * uint64_t(height); }
+};
+
+struct RenderSettings {
+  int tracker = 0, scheme = 0;  // st_tracker, st_scheme
+  int absorption = 0;           // st_absorption
+  int light_sampling = 0;       // st_light_sampling
+  int transmittance = 0;        // st_transmittance_mode
+  double march_spacing = kDefaultMarchSpacing, pilot_spacing = kDefaultPilotSpacing;  // ray marching
+  int lookup = 0;               // st_lookup_mode
+  int color = 0;                // st_film_color
+  uint32_t aovs = 0;            // film layers (ST_AOV_BIT bits; alpha implies environment)
+  uint32_t seed = 0;
+  int spp = 0;                  // samples per pixel to render
+  int64_t sample_begin = 0;     // samples sample_begin .. sample_begin + spp - 1
+  FilmWindow window;            // the pixels rendered
+  int full_width = 0, full_height = 0;  // the film
+  int channels_per_sample = 1;  // paths per (pixel, sample): the per-channel trackers' lanes (st_paths_per_sample)
+  bool guiding = false;         // volume path guiding on (auto resolved: off for now)
+  double noise_target = 0;      // relative error at which the render stops (integrator/noise.h); 0: none
+};
+
+// What a result records of the settings it was rendered with: the estimator choices and the seed
+// (RenderResult, MultiDeviceResult; film identities and stats are made from these).
+struct RenderChoices {
+  int tracker = 0, scheme = 0;  // st_tracker, st_scheme
+  int absorption = 0;           // st_absorption
+  int light_sampling = 0;       // st_light_sampling
+  int transmittance = 0;        // st_transmittance_mode
+  int lookup = 0;               // st_lookup_mode
+  int color = 0;                // st_film_color
+  uint32_t aovs = 0;            // film layers (ST_AOV_BIT bits)
+  uint32_t seed = 0;
+
+  void record_settings(const RenderSettings& s) {
+    aovs = s.aovs;
+    tracker = s.tracker;
+    scheme = s.scheme;
+    absorption = s.absorption;
+    light_sampling = s.light_sampling;
+    transmittance = s.transmittance;
+    lookup = s.lookup;
+    color = s.color;
+    seed = s.seed;
+  }
+};
+
+// Throws Error naming the scene file and field (or the option) when the options do not fit the
+// scene: pixel bounds outside the film, a tracker that needs achromatic media on chromatic ones,
+// an empty or out-of-range sample range.
+RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& options);
+
+// One VDB medium's majorant structure, for the render statistics.
+struct MajorantInfo {
+  int cell = 0;                 // voxels per fine-cell edge
+  int block = 0;                // fine cells per block edge (0: one level, every cell stored)
+  size_t fine_cells = 0;        // cells of the fine grid over the medium's box
+  size_t blocks_empty = 0, blocks_whole = 0, blocks_refined = 0;
+  std::vector<int> levels;               // group edges (fine cells) of the hierarchy, finest first
+  std::vector<size_t> blocks_per_level;  // blocks walked at each level
+  size_t bytes = 0;             // device memory of the structure
+  double seconds_build = 0;
+  // density lookups of a ratio-tracking shadow ray along the mean chord of the medium's box (4 V /
+  // S, Cauchy): the mean residual majorant over the fine cells times that length (light sampling
+  // "auto", kAutoContributionLookups)
+  double chord_lookups = 0;
+};
+
+}  // namespace spectrack
