@@ -11,8 +11,8 @@
 // not decide alone. The image's relative error is the 95th percentile (kNoisePercentile) of r_p
 // over the counted pixels; 0 when none counts. Below kNoiseMinSpp samples the sample variances are
 // too noisy themselves (a rare bright path may not have been drawn yet), so no decision is taken.
-// Checks are scheduled by sample count, not by time, so a seed stops at the same sample whatever
-// the machine: the error falls as 1/sqrt(n), so the next check is where the target is predicted to
+// Checks are scheduled by sample count, not by time, so a seed stops at the same sample whenever
+// the batches of samples are the same (the renderer looks at the end of a batch): the error falls as 1/sqrt(n), so the next check is where the target is predicted to
 // be met, at least one sample and at most twice the samples later.
 #pragma once
 #include <cstddef>
