@@ -253,10 +253,10 @@ TEST(CliPreview, IsRewrittenDuringTheRender) {
   const std::string dir = test_dir();
   const std::string scene = write_scene(dir, "scene.json", noise_scene(dir));
   st_cli::RunOptions o;
-  o.timeout_s = 120;
+  o.timeout_s = 180;
   o.signal = SIGKILL;
   o.signal_after_text = "progress: 0%";
-  o.signal_delay_s = 6.0;  // between the first and the second preview (kPreviewSeconds apart)
+  o.signal_delay_s = 18.0;  // several preview periods (kPreviewSeconds), with room for a loaded machine
   Proc p = run({"render", scene, "-o", dir + "/k.exr", "--spp", "1000000", "--preview", dir + "/k.png"}, o);
   ASSERT_TRUE(p.signal_sent) << p.describe();
   EXPECT_TRUE(p.signaled) << p.describe();
