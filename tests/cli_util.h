@@ -21,6 +21,7 @@
 #include <variant>
 #include <vector>
 
+#include <OpenImageIO/imageio.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -219,6 +220,32 @@ inline json vdb_scene(const std::string& file, const std::string& grid = "") {
   if (!grid.empty()) m["grid"] = grid;
   s["media"] = json::array({m});
   return s;
+}
+
+// The lumpy test volume `vdb` (st_test::write_lumpy), chromatic, under a blue environment and a sun:
+// every path type contributes.
+inline json lumpy_sky_scene(const std::string& vdb) {
+  json s = vdb_scene(vdb);
+  s["camera"]["fov_deg"] = 35;
+  s["media"][0]["density_scale"] = 6.0;
+  s["media"][0]["sigma_s"] = {1.0, 0.6, 0.3};
+  s["media"][0]["sigma_a"] = {0.05, 0.1, 0.2};
+  s["lights"] = json::array({{{"type", "environment"}, {"radiance", {0.3, 0.4, 0.6}}},
+                             {{"type", "directional"}, {"to_light", {-0.5, 1.0, -0.3}}, {"irradiance", {3, 3, 3}}}});
+  return s;
+}
+
+// Every channel of every pixel of an image file as floats, pixel-major (empty, and a test
+// failure, when it cannot be read); `channels` gets the channel count.
+inline std::vector<float> image_pixels(const std::string& path, int* channels = nullptr) {
+  auto in = OIIO::ImageInput::open(path);
+  EXPECT_TRUE(in) << path;
+  if (!in) return {};
+  const auto& spec = in->spec();
+  if (channels) *channels = spec.nchannels;
+  std::vector<float> px(size_t(spec.width) * spec.height * spec.nchannels);
+  in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, px.data());
+  return px;
 }
 
 inline std::string write_scene(const std::string& dir, const std::string& name, const json& scene) {

@@ -29,16 +29,10 @@ std::string shard_scene(const std::string& dir, const std::string& name = "scene
                         const std::function<void(json&)>& edit = nullptr) {
   std::string vdb = dir + "/lumpy.vdb";
   if (!fs::exists(vdb)) st_test::write_lumpy(vdb);
-  json s = vdb_scene(vdb);
+  json s = lumpy_sky_scene(vdb);
   s["film"]["width"] = kW;
   s["film"]["height"] = kH;
   s["film"]["spp"] = kSpp;
-  s["camera"]["fov_deg"] = 35;
-  s["media"][0]["density_scale"] = 6.0;
-  s["media"][0]["sigma_s"] = {1.0, 0.6, 0.3};
-  s["media"][0]["sigma_a"] = {0.05, 0.1, 0.2};
-  s["lights"] = json::array({{{"type", "environment"}, {"radiance", {0.3, 0.4, 0.6}}},
-                             {{"type", "directional"}, {"to_light", {-0.5, 1.0, -0.3}}, {"irradiance", {3, 3, 3}}}});
   if (edit) edit(s);
   return write_scene(dir, name, s);
 }

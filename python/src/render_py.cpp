@@ -139,7 +139,7 @@ Image render(const SceneDesc& scene, const RenderArgs& args) {
   im.meta["spp_requested"] = r.spp_requested;
   im.meta["render_seconds"] = float(r.seconds_render);
   im.meta["scene"] = scene.path;
-  if (r.piece.interrupted) im.meta["stop_reason"] = std::string(r.time_limit_reached ? "time-limit" : "signal");
+  if (const std::string why = render_stop_reason(r); !why.empty()) im.meta["stop_reason"] = why;
   if (pending) {
     py::object value = pending->value();
     if (value && PyObject_HasAttrString(value.ptr(), "__dict__")) value.attr("image") = py::cast(std::move(im));

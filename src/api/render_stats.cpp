@@ -7,6 +7,12 @@
 
 namespace spectrack {
 
+std::string render_stop_reason(const MultiDeviceResult& r) {
+  if (r.noise_target_reached) return "noise-target";
+  if (!r.piece.interrupted) return "";
+  return r.time_limit_reached ? "time-limit" : "signal";
+}
+
 nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_total, double seconds_to_renderer,
                                  int mpi_ranks, const Metadata& meta) {
   nlohmann::json j = stats_to_json(r.stats);
@@ -15,8 +21,10 @@ nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_tota
   j["spp_requested"] = r.spp_requested;
   j["spp_ranges"] = format_ranges(p.ranges);
   j["interrupted"] = p.interrupted;
-  j["stop_reason"] = p.interrupted ? (r.time_limit_reached ? "time-limit" : "signal") : "";
-  if (auto t = meta.find("time_limit"); t != meta.end()) j["time_limit"] = std::get<float>(t->second);
+  j["stop_reason"] = render_stop_reason(r);
+  for (const char* k : {"time_limit", "noise_target", "noise_error"})
+    if (auto t = meta.find(k); t != meta.end()) j[k] = std::get<float>(t->second);
+  if (auto t = meta.find("noise_pixels"); t != meta.end()) j["noise_pixels"] = std::get<int>(t->second);
   j["seed"] = r.seed;
   j["tracker"] = tracker_name(r.tracker);
   j["scheme"] = scheme_name(r.scheme);

@@ -10,8 +10,13 @@ namespace spectrack {
 
 // The counters (integrator/stats_json.h) with the samples, the settings the render ran, the devices,
 // the window, the timings (seconds_total and seconds_to_renderer count from the command's start),
-// the guiding cache and each VDB medium's majorant structure. `meta` may hold "time_limit" (a float).
+// the guiding cache and each VDB medium's majorant structure. `meta` may hold "time_limit",
+// "noise_target" and "noise_error" (floats) and "noise_pixels" (an int).
 nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_total, double seconds_to_renderer,
                                  int mpi_ranks, const Metadata& meta);
+
+// Why the render stopped before its requested samples ("" when it did not): noise-target,
+// time-limit or signal.
+std::string render_stop_reason(const MultiDeviceResult& r);
 
 }  // namespace spectrack

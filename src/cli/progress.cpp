@@ -47,7 +47,8 @@ double recent_rate(State& st, Clock::time_point now, double got) {
 
 }  // namespace
 
-std::function<void(double)> progress_reporter(bool quiet, bool tty, double samples, double log_interval_s) {
+std::function<void(double)> progress_reporter(bool quiet, bool tty, double samples, double log_interval_s,
+                                              std::function<std::string()> note) {
   auto st = std::make_shared<State>();
   return [=](double f) {
     if (quiet || st->finished) return;
@@ -69,14 +70,16 @@ std::function<void(double)> progress_reporter(bool quiet, bool tty, double sampl
     const std::string eta = done ? fmt::format("took {}", duration_str(elapsed))
                                  : rate > 0 ? "ETA " + duration_str((samples - got) / rate) : std::string("ETA ?");
     const int pct = int(std::floor(f * 100.0));
+    const std::string extra = note ? note() : std::string();
+    const std::string tail = extra.empty() ? eta : eta + ", " + extra;
     int n = 0;
     if (tty) {
       const int bar = int(f * 30.0);
       n = std::fprintf(stderr, "\r[%-30s] %3d%%  %s/%s spp  %s  %s\033[K", std::string(size_t(bar), '#').c_str(), pct,
-                       samples_str(got).c_str(), samples_str(samples).c_str(), rate_s.c_str(), eta.c_str());
+                       samples_str(got).c_str(), samples_str(samples).c_str(), rate_s.c_str(), tail.c_str());
     } else {
       n = std::fprintf(stderr, "progress: %d%% (%s/%s spp, %s, %s)\n", pct, samples_str(got).c_str(),
-                       samples_str(samples).c_str(), rate_s.c_str(), eta.c_str());
+                       samples_str(samples).c_str(), rate_s.c_str(), tail.c_str());
     }
     // a reader of stderr that went away (EPIPE; SIGPIPE is ignored) stops the progress, not the render
     if (std::fflush(stderr) != 0 || n < 0) st->finished = true;

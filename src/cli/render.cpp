@@ -28,6 +28,7 @@
 #include "device/opencl.h"
 #include "cli/progress.h"
 #include "cli/render_outputs.h"
+#include "integrator/render_watch.h"
 #include "cli/run_control.h"
 #include "image/image.h"
 #include "film/film.h"
@@ -92,6 +93,7 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
       throw Error(fmt::format("--absorption {}: unknown absorption mode (one of: {})", a.absorption, absorption_names()));
   }
   if (a.spp > 0) opt.spp = a.spp;
+  if (a.noise_target > 0) opt.noise_target = a.noise_target;
   if (!a.spp_range.empty()) {
     int64_t b = 0;
     check_spp_range(a.spp_range, &opt.sample_begin, &b);  // checked by CLI11 already
@@ -136,11 +138,11 @@ MultiDeviceResult render_share(const SceneDesc& scene, const RenderOptions& opt,
     r.light_sampling_used = set.light_sampling;  // no scene packed here: the request ("auto" unresolved)
   }
   r.spp_requested = set.spp;
-  r.piece.interrupted = r.piece.interrupted || r.piece.samples() < my_end - my_begin;
+  r.piece.interrupted = r.piece.interrupted || (r.piece.samples() < my_end - my_begin && !r.noise_target_reached);
 #ifdef SPECTRACK_HAVE_MPI
   if (mpi.on) mpi_reduce_to_root(mpi.world, r);
 #endif
-  if (mpi.rank == 0) r.piece.interrupted = r.piece.interrupted || r.piece.samples() < set.spp;
+  if (mpi.rank == 0) r.piece.interrupted = r.piece.interrupted || (r.piece.samples() < set.spp && !r.noise_target_reached);
   return r;
 }
 
@@ -175,6 +177,49 @@ ExrOptions exr_options(bool half, const std::string& compression, const FilmDesc
   o.half = half || film.half;
   o.compression = compression.empty() ? film.compression : compression;
   return o;
+}
+
+// What the watch of a render (integrator/render_watch.h) needs, or nothing when no flag asks for it. It
+// looks at one device's film in one process: a noise target, checkpoints and --resume refuse
+// several devices and --mpi (exit 2), a noise target also shards and tiles (each would stop at
+// its own noise); a preview with several devices or ranks is written at the end only.
+std::unique_ptr<RenderWatch> make_watch(const RenderArgs& a, const MpiArg& mpi, const SceneDesc& scene,
+                                        const RenderSettings& set, const std::vector<std::string>& devices,
+                                        const std::string& output, const std::function<std::string()>& hash) {
+  const bool several = devices.size() > 1 || mpi.on;
+  if (set.noise_target > 0 && several)
+    throw UsageError("--noise-target (render.noise_target) stops one device's render at its noise: it does not work "
+                     "with several devices or --mpi");
+  if (set.noise_target > 0 && (!a.spp_range.empty() || !a.pixel_bounds.empty()))
+    throw UsageError("--noise-target (render.noise_target) with --spp-range or --pixel-bounds: each shard or tile would "
+                     "stop at its own noise, and the pieces would not merge; render the whole film");
+  if ((a.checkpoint > 0 || a.resume) && (several || set.guiding))
+    throw UsageError("--checkpoint and --resume work with one device and no --mpi or guiding");
+  if (set.noise_target <= 0 && a.checkpoint <= 0 && !a.resume && (a.preview.empty() || several)) return nullptr;
+  WatchConfig c;
+  c.noise_target = set.noise_target;
+  c.preview = a.preview;
+  c.image = output;
+  c.checkpoint_seconds = a.checkpoint;
+  c.state_path = film_state_path(output);
+  c.id = render_identity(set);
+  c.exr = exr_options(a.half, a.compression, scene.film);
+  c.meta["scene"] = scene.path;
+  c.meta["spp_requested"] = set.spp;
+  c.spp = set.spp;
+  if (a.checkpoint > 0 || a.resume) {
+    c.id.scene_hash = hash();
+    c.state_key = film_state_key(c.id, set.window, set.sample_begin, set.spp);
+  }
+  auto w = std::make_unique<RenderWatch>(std::move(c));
+  if (a.resume && !a.quiet && mpi.rank == 0)
+    std::cerr << (w->load_resume() ? fmt::format("spectrack: resuming from {} ({} samples done)\n", film_state_path(output),
+                                                 w->resume()->samples_done)
+                                   : fmt::format("spectrack: no film state {}: rendering from the first sample\n",
+                                                 film_state_path(output)));
+  else if (a.resume)
+    w->load_resume();
+  return w;
 }
 
 // One render of a loaded scene (one frame of a sequence) to `output`.
@@ -214,8 +259,17 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   // The scene hash reads every VDB and map once more: on the writing rank only, beside the render.
   std::future<std::string> hash;
   if (root) hash = std::async(std::launch::async, [&scene] { return scene_hash(scene); });
+  std::string hash_value;
+  auto get_hash = [&] {
+    if (hash_value.empty()) hash_value = hash.get();
+    return hash_value;
+  };
+  std::unique_ptr<RenderWatch> watch = make_watch(a, mpi, scene, set, devices, output, get_hash);
+  opt.watch = watch.get();
   const bool tty = ::isatty(2);
-  opt.progress = progress_reporter(quiet, tty, double(process_samples(set, mpi)));
+  opt.progress = progress_reporter(quiet, tty, double(process_samples(set, mpi)), 5.0,
+                                   watch ? std::function<std::string()>([w = watch.get()] { return w->note(); })
+                                         : std::function<std::string()>());
   opt.stop = stop_flag();
   opt.loop_started = loop_started_flag();
   if (!quiet)
@@ -232,9 +286,10 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   if (tty && !quiet) std::fprintf(stderr, "\n");
   const bool signalled = stop_flag()->load();
   if (!root) return signalled || (r.piece.interrupted && !r.time_limit_reached) ? kExitInterrupted : 0;
-  if (r.piece.samples() > 0) r.piece.id.scene_hash = hash.get();
+  if (r.piece.samples() > 0) r.piece.id.scene_hash = get_hash();
   if (a.frame) r.piece.id.frame = std::to_string(*a.frame);
-  const RenderOutputs out{output, a.preview, a.stats_json, exr_options(a.half, a.compression, scene.film), a.quiet, a.mpi};
+  const RenderOutputs out{output, a.preview, a.stats_json, exr_options(a.half, a.compression, scene.film), a.quiet, a.mpi,
+                          set.noise_target};
   const RenderTimes times{std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), seconds_to_renderer};
   return finish_render(out, scene, r, times, mpi.size, time_limit, signalled);
 }

@@ -34,6 +34,9 @@ struct RenderArgs {
   uint32_t feature_floor = 0;  // RenderOptions::feature_floor (frame sequences)
   std::optional<long long> frame;  // the frame a sequence renders (EXR metadata spectrack:frame)
   double time_limit = 0;
+  double noise_target = 0;  // 0: not given
+  double checkpoint = 0;    // seconds between checkpoints; 0: none
+  bool resume = false;
   bool generic_kernels = false;
   bool quiet = false;
   bool mpi = false;

@@ -104,7 +104,9 @@ void add_run_flags(CLI::App* render, RenderArgs& ra) {
       ->check(integer_in(1, 1 << 24));
   render->add_flag("--mpi", ra.mpi, "under mpirun: each rank renders a disjoint sample range, rank 0 writes the image");
   render->add_option("--stats-json", ra.stats_json, "write render statistics as JSON");
-  render->add_option("--preview", ra.preview, "also write a PNG preview")->check(png_file());
+  render->add_option("--preview", ra.preview,
+                     "also write a PNG preview, rewritten every few seconds during the render (one device, no --mpi)")
+      ->check(png_file());
   render->add_option("--path-slots", ra.path_slots, "paths in flight (default: 65536 on CPUs, 1M on GPUs)")->check(integer_in(1, 1 << 24));
   render->add_option("--budget", ra.budget, "tracking iterations per path and kernel launch")->check(integer_in(1, 1 << 20));
   render->add_option("--majorant-cell", ra.majorant_cell,
@@ -133,6 +135,18 @@ void add_run_flags(CLI::App* render, RenderArgs& ra) {
                      "stop cleanly after this many seconds from the start (the finished samples are written, "
                      "exit 0; if none finished, nothing is written, exit 3; overrides render.time_limit)")
       ->check(finite_range(1e-3, 1e9));
+  render->add_option("--noise-target", ra.noise_target,
+                     "stop once the image's relative error (the 95th percentile over its noisy pixels of the standard "
+                     "error over the mean, from the variance layer; docs/cli.md) is at or below this, or at --spp or "
+                     "the time limit (overrides render.noise_target; adds the variance layer)")
+      ->check(finite_range(1e-6, 1.0));
+  render->add_option("--checkpoint", ra.checkpoint,
+                     "every this many seconds, and when the render ends early, write the image and its film state "
+                     "(OUTPUT.resume), which --resume continues from")
+      ->check(finite_range(0.1, 1e9));
+  render->add_flag("--resume", ra.resume,
+                   "continue from OUTPUT.resume (a checkpoint) if it exists: the final sums equal the uninterrupted "
+                   "render's, bit for bit");
   render->add_flag("--alpha", ra.alpha,
                    "write A = 1 - the camera ray's transmittance (and AR, AG, AB) with a transparent, premultiplied "
                    "R, G, B; the environment seen straight from the camera goes to the environment layer (default for "

@@ -7,16 +7,24 @@
 #include <algorithm>
 #include <climits>
 #include <iostream>
+#include <optional>
 
 #include "cli/checks.h"
 #include "cli/run_control.h"
 #include "api/render_stats.h"
 #include "film/film.h"
+#include "integrator/noise.h"
 #include "util/output_file.h"
 #include "util/strings.h"
 
 namespace spectrack {
 namespace {
+
+// The relative error of the image (integrator/noise.h) when it has the variance layer.
+std::optional<NoiseEstimate> film_noise(const FilmPiece& p) {
+  if (!(p.id.aovs & ST_AOV_BIT(VARIANCE)) || p.samples() == 0) return std::nullopt;
+  return estimate_film_noise(p.sum, p.aov_sum, aov_sum_channels(p.id.aovs), p.samples());
+}
 
 void write_stats_json(const std::string& path, const MultiDeviceResult& r, double seconds_total,
                       double seconds_to_renderer, int mpi_ranks, const Metadata& meta) {
@@ -29,7 +37,13 @@ void write_render_outputs(const RenderOutputs& o, const SceneDesc& scene, const 
                           const RenderTimes& t, int mpi_ranks, double time_limit) {
   Metadata meta;
   if (time_limit > 0) meta["time_limit"] = float(time_limit);
-  if (r.piece.interrupted) meta["stop_reason"] = std::string(r.time_limit_reached ? "time-limit" : "signal");
+  if (!render_stop_reason(r).empty()) meta["stop_reason"] = render_stop_reason(r);
+  if (o.noise_target > 0) meta["noise_target"] = float(o.noise_target);
+  const std::optional<NoiseEstimate> noise = film_noise(r.piece);
+  if (noise) {
+    meta["noise_error"] = float(noise->error);
+    meta["noise_pixels"] = int(std::min<uint64_t>(noise->pixels, INT32_MAX));
+  }
   if (r.stats.nonfinite_samples > 0) meta["nonfinite_samples"] = int(std::min<uint64_t>(r.stats.nonfinite_samples, INT32_MAX));
   meta["spp_requested"] = r.spp_requested;
   meta["device"] = join(r.devices, ", ");
@@ -40,9 +54,13 @@ void write_render_outputs(const RenderOutputs& o, const SceneDesc& scene, const 
   if (!o.preview.empty()) write_piece(o.preview, r.piece, meta);
   if (!o.stats_json.empty()) write_stats_json(o.stats_json, r, t.total, t.to_renderer, mpi_ranks, meta);
   if (!o.quiet) {
-    std::cerr << fmt::format("wrote {} ({} spp in {:.2f} s render, {:.2f} s total{})\n", o.image, r.piece.samples(),
+    std::cerr << fmt::format("wrote {} ({} spp in {:.2f} s render, {:.2f} s total{}{})\n", o.image, r.piece.samples(),
                              r.seconds_render, t.total,
-                             !r.piece.interrupted ? "" : r.time_limit_reached ? ", stopped at the time limit" : ", INTERRUPTED");
+                             noise ? fmt::format(", noise {:.3g}%", 100.0 * noise->error) : std::string(),
+                             r.noise_target_reached ? ", noise target reached"
+                             : !r.piece.interrupted ? ""
+                             : r.time_limit_reached ? ", stopped at the time limit"
+                                                    : ", INTERRUPTED");
     if (!o.preview.empty()) std::cerr << fmt::format("wrote {} (preview)\n", o.preview);
     if (!o.stats_json.empty()) std::cerr << fmt::format("wrote {} (statistics)\n", o.stats_json);
   }

@@ -21,6 +21,7 @@ struct RenderOutputs {
   ExrOptions exr;
   bool quiet = false;
   bool mpi = false;  // record mpi_ranks in the metadata
+  double noise_target = 0;  // the render's noise target (0: none), recorded with the noise reached
 };
 
 // The times the statistics record, in seconds from the command's (or frame's) start.

@@ -102,7 +102,8 @@ std::string scene_hash(const SceneDesc& scene, const std::string& json_text) {
       for (const char* k : {"output", "spp", "alpha", "aovs", "half", "compression"}) j["film"].erase(k);
     }
     if (j.contains("render") && j["render"].is_object())
-      for (const char* k : {"seed", "tracker", "spectral_scheme", "absorption", "light_sampling", "transmittance", "lookup", "color"})
+      for (const char* k : {"seed", "tracker", "spectral_scheme", "absorption", "light_sampling", "transmittance", "lookup", "color",
+                            "noise_target"})
         j["render"].erase(k);
     // file names stand for their contents, hashed below: a scene whose assets moved is the same scene
     for (const char* list : {"media", "lights"})

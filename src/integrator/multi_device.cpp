@@ -72,7 +72,7 @@ class MultiDeviceRun {
     RenderStats stats;
     int64_t samples = 0;
     double setup = 0, build = 0, first_pass = -1.0, render = 0;  // render: its stage loops
-    bool from_cache = true, time_limit_reached = false;
+    bool from_cache = true, time_limit_reached = false, noise_target_reached = false;
     uint32_t features = 0;
     int light_sampling_used = 0;
     std::vector<MajorantInfo> majorants;
@@ -140,6 +140,7 @@ void MultiDeviceRun::add_chunk(size_t i, int64_t begin, const RenderResult& res)
   p.ranges = join_ranges(p.ranges);
   p.interrupted |= res.interrupted;
   d.time_limit_reached |= res.time_limit_reached;
+  d.noise_target_reached |= res.noise_target_reached;
   d.stats.add(res.stats);
   std::lock_guard<std::mutex> lock(mu_);
   d.samples += res.spp_done;
@@ -203,6 +204,7 @@ MultiDeviceResult MultiDeviceRun::combine() const {
     out.samples_per_device.push_back(d.samples);
     interrupted |= d.piece.interrupted;
     out.time_limit_reached |= d.time_limit_reached;
+    out.noise_target_reached |= d.noise_target_reached;
     if (d.piece.samples() > 0) with_samples.push_back(d.piece);
     out.stats.add(d.stats);
     out.seconds_setup = std::max(out.seconds_setup, d.setup);
@@ -223,7 +225,7 @@ MultiDeviceResult MultiDeviceRun::combine() const {
   else
     out.piece = with_samples.size() == 1 ? with_samples[0] : merge_pieces(with_samples);
   out.piece.source = "render";
-  out.piece.interrupted = interrupted || out.piece.samples() < spp_;
+  out.piece.interrupted = interrupted || (out.piece.samples() < spp_ && !out.noise_target_reached);
   if (base_.deadline && std::chrono::steady_clock::now() >= *base_.deadline && out.piece.samples() < spp_)
     out.time_limit_reached = true;  // also when the deadline fell between two chunks
   return out;

@@ -35,6 +35,7 @@ struct MultiDeviceResult : RenderChoices {
   GuideInfo guide;                      // volume path guiding (one device only)
   int spp_requested = 0;
   bool time_limit_reached = false;  // some device stopped at RenderOptions::deadline
+  bool noise_target_reached = false;  // the watch stopped the render at its noise target (not interrupted)
 };
 
 // Renders samples [sample_begin, sample_begin + spp) of the settings' window (resolved from

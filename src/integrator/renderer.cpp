@@ -22,6 +22,7 @@
 
 #include "guiding/guide_cache.h"
 #include "device/device_scene.h"
+#include "integrator/film_watch.h"
 #include "integrator/memory_budget.h"
 #include "util/phase.h"
 
@@ -100,7 +101,7 @@ bool Renderer::Impl::begin_iteration(LoopState& s, const BatchPlan& p, int64_t s
     return false;
   }
   uint64_t issue_limit = std::min<uint64_t>(p.total_paths, (s.accumulated + batches_ahead(s.accumulated, p.ring)) * p.batch_paths);
-  issue_limit = std::min<uint64_t>(issue_limit, s.batches_target * p.batch_paths);
+  issue_limit = std::min<uint64_t>(issue_limit, std::min(s.batches_target, s.batches_issuable) * p.batch_paths);
   uint64_t n_new = std::min<uint64_t>(s.n_q[ST_Q_FREE], issue_limit > s.issued ? issue_limit - s.issued : 0);
   uint64_t in_flight = 0;
   for (int q = ST_Q_TRACK; q < ST_Q_COUNT; ++q) in_flight += s.n_q[q];
@@ -195,9 +196,11 @@ RenderResult Renderer::Impl::result_header(int64_t sample_begin, int spp) const 
 }
 
 void Renderer::Impl::read_film(const RenderBuffers& b, const BatchPlan& p, const LoopState& s, RenderResult& res) {
-  res.spp_done = int(s.samples_done);
-  res.interrupted = s.samples_done < p.spp;
+  const uint64_t n = s.samples_before + s.samples_done;  // a resumed film holds samples_before more
+  res.spp_done = int(n);
+  res.interrupted = s.samples_done < p.spp && !s.noise_target_reached;
   res.time_limit_reached = s.time_limit_reached;
+  res.noise_target_reached = s.noise_target_reached;
   res.aov_channels = aov_sum_channels(settings.aovs);
   const size_t na = res.aov_channels.size();
   res.rgb.assign(p.npix * 3, 0.0f);
@@ -232,7 +235,7 @@ void Renderer::Impl::read_film(const RenderBuffers& b, const BatchPlan& p, const
       // transparent film (alpha) leaves it out of R, G, B, an opaque one adds it back
       const double env = p.L > 1 && !(settings.aovs & ST_AOV_BIT(ALPHA)) ? layer(ST_RESULT_ENVIRONMENT, i, k) : 0.0;
       res.sum[i * 3 + k] = layer(ST_RESULT_BEAUTY, i, k) + env;
-      if (s.samples_done > 0) res.rgb[i * 3 + k] = float(res.sum[i * 3 + k] / double(s.samples_done));
+      if (n > 0) res.rgb[i * 3 + k] = float(res.sum[i * 3 + k] / double(n));
     }
     if (settings.aovs & ST_AOV_BIT(ALPHA))
       for (int k = 0; k < 3; ++k) res.aov_sum[i * na + a++] = layer(ST_RESULT_ALPHA, i, k);
@@ -270,7 +273,13 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
 RenderResult Renderer::Impl::run_stage_loop(int64_t sample_begin, int spp, std::vector<st_guide_record>* records) {
   RenderResult res = result_header(sample_begin, spp);
   launcher->times().clear();
-  BatchPlan plan = plan_batches(spp);
+  FilmWatch* watch = records ? nullptr : opt.watch;  // training passes are not watched
+  const FilmState* resumed = watch ? watch->resume() : nullptr;
+  const int64_t before = resumed ? resumed->samples_done : 0;
+  if (resumed && (resumed->sample_begin != sample_begin || before < 1 || before >= spp))
+    throw Error(fmt::format("internal: a film of samples {}:{} resumed in a render of samples {}:{}",
+                            resumed->sample_begin, resumed->sample_begin + before, sample_begin, sample_begin + spp));
+  BatchPlan plan = plan_batches(int(spp - before));
   // the default shadow ring falls back to one entry per (path, light) where two would not fit (the
   // image is the same; paths may wait for their shadow rays)
   if (opt.shadow_ring == 0 && plan.shadow_ring > 1 && memory_need(plan).device > double(ds.dev.global_mem)) {
@@ -291,8 +300,11 @@ RenderResult Renderer::Impl::run_stage_loop(int64_t sample_begin, int spp, std::
     upload_guide();
   }
   bind_stage_args(buf, plan);
+  if (resumed) load_film_state(buf, plan, *resumed);
 
   LoopState s;
+  s.samples_before = uint64_t(before);
+  if (watch) limit_issue(s, plan, *watch);
   s.n_q[ST_Q_FREE] = plan.Q;
   s.batch_done.assign(plan.ring, 0);
   s.batches_target = plan.n_batches;
@@ -300,23 +312,26 @@ RenderResult Renderer::Impl::run_stage_loop(int64_t sample_begin, int spp, std::
   auto t_loop = Clock::now();
   if (opt.loop_started) opt.loop_started->store(true);
   while (s.accumulated < s.batches_target) {
-    if (!begin_iteration(s, plan, sample_begin)) break;
+    if (!begin_iteration(s, plan, sample_begin + before)) break;
     ST_CL_CHECK(ds.queue.enqueueReadBuffer(buf.counters, CL_TRUE, 0, s.counters.size() * 4, s.counters.data()), "read counters");
     ST_CL_CHECK(ds.queue.enqueueWriteBuffer(buf.counters, CL_FALSE, 0, zeros.size() * 4, zeros.data()), "reset counters");
     if (records) drain_records(*records);
     launcher->collect_profiling();
     res.stats.iterations++;
     fold_counters(s, plan, res.stats);
+    const uint64_t accumulated = s.accumulated;
     accumulate_finished(s, plan, res);
     if (opt.progress) {  // finished paths, the accumulated batches' and those in flight: smooth within batches
-      uint64_t paths = s.samples_done * plan.npix * plan.nch;
+      uint64_t paths = (s.samples_before + s.samples_done) * plan.npix * plan.nch;
       for (uint64_t d : s.batch_done) paths += d;
-      opt.progress(std::min(1.0, double(paths) / double(plan.total_paths)));
+      opt.progress(std::min(1.0, double(paths) / double(uint64_t(spp) * plan.npix * plan.nch)));
     }
+    if (watch && s.accumulated > accumulated && s.accumulated < s.batches_target && watch_film(buf, plan, s, res)) break;
   }
   ST_CL_CHECK(ds.queue.finish(), "finish stage loop");
   res.seconds_render = seconds_since(t_loop);  // the stage loop alone (kernel JIT is in seconds_build)
   read_film(buf, plan, s, res);
+  if (watch && watch->wants_final_state()) watch->final_state(film_state(buf, plan, s, sample_begin));
   launcher->collect_profiling();
   float mt;
   std::memcpy(&mt, &s.max_bits, 4);

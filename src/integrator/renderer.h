@@ -80,6 +80,7 @@ struct RenderResult : RenderChoices {
   int spp_requested = 0, spp_done = 0;
   bool interrupted = false;         // fewer samples done than requested (a stop or the time limit)
   bool time_limit_reached = false;  // stopped by RenderOptions::deadline
+  bool noise_target_reached = false;  // stopped by RenderOptions::watch (a noise target met: not interrupted)
   std::string device;
   double seconds_setup = 0, seconds_build = 0, seconds_render = 0;
   double seconds_first_pass = 0;  // Renderer construction to the first batch added to the film

@@ -14,6 +14,7 @@
 #include <iostream>
 
 #include "guiding/guide_cache.h"
+#include "integrator/film_watch.h"
 #include "device/device_scene.h"
 #include "integrator/memory_budget.h"
 #include "util/phase.h"
@@ -58,7 +59,9 @@ struct LoopState {
   uint64_t free_kept = 0;           // free slots raygen left below its launch this iteration
   uint32_t cur = 0;
   uint64_t issued = 0, accumulated = 0, samples_done = 0, batches_target = 0;
-  bool time_limit_reached = false;
+  uint64_t samples_before = 0;       // samples of a resumed film (FilmWatch::resume) before sample_begin
+  uint64_t batches_issuable = UINT64_MAX;  // batches that may be issued before the watch looks again
+  bool time_limit_reached = false, noise_target_reached = false;
   std::vector<uint64_t> batch_done;  // finished paths per ring slot
   std::vector<uint32_t> counters = std::vector<uint32_t>(ST_C_COUNT, 0u);
   uint32_t max_bits = 0;             // of the largest throughput component
@@ -124,6 +127,12 @@ struct Renderer::Impl {
   void accumulate_finished(LoopState& s, const BatchPlan& plan, RenderResult& res);
   RenderResult result_header(int64_t sample_begin, int spp) const;
   void read_film(const RenderBuffers& b, const BatchPlan& plan, const LoopState& s, RenderResult& res);
+  // The watch of the stage loop (film_watch.h; renderer_watch.cpp): the film state, the resumed
+  // film, a look at the film after new batches (true: stop), the batches it lets the loop issue.
+  FilmState film_state(const RenderBuffers& b, const BatchPlan& plan, const LoopState& s, int64_t sample_begin);
+  void load_film_state(const RenderBuffers& b, const BatchPlan& plan, const FilmState& st);
+  bool watch_film(const RenderBuffers& b, const BatchPlan& plan, LoopState& s, const RenderResult& header);
+  void limit_issue(LoopState& s, const BatchPlan& plan, const FilmWatch& w);
   // Construction to the first batch on the film (waits for the accumulation launch).
   double first_pass_seconds() {
     ST_CL_CHECK(ds.queue.finish(), "finish first pass");

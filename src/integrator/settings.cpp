@@ -62,6 +62,11 @@ RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) 
   s.aovs = o.aovs ? *o.aovs : (scene.film.aovs | (scene.film.alpha.value_or(false) ? uint32_t(ST_AOV_BIT(ALPHA)) : 0u));
   if (s.aovs >= (1u << ST_AOV_COUNT)) throw Error(fmt::format("film layer mask 0x{:x} names layers that do not exist", s.aovs));
   if (s.aovs & ST_AOV_BIT(ALPHA)) s.aovs |= ST_AOV_BIT(ENVIRONMENT);
+  // a noise target is measured from the variance layer (integrator/noise.h)
+  s.noise_target = o.noise_target.value_or(scene.render.noise_target);
+  if (!(s.noise_target >= 0 && s.noise_target <= 1))
+    throw Error(fmt::format("noise target {} is not a relative error in (0, 1] (0: none)", s.noise_target));
+  if (s.noise_target > 0) s.aovs |= ST_AOV_BIT(VARIANCE);
   s.seed = o.seed ? uint32_t(*o.seed) : scene.render.seed;
   s.spp = o.spp.value_or(scene.film.spp);
   s.shutter = o.shutter ? o.shutter : scene.camera.shutter;

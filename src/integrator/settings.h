@@ -22,6 +22,7 @@
 namespace spectrack {
 
 struct GuideCache;  // guiding/guide_cache.h
+class FilmWatch;   // integrator/film_watch.h
 
 // Light sampling of next-event estimation when neither the command line nor the scene chooses
 // (bench/RESULTS.md, "One light per scatter event" and "Light sampling by contribution").
@@ -88,6 +89,12 @@ struct RenderOptions {
   std::optional<std::chrono::steady_clock::time_point> deadline;
   // Set to true when a stage loop starts (from then on a stop has finished samples to save).
   std::atomic<bool>* loop_started = nullptr;
+  // Relative error at which to stop (integrator/noise.h), else render.noise_target; 0: none. Adds the
+  // variance layer, which the error is measured from.
+  std::optional<double> noise_target;
+  // Looks at the film during the stage loop: stops it at a noise target, writes previews and
+  // checkpoints, resumes from a checkpoint (integrator/film_watch.h); not owned.
+  FilmWatch* watch = nullptr;
 };
 
 // A pixel window of the film: pixels x0 .. x0 + width - 1, y0 .. y0 + height - 1.
@@ -118,6 +125,7 @@ struct RenderSettings {
   // stratified over film.spp samples (the scene's, so every shard of a render has the same times)
   std::optional<std::array<double, 2>> shutter;
   int time_strata = 1;
+  double noise_target = 0;      // relative error at which the render stops (integrator/noise.h); 0: none
 };
 
 // What a result records of the settings it was rendered with: the estimator choices and the seed

@@ -251,7 +251,7 @@ void Parser::render(const json& j, const std::string& path, RenderDesc& r) {
   expect_object(j, path);
   fields(j, path,
          {"tracker", "spectral_scheme", "absorption", "light_sampling", "transmittance", "lookup", "color", "max_depth", "seed",
-          "time_limit", "guiding"});
+          "time_limit", "guiding", "noise_target"});
   // a name from one of the enum tables of kernels/types.h (scene/names.cpp): its value, or the
   // field named with the valid names
   auto named = [&](const char* key, const char* what, int (*from_name)(const std::string&), std::string (*names)(),
@@ -274,6 +274,7 @@ void Parser::render(const json& j, const std::string& path, RenderDesc& r) {
   r.max_depth = static_cast<int>(integer(j, path, "max_depth", r.max_depth, -1, std::numeric_limits<int>::max()));
   r.seed = static_cast<uint32_t>(integer(j, path, "seed", r.seed, 0, 0xffffffffll));
   if (find(j, "time_limit")) r.time_limit = number(j, path, "time_limit", 0.0, Range{0, 1e9, true, false});
+  if (find(j, "noise_target")) r.noise_target = number(j, path, "noise_target", 0.0, Range{0, 1, true, false});
 }
 
 // nlohmann's messages start with "[json.exception.parse_error.101] "; keep what follows.

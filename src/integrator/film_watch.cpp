@@ -1,0 +1,72 @@
+// film_watch.cpp: film states on disk (film_watch.h). The header is text (the format, the key, the
+// sample range and the film's shape on three lines), the floats follow in the host's byte order;
+// a state is only ever read back on the machine kind that wrote it (the key names the version).
+#include "integrator/film_watch.h"
+
+#include <fmt/format.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "util/output_file.h"
+
+namespace spectrack {
+namespace {
+
+constexpr const char* kFormat = "spectrack-film-state/1";
+
+}  // namespace
+
+std::string film_state_key(const RenderIdentity& id, const FilmWindow& w, int64_t sample_begin, int spp) {
+  return fmt::format("scene_hash={} film={}x{} seed={} tracker={} scheme={} absorption={} light_sampling={} "
+                     "transmittance={} lookup={} color={} aovs={} version={} window={},{},{},{} samples={}:{} little_endian={}",
+                     id.scene_hash, id.full_width, id.full_height, id.seed, id.tracker, id.scheme, id.absorption,
+                     id.light_sampling, id.transmittance, id.lookup, id.color, id.aovs, id.version, w.x0, w.y0,
+                     w.width, w.height, sample_begin, sample_begin + spp, __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__);
+}
+
+void write_film_state(const std::string& path, const FilmState& st, const std::string& key) {
+  OutputFile f(path);
+  const std::string head =
+      fmt::format("{}\n{}\n{} {} {} {}\n", kFormat, key, st.sample_begin, st.samples_done, st.npix, st.layers);
+  f.append(head.data(), head.size());
+  f.append(st.film.data(), st.film.size() * sizeof(float));
+  f.commit();
+}
+
+FilmState read_film_state(const std::string& path, const std::string& key) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(fmt::format("{}: cannot read the checkpoint's film state: {}", path, std::strerror(errno)));
+  std::string format, file_key, shape;
+  std::getline(in, format);
+  std::getline(in, file_key);
+  std::getline(in, shape);
+  if (!in || format != kFormat)
+    throw Error(fmt::format("{}: not a film state (its first line is not '{}')", path, kFormat));
+  if (file_key != key)
+    throw Error(fmt::format("{}: the film state belongs to another render (a different scene, film, seed, estimator, "
+                            "layers, version or sample range):\n  file:   {}\n  render: {}",
+                            path, file_key, key));
+  FilmState st;
+  std::istringstream ss(shape);
+  if (!(ss >> st.sample_begin >> st.samples_done >> st.npix >> st.layers) || st.samples_done < 1 || st.npix == 0 ||
+      st.layers == 0 || st.layers > 64 || st.npix > (uint64_t(1) << 40))
+    throw Error(fmt::format("{}: malformed film state header '{}'", path, shape));
+  const uint64_t bytes = 2 * st.layers * st.npix * 4 * sizeof(float);
+  std::error_code ec;
+  const uint64_t size = std::filesystem::file_size(path, ec);
+  const auto at = in.tellg();
+  if (ec || at < 0 || size != uint64_t(at) + bytes)
+    throw Error(fmt::format("{}: the film state is truncated or too long ({} bytes of film expected after its header)",
+                            path, bytes));
+  st.film.resize(bytes / sizeof(float));
+  in.read(reinterpret_cast<char*>(st.film.data()), std::streamsize(st.film.size() * sizeof(float)));
+  if (size_t(in.gcount()) != st.film.size() * sizeof(float) || in.peek() != std::char_traits<char>::eof())
+    throw Error(fmt::format("{}: the film state is truncated or too long (expected {} bytes of film after its header)",
+                            path, st.film.size() * sizeof(float)));
+  return st;
+}
+
+}  // namespace spectrack
