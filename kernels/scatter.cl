@@ -1,6 +1,6 @@
 /* scatter.cl: a real scattering event. Next-event estimation: one shadow ray to every light, or
  * with light sampling "uniform", "power" or "contribution" to one light, weighted by 1 / its
- * probability; MIS against phase sampling for lights that phase sampling can hit, the light's pdf
+ * probability (a shadow ray to a point or spot light ends at the light: st_shadow.t_max); MIS against phase sampling for lights that phase sampling can hit, the light's pdf
  * taken times select_pmf (1 for all and contribution, whose choice depends on the event: types.h),
  * as k_escape does. Then phase sampling, then Russian roulette on the
  * throughput (from depth 3 on, survival probability min(1, max |beta| over the path's channels),
@@ -51,7 +51,7 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
   float pick_pmf = 1.0f; /* the probability of a one-light choice */
   if (scene->light_sampling != ST_LIGHT_SAMPLING_ALL && scene->n_lights > 1) {
     if (scene->light_sampling == ST_LIGHT_SAMPLING_CONTRIBUTION) {
-      l_begin = light_select_contribution(scene, m->phase_type, m->g, wo, rng_uniform(&rng), &pick_pmf);
+      l_begin = light_select_contribution(scene, m->phase_type, m->g, wo, p.o.xyz, rng_uniform(&rng), &pick_pmf);
       l_end = l_begin < 0 ? 0 : l_begin + 1;
     } else {
       l_begin = light_select(scene, rng_uniform(&rng));
@@ -63,8 +63,8 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     __constant const st_light* light = &scene->lights[l];
     float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
     float3 wi;
-    float pdf_l;
-    float4 Le_over_pdf = light_sample(light, env, u1, u2, &wi, &pdf_l, rng.lambda);
+    float pdf_l, t_max;
+    float4 Le_over_pdf = light_sample(light, env, p.o.xyz, u1, u2, &wi, &pdf_l, &t_max, rng.lambda);
     float f = phase_eval(m->phase_type, m->g, dot(wo, wi));
     /* the direction's density under the sampler of the scattered ray: the one-sample mixture
      * with guiding (the same p_mix that k_escape reads from d.w), else the phase function */
@@ -77,6 +77,7 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     __global st_shadow* sh = &shadows[id];
     sh->o = (float4)(p.o.xyz, 0.0f);
     sh->d = (float4)(wi, 0.0f);
+    sh->t_max = t_max;
     /* training: what divides the shadow ray's weight into the record's Le T / pdf (shadow.cl) */
     if (ST_HAS_GUIDING && guide->inv_cell.w > 0.0f)
       sh->d.w = masked_avg(p.beta * mask, mask) * f * w / pick_pmf;

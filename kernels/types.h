@@ -144,7 +144,15 @@ inline int st_tracker_default_absorption(int t) { return ST_TRACKERS(ST_X_TRACKE
 enum st_scheme { ST_SCHEMES(ST_X_SCHEME_ENUM) ST_SCHEME_COUNT };
 
 enum st_camera_type { ST_CAMERA_PERSPECTIVE = 0, ST_CAMERA_ORTHOGRAPHIC = 1 };
-enum st_light_type { ST_LIGHT_ENV_UNIFORM = 0, ST_LIGHT_ENV_MAP = 1, ST_LIGHT_DIRECTIONAL = 2 };
+/* The lights at infinity (environments, directional) come first; point and spot lights are local:
+ * a position, radiant intensity (W/sr) falling off as 1 / r^2, delta in direction (kernels/light.h). */
+enum st_light_type {
+  ST_LIGHT_ENV_UNIFORM = 0,
+  ST_LIGHT_ENV_MAP = 1,
+  ST_LIGHT_DIRECTIONAL = 2,
+  ST_LIGHT_POINT = 3,
+  ST_LIGHT_SPOT = 4
+};
 enum st_medium_type { ST_MEDIUM_VDB = 0, ST_MEDIUM_HOMOGENEOUS = 1 };
 /* A medium's per-voxel colour grid (kernels/medium.h medium_unit_coeffs): none; the
  * single-scattering albedo per channel (sigma_t unchanged); a multiplier of sigma_s per channel. */
@@ -215,7 +223,8 @@ enum st_feature {
   ST_FEATURE_AOV = 1 << 12,           /* film layers with per-path work: alpha, environment, the passes (st_scene.aovs) */
   ST_FEATURE_SPECTRAL = 1 << 13,      /* spectral mode: the lanes are wavelengths (st_film_color) */
   ST_FEATURE_GUIDING = 1 << 14,       /* volume path guiding: guided scatter directions, radiance records (guiding.h) */
-  ST_FEATURES_ALL = (1 << 15) - 1
+  ST_FEATURE_LOCAL_LIGHT = 1 << 15,   /* point or spot lights: shadow rays of finite length (light.h, majorant.h) */
+  ST_FEATURES_ALL = (1 << 16) - 1
 };
 
 /* Queues of the wavefront. Each stage reads the current buffer of its queue and pushes into the
@@ -347,11 +356,14 @@ typedef struct {
 } st_camera;
 
 typedef struct {
-  st_float4 radiance;  /* env uniform: radiance; env map: scale; directional: radiance of the disc (or irradiance when delta) */
-  st_float4 direction; /* directional: unit vector towards the light */
+  st_float4 radiance;  /* env uniform: radiance; env map: scale; directional: radiance of the disc (or irradiance when
+                        * delta); point, spot: radiant intensity (W/sr) */
+  st_float4 direction; /* directional: unit vector towards the light; spot: unit axis of the cone (from the light) */
+  st_float4 position;  /* point, spot: xyz the light's position; w: spot: cos of the falloff's start (cone_angle -
+                        * cone_delta), inside which the intensity is full */
   st_int type;         /* st_light_type */
-  st_int is_delta;     /* directional with angle 0 */
-  float cos_max;       /* directional: cos of the half apex angle */
+  st_int is_delta;     /* directional with angle 0; point and spot (delta in direction) */
+  float cos_max;       /* directional: cos of the half apex angle; spot: cos of the cone angle (intensity 0 beyond) */
   float pdf_cone;      /* directional: 1 / solid angle of the disc */
   /* environment map: texels (rgb float4) and the sampling distribution in the env buffer */
   st_uint map_offset;   /* float4 texels, width*height, row 0 = top (v = 0 at +y): rgb, or in spectral mode the
@@ -450,6 +462,8 @@ typedef struct {
   st_uint stream;     /* random stream id (bounce, light) */
   st_uint slot;       /* owning path slot */
   st_uint state;      /* st_shadow_state */
+  float t_max;        /* where the ray ends: the distance to a local light, INFINITY for lights at infinity */
+  st_uint pad[3];
 } st_shadow;
 
 /* What changes from one iteration of the stage loop to the next (one by-value kernel argument). */
@@ -466,11 +480,11 @@ typedef struct {
 
 #define ST_SIZEOF_MEDIUM 256
 #define ST_SIZEOF_CAMERA 80
-#define ST_SIZEOF_LIGHT 96
+#define ST_SIZEOF_LIGHT 112
 #define ST_SIZEOF_SCENE (ST_SIZEOF_CAMERA + ST_MAX_LIGHTS * ST_SIZEOF_LIGHT + ST_MAX_MEDIA * ST_SIZEOF_MEDIUM + 96)
 #define ST_SIZEOF_PATH 128
 #define ST_SIZEOF_TRANS 128
-#define ST_SIZEOF_SHADOW 208
+#define ST_SIZEOF_SHADOW 224
 #define ST_SIZEOF_ITERATION 64
 
 #ifdef __OPENCL_VERSION__

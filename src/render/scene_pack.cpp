@@ -18,6 +18,7 @@
 #include "image/image.h"
 #include "scene/radiance.h"
 #include "volume/float_limits.h"
+#include "render/light_pack.h"
 #include "render/media_bounds.h"
 #include "render/memory_budget.h"
 #include "scene/framing.h"
@@ -178,6 +179,8 @@ struct Packer {
   // radius): the mean over channels of the irradiance a directional light gives, or 4 pi times the
   // mean radiance of an environment over the sphere.
   std::array<double, ST_MAX_LIGHTS> light_power = {};
+  // a local light's nee_strength: its mean intensity (kernels/light.h light_contribution)
+  std::array<double, ST_MAX_LIGHTS> local_strength = {};
   // density lookups of a shadow ray crossing every medium along its box's mean chord (the sum of
   // MajorantInfo::chord_lookups, homogeneous media included): light sampling "auto"
   double chord_lookups = 0;
@@ -476,6 +479,12 @@ void Packer::add_light(int i, const LightDesc& ld) {
   std::memset(&l, 0, sizeof(l));
   l.type = ld.type;
   auto mean = [](const Vec3& v) { return (v[0] + v[1] + v[2]) / 3.0; };
+  if (ld.type == ST_LIGHT_POINT || ld.type == ST_LIGHT_SPOT) {
+    pack_local_light(l, ld);
+    light_power[i] = local_light_power(ld, media_boxes);
+    local_strength[i] = mean(ld.intensity);
+    return;
+  }
   if (ld.type == ST_LIGHT_DIRECTIONAL) {
     light_power[i] = mean(ld.irradiance);
     Vec3 d = normalize(ld.to_light);
@@ -516,15 +525,18 @@ int Packer::resolve_light_sampling(int requested) const {
 // 1 for every light with light sampling "all" (one shadow ray each) or "contribution" (chosen per
 // event: its MIS weights are all's, types.h) or a single light; 1 / n with "uniform"; with
 // "power" in proportion to power (uniform if no light has any), a light without power never being
-// picked. Every light's nee_strength: its mean irradiance (directional) or mean radiance over the
-// sphere (environment), i.e. its power without the 4 pi of an environment.
+// picked. Every light's nee_strength: its mean irradiance (directional), mean radiance over the
+// sphere (environment), i.e. its power without the 4 pi of an environment, or mean intensity (point,
+// spot: light.h multiplies it by falloff / r^2 at each event).
 void Packer::set_light_selection(int light_sampling) {
   double total = 0;
   for (int i = 0; i < st.n_lights; ++i) total += light_power[i];
   double acc = 0;
   for (int i = 0; i < st.n_lights; ++i) {
     st_light& l = st.lights[i];
-    l.nee_strength = float(l.type == ST_LIGHT_DIRECTIONAL ? light_power[i] : light_power[i] / (4.0 * M_PI));
+    l.nee_strength = float(l.type >= ST_LIGHT_POINT         ? local_strength[i]
+                           : l.type == ST_LIGHT_DIRECTIONAL ? light_power[i]
+                                                            : light_power[i] / (4.0 * M_PI));
     if (light_sampling == ST_LIGHT_SAMPLING_ALL || light_sampling == ST_LIGHT_SAMPLING_CONTRIBUTION || st.n_lights == 1) {
       l.select_pmf = 1.0f;
       l.select_cdf = 1.0f;
@@ -644,6 +656,10 @@ uint32_t Packer::scene_features() const {
   for (int i = 0; i < st.n_lights; ++i) {
     const st_light& l = st.lights[i];
     if (l.type == ST_LIGHT_ENV_MAP) f |= ST_FEATURE_ENV_MAP;
+    if (l.type == ST_LIGHT_POINT || l.type == ST_LIGHT_SPOT) {
+      f |= ST_FEATURE_LOCAL_LIGHT;  // delta in direction: no escaping ray sees one
+      continue;
+    }
     if (l.type != ST_LIGHT_DIRECTIONAL || !l.is_delta) f |= ST_FEATURE_ESCAPE;
   }
   if (st_tracker_decomposes(st.tracker)) f |= ST_FEATURE_DECOMPOSITION;
@@ -696,7 +712,7 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
   st.pixel_y0 = s.window.y0;
   st.window_width = s.window.width;
   st.window_height = s.window.height;
-  for (auto& l : scene.lights) st.has_env |= (l.type != ST_LIGHT_DIRECTIONAL);
+  for (auto& l : scene.lights) st.has_env |= (l.type == ST_LIGHT_ENV_UNIFORM || l.type == ST_LIGHT_ENV_MAP);
   for (auto& m : scene.media) st.chromatic |= !(achromatic(m.sigma_a) && achromatic(m.sigma_s));
   if (out.maj_cells.empty()) out.maj_cells = {0.0f, 0.0f};
   if (out.grid_words.empty()) out.grid_words = {0u, 0u};
