@@ -218,6 +218,27 @@ TEST(LocalLights, OneLightSamplingModesAgreeWithAllLights) {
   for (size_t i = 0; i < d.sum.size(); ++i) EXPECT_NEAR(d.aov_sum[i], d.sum[i], 1e-5 * std::max(1.0, d.sum[i]));
 }
 
+// The feature mask's contract (features.h): the kernels specialised for a scene with local lights
+// and the generic kernel render the same bits, with the point light inside the medium and a spot,
+// ray-marched shadow rays and one light per event.
+TEST(LocalLights, SpecialisedAndGenericKernelsAgreeBitForBit) {
+  const std::string dir = temp_dir("local_generic");
+  json s = light_scene(point_light(), false, 4);
+  s["render"].erase("max_depth");
+  s["lights"].push_back({{"type", "spot"}, {"position", {-0.5, 1.4, -0.2}}, {"look_at", {0, -1, 0.3}},
+                         {"intensity", {5, 4, 3}}, {"cone_angle_deg", 30}, {"cone_delta_deg", 8}});
+  RenderOptions a = quiet_options();
+  a.transmittance = ST_TRANSMITTANCE_RAY_MARCHING;
+  a.light_sampling = ST_LIGHT_SAMPLING_CONTRIBUTION;
+  RenderOptions b = a;
+  b.generic_kernels = true;
+  RenderResult ra = Renderer(scene_from_json(s, dir), a).render();
+  RenderResult rb = Renderer(scene_from_json(s, dir), b).render();
+  EXPECT_NE(ra.features, uint32_t(ST_FEATURES_ALL));
+  EXPECT_EQ(rb.features, uint32_t(ST_FEATURES_ALL));
+  EXPECT_EQ(ra.rgb, rb.rgb);
+}
+
 // Power light sampling: pbrt-v4's Phi over the common pi r^2 (r: the media's bounding sphere):
 // a point light 4 pi I, a spot 2 pi I ((1 - cos(A - D)) + (cos(A - D) - cos A) / 2); contribution's
 // strength is the mean intensity. A scene of local lights only packs without the escape stage.
