@@ -296,6 +296,13 @@ TEST(LocalLights, BadFieldsAreRefusedByPath) {
   s["cone_delta_deg"] = 40;
   EXPECT_NE(error(s).find("/lights/0/cone_delta_deg: value 40 is more than cone_angle_deg (30)"), std::string::npos);
   EXPECT_NE(error({{"type", "lamp"}}).find("expected one of: environment, directional, point, spot"), std::string::npos);
+  // a position whose squared distances would overflow float, refused when the scene is packed
+  json far = light_scene(point_light(), false, 1);
+  far["lights"][0]["position"] = {0, 1e30, 0};
+  SceneDesc fd = scene_from_json(far, dir);
+  EXPECT_NE(error_of([&] { pack_scene(fd, resolve_settings(fd, quiet_options()), PackOptions{}); })
+                .find("/lights/0/position: (0, 1e+30, 0) is beyond 2^60"),
+            std::string::npos);
   // a point light next to an environment is not a second environment
   json two = light_scene(point_light(), false, 1);
   two["lights"].push_back({{"type", "environment"}, {"radiance", {1, 1, 1}}});
