@@ -76,7 +76,7 @@ enum st_absorption { ST_ABSORPTIONS(ST_X_ABSORPTION_ENUM) ST_ABSORPTION_COUNT };
 #define ST_X_LIGHT_SAMPLING_ENUM(E, name) ST_LIGHT_SAMPLING_##E,
 enum st_light_sampling { ST_LIGHT_SAMPLINGS(ST_X_LIGHT_SAMPLING_ENUM) ST_LIGHT_SAMPLING_COUNT };
 
-/* The transmittance estimator of shadow rays (and of every other transmittance; tracking.h):
+/* The transmittance estimator of shadow rays (and of every other transmittance; transmittance.h):
  * X(ENUM suffix, name).
  *   ratio:        (residual) ratio tracking, one lookup per tentative collision;
  *   ray-marching: the unbiased ray-marching estimator of Kettunen et al. 2021 (docs/transmittance.md):
@@ -144,15 +144,8 @@ inline int st_tracker_default_absorption(int t) { return ST_TRACKERS(ST_X_TRACKE
 enum st_scheme { ST_SCHEMES(ST_X_SCHEME_ENUM) ST_SCHEME_COUNT };
 
 enum st_camera_type { ST_CAMERA_PERSPECTIVE = 0, ST_CAMERA_ORTHOGRAPHIC = 1 };
-/* The lights at infinity (environments, directional) come first; point and spot lights are local:
- * a position, radiant intensity (W/sr) falling off as 1 / r^2, delta in direction (kernels/light.h). */
-enum st_light_type {
-  ST_LIGHT_ENV_UNIFORM = 0,
-  ST_LIGHT_ENV_MAP = 1,
-  ST_LIGHT_DIRECTIONAL = 2,
-  ST_LIGHT_POINT = 3,
-  ST_LIGHT_SPOT = 4
-};
+/* Lights at infinity first; point and spot lights are local: intensity / r^2, delta in direction (light.h). */
+enum st_light_type { ST_LIGHT_ENV_UNIFORM, ST_LIGHT_ENV_MAP, ST_LIGHT_DIRECTIONAL, ST_LIGHT_POINT, ST_LIGHT_SPOT };
 enum st_medium_type { ST_MEDIUM_VDB = 0, ST_MEDIUM_HOMOGENEOUS = 1 };
 /* A medium's per-voxel colour grid (kernels/medium.h medium_unit_coeffs): none; the
  * single-scattering albedo per channel (sigma_t unchanged); a multiplier of sigma_s per channel. */
@@ -223,7 +216,7 @@ enum st_feature {
   ST_FEATURE_AOV = 1 << 12,           /* film layers with per-path work: alpha, environment, the passes (st_scene.aovs) */
   ST_FEATURE_SPECTRAL = 1 << 13,      /* spectral mode: the lanes are wavelengths (st_film_color) */
   ST_FEATURE_GUIDING = 1 << 14,       /* volume path guiding: guided scatter directions, radiance records (guiding.h) */
-  ST_FEATURE_LOCAL_LIGHT = 1 << 15,   /* point or spot lights: shadow rays of finite length (light.h, majorant.h) */
+  ST_FEATURE_LOCAL_LIGHT = 1 << 15,   /* point or spot lights: shadow rays of finite length (light.h, walker.h) */
   ST_FEATURES_ALL = (1 << 16) - 1
 };
 
@@ -330,7 +323,7 @@ typedef struct {
   st_uint blackbody_offset;
   /* spectral mode: 1 when sigma_a, sigma_s and Le hold spectra, not rgb: the sigmoid coefficients
    * (c0, c1, c2, scale) of kernels/spectrum.h, Le's times CIE D65 (an illuminant); the majorants
-   * take the extinction at the path's wavelengths (majorant.h st_walker) */
+   * take the extinction at the path's wavelengths (walker.h st_walker) */
   st_int spectral;
   /* spectral mode, blackbody emission (0 otherwise, and in rgb mode): Le = scale times the film's
    * emission scale (src/color/spectrum.h film_emission_scale) in lanes xyz, and the spectrum is
@@ -356,11 +349,9 @@ typedef struct {
 } st_camera;
 
 typedef struct {
-  st_float4 radiance;  /* env uniform: radiance; env map: scale; directional: radiance of the disc (or irradiance when
-                        * delta); point, spot: radiant intensity (W/sr) */
+  st_float4 radiance;  /* env uniform: radiance; env map: scale; directional: disc radiance (delta: irradiance); local: W/sr */
   st_float4 direction; /* directional: unit vector towards the light; spot: unit axis of the cone (from the light) */
-  st_float4 position;  /* point, spot: xyz the light's position; w: spot: cos of the falloff's start (cone_angle -
-                        * cone_delta), inside which the intensity is full */
+  st_float4 position;  /* local: xyz the position; w: spot: cos(cone_angle - cone_delta), full intensity inside */
   st_int type;         /* st_light_type */
   st_int is_delta;     /* directional with angle 0; point and spot (delta in direction) */
   float cos_max;       /* directional: cos of the half apex angle; spot: cos of the cone angle (intensity 0 beyond) */
@@ -430,7 +421,7 @@ typedef struct {
                        * (queues.h path_wavelengths) and read by every later kernel; rgb: 0 */
 } st_path;
 
-/* A transmittance estimate in progress, resumable across launches (tracking.h). Ratio tracking
+/* A transmittance estimate in progress, resumable across launches (transmittance.h). Ratio tracking
  * uses T only; ray marching (docs/transmittance.md) walks the ray once for the pilot and the
  * first estimate together (pass 0) and once more for each further term of the series. */
 typedef struct {
@@ -462,8 +453,7 @@ typedef struct {
   st_uint stream;     /* random stream id (bounce, light) */
   st_uint slot;       /* owning path slot */
   st_uint state;      /* st_shadow_state */
-  float t_max;        /* where the ray ends: the distance to a local light, INFINITY for lights at infinity */
-  st_uint pad[3];
+  float t_max; st_uint pad[3]; /* t_max: where the ray ends (a local light's distance; else INFINITY) */
 } st_shadow;
 
 /* What changes from one iteration of the stage loop to the next (one by-value kernel argument). */

@@ -13,7 +13,7 @@
 #include <cmath>
 #include <functional>
 
-#include "render/scene_pack.h"
+#include "scene/scene_pack.h"
 #include "test_util.h"
 
 using namespace spectrack;
