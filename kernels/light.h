@@ -1,7 +1,10 @@
-/* light.h: environment (uniform or lat-long map) and directional (delta or disc) lights:
- * radiance seen along a direction, direction sampling for next-event estimation, and the pdf
+/* light.h: environment (uniform or lat-long map), directional (delta or disc), point and spot
+ * lights: radiance seen along a direction, direction sampling for next-event estimation, and the pdf
  * of that sampling for MIS against phase sampling (power heuristic, directions only:
- * docs/estimators.md, 'Spectral MIS').
+ * docs/estimators.md, 'Spectral MIS'). Point and spot lights (features.h ST_HAS_LOCAL_LIGHT) are
+ * delta in direction: a shadow ray of length r towards the position, radiant intensity I / r^2, no
+ * MIS (phase sampling never hits them); a spot's I falls from full inside cone_angle - cone_delta
+ * to 0 at cone_angle by a smoothstep in cos theta (pbrt-v4's SpotLight).
  * Lat-long convention: v = acos(d.y) / pi (row 0 looks up, +y), u = 0.5 + atan2(d.x, -d.z) / (2 pi)
  * (the image centre looks along -z). The map is sampled in proportion to max(rgb) * sin(theta). */
 #ifndef SPECTRACK_LIGHT_H
@@ -94,10 +97,46 @@ inline float light_pdf(__constant const st_light* l, __global const float* env, 
   return dot(d, l->direction.xyz) >= l->cos_max ? l->pdf_cone : 0.0f;
 }
 
-/* Samples a direction towards light l. Returns Le / pdf (or the irradiance for a delta light)
- * and writes the direction and pdf (0 for delta). */
-inline float4 light_sample(__constant const st_light* l, __global const float* env, float u1, float u2,
-                           float3* wi, float* pdf, float4 lambda) {
+/* Hermite smoothstep of x from a (0) to b (1); a step at a when a == b (pbrt-v4's SmoothStep). */
+inline float smooth_step(float a, float b, float x) {
+  if (a == b) return x < a ? 0.0f : 1.0f;
+  float t = clamp((x - a) / (b - a), 0.0f, 1.0f);
+  return t * t * (3.0f - 2.0f * t);
+}
+
+/* A local light's intensity factor towards unit direction w_out (from the light): 1 for a point
+ * light, a spot's falloff in cos theta from its axis. */
+inline float local_light_falloff(__constant const st_light* l, float3 w_out) {
+  if (l->type != ST_LIGHT_SPOT) return 1.0f;
+  return smooth_step(l->cos_max, l->position.w, dot(l->direction.xyz, w_out));
+}
+
+/* A point or spot light seen from x: writes the unit direction to it and its distance; returns
+ * the irradiance I falloff / r^2 (0 at the light's own position). */
+inline float4 local_light_sample(__constant const st_light* l, float3 x, float3* wi, float* dist, float4 lambda) {
+  float3 v = l->position.xyz - x;
+  float r2 = dot(v, v);
+  if (!(r2 > 0.0f)) {
+    *wi = (float3)(0.0f, 1.0f, 0.0f);
+    *dist = 0.0f;
+    return (float4)(0.0f);
+  }
+  float r = sqrt(r2);
+  *wi = v / r;
+  *dist = r;
+  return light_radiance(l, lambda) * (local_light_falloff(l, -*wi) / r2);
+}
+
+/* Samples a direction towards light l from the scatter position x. Returns Le / pdf (or the
+ * irradiance for a delta light) and writes the direction, its pdf (0 for delta) and where the
+ * shadow ray ends (*t_max: a local light's distance, INFINITY for lights at infinity). */
+inline float4 light_sample(__constant const st_light* l, __global const float* env, float3 x, float u1, float u2,
+                           float3* wi, float* pdf, float* t_max, float4 lambda) {
+  *t_max = INFINITY;
+  if (ST_HAS_LOCAL_LIGHT && l->type >= ST_LIGHT_POINT) {
+    *pdf = 0.0f;
+    return local_light_sample(l, x, wi, t_max, lambda);
+  }
   if (l->type == ST_LIGHT_ENV_UNIFORM) {
     *wi = sample_uniform_sphere(u1, u2);
     *pdf = ST_INV_4PI;
@@ -137,38 +176,47 @@ inline int light_select(__constant const st_scene* scene, float u) {
 }
 
 /* Light sampling "contribution" (types.h): the unoccluded contribution of light l at a scatter
- * event of a medium with phase (phase_type, g), the path travelling along wo, up to the factor
- * beta common to every light: nee_strength times the phase function towards a directional light
- * (its disc's centre), nee_strength alone for an environment (the phase function integrates to 1:
- * exact for a uniform one). HG is > 0 everywhere, so every light with strength gets a chance. */
-inline float light_contribution(__constant const st_light* l, int phase_type, float g, float3 wo) {
+ * event at x of a medium with phase (phase_type, g), the path travelling along wo, up to the
+ * factor beta common to every light: nee_strength times the phase function towards a directional
+ * light (its disc's centre), nee_strength alone for an environment (the phase function integrates
+ * to 1: exact for a uniform one), and for a local light nee_strength (its mean intensity) times
+ * its falloff / r^2 times the phase function towards it. HG is > 0 everywhere, so every light with
+ * strength gets a chance (a spot's only where its cone reaches). */
+inline float light_contribution(__constant const st_light* l, int phase_type, float g, float3 wo, float3 x) {
+  if (ST_HAS_LOCAL_LIGHT && l->type >= ST_LIGHT_POINT) {
+    float3 v = l->position.xyz - x;
+    float r2 = dot(v, v);
+    if (!(r2 > 0.0f)) return 0.0f;
+    float3 wi = v / sqrt(r2);
+    return l->nee_strength * local_light_falloff(l, -wi) / r2 * phase_eval(phase_type, g, dot(wo, wi));
+  }
   if (l->type != ST_LIGHT_DIRECTIONAL) return l->nee_strength;
   return l->nee_strength * phase_eval(phase_type, g, dot(wo, l->direction.xyz));
 }
 
 /* The light of contribution sampling for uniform u: l with probability c_l / sum c (c:
  * light_contribution), written to *pmf; -1 when no light has any strength (no shadow ray). */
-inline int light_select_contribution(__constant const st_scene* scene, int phase_type, float g, float3 wo, float u,
-                                     float* pmf) {
+inline int light_select_contribution(__constant const st_scene* scene, int phase_type, float g, float3 wo, float3 x,
+                                     float u, float* pmf) {
   float contrib[ST_MAX_LIGHTS]; /* each light's, evaluated once (a phase function each) */
   float total = 0.0f;
   for (int l = 0; l < ST_MAX_LIGHTS; ++l) {
     if (l >= scene->n_lights) break;
-    contrib[l] = light_contribution(&scene->lights[l], phase_type, g, wo);
+    contrib[l] = light_contribution(&scene->lights[l], phase_type, g, wo, x);
     total += contrib[l];
   }
   if (!(total > 0.0f)) return -1;
-  const float x = u * total;
+  const float target = u * total;
   float acc = 0.0f, c = 0.0f;
   int chosen = -1;
   for (int l = 0; l < ST_MAX_LIGHTS; ++l) {
     if (l >= scene->n_lights) break;
     const float cl = contrib[l];
     if (!(cl > 0.0f)) continue;
-    chosen = l; /* the last light with a contribution, should rounding leave x past the sum */
+    chosen = l; /* the last light with a contribution, should rounding leave target past the sum */
     c = cl;
     acc += cl;
-    if (x < acc) break;
+    if (target < acc) break;
   }
   *pmf = c / total;
   return chosen;

@@ -97,7 +97,7 @@ __kernel void k_probe_transmittance(__constant const st_scene* scene, __global c
   st_track_stats st;
   track_stats_clear(&st);
   float t = 0.0f;
-  while (!transmittance_estimate(scene, grids, maj, o.xyz, normalize(d.xyz), &t, &tr, mask, mask, &rng,
+  while (!transmittance_estimate(scene, grids, maj, o.xyz, normalize(d.xyz), INFINITY, &t, &tr, mask, mask, &rng,
                                  scene->iteration_budget, &st)) {
   }
   out[i] = tr.T;

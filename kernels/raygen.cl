@@ -36,7 +36,7 @@ inline float camera_first_collision(__constant const st_scene* scene, __global c
   st_track_stats st;
   track_stats_clear(&st);
   st_walker w;
-  walker_begin(scene, maj, &w, o, d, 0.0f, all, rng.lambda, 0, ST_WALK_SAMPLE_CONTROL, INT_MAX);
+  walker_begin(scene, maj, &w, o, d, 0.0f, INFINITY, all, rng.lambda, 0, ST_WALK_SAMPLE_CONTROL, INT_MAX);
   float weight = 1.0f, hit = 0.0f;
   for (;;) {
     int step = walker_step(scene, maj, &w, &rng, &st.dda_steps, &st.dda_nonempty);
@@ -88,7 +88,7 @@ inline void camera_layers_begin(__constant const st_scene* scene, __global const
     st_trans tr;
     transmittance_begin(&tr, all);
     float t = 0.0f;
-    while (!transmittance_estimate(scene, grids, maj, p->o.xyz, p->d.xyz, &t, &tr, all, all, &rng,
+    while (!transmittance_estimate(scene, grids, maj, p->o.xyz, p->d.xyz, INFINITY, &t, &tr, all, all, &rng,
                                    scene->iteration_budget, &st)) {
     }
     alpha = all - tr.T;

@@ -1,6 +1,7 @@
 /* scatter.cl: a real scattering event. Next-event estimation: one shadow ray to every light, or
  * with light sampling "uniform", "power" or "contribution" to one light, weighted by 1 / its
- * probability; MIS against phase sampling for lights that phase sampling can hit, the light's pdf
+ * probability (a shadow ray to a point or spot light ends at the light: st_shadow.t_max); MIS
+ * against phase sampling for lights that phase sampling can hit, the light's pdf
  * taken times select_pmf (1 for all and contribution, whose choice depends on the event: types.h),
  * as k_escape does. Then phase sampling, then Russian roulette on the
  * throughput (from depth 3 on, survival probability min(1, max |beta| over the path's channels),
@@ -40,14 +41,14 @@ inline int shadows_busy(__constant const st_scene* scene, __global st_shadow* sh
 
 /* The lights next-event estimation samples at this event, [first, *end), and the probability
  * *pick_pmf of a one-light choice (1 when every light is sampled). */
-inline int lights_to_sample(__constant const st_scene* scene, __constant const st_medium* m, float3 wo, st_rng* rng,
-                            int* end, float* pick_pmf) {
+inline int lights_to_sample(__constant const st_scene* scene, __constant const st_medium* m, float3 wo, float3 x,
+                            st_rng* rng, int* end, float* pick_pmf) {
   int first = 0;
   *end = scene->n_lights;
   *pick_pmf = 1.0f;
   if (scene->light_sampling != ST_LIGHT_SAMPLING_ALL && scene->n_lights > 1) {
     if (scene->light_sampling == ST_LIGHT_SAMPLING_CONTRIBUTION) {
-      first = light_select_contribution(scene, m->phase_type, m->g, wo, rng_uniform(rng), pick_pmf);
+      first = light_select_contribution(scene, m->phase_type, m->g, wo, x, rng_uniform(rng), pick_pmf);
       *end = first < 0 ? 0 : first + 1;
     } else {
       first = light_select(scene, rng_uniform(rng));
@@ -58,11 +59,14 @@ inline int lights_to_sample(__constant const st_scene* scene, __constant const s
   return first;
 }
 
-/* A shadow entry's start: the ray from o along wi, its weight, an empty transmittance estimate
- * of the carried channels and its own random stream. */
-inline void shadow_begin(__global st_shadow* sh, float3 o, float3 wi, float4 weight, float4 mask, uint stream, uint slot) {
+/* A shadow entry's start: the ray from o along wi up to t_max (a local light's distance, else
+ * INFINITY), its weight, an empty transmittance estimate of the carried channels and its own
+ * random stream. */
+inline void shadow_begin(__global st_shadow* sh, float3 o, float3 wi, float t_max, float4 weight, float4 mask,
+                         uint stream, uint slot) {
   sh->o = (float4)(o, 0.0f);
   sh->d = (float4)(wi, 0.0f);
+  sh->t_max = t_max;
   sh->weight = weight;
   st_trans tr;
   transmittance_begin(&tr, mask);
@@ -115,13 +119,13 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
   }
   int l_end;
   float pick_pmf; /* the probability of a one-light choice */
-  const int l_begin = lights_to_sample(scene, m, wo, &rng, &l_end, &pick_pmf);
+  const int l_begin = lights_to_sample(scene, m, wo, p.o.xyz, &rng, &l_end, &pick_pmf);
   for (int l = l_begin; l < l_end; ++l) {
     __constant const st_light* light = &scene->lights[l];
     float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
     float3 wi;
-    float pdf_l;
-    float4 Le_over_pdf = light_sample(light, env, u1, u2, &wi, &pdf_l, rng.lambda);
+    float pdf_l, t_max;
+    float4 Le_over_pdf = light_sample(light, env, p.o.xyz, u1, u2, &wi, &pdf_l, &t_max, rng.lambda);
     float f = phase_eval(m->phase_type, m->g, dot(wo, wi));
     /* the direction's density under the sampler of the scattered ray: the one-sample mixture
      * with guiding (the same p_mix that k_escape reads from d.w), else the phase function */
@@ -132,7 +136,7 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     if (!(masked_max(fabs(weight), mask) > 0.0f)) continue;
     uint id = shadow_entry(slot, NL, scene->n_lights, p.depth, l);
     __global st_shadow* sh = &shadows[id];
-    shadow_begin(sh, p.o.xyz, wi, weight, mask, 1u + (uint)p.depth * ST_MAX_LIGHTS + (uint)l, slot);
+    shadow_begin(sh, p.o.xyz, wi, t_max, weight, mask, 1u + (uint)p.depth * ST_MAX_LIGHTS + (uint)l, slot);
     /* training: what divides the shadow ray's weight into the record's Le T / pdf (shadow.cl) */
     if (ST_HAS_GUIDING && guide->inv_cell.w > 0.0f)
       sh->d.w = masked_avg(p.beta * mask, mask) * f * w / pick_pmf;

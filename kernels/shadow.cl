@@ -28,7 +28,7 @@ __kernel void k_shadow(ST_STAGE_ARGS) {
   const float4 mask = path_mask(scene, &p), w = fabs(sh.weight);
   const float w_max = masked_max(w, mask);
   const float4 importance = w_max > 0.0f ? w / w_max : mask;
-  int done = transmittance_estimate(scene, grids, maj, sh.o.xyz, sh.d.xyz, &t, &sh.tr, mask, importance, &rng,
+  int done = transmittance_estimate(scene, grids, maj, sh.o.xyz, sh.d.xyz, sh.t_max, &t, &sh.tr, mask, importance, &rng,
                                     scene->iteration_budget, &st);
   sh.rng_draw = rng_draw_index(&rng);
   if (done) {

@@ -282,7 +282,8 @@ inline int track_free_path(__constant const st_scene* scene, __global const uint
                            float3 o, float3 d, float* t, float4* beta, float4 mask, float4* L, int* medium,
                            st_rng* rng, int budget, st_track_stats* st) {
   st_walker w;
-  walker_begin(scene, maj, &w, o, d, *t, mask, rng->lambda, tracker_decomposes(scene), ST_WALK_SAMPLE_CONTROL, budget);
+  walker_begin(scene, maj, &w, o, d, *t, INFINITY, mask, rng->lambda, tracker_decomposes(scene), ST_WALK_SAMPLE_CONTROL,
+               budget);
   int scheme = tracker_scheme(scene);
   for (;;) {
     int step = walker_step(scene, maj, &w, rng, &st->dda_steps, &st->dda_nonempty);
@@ -436,7 +437,7 @@ inline int track_free_path_mis(__constant const st_scene* scene, __global const 
                                float3 o, float3 d, float* t, float4* beta, float4* r_u, int hero, float4* L,
                                int* medium, st_rng* rng, int budget, st_track_stats* st) {
   st_walker w;
-  walker_begin(scene, maj, &w, o, d, *t, one_hot(hero), rng->lambda, 0, ST_WALK_SAMPLE_CONTROL, budget);
+  walker_begin(scene, maj, &w, o, d, *t, INFINITY, one_hot(hero), rng->lambda, 0, ST_WALK_SAMPLE_CONTROL, budget);
   float4 sigma_maj = mis_sigma_maj(scene, &w, hero);
   for (;;) {
     float t_prev = w.t, t_end = w.seg.t1;

@@ -56,16 +56,17 @@ inline int transmittance_roulette(float4* T, float4 mask, float4 importance, st_
   return 1;
 }
 
-/* Transmittance along (o, d) from *t to the end of every medium, per channel: ratio tracking,
+/* Transmittance along (o, d) from *t to t_max (INFINITY: the end of every medium), per channel: ratio tracking,
  * or residual ratio tracking for the decomposition trackers (the control part exp(-mu_c dt) in
  * closed form, ratio tracking of the residual with mu_bar_r). Russian roulette after every
  * update of the estimate (also after the closed-form control factor, which can make T tiny
  * without any lookup). Returns 1 when finished, 0 when the budget is spent (call again from *t). */
 inline int ratio_track(__constant const st_scene* scene, __global const uint* grids, __global const float2* maj,
-                       float3 o, float3 d, float* t, float4* T, float4 mask, float4 importance, st_rng* rng, int budget,
-                       st_track_stats* st) {
+                       float3 o, float3 d, float t_max, float* t, float4* T, float4 mask, float4 importance, st_rng* rng,
+                       int budget, st_track_stats* st) {
   st_walker w;
-  walker_begin(scene, maj, &w, o, d, *t, mask, rng->lambda, tracker_decomposes(scene), ST_WALK_CONTROL_CLOSED_FORM, budget);
+  walker_begin(scene, maj, &w, o, d, *t, t_max, mask, rng->lambda, tracker_decomposes(scene), ST_WALK_CONTROL_CLOSED_FORM,
+               budget);
   for (;;) {
     int step = walker_step(scene, maj, &w, rng, &st->dda_steps, &st->dda_nonempty);
     *t = w.t;
@@ -150,12 +151,13 @@ inline int march_end_of_walk(st_trans* tr, float4 mask, float h, float spacing, 
   return 0;
 }
 
-/* Runs the estimate of tr along (o, d) (every walk starts at t = 0) for at most `budget` steps
+/* Runs the estimate of tr along (o, d) up to t_max (every walk starts at t = 0) for at most `budget` steps
  * in all. Returns 1 when it is finished (the estimate in tr->T), 0 when the budget is spent (call
  * again: *t and tr hold where it is). */
 inline int ray_march_transmittance(__constant const st_scene* scene, __global const uint* grids,
-                                   __global const float2* maj, float3 o, float3 d, float* t, st_trans* tr,
-                                   float4 mask, float4 importance, st_rng* rng, int budget, st_track_stats* st) {
+                                   __global const float2* maj, float3 o, float3 d, float t_max, float* t,
+                                   st_trans* tr, float4 mask, float4 importance, st_rng* rng, int budget,
+                                   st_track_stats* st) {
   int left = budget;
   const float h = scene->march_spacing;
   for (;;) {
@@ -172,7 +174,8 @@ inline int ray_march_transmittance(__constant const st_scene* scene, __global co
       *t = 0.0f;
     }
     st_walker w;
-    walker_begin(scene, maj, &w, o, d, *t, mask, rng->lambda, tracker_decomposes(scene), ST_WALK_CONTROL_CLOSED_FORM, left);
+    walker_begin(scene, maj, &w, o, d, *t, t_max, mask, rng->lambda, tracker_decomposes(scene),
+                 ST_WALK_CONTROL_CLOSED_FORM, left);
     float4 tau_none = (float4)(0.0f);
     for (;;) {
       if (first && !tr->pad[0] && w.mu_bar > 0.0f) { /* the first non-empty segment: the pilot samples it */
@@ -220,16 +223,17 @@ inline int ray_march_transmittance(__constant const st_scene* scene, __global co
 }
 
 /* The scene's transmittance estimator along (o, d) from t = 0 (the ray's origin; *t is where a
- * resumed estimate is), per carried channel; tr from transmittance_begin; importance: the
+ * resumed estimate is) to t_max (INFINITY: the end of every medium), per carried channel; tr from transmittance_begin; importance: the
  * channels' weights for Russian roulette (transmittance_roulette). Returns 1 when finished (the
  * estimate in tr->T), 0 when the budget is spent (call again). */
 inline int transmittance_estimate(__constant const st_scene* scene, __global const uint* grids,
-                                  __global const float2* maj, float3 o, float3 d, float* t, st_trans* tr,
-                                  float4 mask, float4 importance, st_rng* rng, int budget, st_track_stats* st) {
+                                  __global const float2* maj, float3 o, float3 d, float t_max, float* t,
+                                  st_trans* tr, float4 mask, float4 importance, st_rng* rng, int budget,
+                                  st_track_stats* st) {
   if (scene->transmittance == ST_TRANSMITTANCE_RAY_MARCHING)
-    return ray_march_transmittance(scene, grids, maj, o, d, t, tr, mask, importance, rng, budget, st);
+    return ray_march_transmittance(scene, grids, maj, o, d, t_max, t, tr, mask, importance, rng, budget, st);
   float4 T = tr->T;
-  int done = ratio_track(scene, grids, maj, o, d, t, &T, mask, importance, rng, budget, st);
+  int done = ratio_track(scene, grids, maj, o, d, t_max, t, &T, mask, importance, rng, budget, st);
   tr->T = T;
   return done;
 }

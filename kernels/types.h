@@ -144,7 +144,8 @@ inline int st_tracker_default_absorption(int t) { return ST_TRACKERS(ST_X_TRACKE
 enum st_scheme { ST_SCHEMES(ST_X_SCHEME_ENUM) ST_SCHEME_COUNT };
 
 enum st_camera_type { ST_CAMERA_PERSPECTIVE = 0, ST_CAMERA_ORTHOGRAPHIC = 1 };
-enum st_light_type { ST_LIGHT_ENV_UNIFORM = 0, ST_LIGHT_ENV_MAP = 1, ST_LIGHT_DIRECTIONAL = 2 };
+/* Lights at infinity first; point and spot lights are local: intensity / r^2, delta in direction (light.h). */
+enum st_light_type { ST_LIGHT_ENV_UNIFORM, ST_LIGHT_ENV_MAP, ST_LIGHT_DIRECTIONAL, ST_LIGHT_POINT, ST_LIGHT_SPOT };
 enum st_medium_type { ST_MEDIUM_VDB = 0, ST_MEDIUM_HOMOGENEOUS = 1 };
 /* A medium's per-voxel colour grid (kernels/medium.h medium_unit_coeffs): none; the
  * single-scattering albedo per channel (sigma_t unchanged); a multiplier of sigma_s per channel. */
@@ -215,74 +216,13 @@ enum st_feature {
   ST_FEATURE_AOV = 1 << 12,           /* film layers with per-path work: alpha, environment, the passes (st_scene.aovs) */
   ST_FEATURE_SPECTRAL = 1 << 13,      /* spectral mode: the lanes are wavelengths (st_film_color) */
   ST_FEATURE_GUIDING = 1 << 14,       /* volume path guiding: guided scatter directions, radiance records (guiding.h) */
+  ST_FEATURE_LOCAL_LIGHT = 1 << 15,   /* point or spot lights: shadow rays of finite length (light.h, walker.h) */
   ST_FEATURE_THIN_LENS = 1 << 21,     /* depth of field: the camera's lens radius is > 0 (raygen.cl camera_ray) */
   ST_FEATURE_TIME = 1 << 22,          /* each path has a time in the shutter that something reads: camera motion */
-  ST_FEATURES_ALL = ((1 << 15) - 1) | ST_FEATURE_THIN_LENS | ST_FEATURE_TIME
+  ST_FEATURES_ALL = ((1 << 16) - 1) | ST_FEATURE_THIN_LENS | ST_FEATURE_TIME
 };
 
-/* Queues of the wavefront. Each stage reads the current buffer of its queue and pushes into the
- * next buffers; the host swaps them once per iteration. The queues before ST_Q_SHADOW hold path
- * slots (capacity Q each); ST_Q_SHADOW holds shadow-ray ids (capacity Q * lights). */
-enum st_queue {
-  ST_Q_FREE = 0,    /* free path slots (raygen input): one stack, not two buffers (queues.h free_push) */
-  ST_Q_TRACK = 1,   /* paths to track (free-flight sampling) */
-  ST_Q_ESCAPE = 2,  /* paths that left every medium (shade: environment and sun) */
-  ST_Q_SCATTER = 3, /* paths at a real scattering event (NEE + phase sampling) */
-  ST_Q_FINISH = 4,  /* finished paths (write the sample once its shadow rays are done) */
-  ST_Q_SHADOW = 5,  /* shadow rays (transmittance); capacity slots * NL (lights * shadow ring) */
-  ST_Q_COUNT = 6,
-  ST_Q_PATH_QUEUES = ST_Q_SHADOW /* queues of path slots */
-};
-
-/* Statistic counters that the device sums per iteration (32-bit) and the host adds into 64-bit
- * totals: X(ENUM suffix, RenderStats field, --stats-json key). The one list behind the enum, the
- * host's fold and the JSON names (Cycles' state_template.h pattern). */
-#define ST_SUM_COUNTERS(X)                                         \
-  X(LOOKUPS_TRACK, lookups_track, "density_lookups_tracking")      \
-  X(LOOKUPS_SHADOW, lookups_shadow, "density_lookups_shadow")      \
-  X(LOOKUPS_EMISSION, lookups_emission, "emission_lookups")        \
-  X(LOOKUPS_ALPHA, lookups_alpha, "density_lookups_alpha")         \
-  X(REAL_COLLISIONS, real_collisions, "real_collisions")           \
-  X(NULL_COLLISIONS, null_collisions, "null_collisions")           \
-  X(CONTROL_COLLISIONS, control_collisions, "control_collisions")  \
-  X(RESIDUAL_COLLISIONS, residual_collisions, "residual_collisions") \
-  X(SCATTER_EVENTS, scatter_events, "scatter_events")              \
-  X(DDA_STEPS, dda_steps, "dda_steps")                             \
-  X(DDA_NONEMPTY, dda_nonempty, "dda_steps_nonempty")              \
-  X(REQUEUES, requeues, "requeues")                                \
-  X(WAITS, waits, "waiting_requeues")                              \
-  X(NONFINITE, nonfinite_samples, "nonfinite_samples")
-#define ST_X_COUNTER_ENUM(E, field, key) ST_C_##E,
-/* The counter buffer: queue sizes, finished paths per batch ring slot, the sums, the maximum. */
-enum st_counter {
-  ST_C_QUEUE = 0,                            /* ST_Q_COUNT entries: sizes of the next queues */
-  ST_C_BATCH_DONE = ST_C_QUEUE + ST_Q_COUNT, /* ST_MAX_BATCHES_IN_FLIGHT entries: finished paths per ring slot */
-  ST_C_SUMS_ANCHOR = ST_C_BATCH_DONE + ST_MAX_BATCHES_IN_FLIGHT - 1, /* the sums follow */
-  ST_SUM_COUNTERS(ST_X_COUNTER_ENUM)
-  ST_C_MAX_THROUGHPUT_BITS,                  /* float bits of the largest beta component (atomic_max) */
-  ST_C_COUNT
-};
-
-/* Arguments of every stage kernel, in order (kernels/queues.h ST_STAGE_ARGS spells the same list;
- * the host binds by these names). st_iteration changes every iteration; the guide cache and the
- * radiance records (kernels/guiding.h) are read only by kernels compiled with guiding. */
-enum st_stage_arg {
-  ST_ARG_SCENE = 0,
-  ST_ARG_GRIDS,
-  ST_ARG_MAJORANTS,
-  ST_ARG_ENV,
-  ST_ARG_PATHS,
-  ST_ARG_SHADOWS,
-  ST_ARG_QUEUES,
-  ST_ARG_COUNTERS,
-  ST_ARG_RESULTS,
-  ST_ARG_SLOTS,      /* Q: path slots */
-  ST_ARG_LIGHTS,     /* NL: shadow-ray entries per path slot (lights * shadow ring) */
-  ST_ARG_ITERATION,  /* st_iteration */
-  ST_ARG_GUIDE,      /* the guide cache: st_guide_header, then its regions */
-  ST_ARG_GUIDE_RECORDS, /* radiance records: a uint count, then st_guide_record entries */
-  ST_ARG_COUNT
-};
+#include "stage_types.h" /* the wavefront's queues, counters and stage arguments */
 
 /* One participating medium as the kernels see it. Coefficients are per unit density and already
  * multiplied by density_scale. The majorant grid is in the medium's index space: cell (i,j,k)
@@ -351,11 +291,12 @@ typedef struct {
 } st_camera;
 
 typedef struct {
-  st_float4 radiance;  /* env uniform: radiance; env map: scale; directional: radiance of the disc (or irradiance when delta) */
-  st_float4 direction; /* directional: unit vector towards the light */
+  st_float4 radiance;  /* env uniform: radiance; env map: scale; directional: disc radiance (delta: irradiance); local: W/sr */
+  st_float4 direction; /* directional: unit vector towards the light; spot: unit axis of the cone (from the light) */
+  st_float4 position;  /* local: xyz the position; w: spot: cos(cone_angle - cone_delta), full intensity inside */
   st_int type;         /* st_light_type */
-  st_int is_delta;     /* directional with angle 0 */
-  float cos_max;       /* directional: cos of the half apex angle */
+  st_int is_delta;     /* directional with angle 0; point and spot (delta in direction) */
+  float cos_max;       /* directional: cos of the half apex angle; spot: cos of the cone angle (intensity 0 beyond) */
   float pdf_cone;      /* directional: 1 / solid angle of the disc */
   /* environment map: texels (rgb float4) and the sampling distribution in the env buffer */
   st_uint map_offset;   /* float4 texels, width*height, row 0 = top (v = 0 at +y): rgb, or in spectral mode the
@@ -454,6 +395,7 @@ typedef struct {
   st_uint stream;     /* random stream id (bounce, light) */
   st_uint slot;       /* owning path slot */
   st_uint state;      /* st_shadow_state */
+  float t_max; st_uint pad[3]; /* t_max: where the ray ends (a local light's distance; else INFINITY) */
 } st_shadow;
 
 /* What changes from one iteration of the stage loop to the next (one by-value kernel argument). */
@@ -470,11 +412,11 @@ typedef struct {
 
 #define ST_SIZEOF_MEDIUM 256
 #define ST_SIZEOF_CAMERA 160
-#define ST_SIZEOF_LIGHT 96
+#define ST_SIZEOF_LIGHT 112
 #define ST_SIZEOF_SCENE (ST_SIZEOF_CAMERA + ST_MAX_LIGHTS * ST_SIZEOF_LIGHT + ST_MAX_MEDIA * ST_SIZEOF_MEDIUM + 96)
 #define ST_SIZEOF_PATH 128
 #define ST_SIZEOF_TRANS 128
-#define ST_SIZEOF_SHADOW 208
+#define ST_SIZEOF_SHADOW 224
 #define ST_SIZEOF_ITERATION 64
 
 #ifdef __OPENCL_VERSION__

@@ -46,18 +46,27 @@ typedef struct {
   float4 sigma_a_l[ST_KERNEL_MAX_MEDIA], sigma_s_l[ST_KERNEL_MAX_MEDIA], sigma_t_l[ST_KERNEL_MAX_MEDIA];
   int decompose, mode, iter, budget;
   int exact;        /* flights below the float spacing of t were met: positions are summed exactly */
+  float t_max;      /* where the ray ends (a local light; INFINITY: past every medium) */
 } st_walker;
 
+/* The segment at w->t. A ray that ends at t_max (local lights, features.h) clips its segments
+ * there: the walk is over (seg.t1 = INFINITY) once it reaches t_max, so no medium beyond the
+ * light attenuates it. With t_max = INFINITY nothing changes. */
 inline void walker_load_segment(__constant const st_scene* scene, st_walker* w) {
   w->seg = segments_current(scene, &w->dda, w->t, w->mask, w->sigma_a_l, w->sigma_s_l, w->decompose);
   w->mu_bar = w->mode == ST_WALK_CONTROL_CLOSED_FORM ? w->seg.mu_bar_r : w->seg.mu_bar_c + w->seg.mu_bar_r;
+  if (ST_HAS_LOCAL_LIGHT && w->seg.t1 > w->t_max)
+    w->seg.t1 = (w->t >= w->t_max || isinf(w->seg.t1)) ? INFINITY : w->t_max;
 }
 
-/* Starts a walk along the world ray (o, d) from parameter t with at most `budget` steps. */
+/* Starts a walk along the world ray (o, d) from parameter t to t_max (INFINITY: to the end of
+ * every medium) with at most `budget` steps. */
 inline void walker_begin(__constant const st_scene* scene, __global const float2* maj, st_walker* w, float3 o,
-                         float3 d, float t, float4 mask, float4 lambda, int decompose, int mode, int budget) {
+                         float3 d, float t, float t_max, float4 mask, float4 lambda, int decompose, int mode,
+                         int budget) {
   segments_init(scene, maj, &w->dda, o, d, t);
   w->t = t;
+  w->t_max = t_max;
   w->mask = mask;
   if (ST_HAS_SPECTRAL)
     for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {

@@ -739,8 +739,8 @@ TEST_F(SceneTest, UnknownTypeNames) {
   j["camera"]["type"] = "fisheye";
   EXPECT_SCENE_ERROR(j, "/camera/type", "unknown camera type \"fisheye\"");
   j = example();
-  j["lights"][1]["type"] = "point";
-  EXPECT_SCENE_ERROR(j, "/lights/1/type", "unknown light type \"point\"");
+  j["lights"][1]["type"] = "area";
+  EXPECT_SCENE_ERROR(j, "/lights/1/type", "unknown light type \"area\"");
   j = example();
   j["media"][0]["type"] = "grid";
   EXPECT_SCENE_ERROR(j, "/media/0/type", "unknown medium type \"grid\"");

@@ -85,9 +85,9 @@ spectrack::RgbImage full_render(const std::string& dir, const std::string& scene
 
 // ---- shards ------------------------------------------------------------------------------------
 
-void check_four_shards(const std::string& tracker) {
+void check_four_shards(const std::string& tracker, const std::function<void(json&)>& edit = nullptr) {
   std::string dir = test_dir();
-  std::string scene = shard_scene(dir);
+  std::string scene = shard_scene(dir, "scene.json", edit);
   spectrack::RgbImage full = full_render(dir, scene, tracker);
   std::vector<std::string> shards;
   for (int k = 0; k < 4; ++k) {
@@ -122,6 +122,15 @@ void check_four_shards(const std::string& tracker) {
 TEST(CliShards, FourShardsMergeToTheFullRenderSpectral) { check_four_shards("spectral"); }
 TEST(CliShards, FourShardsMergeToTheFullRenderDeltaPerChannel) { check_four_shards("delta-per-channel"); }
 TEST(CliShards, FourShardsMergeToTheFullRenderSpectralDecomposition) { check_four_shards("spectral-decomposition"); }
+// point and spot lights (shadow rays of finite length) with one light per event
+TEST(CliShards, FourShardsMergeToTheFullRenderWithLocalLights) {
+  check_four_shards("spectral-decomposition", [](json& s) {
+    s["render"]["light_sampling"] = "contribution";
+    s["lights"].push_back({{"type", "point"}, {"position", {0.1, 0.2, -0.1}}, {"intensity", {2, 1.5, 1}}});
+    s["lights"].push_back({{"type", "spot"}, {"position", {-0.6, 1.2, 0}}, {"look_at", {0, 0, 0}},
+                           {"intensity", {3, 3, 4}}, {"cone_angle_deg", 25}, {"cone_delta_deg", 6}});
+  });
+}
 
 // ---- tiles -------------------------------------------------------------------------------------
 

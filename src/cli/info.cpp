@@ -83,7 +83,11 @@ void print_volume(const std::string& file, const std::vector<GridInfo>& grids) {
 }
 
 const char* light_type(int t) {
-  return t == ST_LIGHT_DIRECTIONAL ? "directional" : t == ST_LIGHT_ENV_MAP ? "environment (map)" : "environment (uniform)";
+  return t == ST_LIGHT_DIRECTIONAL ? "directional"
+         : t == ST_LIGHT_ENV_MAP   ? "environment (map)"
+         : t == ST_LIGHT_POINT     ? "point"
+         : t == ST_LIGHT_SPOT      ? "spot"
+                                   : "environment (uniform)";
 }
 
 // One medium of `info`'s scene report: its world box (in *box), largest extinction and optical
@@ -152,6 +156,14 @@ json scene_json(const SceneDesc& s, std::string* text) {
     if (l.type == ST_LIGHT_DIRECTIONAL) {
       j["to_light"] = vec(l.to_light), j["irradiance"] = vec(l.irradiance), j["angle_deg"] = l.angle_deg;
       what = fmt::format("to_light {}, irradiance {}, angle {:.3g} deg", v3(l.to_light), v3(l.irradiance), l.angle_deg);
+    } else if (l.type == ST_LIGHT_POINT || l.type == ST_LIGHT_SPOT) {
+      j["position"] = vec(l.position), j["intensity"] = vec(l.intensity);
+      what = fmt::format("position {}, intensity {} W/sr", v3(l.position), v3(l.intensity));
+      if (l.type == ST_LIGHT_SPOT) {
+        j["look_at"] = vec(l.look_at), j["cone_angle_deg"] = l.cone_angle_deg, j["cone_delta_deg"] = l.cone_delta_deg;
+        what += fmt::format(", look_at {}, cone {:.3g} deg, falloff {:.3g} deg", v3(l.look_at), l.cone_angle_deg,
+                            l.cone_delta_deg);
+      }
     } else if (l.type == ST_LIGHT_ENV_MAP) {
       j["map"] = l.map, j["scale"] = l.scale;
       what = fmt::format("map {}, scale {:.6g}", l.map, l.scale);

@@ -2,6 +2,7 @@
 // sampling CDFs, each light's power, and the light selection of next-event estimation (the
 // chord estimate that resolves light sampling "auto").
 #include "scene/packer.h"
+#include "scene/light_pack.h"
 
 #include <fmt/format.h>
 
@@ -30,6 +31,12 @@ void Packer::add_light(int i, const LightDesc& ld) {
   std::memset(&l, 0, sizeof(l));
   l.type = ld.type;
   auto mean = [](const Vec3& v) { return (v[0] + v[1] + v[2]) / 3.0; };
+  if (ld.type == ST_LIGHT_POINT || ld.type == ST_LIGHT_SPOT) {
+    pack_local_light(l, ld);
+    light_power[i] = local_light_power(ld, media_boxes);
+    local_strength[i] = mean(ld.intensity);
+    return;
+  }
   if (ld.type == ST_LIGHT_DIRECTIONAL) {
     light_power[i] = mean(ld.irradiance);
     Vec3 d = normalize(ld.to_light);
@@ -78,7 +85,9 @@ void Packer::set_light_selection(int light_sampling) {
   double acc = 0;
   for (int i = 0; i < st.n_lights; ++i) {
     st_light& l = st.lights[i];
-    l.nee_strength = float(l.type == ST_LIGHT_DIRECTIONAL ? light_power[i] : light_power[i] / (4.0 * M_PI));
+    l.nee_strength = float(l.type >= ST_LIGHT_POINT         ? local_strength[i]
+                           : l.type == ST_LIGHT_DIRECTIONAL ? light_power[i]
+                                                            : light_power[i] / (4.0 * M_PI));
     if (light_sampling == ST_LIGHT_SAMPLING_ALL || light_sampling == ST_LIGHT_SAMPLING_CONTRIBUTION || st.n_lights == 1) {
       l.select_pmf = 1.0f;
       l.select_cdf = 1.0f;

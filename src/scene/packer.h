@@ -85,6 +85,8 @@ struct Packer {
   // radius): the mean over channels of the irradiance a directional light gives, or 4 pi times the
   // mean radiance of an environment over the sphere.
   std::array<double, ST_MAX_LIGHTS> light_power = {};
+  // a local light's nee_strength: its mean intensity (kernels/light.h light_contribution)
+  std::array<double, ST_MAX_LIGHTS> local_strength = {};
   // density lookups of a shadow ray crossing every medium along its box's mean chord (the sum of
   // MajorantInfo::chord_lookups, homogeneous media included): light sampling "auto"
   double chord_lookups = 0;

@@ -63,6 +63,12 @@ void check_radiance_bounds(const SceneDesc& s) {
       if (l.scale > kMaxFloat)
         fail(s, l.json_path + "/scale", "value " + num(l.scale) + " is beyond the largest float (" + num(kMaxFloat) +
                                             ")" + kWhy);
+    } else if (l.type == ST_LIGHT_POINT || l.type == ST_LIGHT_SPOT) {
+      // I / r^2 grows without bound near the light; the kernels hold I itself in float
+      const double i = max3(l.intensity);
+      if (i > kMaxRadiance)
+        fail(s, l.json_path + "/intensity",
+             "value " + num(i) + " is more than " + num(kMaxRadiance) + kWhy);
     } else if (l.type == ST_LIGHT_DIRECTIONAL) {
       const double e = max3(l.irradiance);
       const double half = l.angle_deg * 0.5 * kPi / 180.0;

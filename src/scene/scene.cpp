@@ -83,7 +83,8 @@ SceneDesc Parser::scene(const json& root) {
     for (size_t i = 0; i < lights->size(); ++i) {
       std::string path = child("/lights", i);
       s.lights.push_back(light((*lights)[i], path));
-      if (s.lights.back().type == ST_LIGHT_DIRECTIONAL) continue;
+      const int type = s.lights.back().type;
+      if (type != ST_LIGHT_ENV_UNIFORM && type != ST_LIGHT_ENV_MAP) continue;
       if (!env_path.empty())
         fail(path, "only one environment light is allowed (the first is " + env_path + ")");
       env_path = path;

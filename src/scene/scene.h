@@ -88,6 +88,12 @@ struct LightDesc {
   Vec3 to_light{0, 1, 0};  // directional, as given (not normalised)
   Vec3 irradiance{1, 1, 1};
   double angle_deg = 0.0;  // apparent diameter; 0 = delta light
+  // point and spot lights (local: kernels/light.h)
+  Vec3 position{0, 0, 0};
+  Vec3 intensity{1, 1, 1};       // radiant intensity, W/sr
+  Vec3 look_at{0, -1, 0};        // spot: the cone's axis points from position to look_at
+  double cone_angle_deg = 30.0;  // spot: half angle of the cone, beyond which nothing is emitted
+  double cone_delta_deg = 5.0;   // spot: width of the falloff (full intensity inside cone_angle - cone_delta)
 };
 
 struct CameraDesc {

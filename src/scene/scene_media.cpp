@@ -27,11 +27,12 @@ namespace parsing {
 
 LightDesc Parser::light(const json& j, const std::string& path) {
   expect_object(j, path);
-  const Names all = {"type", "radiance", "map", "scale", "to_light", "irradiance", "angle_deg"};
+  const Names all = {"type",      "radiance", "map",      "scale",          "to_light",      "irradiance",
+                     "angle_deg", "position", "intensity", "look_at", "cone_angle_deg", "cone_delta_deg"};
   fields(j, path, all);
   LightDesc l;
   l.json_path = path;
-  need(j, path, "type", "expected \"environment\" or \"directional\"");
+  need(j, path, "type", "expected one of: environment, directional, point, spot");
   std::string type = string(j, path, "type", "");
   if (type == "environment") {
     fields(j, path, {"type", "radiance", "map", "scale"}, "an environment light", all);
@@ -52,10 +53,33 @@ LightDesc Parser::light(const json& j, const std::string& path) {
     if (l.to_light[0] == 0 && l.to_light[1] == 0 && l.to_light[2] == 0) fail(path + "/to_light", "must not be zero");
     l.irradiance = vec3(j, path, "irradiance", l.irradiance, kNonNegative);
     l.angle_deg = number(j, path, "angle_deg", l.angle_deg, Range{0, 180, false, true});
+  } else if (type == "point" || type == "spot") {
+    local_light(j, path, type == "spot", all, l);
   } else {
-    fail(path + "/type", "unknown light type " + in_quotes(type) + " (expected one of: environment, directional)");
+    fail(path + "/type",
+         "unknown light type " + in_quotes(type) + " (expected one of: environment, directional, point, spot)");
   }
   return l;
+}
+
+// A point or spot light (kernels/light.h): position and intensity (W/sr); a spot's axis towards
+// look_at, its cone angle in (0, 180] degrees and a falloff width in [0, cone_angle].
+void Parser::local_light(const json& j, const std::string& path, bool spot, const Names& all, LightDesc& l) {
+  if (spot)
+    fields(j, path, {"type", "position", "intensity", "look_at", "cone_angle_deg", "cone_delta_deg"}, "a spot light", all);
+  else
+    fields(j, path, {"type", "position", "intensity"}, "a point light", all);
+  l.type = spot ? ST_LIGHT_SPOT : ST_LIGHT_POINT;
+  l.position = vec3_at(need(j, path, "position"), path + "/position", kAny);
+  l.intensity = vec3(j, path, "intensity", l.intensity, kNonNegative);
+  if (!spot) return;
+  l.look_at = vec3_at(need(j, path, "look_at"), path + "/look_at", kAny);
+  if (l.look_at == l.position) fail(path + "/look_at", "must differ from position (it gives the cone's axis)");
+  l.cone_angle_deg = number(j, path, "cone_angle_deg", l.cone_angle_deg, Range{0, 180, true, false});
+  l.cone_delta_deg = number(j, path, "cone_delta_deg", std::min(l.cone_delta_deg, l.cone_angle_deg), kNonNegative);
+  if (l.cone_delta_deg > l.cone_angle_deg)
+    fail(path + "/cone_delta_deg", "value " + num(l.cone_delta_deg) + " is more than cone_angle_deg (" +
+                                       num(l.cone_angle_deg) + ")");
 }
 
 MediumDesc Parser::medium(const json& j, const std::string& path, size_t index) {

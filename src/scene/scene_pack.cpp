@@ -45,6 +45,10 @@ uint32_t Packer::scene_features() const {
   for (int i = 0; i < st.n_lights; ++i) {
     const st_light& l = st.lights[i];
     if (l.type == ST_LIGHT_ENV_MAP) f |= ST_FEATURE_ENV_MAP;
+    if (l.type == ST_LIGHT_POINT || l.type == ST_LIGHT_SPOT) {
+      f |= ST_FEATURE_LOCAL_LIGHT;  // delta in direction: no escaping ray sees one
+      continue;
+    }
     if (l.type != ST_LIGHT_DIRECTIONAL || !l.is_delta) f |= ST_FEATURE_ESCAPE;
   }
   if (st_tracker_decomposes(st.tracker)) f |= ST_FEATURE_DECOMPOSITION;
@@ -97,7 +101,7 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
   st.pixel_y0 = s.window.y0;
   st.window_width = s.window.width;
   st.window_height = s.window.height;
-  for (auto& l : scene.lights) st.has_env |= (l.type != ST_LIGHT_DIRECTIONAL);
+  for (auto& l : scene.lights) st.has_env |= (l.type == ST_LIGHT_ENV_UNIFORM || l.type == ST_LIGHT_ENV_MAP);
   for (auto& m : scene.media) st.chromatic |= !(achromatic(m.sigma_a) && achromatic(m.sigma_s));
   if (out.maj_cells.empty()) out.maj_cells = {0.0f, 0.0f};
   if (out.grid_words.empty()) out.grid_words = {0u, 0u};

@@ -1,0 +1,60 @@
+// light_pack.cpp: see light_pack.h.
+#include "scene/light_pack.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace spectrack {
+
+namespace {
+
+// The cosines of a spot's cone angle (0 beyond) and of its falloff's start (full inside).
+void spot_cosines(const LightDesc& ld, double* cos_total, double* cos_start) {
+  const double deg = M_PI / 180.0;
+  *cos_total = std::cos(ld.cone_angle_deg * deg);
+  *cos_start = std::cos((ld.cone_angle_deg - ld.cone_delta_deg) * deg);
+}
+
+}  // namespace
+
+void pack_local_light(st_light& l, const LightDesc& ld) {
+  l.type = ld.type;
+  l.is_delta = 1;
+  l.radiance = st_float4{float(ld.intensity[0]), float(ld.intensity[1]), float(ld.intensity[2]), 0.0f};
+  l.position = st_float4{float(ld.position[0]), float(ld.position[1]), float(ld.position[2]), 1.0f};
+  l.cos_max = -1.0f;
+  if (ld.type != ST_LIGHT_SPOT) return;
+  double axis[3], len = 0;
+  for (int k = 0; k < 3; ++k) {
+    axis[k] = ld.look_at[k] - ld.position[k];
+    len += axis[k] * axis[k];
+  }
+  len = std::sqrt(len);
+  l.direction = st_float4{float(axis[0] / len), float(axis[1] / len), float(axis[2] / len), 0.0f};
+  double cos_total, cos_start;
+  spot_cosines(ld, &cos_total, &cos_start);
+  l.cos_max = float(cos_total);
+  l.position.w = float(cos_start);
+}
+
+double local_light_power(const LightDesc& ld, const std::vector<Box3>& media_boxes) {
+  double r2 = 1.0;
+  if (!media_boxes.empty()) {
+    Box3 u = media_boxes[0];
+    for (const Box3& b : media_boxes)
+      for (int k = 0; k < 3; ++k) u.lo[k] = std::min(u.lo[k], b.lo[k]), u.hi[k] = std::max(u.hi[k], b.hi[k]);
+    r2 = 0;
+    for (int k = 0; k < 3; ++k) r2 += 0.25 * (u.hi[k] - u.lo[k]) * (u.hi[k] - u.lo[k]);
+    r2 = std::max(r2, 1e-30);
+  }
+  const double I = (ld.intensity[0] + ld.intensity[1] + ld.intensity[2]) / 3.0;
+  double solid_angle = 4.0 * M_PI;  // pbrt-v4: a point light's Phi = 4 pi I
+  if (ld.type == ST_LIGHT_SPOT) {   // the cone's full part, and the falloff's at its mean
+    double cos_total, cos_start;
+    spot_cosines(ld, &cos_total, &cos_start);
+    solid_angle = 2.0 * M_PI * ((1.0 - cos_start) + 0.5 * (cos_start - cos_total));
+  }
+  return solid_angle * I / (M_PI * r2);
+}
+
+}  // namespace spectrack
