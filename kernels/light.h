@@ -131,24 +131,25 @@ inline int light_select(__constant const st_scene* scene, float u) {
 }
 
 /* Light sampling "contribution" (types.h): the unoccluded contribution of light l at a scatter
- * event of a medium with phase (phase_type, g), the path travelling along wo, up to the factor
+ * event of a medium with phase (phase_type, g, phase), the path travelling along wo, up to the factor
  * beta common to every light: nee_strength times the phase function towards a directional light
  * (its disc's centre), nee_strength alone for an environment (the phase function integrates to 1:
- * exact for a uniform one). HG is > 0 everywhere, so every light with strength gets a chance. */
-inline float light_contribution(__constant const st_light* l, int phase_type, float g, float3 wo) {
+ * exact for a uniform one). Every phase function is > 0 everywhere, so every light with strength gets a chance. */
+inline float light_contribution(__constant const st_light* l, int phase_type, float g, float4 phase, float3 wo) {
   if (l->type != ST_LIGHT_DIRECTIONAL) return l->nee_strength;
-  return l->nee_strength * phase_eval(phase_type, g, dot(wo, l->direction.xyz));
+  return l->nee_strength * phase_eval(phase_type, g, phase, dot(wo, l->direction.xyz));
 }
 
 /* The light of contribution sampling for uniform u: l with probability c_l / sum c (c:
  * light_contribution), written to *pmf; -1 when no light has any strength (no shadow ray). */
-inline int light_select_contribution(__constant const st_scene* scene, int phase_type, float g, float3 wo, float u,
+inline int light_select_contribution(__constant const st_scene* scene, int phase_type, float g, float4 phase, float3 wo,
+                                     float u,
                                      float* pmf) {
   float contrib[ST_MAX_LIGHTS]; /* each light's, evaluated once (a phase function each) */
   float total = 0.0f;
   for (int l = 0; l < ST_MAX_LIGHTS; ++l) {
     if (l >= scene->n_lights) break;
-    contrib[l] = light_contribution(&scene->lights[l], phase_type, g, wo);
+    contrib[l] = light_contribution(&scene->lights[l], phase_type, g, phase, wo);
     total += contrib[l];
   }
   if (!(total > 0.0f)) return -1;
