@@ -65,13 +65,10 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     float3 wi;
     float pdf_l;
     float4 Le_over_pdf = light_sample(light, env, u1, u2, &wi, &pdf_l, rng.lambda);
-    const float c = dot(wo, wi);
-    float f = phase_eval(m->phase_type, m->g, m->phase, c);
+    float f = phase_eval(m->phase_type, m->g, m->phase, dot(wo, wi));
     /* the direction's density under the sampler of the scattered ray: the one-sample mixture
-     * with guiding (the same p_mix that k_escape reads from d.w), else the phase sampler's (the
-     * phase function itself but for the Draine blend, phase.h) */
+     * with guiding (the same p_mix that k_escape reads from d.w), else the phase function */
     float p_dir = f;
-    if (ST_HAS_PHASE_SET && m->phase_type == ST_PHASE_DRAINE_BLEND) p_dir = phase_blend_pdf(m->g, m->phase, c);
     if (ST_HAS_GUIDING && alpha > 0.0f) p_dir = guide_mixture_pdf(alpha, vmf_mixture_pdf(&region->mix, wi), f);
     float w = pdf_l > 0.0f ? power_heuristic(light->select_pmf * pdf_l, p_dir) : 1.0f;
     float4 weight = p.beta * mask * Le_over_pdf * (f * w / pick_pmf);
@@ -99,13 +96,12 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
   if (ST_HAS_GUIDING && alpha > 0.0f) {
     /* the one-sample mixture of phase function and guide: weight f_phase / p_mix, unbiased for any guide */
     float u0 = rng_uniform(&rng), u1 = rng_uniform(&rng), u2 = rng_uniform(&rng), f;
-    wi = guided_phase_sample(&region->mix, alpha, m->phase_type, m->g, m->phase, wo, u0, u1, u2, &pdf, &f);
+    wi = guided_phase_sample(&region->mix, alpha, m->phase_type, m->g, m->phase, wo, u0, u1, u2, &rng, &pdf, &f);
     p.beta *= pdf > 0.0f ? f / pdf : 0.0f;
   } else {
     float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng), f;
-    wi = phase_sample(m->phase_type, m->g, m->phase, wo, u1, u2, &pdf, &f);
-    /* exact sampling: f / pdf = 1, beta unchanged; the Draine blend's exact weight (phase.h) */
-    if (ST_HAS_PHASE_SET && m->phase_type == ST_PHASE_DRAINE_BLEND) p.beta *= pdf > 0.0f ? f / pdf : 0.0f;
+    wi = phase_sample(m->phase_type, m->g, m->phase, wo, u1, u2, &rng, &pdf, &f);
+    /* exact sampling: f / pdf = 1, beta unchanged */
   }
   p.d = (float4)(wi, pdf);
   p.o.w = 0.0f;

@@ -53,19 +53,21 @@ GridInfo grid_named(const std::string& file, const std::string& name) {
 json slab_scene(double sigma_a, const json& emission, const std::string& tracker) {
   return {{"format", "spectrack-scene/1"},
           {"camera", {{"type", "orthographic"}, {"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"height", 1.0}}},
-          {"film", {{"width", 8}, {"height", 8}, {"spp", 64}}},
+          {"film", {{"width", 8}, {"height", 8}, {"spp", 1024}}},
           {"render", {{"seed", 5}, {"tracker", tracker}}},
           {"lights", json::array()},
           {"media", {{{"type", "homogeneous"}, {"bounds", {{-5, -5, -1}, {5, 5, 1}}}, {"sigma_a", {sigma_a, sigma_a, sigma_a}},
                       {"sigma_s", {0, 0, 0}}, {"density_scale", 1.5}, {"emission", emission}}}}};
 }
 
-// Pixel (x, y)'s world point on the film plane of emission_only_scene (image rows go along -up).
+// Pixel (x, y)'s world point on the film plane of emission_only_scene (image columns go along the
+// camera's right, rows along -up).
 std::array<double, 2> pixel_world(const json& s, int x, int y) {
   const double h = s["camera"]["height"].get<double>(), cx = s["camera"]["position"][0].get<double>(),
                cy = s["camera"]["position"][1].get<double>();
   const int n = s["film"]["width"].get<int>();
-  return {cx + ((x + 0.5) / n - 0.5) * h, cy - ((y + 0.5) / n - 0.5) * h};
+  // looking along +z with up +y, the camera's right is -x
+  return {cx - ((x + 0.5) / n - 0.5) * h, cy - ((y + 0.5) / n - 0.5) * h};
 }
 
 // Checks: finite, emission inside the fire grid's (x, y) box, none outside it (a margin of a voxel).
@@ -192,7 +194,8 @@ TEST(FireControls, DensityModelMatchesItsClosedForm) {
 }
 
 namespace {
-// A vdb medium of lumpy density with a heat grid in [0, 1] over its +x side.
+// A vdb medium of lumpy density with a heat grid in [0, 1] over its +x side, no light: the image
+// is the emission and its scattering.
 json heat_scene(const std::string& dir, const json& emission) {
   write_vdb_grids(dir + "/heat.vdb", openvdb::Coord(-8, -8, -8), openvdb::Coord(7, 7, 7),
                   {{"density", [](int i, int j, int k) { return 0.6f + 0.4f * std::sin(0.7f * i + 0.3f * j - 0.2f * k); }},
@@ -200,9 +203,9 @@ json heat_scene(const std::string& dir, const json& emission) {
                   1.0 / 8);
   return {{"format", "spectrack-scene/1"},
           {"camera", {{"type", "orthographic"}, {"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"height", 2.2}}},
-          {"film", {{"width", 16}, {"height", 16}, {"spp", 32}}},
+          {"film", {{"width", 16}, {"height", 16}, {"spp", 256}}},
           {"render", {{"seed", 5}}},
-          {"lights", {{{"type", "environment"}, {"radiance", {0.2, 0.2, 0.3}}}}},
+          {"lights", json::array()},
           {"media", {{{"type", "vdb"}, {"file", "heat.vdb"}, {"sigma_a", {1.0, 1.0, 1.0}}, {"sigma_s", {1.0, 1.0, 1.0}},
                       {"emission", emission}}}}};
 }

@@ -34,7 +34,7 @@ __kernel void k_guiding_probe(__global const st_vmf_mixture* mix, __global const
   out_lobe[i] = vmf_eval(mu.xyz, d.w, d.xyz);
   out_vmf[i] = (float4)(vmf_sample(mu.xyz, d.w, u.y, u.z), 0.0f);
   float pdf, f;
-  float3 wi = guided_phase_sample(mix, alpha, ST_PHASE_HG, g, (float4)(0.0f), wo.xyz, u.x, u.y, u.z, &pdf, &f);
+  float3 wi = guided_phase_sample(mix, alpha, ST_PHASE_HG, g, (float4)(0.0f), wo.xyz, u.x, u.y, u.z, 0, &pdf, &f);
   out_guided[i] = (float4)(wi, pdf);
   out_f[i] = f;
 }
@@ -43,7 +43,7 @@ __kernel void k_guiding_probe(__global const st_vmf_mixture* mix, __global const
 std::string probe_source() {
   const auto& files = spectrack::embedded_kernel_sources();
   std::string src = "#pragma OPENCL FP_CONTRACT OFF\n";
-  for (const char* name : {"types.h", "features.h", "sampling.h", "phase.h", "guiding.h"})
+  for (const char* name : {"types.h", "features.h", "rng.h", "sampling.h", "phase.h", "guiding.h"})
     src += std::string("#line 1 \"kernels/") + name + "\"\n" + files.at(name) + "\n";
   return src + kProbe;
 }

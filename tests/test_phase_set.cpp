@@ -6,9 +6,8 @@
 //     50 um; the kernel's values against the blend evaluated in double; its mean cosine in the
 //     range of water droplets' Lorenz-Mie asymmetry (0.84 to 0.90 over these sizes);
 //   - normalisation: the kernel's phase value integrates to 1 over the sphere (quadrature);
-//   - sampling: the sampled cosines follow the sampler's density q (Kolmogorov-Smirnov), and the
-//     weighted histogram (weight f / q) matches f's integral over each bin (chi-square), the mean
-//     weight 1 within 4 SE;
+//   - sampling: exact (f / pdf = 1), the sampled cosines' histogram against f's integral over each
+//     bin (chi-square; twin: f 3% off is seen);
 //   - renders: a white furnace stays 1 with each phase; every tracker agrees with
 //     delta-per-channel within 4 SE on a chromatic scene of two overlapping media with different
 //     phases (rgb, spectral mode and guided).
@@ -29,10 +28,9 @@ std::array<float, 4> blend_of(const PhaseDesc& p) {
   return {float(p.blend[0]), float(p.blend[1]), float(p.blend[2]), float(p.blend[3])};
 }
 
-// The blend in double: f (Draine lobes) or q (their HG factors).
-double blend_value(const PhaseDesc& p, double c, bool sampler) {
-  const double a1 = sampler ? 0 : p.blend[0], a2 = sampler ? 0 : p.blend[2];
-  return (1 - p.blend[3]) * draine_value(p.g, a1, c) + p.blend[3] * draine_value(p.blend[1], a2, c);
+// The blend in double.
+double blend_value(const PhaseDesc& p, double c) {
+  return (1 - p.blend[3]) * draine_value(p.g, p.blend[0], c) + p.blend[3] * draine_value(p.blend[1], p.blend[2], c);
 }
 
 // HG's CDF in cos theta.
@@ -41,13 +39,36 @@ double hg_cdf(double g, double c) {
   return (1 - g * g) / (2 * g) * (1 / std::sqrt(1 + g * g - 2 * g * c) - 1 / (1 + g));
 }
 
-// 2 pi times the integral of the blend f over cos in [a, b] (Simpson, fine enough for a peak of width 1e-3).
+// HG's inverse CDF: the cos theta with hg_cdf(g, cos) = u.
+double hg_inverse_cdf(double g, double u) {
+  if (g == 0) return 2 * u - 1;
+  const double s = (1 - g * g) / (1 - g + 2 * g * u);
+  return (1 + g * g - s * s) / (2 * g);
+}
+
+// 2 pi times the integral of the blend f over cos in [a, b]: each lobe HG(g) (1 + alpha cos^2) / N
+// integrated in its HG CDF variable u (dOmega HG = du), where the integrand is smooth however
+// narrow the forward peak (Simpson).
 double blend_integral(const PhaseDesc& p, double a, double b, double scale = 1.0) {
-  const int n = 4000;
-  const double h = (b - a) / n;
-  double s = 0;
-  for (int i = 0; i <= n; ++i) s += (i == 0 || i == n ? 1 : i % 2 ? 4 : 2) * blend_value(p, a + i * h, false);
-  return scale * 2 * M_PI * s * h / 3;
+  auto lobe = [&](double g, double alpha) {
+    const double u0 = hg_cdf(g, a), u1 = hg_cdf(g, b), norm = 1 + alpha * (1 + 2 * g * g) / 3;
+    const int n = 2000;
+    const double h = (u1 - u0) / n;
+    double sum = 0;
+    for (int i = 0; i <= n; ++i) {
+      const double c = hg_inverse_cdf(g, u0 + i * h);
+      sum += (i == 0 || i == n ? 1 : i % 2 ? 4 : 2) * (1 + alpha * c * c) / norm;
+    }
+    return sum * h / 3;
+  };
+  return scale * ((1 - p.blend[3]) * lobe(p.g, p.blend[0]) + p.blend[3] * lobe(p.blend[1], p.blend[2]));
+}
+
+// The phase with its parameters rounded to float, as the kernels hold them.
+PhaseDesc as_float(PhaseDesc p) {
+  p.g = float(p.g);
+  for (double& b : p.blend) b = float(b);
+  return p;
 }
 
 struct NamedPhase {
@@ -121,17 +142,15 @@ TEST(PhaseSet, MieFitMatchesThePublishedEquations) {
   std::vector<float> cosines;
   for (int i = 0; i <= 400; ++i) cosines.push_back(float(std::cos(M_PI * i / 400.0)));
   for (const Row& row : rows) {
-    PhaseDesc p = mie_phase(row.d), published = p, twin = p;
-    published.g = row.g_hg;
-    published.blend = {0.0, row.g_d, row.alpha, row.w_d};
-    twin.blend[2] = 1.03 * row.alpha;
+    // the fit's parameters (checked above against the published values) as the kernels hold them
+    PhaseDesc p = mie_phase(row.d), published = as_float(p), twin = published;
+    twin.blend[2] *= 1.03;
     auto v = Probe(r).phase_eval(ST_PHASE_DRAINE_BLEND, float(p.g), blend_of(p), cosines);
     double worst = 0, worst_twin = 0;
     for (size_t i = 0; i < cosines.size(); ++i) {
-      const double ref = blend_value(published, cosines[i], false);
+      const double ref = blend_value(published, cosines[i]);
       worst = std::max(worst, std::abs(v[i][0] - ref) / ref);
-      worst_twin = std::max(worst_twin, std::abs(v[i][0] - blend_value(twin, cosines[i], false)) / ref);
-      ASSERT_NEAR(v[i][1], blend_value(published, cosines[i], true), 1e-4 * v[i][1]) << "sampler density, d " << row.d;
+      worst_twin = std::max(worst_twin, std::abs(v[i][0] - blend_value(twin, cosines[i])) / ref);
     }
     EXPECT_LT(worst, 1e-4) << "kernel vs published Mie blend, d " << row.d;
     EXPECT_GT(worst_twin, 1e-2) << "a 3% error in alpha must be seen, d " << row.d;
@@ -158,51 +177,43 @@ TEST(PhaseSet, EachPhaseIntegratesToOne) {
   }
 }
 
-TEST(PhaseSet, SamplingFollowsThePhaseFunctionWithExactWeights) {
+TEST(PhaseSet, SamplingFollowsThePhaseFunctionExactly) {
   const std::string dir = temp_dir("phase_sampling");
   Renderer r(scene_from_json(one_medium_scene({{"type", "isotropic"}}), dir), quiet_options());
   const int n = 200000, bins = 40;
+  // bin edges dense towards cos = 1, where the forward peaks are: cos = 1 - 2 x^2, x = b / bins
+  std::vector<double> edge(bins + 1);
+  for (int b = 0; b <= bins; ++b) edge[b] = 1.0 - 2.0 * (double(b) / bins) * (double(b) / bins);
   for (const NamedPhase& p : phases()) {
     auto v = Probe(r).phase(ST_PHASE_DRAINE_BLEND, float(p.desc.g), blend_of(p.desc), n);
-    std::vector<double> u, weights;
-    std::vector<double> sum(bins, 0), sum2(bins, 0);
+    const PhaseDesc pf = as_float(p.desc);
+    std::vector<double> count(bins, 0);
+    double draws = 0;
     for (const auto& x : v) {
       ASSERT_TRUE(std::isfinite(x[0]) && x[0] >= -1.0f && x[0] <= 1.0f) << p.name;
       ASSERT_NEAR(x[3], 0.0f, 1e-5f) << "unit direction, " << p.name;
-      ASSERT_NEAR(x[1], x[2], 1e-6f * std::max(1.0f, x[2])) << "reported pdf = the sampler's density, " << p.name;
-      ASSERT_NEAR(x[4], x[5], 1e-6f * std::max(1.0f, x[5])) << "reported value = the phase function, " << p.name;
+      ASSERT_NEAR(x[1], x[2], 1e-6f * std::max(1.0f, x[2])) << "pdf = the phase value of the direction, " << p.name;
+      ASSERT_EQ(x[4], x[1]) << "exact sampling: f / pdf = 1, " << p.name;
       ASSERT_GT(x[1], 0.0f) << p.name;
-      u.push_back((1 - p.desc.blend[3]) * hg_cdf(p.desc.g, x[0]) + p.desc.blend[3] * hg_cdf(p.desc.blend[1], x[0]));
-      const double w = double(x[4]) / double(x[1]);
-      weights.push_back(w);
-      const int b = std::min(bins - 1, int((double(x[0]) + 1.0) * 0.5 * bins));
-      sum[b] += w;
-      sum2[b] += w * w;
+      const double c = x[0];
+      int b = int(std::sqrt(std::max(0.0, (1.0 - c) * 0.5)) * bins);
+      b = std::min(bins - 1, std::max(0, b));
+      count[b] += 1;
+      draws += x[5] - 2;
     }
-    // the cosines follow q: KS, with the slack of float directions near cos = 1 (as the HG test)
-    std::sort(u.begin(), u.end());
-    double D = 0;
-    for (size_t i = 0; i < u.size(); ++i)
-      D = std::max({D, std::abs(u[i] - double(i) / n), std::abs(u[i] - double(i + 1) / n)});
-    EXPECT_LT(D, 1.95 / std::sqrt(double(n)) + 2e-3) << "KS of the sampled cosines against q, " << p.name;
-    // the weighted histogram against f's bin integrals: chi-square over 40 bins (p = 1e-4 bound 77),
-    // and the mean weight (f's integral) is 1 within 4 SE
+    // chi-square of the counts against f's integral over each bin (40 bins: p = 1e-4 bound 77)
     auto chi2 = [&](double scale) {
       double c2 = 0;
       for (int b = 0; b < bins; ++b) {
-        const double lo = -1.0 + 2.0 * b / bins, hi = -1.0 + 2.0 * (b + 1) / bins;
-        const double mean = sum[b] / n, var = (sum2[b] / n - mean * mean) / n;
-        const double d = mean - blend_integral(p.desc, lo, hi, scale);
-        c2 += d * d / std::max(var, 1e-300);
+        const double expected = n * std::min(1.0, blend_integral(pf, edge[b + 1], edge[b], scale));
+        c2 += (count[b] - expected) * (count[b] - expected) / std::max(expected, 1e-9);
       }
       return c2;
     };
-    EXPECT_LT(chi2(1.0), 77.0) << "weighted histogram against f, " << p.name;
+    EXPECT_LT(chi2(1.0), 77.0) << "sampled cosines against f, " << p.name;
     EXPECT_GT(chi2(1.03), 77.0) << "twin: f 3% off must be seen, " << p.name;
-    Stats m = mean_se(weights);
-    EXPECT_NEAR(m.mean, 1.0, 4 * m.se) << "mean weight, " << p.name;
-    EXPECT_GT(std::abs(m.mean - 1.03), 4 * m.se) << "twin, " << p.name;
-    EXPECT_LE(*std::max_element(weights.begin(), weights.end()), 3.0 + 1e-4) << "the weight is bounded by 3, " << p.name;
+    // rejection sampling's cost: below 3 proposals (2 draws each beyond the first) on average
+    EXPECT_LT(draws / n, 6.0) << p.name;
   }
 }
 
@@ -212,7 +223,7 @@ TEST(PhaseSet, WhiteFurnaceStaysOne) {
   for (const NamedPhase& p : phases()) {
     json s = one_medium_scene(p.scene);
     s["camera"] = {{"type", "perspective"}, {"position", {0.2, 0.1, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 30}};
-    s["film"] = {{"width", 12}, {"height", 12}, {"spp", 32}};
+    s["film"] = {{"width", 12}, {"height", 12}, {"spp", 160}};
     s["media"] = {{{"type", "vdb"}, {"file", "lumpy.vdb"}, {"density_scale", 4.0}, {"sigma_a", {0, 0, 0}},
                    {"sigma_s", {1.0, 3.0, 9.0}}, {"phase", p.scene}}};
     for (const char* tracker : {"delta-per-channel", "spectral"}) {
@@ -224,7 +235,9 @@ TEST(PhaseSet, WhiteFurnaceStaysOne) {
       for (int c = 0; c < 3; ++c) {
         Stats m = mean_se(channel(res, c));
         EXPECT_NEAR(m.mean, 1.0, 4 * m.se + 1e-5) << p.name << " " << tracker << " channel " << c;
-        EXPECT_GT(std::abs(1.03 * m.mean - 1.0), 4 * m.se) << "twin: " << p.name << " " << tracker << " channel " << c;
+        // twin on the analog baseline, whose furnace noise (next-event estimation and MIS only) is small
+        if (std::string(tracker) == "delta-per-channel")
+          EXPECT_GT(std::abs(1.03 * m.mean - 1.0), 4 * m.se) << "twin: " << p.name << " channel " << c;
       }
     }
   }
@@ -235,18 +248,16 @@ namespace {
 // that scatters), a sky and a sun, emission.
 json chromatic_scene(const std::string& dir, const json& phase_a, const json& phase_b) {
   write_lumpy(dir + "/lumps.vdb");
-  json s = {{"format", "spectrack-scene/1"},
-            {"camera", {{"type", "perspective"}, {"position", {0.3, 0.2, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 32}}},
-            {"film", {{"width", 16}, {"height", 16}, {"spp", 48}}},
-            {"render", {{"seed", 3}, {"light_sampling", "all"}}},
-            {"lights", {{{"type", "environment"}, {"radiance", {0.3, 0.4, 0.6}}},
-                        {{"type", "directional"}, {"to_light", {-1, 1, -0.5}}, {"irradiance", {3, 2.5, 2}}, {"angle_deg", 5}}}},
-            {"media", json::array()}};
-  s["media"].push_back({{"type", "vdb"}, {"file", "lumps.vdb"}, {"density_scale", 6.0}, {"sigma_a", {0.2, 0.5, 1.0}},
-                        {"sigma_s", {2.0, 1.0, 0.4}}, {"phase", phase_a}, {"emission", {{"radiance", {2.0, 0.8, 0.2}}}}});
-  s["media"].push_back({{"type", "homogeneous"}, {"bounds", {{-0.8, -0.3, -0.5}, {0.6, 0.2, 0.9}}}, {"sigma_a", {0.5, 0.2, 0.1}},
-                        {"sigma_s", {0.5, 1.5, 2.5}}, {"phase", phase_b}});
-  return s;
+  json cloud = {{"type", "vdb"}, {"file", "lumps.vdb"}, {"density_scale", 5.0}, {"sigma_a", {0.3, 0.6, 0.9}},
+                {"sigma_s", {2.5, 1.2, 0.5}}, {"phase", phase_a}, {"emission", {{"radiance", {1.5, 0.9, 0.3}}}}};
+  json box = {{"type", "homogeneous"}, {"bounds", {{-0.7, -0.4, -0.6}, {0.5, 0.3, 0.8}}}, {"sigma_a", {0.4, 0.2, 0.1}},
+              {"sigma_s", {0.6, 1.4, 2.2}}, {"phase", phase_b}};
+  json sun = {{"type", "directional"}, {"to_light", {1, 1, -0.6}}, {"irradiance", {2.5, 3, 2}}, {"angle_deg", 4}};
+  json camera = {{"type", "perspective"}, {"position", {-0.2, 0.3, -3.2}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}},
+                 {"fov_deg", 30}};
+  return {{"format", "spectrack-scene/1"}, {"camera", camera}, {"film", {{"width", 16}, {"height", 16}, {"spp", 48}}},
+          {"render", {{"seed", 3}, {"light_sampling", "all"}}},
+          {"lights", {{{"type", "environment"}, {"radiance", {0.4, 0.4, 0.5}}}, sun}}, {"media", {cloud, box}}};
 }
 
 RenderResult render_as(const json& s, const std::string& dir, int tracker, uint32_t seed, bool guiding = false) {
