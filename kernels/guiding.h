@@ -22,14 +22,16 @@
 #ifndef SPECTRACK_GUIDING_H
 #define SPECTRACK_GUIDING_H
 
+#include "types.h"
+
 #ifdef __OPENCL_VERSION__
+#include "phase.h"
 typedef float3 st_vec3;
 #define ST_GUIDE_GLOBAL __global
 inline st_vec3 vec3_make(float x, float y, float z) { return (float3)(x, y, z); }
 #else
 #include <math.h>
 
-#include "types.h"
 typedef struct {
   float x, y, z;
 } st_vec3;

@@ -14,7 +14,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "render/probe.h"
+#include "device/probe.h"
 #include "scene/phase_models.h"
 #include "test_util.h"
 

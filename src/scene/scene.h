@@ -17,6 +17,8 @@
 namespace spectrack {
 
 using Vec3 = std::array<double, 3>;
+// Whether a colour (sigma_a, sigma_s, ...) is gray: the same value in every channel.
+inline bool achromatic(const Vec3& v) { return v[0] == v[1] && v[1] == v[2]; }
 
 struct TransformDesc {
   Vec3 scale{1, 1, 1};       // "scale": a number or a triple
@@ -47,7 +49,7 @@ struct EmissionDesc {
   bool present = false;
   bool blackbody = false;
   // "ramp": Le = scale * the colour of `grid`'s value, linear between stops (value, [r, g, b]) of
-  // increasing value, the end stops' colours beyond them (src/render/emission_ramp.h)
+  // increasing value, the end stops' colours beyond them (src/scene/emission_ramp.h)
   bool ramp = false;
   std::vector<std::pair<double, Vec3>> stops;
   // "model": "density" (the artists' model): the source term is density * Le, independent of
