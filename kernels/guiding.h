@@ -223,17 +223,19 @@ inline float guide_mixture_pdf(float alpha, float pdf_guide, float pdf_phase) {
 
 #ifdef __OPENCL_VERSION__
 /* The guided scatter direction around the propagation direction wo (needs phase.h): three
- * uniforms (strategy and lobe, then the two of the chosen sampler); writes the mixture's pdf and
- * the phase function's value at the direction, so the path's weight is f_phase / pdf_mix. */
-inline float3 guided_phase_sample(__global const st_vmf_mixture* m, float alpha, int phase_type, float g, float3 wo,
-                                  float u0, float u1, float u2, float* pdf_mix, float* f_phase) {
-  float u_lobe;
+ * uniforms (strategy and lobe, then the two of the chosen sampler; a Draine blend's rejection
+ * sampling draws more from rng); writes the mixture's pdf and the phase function's value at the
+ * direction, so the path's weight is f_phase / pdf_mix. */
+inline float3 guided_phase_sample(__global const st_vmf_mixture* m, float alpha, int phase_type, float g, float4 phase,
+                                  float3 wo, float u0, float u1, float u2, st_rng* rng, float* pdf_mix,
+                                  float* f_phase) {
+  float u_lobe, p_phase;
   float3 wi;
   if (guide_choose(alpha, u0, &u_lobe)) {
     wi = vmf_mixture_sample(m, u_lobe, u1, u2);
-    *f_phase = phase_eval_any(phase_type, g, dot(wo, wi));
+    *f_phase = phase_eval_any(phase_type, g, phase, dot(wo, wi));
   } else {
-    wi = phase_sample_any(phase_type, g, wo, u1, u2, f_phase);
+    wi = phase_sample_any(phase_type, g, phase, wo, u1, u2, rng, &p_phase, f_phase);
   }
   *pdf_mix = guide_mixture_pdf(alpha, vmf_mixture_pdf(m, wi), *f_phase);
   return wi;

@@ -176,33 +176,34 @@ inline int light_select(__constant const st_scene* scene, float u) {
 }
 
 /* Light sampling "contribution" (types.h): the unoccluded contribution of light l at a scatter
- * event at x of a medium with phase (phase_type, g), the path travelling along wo, up to the
- * factor beta common to every light: nee_strength times the phase function towards a directional
- * light (its disc's centre), nee_strength alone for an environment (the phase function integrates
- * to 1: exact for a uniform one), and for a local light nee_strength (its mean intensity) times
- * its falloff / r^2 times the phase function towards it. HG is > 0 everywhere, so every light with
- * strength gets a chance (a spot's only where its cone reaches). */
-inline float light_contribution(__constant const st_light* l, int phase_type, float g, float3 wo, float3 x) {
+ * event at x of a medium with phase (phase_type, g, phase), the path travelling along wo, up to
+ * the factor beta common to every light: nee_strength times the phase function towards a
+ * directional light (its disc's centre), nee_strength alone for an environment (the phase function
+ * integrates to 1: exact for a uniform one), and for a local light nee_strength (its mean
+ * intensity) times its falloff / r^2 times the phase function towards it. Every phase function is
+ * > 0 everywhere, so every light with strength gets a chance (a spot's only where its cone reaches). */
+inline float light_contribution(__constant const st_light* l, int phase_type, float g, float4 phase, float3 wo,
+                                float3 x) {
   if (ST_HAS_LOCAL_LIGHT && l->type >= ST_LIGHT_POINT) {
     float3 v = l->position.xyz - x;
     float r2 = dot(v, v);
     if (!(r2 > 0.0f)) return 0.0f;
     float3 wi = v / sqrt(r2);
-    return l->nee_strength * local_light_falloff(l, -wi) / r2 * phase_eval(phase_type, g, dot(wo, wi));
+    return l->nee_strength * local_light_falloff(l, -wi) / r2 * phase_eval(phase_type, g, phase, dot(wo, wi));
   }
   if (l->type != ST_LIGHT_DIRECTIONAL) return l->nee_strength;
-  return l->nee_strength * phase_eval(phase_type, g, dot(wo, l->direction.xyz));
+  return l->nee_strength * phase_eval(phase_type, g, phase, dot(wo, l->direction.xyz));
 }
 
 /* The light of contribution sampling for uniform u: l with probability c_l / sum c (c:
  * light_contribution), written to *pmf; -1 when no light has any strength (no shadow ray). */
-inline int light_select_contribution(__constant const st_scene* scene, int phase_type, float g, float3 wo, float3 x,
-                                     float u, float* pmf) {
+inline int light_select_contribution(__constant const st_scene* scene, int phase_type, float g, float4 phase, float3 wo,
+                                     float3 x, float u, float* pmf) {
   float contrib[ST_MAX_LIGHTS]; /* each light's, evaluated once (a phase function each) */
   float total = 0.0f;
   for (int l = 0; l < ST_MAX_LIGHTS; ++l) {
     if (l >= scene->n_lights) break;
-    contrib[l] = light_contribution(&scene->lights[l], phase_type, g, wo, x);
+    contrib[l] = light_contribution(&scene->lights[l], phase_type, g, phase, wo, x);
     total += contrib[l];
   }
   if (!(total > 0.0f)) return -1;

@@ -145,16 +145,28 @@ __kernel void k_probe_albedo(__constant const st_scene* scene, __global const ui
   out_absorb[i] = (float4)(L.xyz, escaped);
 }
 
-/* Phase-function sampling around +z: out[i] = (cos theta of the sample, its pdf, phase value of
- * the direction, |direction| - 1). */
-__kernel void k_probe_phase(__constant const st_scene* scene, int type, float g, __global float4* out, uint n) {
+/* Phase-function sampling around +z, phase (type, g, b) (phase.h): out[2i] = (cos theta of the
+ * sample, its pdf as the sampler reports it, phase value of the direction, |direction| - 1),
+ * out[2i + 1] = (the phase value the sampler reports, the uniforms the sample drew, 0, 0). */
+__kernel void k_probe_phase(__constant const st_scene* scene, int type, float g, float4 b, __global float4* out, uint n) {
   uint i = get_global_id(0);
   if (i >= n) return;
   st_rng rng = rng_make(scene->seed, i, 2u, 0u, 7u, 0u);
-  float pdf;
+  float pdf, f;
   float3 d = (float3)(0.0f, 0.0f, 1.0f);
-  float3 wi = phase_sample_any(type, g, d, rng_uniform(&rng), rng_uniform(&rng), &pdf);
-  out[i] = (float4)(wi.z, pdf, phase_eval_any(type, g, wi.z), length(wi) - 1.0f);
+  const float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
+  float3 wi = phase_sample_any(type, g, b, d, u1, u2, &rng, &pdf, &f);
+  out[2u * i] = (float4)(wi.z, pdf, phase_eval_any(type, g, b, wi.z), length(wi) - 1.0f);
+  out[2u * i + 1u] = (float4)(f, (float)rng_draw_index(&rng), 0.0f, 0.0f);
+}
+
+/* The phase function (type, g, b) at given cosines: out[i] = (value, value). */
+__kernel void k_probe_phase_eval(__constant const st_scene* scene, int type, float g, float4 b,
+                                 __global const float* cos_theta, __global float2* out, uint n) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  const float v = phase_eval_any(type, g, b, cos_theta[i]);
+  out[i] = (float2)(v, v);
 }
 
 /* Raw uniforms of the renderer's generator (kernels/rng.h): item i draws n_draws uniforms from

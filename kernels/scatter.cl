@@ -48,7 +48,7 @@ inline int lights_to_sample(__constant const st_scene* scene, __constant const s
   *pick_pmf = 1.0f;
   if (scene->light_sampling != ST_LIGHT_SAMPLING_ALL && scene->n_lights > 1) {
     if (scene->light_sampling == ST_LIGHT_SAMPLING_CONTRIBUTION) {
-      first = light_select_contribution(scene, m->phase_type, m->g, wo, x, rng_uniform(rng), pick_pmf);
+      first = light_select_contribution(scene, m->phase_type, m->g, m->phase, wo, x, rng_uniform(rng), pick_pmf);
       *end = first < 0 ? 0 : first + 1;
     } else {
       first = light_select(scene, rng_uniform(rng));
@@ -126,7 +126,7 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     float3 wi;
     float pdf_l, t_max;
     float4 Le_over_pdf = light_sample(light, env, p.o.xyz, u1, u2, &wi, &pdf_l, &t_max, rng.lambda);
-    float f = phase_eval(m->phase_type, m->g, dot(wo, wi));
+    float f = phase_eval(m->phase_type, m->g, m->phase, dot(wo, wi));
     /* the direction's density under the sampler of the scattered ray: the one-sample mixture
      * with guiding (the same p_mix that k_escape reads from d.w), else the phase function */
     float p_dir = f;
@@ -148,11 +148,11 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
   if (ST_HAS_GUIDING && alpha > 0.0f) {
     /* the one-sample mixture of phase function and guide: weight f_phase / p_mix, unbiased for any guide */
     float u0 = rng_uniform(&rng), u1 = rng_uniform(&rng), u2 = rng_uniform(&rng), f;
-    wi = guided_phase_sample(&region->mix, alpha, m->phase_type, m->g, wo, u0, u1, u2, &pdf, &f);
+    wi = guided_phase_sample(&region->mix, alpha, m->phase_type, m->g, m->phase, wo, u0, u1, u2, &rng, &pdf, &f);
     p.beta *= pdf > 0.0f ? f / pdf : 0.0f;
   } else {
-    float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
-    wi = phase_sample(m->phase_type, m->g, wo, u1, u2, &pdf);
+    float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng), f;
+    wi = phase_sample(m->phase_type, m->g, m->phase, wo, u1, u2, &rng, &pdf, &f);
     /* exact sampling: f / pdf = 1, beta unchanged */
   }
   p.d = (float4)(wi, pdf);

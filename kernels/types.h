@@ -150,7 +150,10 @@ enum st_medium_type { ST_MEDIUM_VDB = 0, ST_MEDIUM_HOMOGENEOUS = 1 };
 /* A medium's per-voxel colour grid (kernels/medium.h medium_unit_coeffs): none; the
  * single-scattering albedo per channel (sigma_t unchanged); a multiplier of sigma_s per channel. */
 enum st_color_mode { ST_COLOR_NONE = 0, ST_COLOR_ALBEDO = 1, ST_COLOR_SCATTERING = 2 };
-enum st_phase_type { ST_PHASE_ISOTROPIC = 0, ST_PHASE_HG = 1 };
+/* Phase functions (kernels/phase.h): isotropic; Henyey-Greenstein (st_medium.g); a blend of two
+ * Draine lobes (1 - w) D(g, alpha1) + w D(g2, alpha2) (st_medium.g and st_medium.phase), the one
+ * kernel form of the scene's "draine", "rayleigh", "hg2" and "mie" (src/scene/phase_models.h). */
+enum st_phase_type { ST_PHASE_ISOTROPIC = 0, ST_PHASE_HG = 1, ST_PHASE_DRAINE_BLEND = 2 };
 
 /* Layers of the film beyond the beauty (docs/aov.md): X(ENUM suffix, --aov / film.aovs name).
  *   alpha:       A = 1 - the camera ray's transmittance through every medium (its channel mean; AR,
@@ -217,9 +220,10 @@ enum st_feature {
   ST_FEATURE_SPECTRAL = 1 << 13,      /* spectral mode: the lanes are wavelengths (st_film_color) */
   ST_FEATURE_GUIDING = 1 << 14,       /* volume path guiding: guided scatter directions, radiance records (guiding.h) */
   ST_FEATURE_LOCAL_LIGHT = 1 << 15,   /* point or spot lights: shadow rays of finite length (light.h, walker.h) */
+  ST_FEATURE_PHASE_SET = 1 << 18,     /* some medium has a Draine blend phase (draine, rayleigh, hg2, mie) */
   ST_FEATURE_THIN_LENS = 1 << 21,     /* depth of field: the camera's lens radius is > 0 (raygen.cl camera_ray) */
   ST_FEATURE_TIME = 1 << 22,          /* each path has a time in the shutter that something reads: camera motion */
-  ST_FEATURES_ALL = ((1 << 16) - 1) | ST_FEATURE_THIN_LENS | ST_FEATURE_TIME
+  ST_FEATURES_ALL = ((1 << 16) - 1) | ST_FEATURE_PHASE_SET | ST_FEATURE_THIN_LENS | ST_FEATURE_TIME
 };
 
 #include "stage_types.h" /* the wavefront's queues, counters and stage arguments */
@@ -242,7 +246,7 @@ typedef struct {
   st_uint emission_grid;       /* word offset of the NanoVDB emission grid, or ST_NO_GRID */
   st_int type;                 /* st_medium_type */
   st_int phase_type;           /* st_phase_type */
-  float g;                     /* HG asymmetry */
+  float g;                     /* HG asymmetry; Draine blend: the first lobe's g */
   float majorant_scale;        /* testing: < 1 under-estimates the majorant (weighted tracking stays exact) */
   float minorant_scale;        /* testing: > 1 over-estimates the minorant */
   st_int emissive;             /* 1 if Le != 0 */
@@ -271,6 +275,7 @@ typedef struct {
    * is temperature.y (temperature.x = 0) and its ln N is blackbody_log_norm */
   st_int blackbody;
   float blackbody_log_norm;
+  st_float4 phase;             /* Draine blend: (alpha of lobe 1, g of lobe 2, alpha of lobe 2, w: lobe 2's weight) */
 } st_medium;
 
 /* Blackbody colours and spectra below this temperature (K) are those of this temperature (the
@@ -410,7 +415,7 @@ typedef struct {
   st_uint pad[3];
 } st_iteration;
 
-#define ST_SIZEOF_MEDIUM 256
+#define ST_SIZEOF_MEDIUM 272
 #define ST_SIZEOF_CAMERA 160
 #define ST_SIZEOF_LIGHT 112
 #define ST_SIZEOF_SCENE (ST_SIZEOF_CAMERA + ST_MAX_LIGHTS * ST_SIZEOF_LIGHT + ST_MAX_MEDIA * ST_SIZEOF_MEDIUM + 96)

@@ -82,6 +82,35 @@ void print_volume(const std::string& file, const std::vector<GridInfo>& grids) {
   }
 }
 
+// The warning for an emission grid that a vdb medium names (or, blackbody, the default grids it
+// looks for) and its file lacks: the render refuses such a scene; empty when the grid is there.
+std::string emission_grid_warning(const SceneDesc& s, const MediumDesc& md) {
+  const EmissionDesc& e = md.emission;
+  if (md.type != ST_MEDIUM_VDB || !e.present || (e.blackbody && e.temperature > 0)) return "";
+  const std::string field = e.blackbody ? "temperature_grid" : "grid", name = e.blackbody ? e.temperature_grid : e.grid;
+  if (!e.blackbody && name.empty()) return "";
+  const std::vector<std::string> grids = list_grids(md.file);
+  auto has = [&](const std::string& n) { return grid_listed(grids, n); };
+  std::string all;
+  for (const std::string& g : grids) all += (all.empty() ? "" : ", ") + g;
+  if (name.empty() && !e.temperature_grid_choices.empty()) {
+    for (const auto& choice : e.temperature_grid_choices)
+      if (has(choice.first)) return "";
+    return fmt::format("{}: {}/preset: {} has none of the preset's fire grids (its grids: {}); the medium renders "
+                       "without emission", s.path, md.json_path, md.file, all);
+  }
+  if (name.empty()) {
+    const auto& d = default_temperature_grids();
+    if (std::any_of(d.begin(), d.end(), has)) return "";
+    return fmt::format("{}: {}/emission: {} has no grid named temperature, heat or flame (its grids: {}); the render "
+                       "refuses this scene: name the grid with emission.temperature_grid",
+                       s.path, md.json_path, md.file, all);
+  }
+  if (has(name)) return "";
+  return fmt::format("{}: {}/emission/{}: {} has no grid named \"{}\" (its grids: {}); the render refuses this scene",
+                     s.path, md.json_path, field, md.file, name, all);
+}
+
 const char* light_type(int t) {
   return t == ST_LIGHT_DIRECTIONAL ? "directional"
          : t == ST_LIGHT_ENV_MAP   ? "environment (map)"
@@ -129,6 +158,11 @@ json medium_json(const SceneDesc& s, const MediumDesc& md, std::string& t, Box3*
   m["sigma_t_max"] = vec(st_max);
   m["optical_depth_diagonal_max"] = vec(tau_diag);
   if (md.type == ST_MEDIUM_VDB) m["optical_depth_voxel_max"] = vec(tau_voxel);
+  const std::string warning = emission_grid_warning(s, md);
+  if (!warning.empty()) {
+    m["warnings"] = json::array({warning});
+    std::cerr << "warning: " << warning << "\n";
+  }
   t += fmt::format("  medium \"{}\" ({}{})\n", md.name, md.type == ST_MEDIUM_VDB ? "vdb " : "homogeneous",
                    md.type == ST_MEDIUM_VDB ? md.file : "");
   t += fmt::format("      world bbox     {} .. {}\n", v3(b.lo), v3(b.hi));

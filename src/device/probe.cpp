@@ -126,13 +126,37 @@ void Probe::albedo(std::array<float, 3> o, int channel, int n, std::vector<std::
   if (n > 0) ST_CL_CHECK(ds().queue.enqueueReadBuffer(b_abs, CL_TRUE, 0, size_t(n) * 16, absorb->data()), "read probe absorption");
 }
 
-std::vector<std::array<float, 4>> Probe::phase(int type, float g, int n) {
-  return run_probe<std::array<float, 4>>(ds(), *launcher_, "k_probe_phase", size_t(n), [&](cl::Kernel& k, cl::Buffer& out) {
+std::vector<std::array<float, 8>> Probe::phase(int type, float g, std::array<float, 4> b, int n) {
+  return run_probe<std::array<float, 8>>(ds(), *launcher_, "k_probe_phase", size_t(n), [&](cl::Kernel& k, cl::Buffer& out) {
     k.setArg(0, ds().b_scene);
     k.setArg(1, cl_int(type));
     k.setArg(2, cl_float(g));
-    k.setArg(3, out);
-    k.setArg(4, cl_uint(n));
+    k.setArg(3, cl_float4{{b[0], b[1], b[2], b[3]}});
+    k.setArg(4, out);
+    k.setArg(5, cl_uint(n));
+  });
+}
+
+std::vector<std::array<float, 4>> Probe::phase(int type, float g, int n) {
+  std::vector<std::array<float, 4>> out;
+  for (const auto& x : phase(type, g, {0, 0, 0, 0}, n)) out.push_back({x[0], x[1], x[2], x[3]});
+  return out;
+}
+
+std::vector<std::array<float, 2>> Probe::phase_eval(int type, float g, std::array<float, 4> b,
+                                                    const std::vector<float>& cos_theta) {
+  const size_t n = cos_theta.size();
+  if (n == 0) return {};
+  cl::Buffer b_cos = ds().buffer(CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, n * sizeof(float),
+                                 cos_theta.data(), "probe cosines");
+  return run_probe<std::array<float, 2>>(ds(), *launcher_, "k_probe_phase_eval", n, [&](cl::Kernel& k, cl::Buffer& out) {
+    k.setArg(0, ds().b_scene);
+    k.setArg(1, cl_int(type));
+    k.setArg(2, cl_float(g));
+    k.setArg(3, cl_float4{{b[0], b[1], b[2], b[3]}});
+    k.setArg(4, b_cos);
+    k.setArg(5, out);
+    k.setArg(6, cl_uint(n));
   });
 }
 

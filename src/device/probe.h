@@ -54,6 +54,12 @@ class Probe {
   std::vector<SpectrumItem> spectrum(const std::vector<std::array<float, 4>>& rgb_u);
   // Phase sampling around +z: per item (cos theta, pdf, phase value, |wi| - 1).
   std::vector<std::array<float, 4>> phase(int type, float g, int n);
+  // The same for any phase (type, g, b) (kernels/phase.h): per item the four lanes above, then
+  // (the phase value the sampler reports, the draws of the path's stream it took in all, 0, 0).
+  std::vector<std::array<float, 8>> phase(int type, float g, std::array<float, 4> b, int n);
+  // The phase value at each cosine (twice: the kernel writes float2).
+  std::vector<std::array<float, 2>> phase_eval(int type, float g, std::array<float, 4> b,
+                                               const std::vector<float>& cos_theta);
   // Transmittance from o along d to the end of every medium, per item and channel, by the
   // renderer's estimator (ratio tracking or ray marching); stats: per item (density lookups, DDA steps, 0, 0).
   std::vector<std::array<float, 4>> transmittance(std::array<float, 3> o, std::array<float, 3> d, int n,

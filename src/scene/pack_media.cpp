@@ -17,6 +17,7 @@
 #include "color/spectrum.h"
 #include "image/image.h"
 #include "scene/radiance.h"
+#include "scene/emission_ramp.h"
 #include "volume/float_limits.h"
 #include "scene/media_bounds.h"
 #include "integrator/memory_budget.h"
@@ -135,6 +136,7 @@ void Packer::add_medium(int i, const MediumDesc& md) {
   m.type = md.type;
   m.phase_type = md.phase.type;
   m.g = float(md.phase.g);
+  m.phase = f4(md.phase.blend[0], md.phase.blend[1], md.phase.blend[2], md.phase.blend[3]);
   m.majorant_scale = float(md.majorant_scale);
   m.minorant_scale = float(md.minorant_scale);
   m.sigma_a = f4(md.sigma_a[0] * md.density_scale, md.sigma_a[1] * md.density_scale, md.sigma_a[2] * md.density_scale);
@@ -152,10 +154,13 @@ void Packer::add_medium(int i, const MediumDesc& md) {
       if (md.type == ST_MEDIUM_HOMOGENEOUS && spectral && e.temperature > e.temperature_cutoff)
         check_blackbody_bounds(ctx_name, md, spectral_blackbody_peak(e.temperature, e.normalization), e.temperature, 1.0,
                                "spectral radiance");
-    } else if (e.blackbody) {
-      r = Vec3{1, 1, 1};  // scale x the temperature grid's colour (add_vdb_medium)
+    } else if (e.blackbody || e.ramp) {
+      r = Vec3{1, 1, 1};  // scale x the temperature grid's or the ramp's colour (add_vdb_medium)
     }
-    m.Le = f4(r[0] * e.scale, r[1] * e.scale, r[2] * e.scale);
+    const double gain = emission_gain(md);
+    if (!(gain <= kMaxRadiance))
+      throw Error(fmt::format("{}/emission/model: scale / sigma_a = {} is more than {:g}", ctx_name, gain, kMaxRadiance));
+    m.Le = f4(r[0] * gain, r[1] * gain, r[2] * gain);
     m.emissive = (m.Le.x > 0 || m.Le.y > 0 || m.Le.z > 0) ? 1 : 0;
   }
   m.maj_offset = uint32_t(maj_cells.size() / 2);
@@ -289,6 +294,17 @@ void Packer::add_emission(st_medium& m, const MediumDesc& md, const GridData& g,
       same_transform(t, "temperature_grid");
       m.emission_grid = upload_grid(ctx_name, t);
     }
+  } else if (em.ramp && m.emissive) {
+    if (spectral)
+      throw Error(fmt::format("{}/emission/type: a ramp is RGB only; spectral mode (render.color) cannot render it",
+                              ctx_name));
+    GridData e = load_float_grid(md.file, em.grid, -1, ctx_name + "/emission/grid");
+    same_transform(e, "grid");
+    MediumDesc bounds = md;  // the bounds of the ramp's brightest colour
+    const double peak = pack_emission_ramp(m, em.stops, e.value_min, e.value_max, grid_words);
+    bounds.emission.radiance = {peak, peak, peak};
+    check_emission_bounds(ctx_name, bounds, g.value_max, 1.0);
+    m.emission_grid = upload_grid(ctx_name, e);
   } else if (em.grid.empty()) {
     check_emission_bounds(ctx_name, md, g.value_max, 1.0);
   } else if (em.present && m.emissive) {
@@ -304,16 +320,28 @@ void Packer::add_emission(st_medium& m, const MediumDesc& md, const GridData& g,
 // kernels interpolate (kernels/medium.h blackbody_rgb), appended to the grid buffer.
 GridData Packer::add_temperature_grid(st_medium& m, const MediumDesc& md, const GridData& density,
                                       const std::string& ctx_name) {
-  const EmissionDesc& e = md.emission;
+  EmissionDesc e = md.emission;
   const std::string ctx = ctx_name + "/emission/temperature_grid";
   std::string name = e.temperature_grid;
+  if (name.empty() && !e.temperature_grid_choices.empty()) {  // a preset's fire grids
+    const std::vector<std::string> grids = list_grids(md.file);
+    for (const auto& [candidate, scale] : e.temperature_grid_choices) {
+      if (!grid_listed(grids, candidate)) continue;
+      name = candidate;
+      e.temperature_scale = scale;
+      break;
+    }
+    if (name.empty()) {
+      std::fprintf(stderr, "warning: %s/preset: %s has none of the preset's fire grids: the medium does not emit\n",
+                   ctx_name.c_str(), md.file.c_str());
+      m.emissive = 0;
+      return GridData{};
+    }
+  }
   if (name.empty()) {
     const std::vector<std::string> grids = list_grids(md.file);
-    for (const char* candidate : {"temperature", "heat", "flame"}) {
-      for (const std::string& entry : grids)
-        if (entry.substr(0, entry.find(" (")) == candidate) name = candidate;
-      if (!name.empty()) break;
-    }
+    for (const std::string& candidate : default_temperature_grids())
+      if (name.empty() && grid_listed(grids, candidate)) name = candidate;
     if (name.empty()) {
       std::string all;
       for (const std::string& entry : grids) all += (all.empty() ? "" : ", ") + entry;

@@ -1,5 +1,6 @@
 // radiance.cpp: see radiance.h for the bounds and their derivation.
 #include "scene/radiance.h"
+#include "scene/phase_models.h"
 
 #include <algorithm>
 #include <cfloat>
@@ -35,15 +36,19 @@ const char* kWhy = " (the kernels carry light in single-precision float: see REA
 double scene_phase_peak(const SceneDesc& s) {
   double peak = 1.0 / (4.0 * kPi);
   for (const MediumDesc& m : s.media) {
-    if (m.phase.type != ST_PHASE_HG) continue;
-    const float g = float(m.phase.g);
-    if (!(std::abs(g) < 1.0f))
-      fail(s, m.json_path + "/phase/g",
-           "value " + num(m.phase.g) + " rounds to " + num(g) +
-               " in single precision, where the HG phase function is 0/0; |g| must be at most 0.99999994",
-           m.name);
-    const double a = std::abs(double(g));
-    peak = std::max(peak, (1.0 + a) / (4.0 * kPi * (1.0 - a) * (1.0 - a)));
+    if (m.phase.type == ST_PHASE_ISOTROPIC) continue;
+    // the asymmetries as the kernels hold them: HG's g, the blend's two lobes' g
+    const bool hg = m.phase.type == ST_PHASE_HG;
+    const std::pair<const char*, double> gs[2] = {{hg ? "/g" : "/g1", m.phase.g}, {"/g2", m.phase.blend[1]}};
+    for (int i = 0; i < (hg ? 1 : 2); ++i) {
+      const float g = float(gs[i].second);
+      if (!(std::abs(g) < 1.0f))
+        fail(s, m.json_path + "/phase" + (m.phase.name == "hg" || m.phase.name == "hg2" ? gs[i].first : ""),
+             "value " + num(gs[i].second) + " rounds to " + num(g) +
+                 " in single precision, where the HG phase function is 0/0; |g| must be at most 0.99999994",
+             m.name);
+    }
+    peak = std::max(peak, phase_peak(m.phase));
   }
   return peak;
 }
@@ -145,10 +150,10 @@ void check_env_map_bounds(const std::string& context, const std::string& file, c
 
 void check_emission_bounds(const std::string& context, const MediumDesc& m, double density_max, double emission_max) {
   if (!m.emission.present) return;
-  const double le = max3(m.emission.radiance) * m.emission.scale * emission_max;
+  const double le = max3(m.emission.radiance) * emission_gain(m) * emission_max;
   const std::string in_medium = ", in medium \"" + m.name + "\"";
   if (le > kMaxRadiance)
-    throw Error(context + "/emission: radiance x scale x the emission grid's largest value (" + num(emission_max) +
+    throw Error(context + "/emission: radiance x scale (/ sigma_a, model density) x the emission grid's largest value (" + num(emission_max) +
                 ") = " + num(le) + " is more than " + num(kMaxRadiance) + kWhy + in_medium);
   const double mua = max3(m.sigma_a) * m.density_scale * density_max;
   if (mua * le > kMaxEmissionProduct)

@@ -26,18 +26,35 @@ struct TransformDesc {
   Vec3 translate{0, 0, 0};
 };
 
+// The kernel's form of a phase function (scene/phase_models.h): isotropic, hg (g), or the Draine
+// blend of "draine", "rayleigh", "hg2" and "mie" (g: lobe 1's g; blend: alpha1, g2, alpha2, w).
 struct PhaseDesc {
   int type = ST_PHASE_ISOTROPIC;
   double g = 0.0;  // (-1, 1) for hg
+  std::array<double, 4> blend{0, 0, 0, 0};
+  std::string name = "isotropic";  // the scene's type
 };
 
 // A medium's emission (docs/scene-format.md "emission"): type "radiance", Le = radiance * scale
 // (* the grid's value), or type "blackbody", Le = scale * the blackbody colour of T (linear sRGB,
 // src/color/blackbody.h) with T = (temperature grid's value - temperature_offset) *
 // temperature_scale, or a constant `temperature`; nothing emits where T <= temperature_cutoff.
+// The grids a blackbody emission reads when it names none: the file's first of these.
+inline const std::vector<std::string>& default_temperature_grids() {
+  static const std::vector<std::string> names = {"temperature", "heat", "flame"};
+  return names;
+}
+
 struct EmissionDesc {
   bool present = false;
   bool blackbody = false;
+  // "ramp": Le = scale * the colour of `grid`'s value, linear between stops (value, [r, g, b]) of
+  // increasing value, the end stops' colours beyond them (src/scene/emission_ramp.h)
+  bool ramp = false;
+  std::vector<std::pair<double, Vec3>> stops;
+  // "model": "density" (the artists' model): the source term is density * Le, independent of
+  // sigma_a (grey, > 0); false: the physical sigma_a * Le
+  bool per_density = false;
   std::string grid;  // radiance: empty: Le = radiance * scale (constant where the medium is)
   Vec3 radiance{0, 0, 0};
   double scale = 1.0;
@@ -48,6 +65,9 @@ struct EmissionDesc {
   double temperature_offset = 0.0;
   double temperature_cutoff = 100.0;  // K, pbrt-v4's fixed cutoff
   BlackbodyNorm normalization = BlackbodyNorm::Peak;
+  // a preset's (scene/presets.h) fire grids with their temperature_scale: the first the file has
+  // is the temperature grid; none: no emission (a warning)
+  std::vector<std::pair<std::string, double>> temperature_grid_choices;
 };
 
 // A per-voxel colour (a vec3 grid of the medium's file, sharing the density grid's transform):
@@ -77,7 +97,14 @@ struct MediumDesc {
   std::array<Vec3, 2> bounds{Vec3{-1, -1, -1}, Vec3{1, 1, 1}};  // homogeneous
   double majorant_scale = 1.0;  // testing aid: < 1 under-estimates (still unbiased)
   double minorant_scale = 1.0;  // testing aid: > 1 over-estimates (still unbiased)
+  std::string preset;           // vdb: a preset's name (scene/presets.h), empty: none
 };
+
+// The factor of a medium's emitted radiance beyond its colour: scale, and with the "density"
+// model 1 / sigma_a (grey), so that sigma_a * Le = density * scale * colour.
+inline double emission_gain(const MediumDesc& m) {
+  return m.emission.scale / (m.emission.per_density ? m.sigma_a[0] : 1.0);
+}
 
 struct LightDesc {
   std::string json_path;

@@ -17,6 +17,8 @@
 #include <nlohmann/json.hpp>
 
 #include "scene/scene_parser.h"
+#include "scene/phase_models.h"
+#include "scene/presets.h"
 #include "scene/radiance.h"
 #include "util/files.h"
 #include "scene/frames.h"
@@ -85,11 +87,12 @@ void Parser::local_light(const json& j, const std::string& path, bool spot, cons
 MediumDesc Parser::medium(const json& j, const std::string& path, size_t index) {
   expect_object(j, path);
   const Names all = {"name", "type", "file", "grid", "grid_index", "bounds", "density_scale", "sigma_s",
-                     "sigma_a", "phase", "emission", "color", "transform", "majorant_scale", "minorant_scale"};
+                     "sigma_a", "phase", "emission", "color", "transform", "majorant_scale", "minorant_scale",
+                     "preset"};
   Names vdb, homogeneous;
   for (const char* k : all) {
     if (std::strcmp(k, "bounds") != 0) vdb.push_back(k);
-    if (!contains({"file", "grid", "grid_index", "transform", "color"}, k)) homogeneous.push_back(k);
+    if (!contains({"file", "grid", "grid_index", "transform", "color", "preset"}, k)) homogeneous.push_back(k);
   }
   fields(j, path, all);
 
@@ -104,6 +107,11 @@ MediumDesc Parser::medium(const json& j, const std::string& path, size_t index) 
     m.type = ST_MEDIUM_VDB;
     need(j, path, "file", "the .vdb or .nvdb file");
     m.file = file(j, path, "file", true);
+    if (find(j, "preset")) {
+      m.preset = string(j, path, "preset", "");
+      if (!apply_medium_preset(m.preset, &m))
+        fail(path + "/preset", "unknown preset " + in_quotes(m.preset) + " (expected one of: " + medium_preset_names() + ")");
+    }
     m.grid = string(j, path, "grid", m.grid);
     m.grid_index = static_cast<int>(integer(j, path, "grid_index", m.grid_index, 0, std::numeric_limits<int>::max()));
     if (const json* t = find(j, "transform")) m.transform = transform(*t, path + "/transform");
@@ -127,6 +135,13 @@ MediumDesc Parser::medium(const json& j, const std::string& path, size_t index) 
   m.sigma_a = vec3(j, path, "sigma_a", m.sigma_a, kNonNegative);
   if (const json* p = find(j, "phase")) m.phase = phase(*p, path + "/phase");
   if (const json* e = find(j, "emission")) m.emission = emission(*e, path + "/emission", m.type == ST_MEDIUM_VDB);
+  if (m.emission.per_density) {
+    if (!(m.sigma_a[0] > 0 && m.sigma_a[0] == m.sigma_a[1] && m.sigma_a[1] == m.sigma_a[2]))
+      fail(path + "/emission/model", "\"density\" needs a grey sigma_a > 0 (equal channels; the absorption's own "
+                                     "brightness is divided out): sigma_a is [" + num(m.sigma_a[0]) + ", " + num(m.sigma_a[1]) +
+                                     ", " + num(m.sigma_a[2]) + "]");
+    if (m.color.present) fail(path + "/emission/model", "\"density\" excludes a colour grid (it varies sigma_a per voxel)");
+  }
   m.majorant_scale = number(j, path, "majorant_scale", m.majorant_scale, kPositive);
   m.minorant_scale = number(j, path, "minorant_scale", m.minorant_scale, kNonNegative);
   context_.clear();
@@ -135,20 +150,68 @@ MediumDesc Parser::medium(const json& j, const std::string& path, size_t index) 
 
 PhaseDesc Parser::phase(const json& j, const std::string& path) {
   expect_object(j, path);
-  fields(j, path, {"type", "g"});
-  PhaseDesc p;
-  need(j, path, "type", "expected \"isotropic\" or \"hg\"");
+  const Names all = {"type", "g", "alpha", "g1", "g2", "w", "diameter_um"};
+  fields(j, path, all);
+  const char* kTypes = "isotropic, hg, draine, rayleigh, hg2, mie";
+  need(j, path, "type", std::string("expected one of: ") + kTypes);
   std::string type = string(j, path, "type", "");
+  const Range open_g{-1, 1, true, true};
+  auto g_at = [&](const char* key) {
+    return number_at(need(j, path, key, "an asymmetry, in (-1, 1)"), path + "/" + key, open_g);
+  };
+  PhaseDesc p;
   if (type == "isotropic") {
-    fields(j, path, {"type"}, "an isotropic phase function", {"g"});
-    p.type = ST_PHASE_ISOTROPIC;
+    fields(j, path, {"type"}, "an isotropic phase function", all);
   } else if (type == "hg") {
+    fields(j, path, {"type", "g"}, "an hg phase function", all);
     p.type = ST_PHASE_HG;
-    p.g = number_at(need(j, path, "g", "the asymmetry, in (-1, 1)"), path + "/g", Range{-1, 1, true, true});
+    p.g = g_at("g");
+  } else if (type == "draine") {
+    fields(j, path, {"type", "g", "alpha"}, "a draine phase function", all);
+    const double g = g_at("g");
+    p = draine_phase(g, number_at(need(j, path, "alpha", "Draine's alpha, in [0, 1000]"), path + "/alpha",
+                                  Range{0, 1000, false, false}));
+  } else if (type == "rayleigh") {
+    fields(j, path, {"type"}, "a rayleigh phase function", all);
+    p = rayleigh_phase();
+  } else if (type == "hg2") {
+    fields(j, path, {"type", "g1", "g2", "w"}, "an hg2 phase function", all);
+    const double g1 = g_at("g1"), g2 = g_at("g2");
+    p = hg2_phase(g1, g2, number_at(need(j, path, "w", "the second lobe's weight, in [0, 1]"), path + "/w",
+                                    Range{0, 1, false, false}));
+  } else if (type == "mie") {
+    fields(j, path, {"type", "diameter_um"}, "a mie phase function", all);
+    const double d = number_at(need(j, path, "diameter_um", "the water droplets' diameter in micrometres, in [5, 50]"),
+                               path + "/diameter_um", Range{kMieMinDiameterUm, kMieMaxDiameterUm, false, false});
+    p = mie_phase(d);
   } else {
-    fail(path + "/type", "unknown phase function " + in_quotes(type) + " (expected one of: isotropic, hg)");
+    fail(path + "/type", "unknown phase function " + in_quotes(type) + " (expected one of: " + kTypes + ")");
   }
+  p.name = type;
   return p;
+}
+
+
+EmissionDesc Parser::ramp(const json& j, const std::string& path, bool vdb, EmissionDesc e) {
+  const Names all = {"type", "grid", "stops", "scale", "model"};
+  fields(j, path, all);
+  if (!vdb) fail(path + "/type", "a ramp maps a grid's values: vdb media only");
+  e.ramp = true;
+  e.grid = string(j, path, "grid", "");
+  if (e.grid.empty()) fail(path + "/grid", "required: the float grid whose values the ramp maps (e.g. heat, flame)");
+  e.scale = number(j, path, "scale", e.scale, kNonNegative);
+  const json& stops = need(j, path, "stops", "[[value, [r, g, b]], ...]");
+  if (!stops.is_array() || stops.empty() || stops.size() > 64)
+    fail(path + "/stops", "expected 1 to 64 stops [[value, [r, g, b]], ...]");
+  for (size_t i = 0; i < stops.size(); ++i) {
+    const std::string at = path + "/stops/" + std::to_string(i);
+    if (!stops[i].is_array() || stops[i].size() != 2) fail(at, "expected [value, [r, g, b]]");
+    const double v = number_at(stops[i][0], at + "/0", kAny);
+    if (!e.stops.empty() && !(v > e.stops.back().first))
+      fail(at + "/0", "value " + num(v) + " must be greater than the previous stop's (" + num(e.stops.back().first) + ")");
+    e.stops.push_back({v, vec3_at(stops[i][1], at + "/1", kNonNegative)});
+  }
+  return e;
 }
 
 EmissionDesc Parser::emission(const json& j, const std::string& path, bool vdb) {
@@ -156,21 +219,26 @@ EmissionDesc Parser::emission(const json& j, const std::string& path, bool vdb) 
   EmissionDesc e;
   e.present = true;
   const std::string type = string(j, path, "type", "radiance");
+  const std::string model = string(j, path, "model", "absorption");
+  if (model != "absorption" && model != "density")
+    fail(path + "/model", "unknown emission model " + in_quotes(model) + " (expected one of: absorption, density)");
+  e.per_density = model == "density";
+  if (type == "ramp") return ramp(j, path, vdb, e);
   if (type == "radiance") {
-    const Names all = {"type", "grid", "radiance", "scale"};
+    const Names all = {"type", "grid", "radiance", "scale", "model"};
     fields(j, path, all);
-    if (!vdb) fields(j, path, {"type", "radiance", "scale"}, "a homogeneous medium's emission", all);
+    if (!vdb) fields(j, path, {"type", "radiance", "scale", "model"}, "a homogeneous medium's emission", all);
     e.grid = string(j, path, "grid", "");
     e.radiance = vec3_at(need(j, path, "radiance"), path + "/radiance", kNonNegative);
     e.scale = number(j, path, "scale", e.scale, kNonNegative);
     return e;
   }
   if (type != "blackbody")
-    fail(path + "/type", "unknown emission type " + in_quotes(type) + " (expected one of: radiance, blackbody)");
+    fail(path + "/type", "unknown emission type " + in_quotes(type) + " (expected one of: radiance, blackbody, ramp)");
   const Names all = {"type",        "scale",           "temperature",        "temperature_grid", "temperature_scale",
-                     "temperature_offset", "temperature_cutoff", "normalization"};
+                     "temperature_offset", "temperature_cutoff", "normalization", "model"};
   fields(j, path, all);
-  const Names constant = {"type", "scale", "temperature", "temperature_cutoff", "normalization"};
+  const Names constant = {"type", "scale", "temperature", "temperature_cutoff", "normalization", "model"};
   if (!vdb) fields(j, path, constant, "a homogeneous medium's blackbody emission (a constant `temperature`)", all);
   e.blackbody = true;
   // at most kMaxRadiance: the kernels hold scale x colour in float, colours <= ~1e6

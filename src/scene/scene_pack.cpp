@@ -39,6 +39,7 @@ uint32_t Packer::scene_features() const {
     if (!gray) f |= ST_FEATURE_CHROMATIC;
     if (m.color_mode != ST_COLOR_NONE) f |= ST_FEATURE_COLOR | ST_FEATURE_CHROMATIC;
     if (m.phase_type == ST_PHASE_HG) f |= ST_FEATURE_HG;
+    if (m.phase_type == ST_PHASE_DRAINE_BLEND) f |= ST_FEATURE_PHASE_SET;
     if (m.type == ST_MEDIUM_VDB) f |= ST_FEATURE_VDB;
     if (m.maj_block > 0) f |= ST_FEATURE_COARSE_MAJORANT;
   }

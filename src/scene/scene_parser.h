@@ -97,6 +97,7 @@ class Parser {
   void local_light(const json& j, const std::string& path, bool spot, const Names& all, LightDesc& l);
   MediumDesc medium(const json& j, const std::string& path, size_t index);
   PhaseDesc phase(const json& j, const std::string& path);
+  EmissionDesc ramp(const json& j, const std::string& path, bool vdb, EmissionDesc e);
   EmissionDesc emission(const json& j, const std::string& path, bool vdb);
   ColorDesc color(const json& j, const std::string& path);
   TransformDesc transform(const json& j, const std::string& path);

@@ -76,7 +76,7 @@ void make_spectral(const SceneDesc& scene, PackedScene& packed) {
     if (m.emissive && e.blackbody) {
       // Planck's law per wavelength (kernels/medium.h blackbody_spectral_Le), in the film's unit;
       // the bounds were checked by the packer, which knew the mode
-      const double le = film_emission_scale() * e.scale;
+      const double le = film_emission_scale() * emission_gain(md);
       m.Le = st_float4{float(le), float(le), float(le), 0.0f};
       m.blackbody = 1;
       if (m.emission_grid == ST_NO_GRID) {  // a constant temperature (above the cutoff: emissive)

@@ -399,6 +399,12 @@ std::array<GridData, 3> load_color_grid(const std::string& file, const std::stri
   return out;
 }
 
+bool grid_listed(const std::vector<std::string>& listing, const std::string& name) {
+  for (const std::string& entry : listing)
+    if (entry.substr(0, entry.find(" (")) == name) return true;
+  return false;
+}
+
 std::vector<std::string> list_grids(const std::string& file) {
   const Fail fail{"", file};
   const std::string ext = lower_extension(file);

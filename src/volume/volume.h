@@ -49,6 +49,8 @@ std::array<GridData, 3> load_color_grid(const std::string& file, const std::stri
 
 // Names and types of the grids in a file, "name (type, class)" each, for messages and `info`.
 std::vector<std::string> list_grids(const std::string& file);
+// Whether a list_grids() listing has a grid named `name`.
+bool grid_listed(const std::vector<std::string>& listing, const std::string& name);
 
 struct MajorantGrid {
   std::array<int, 3> origin{0, 0, 0};  // index-space origin (= index_min - 1)
