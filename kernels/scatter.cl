@@ -10,8 +10,9 @@
  * bounce's shadow rays take, is still running; the finished ones are added to their light's
  * accumulator first (queues.h, "shadow-ray entries"). With guiding (features.h), the scattered
  * direction comes from the one-sample mixture of the phase function and the region's guide
- * (guiding.h), beta takes f_phase / p_mix and d.w holds p_mix, which the light samples' MIS weights
- * use too; training passes leave in each shadow entry's d.w what turns its result into a record. */
+ * (guiding.h) at the first scatter events, beta takes f_phase / p_mix and d.w holds p_mix, which
+ * the light samples' MIS weights use too; training passes keep the path's last vertices in a ring
+ * and credit every later contribution to them (guiding.h, st_guide_vertex). */
 __kernel void k_scatter(ST_STAGE_ARGS) {
   const uint cur = it.cur, n = it.n_queue[ST_Q_SCATTER];
   uint gid = get_global_id(0);
@@ -22,13 +23,17 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     queue_push(queues, counters, Q, NL, cur, ST_Q_FINISH, slot);
     return;
   }
+  const int training = ST_HAS_GUIDING && guide->inv_cell.w > 0.0f;
+  __global st_guide_vertex* ring = training ? guide_ring(guide_records, (uint)guide->dims[3], Q, slot) : 0;
   int busy = 0;
   for (int l = 0; l < scene->n_lights; ++l) {
     __global st_shadow* e = &shadows[shadow_entry(slot, NL, scene->n_lights, p.depth, l)];
     if (e->state == ST_SHADOW_PENDING) busy = 1;
-    else if (e->state == ST_SHADOW_DONE)  /* the entry of bounce depth - R (R: the shadow ring) */
-      shadow_fold(scene, &shadows[slot * NL + (uint)l], e, p.depth - shadow_ring(NL, scene->n_lights),
-                  &results[p.result_index * (uint)scene->result_layers]);
+    else if (e->state == ST_SHADOW_DONE) { /* the entry of bounce depth - R (R: the shadow ring) */
+      const int bounce = p.depth - shadow_ring(NL, scene->n_lights);
+      if (training) guide_credit(ring, 0, bounce - 1, p.depth, e->weight * e->tr.T, path_mask(scene, &p));
+      shadow_fold(scene, &shadows[slot * NL + (uint)l], e, bounce, &results[p.result_index * (uint)scene->result_layers]);
+    }
   }
   if (busy) {
     atomic_inc(&counters[ST_C_WAITS]);
@@ -40,10 +45,24 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
   __constant const st_medium* m = &scene->media[p.medium];
   float3 wo = p.d.xyz;
   const float4 mask = path_mask(scene, &p);
-  /* guiding: the region's mixture and selection probability (alpha 0: plain phase sampling) */
+  /* guiding: the region's mixture and selection probability (alpha 0: plain phase sampling); the
+   * slot's guide state starts with the path's first scatter event; training credits what the path
+   * gathered since its last scatter event (escape aside, which ends it: k_finish) */
   __global const st_guide_region* region = 0;
+  __global st_guide_slot* gs = 0;
   float alpha = 0.0f;
-  if (ST_HAS_GUIDING && guide->origin.w > 0.0f) {
+  if (ST_HAS_GUIDING) {
+    gs = guide_slot(guide_records, (uint)guide->dims[3], slot);
+    if (p.depth == 0) gs->L_seen = p.L;
+    if (training) {
+      guide_credit(ring, 0, p.depth - 1, p.depth, p.L - gs->L_seen, mask);
+      gs->L_seen = p.L;
+      if (p.depth >= ST_GUIDE_RING) /* vertex depth - RING leaves the ring */
+        guide_vertex_record(guide_records, guide, &ring[p.depth % ST_GUIDE_RING],
+                            (uint4)(p.pixel, p.sample, p.channel, (uint)(p.depth - ST_GUIDE_RING)));
+    }
+  }
+  if (ST_HAS_GUIDING && guide->origin.w > 0.0f && p.depth < guide->guided_depth) {
     region = guide_regions(guide) + guide_region_index(guide, p.o.x, p.o.y, p.o.z);
     alpha = region->alpha;
   }
@@ -77,9 +96,6 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     __global st_shadow* sh = &shadows[id];
     sh->o = (float4)(p.o.xyz, 0.0f);
     sh->d = (float4)(wi, 0.0f);
-    /* training: what divides the shadow ray's weight into the record's Le T / pdf (shadow.cl) */
-    if (ST_HAS_GUIDING && guide->inv_cell.w > 0.0f)
-      sh->d.w = masked_avg(p.beta * mask, mask) * f * w / pick_pmf;
     sh->weight = weight;
     st_trans tr;
     transmittance_begin(&tr, mask);
@@ -91,17 +107,24 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     p.pending += 1;
     queue_push(queues, counters, Q, NL, cur, ST_Q_SHADOW, id);
   }
-  float pdf;
+  float pdf, f_wi;
   float3 wi;
+  const float4 beta_in = p.beta;
   if (ST_HAS_GUIDING && alpha > 0.0f) {
     /* the one-sample mixture of phase function and guide: weight f_phase / p_mix, unbiased for any guide */
-    float u0 = rng_uniform(&rng), u1 = rng_uniform(&rng), u2 = rng_uniform(&rng), f;
-    wi = guided_phase_sample(&region->mix, alpha, m->phase_type, m->g, wo, u0, u1, u2, &pdf, &f);
-    p.beta *= pdf > 0.0f ? f / pdf : 0.0f;
+    float u0 = rng_uniform(&rng), u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
+    wi = guided_phase_sample(&region->mix, alpha, m->phase_type, m->g, wo, u0, u1, u2, &pdf, &f_wi);
+    p.beta *= pdf > 0.0f ? f_wi / pdf : 0.0f;
   } else {
     float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
     wi = phase_sample(m->phase_type, m->g, wo, u1, u2, &pdf);
-    /* exact sampling: f / pdf = 1, beta unchanged */
+    f_wi = pdf; /* exact sampling: f / pdf = 1, beta unchanged */
+  }
+  if (training) { /* this vertex enters the ring */
+    __global st_guide_vertex* v = &ring[p.depth % ST_GUIDE_RING];
+    v->pos = (float4)(p.o.xyz, 0.0f);
+    v->dir = (float4)(wi, f_wi);
+    v->beta = beta_in;
   }
   p.d = (float4)(wi, pdf);
   p.o.w = 0.0f;

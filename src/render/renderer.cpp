@@ -254,7 +254,7 @@ MemoryNeed Renderer::Impl::memory_need(const BatchPlan& p) const {
   r.film_layers = p.film_layers();
   r.aov_channels = aov_sum_channels(settings.aovs).size();
   r.path_slots = p.Q;
-  r.path_bytes = sizeof(st_path) + p.NL * sizeof(st_shadow) + (settings.guiding ? p.NL * sizeof(st_guide_record) : 0);
+  r.path_bytes = sizeof(st_path) + p.NL * sizeof(st_shadow) + (settings.guiding ? guide_record_buffer_bytes(1, true) : 0);
   r.queue_words = 2 * (ST_Q_PATH_QUEUES + p.NL);
   r.result_values = p.ring * p.batch_paths * p.L;
   r.scene_bytes = ds.scene_bytes + (settings.guiding ? double(guide.bytes()) : 0.0);
@@ -526,7 +526,7 @@ void Renderer::Impl::upload_guide() {
 }
 
 // Appends the records of the last iteration (their order is the device's; the fit sorts them)
-// and empties the buffer. Its capacity is the shadow queue's, the most rays one iteration finishes.
+// and empties the buffer. Its capacity (guide_record_capacity) is the most one iteration records.
 void Renderer::Impl::drain_records(std::vector<st_guide_record>& out) {
   uint32_t n = 0;
   ST_CL_CHECK(ds.queue.enqueueReadBuffer(b_records, CL_TRUE, 0, 4, &n), "read the guide record count");
@@ -591,10 +591,10 @@ RenderResult Renderer::Impl::run_stage_loop(int64_t sample_begin, int spp, std::
   set_phase("film allocation");
   set_ring_size(plan.ring);
   RenderBuffers buf = allocate(plan);
-  if (settings.guiding) {  // training: records on, a record buffer for one iteration's shadow rays
-    const uint64_t capacity = records ? std::max<uint64_t>(1, plan.Q * plan.NL) : 0;
+  if (settings.guiding) {  // the slots' guide state; training: records on, vertex rings, one iteration's records
+    const uint64_t capacity = records ? guide_record_capacity(plan.Q) : 0;
     const uint32_t head[4] = {0, 0, 0, 0};
-    b_records = ds.buffer(CL_MEM_READ_WRITE, 16 + capacity * sizeof(st_guide_record), nullptr, "guide records");
+    b_records = ds.buffer(CL_MEM_READ_WRITE, guide_record_buffer_bytes(plan.Q, records != nullptr), nullptr, "guide records");
     ST_CL_CHECK(ds.queue.enqueueWriteBuffer(b_records, CL_TRUE, 0, sizeof(head), head), "clear the guide record count");
     guide.header.dims[3] = int(capacity);
     guide.header.inv_cell.w = records ? 1.0f : 0.0f;
