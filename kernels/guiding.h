@@ -174,8 +174,8 @@ typedef struct {
   st_uint key[4]; /* pixel, sample, channel, depth: the record's place in a canonical order */
 } st_guide_record;
 
-/* Per path slot, what guiding keeps besides st_path (in the record buffer, after the records): in
- * training passes, the radiance already credited to the path's vertices. */
+/* Per path slot in a training pass, what guiding keeps besides st_path (in the record buffer,
+ * after the records): the radiance already credited to the path's vertices. */
 typedef struct {
   st_float4 L_seen; /* training: the path's st_path.L when last credited to its vertices */
   st_float4 pad;
@@ -287,8 +287,9 @@ inline void guide_record_push(__global uint* rec, uint capacity, float3 pos, int
   r->key[3] = key.w;
 }
 
-/* The record buffer: a uint count (16 bytes), `capacity` records, one st_guide_slot per path slot
- * (Q of them), then in training passes ST_GUIDE_RING vertices per path slot. */
+/* The record buffer of a training pass: a uint count (16 bytes), `capacity` records, one
+ * st_guide_slot per path slot (Q of them), then ST_GUIDE_RING vertices per path slot. Outside
+ * training it holds the count only, and no kernel reads further. */
 inline __global st_guide_slot* guide_slot(__global uint* rec, uint capacity, uint slot) {
   return (__global st_guide_slot*)(rec + 4 + capacity * (ST_SIZEOF_GUIDE_RECORD / 4)) + slot;
 }

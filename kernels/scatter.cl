@@ -49,18 +49,15 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
    * slot's guide state starts with the path's first scatter event; training credits what the path
    * gathered since its last scatter event (escape aside, which ends it: k_finish) */
   __global const st_guide_region* region = 0;
-  __global st_guide_slot* gs = 0;
   float alpha = 0.0f;
-  if (ST_HAS_GUIDING) {
-    gs = guide_slot(guide_records, (uint)guide->dims[3], slot);
+  if (training) { /* the record buffer holds the slots' state and rings only in training passes */
+    __global st_guide_slot* gs = guide_slot(guide_records, (uint)guide->dims[3], slot);
     if (p.depth == 0) gs->L_seen = p.L;
-    if (training) {
-      guide_credit(ring, 0, p.depth - 1, p.depth, p.L - gs->L_seen, mask);
-      gs->L_seen = p.L;
-      if (p.depth >= ST_GUIDE_RING) /* vertex depth - RING leaves the ring */
-        guide_vertex_record(guide_records, guide, &ring[p.depth % ST_GUIDE_RING],
-                            (uint4)(p.pixel, p.sample, p.channel, (uint)(p.depth - ST_GUIDE_RING)));
-    }
+    guide_credit(ring, 0, p.depth - 1, p.depth, p.L - gs->L_seen, mask);
+    gs->L_seen = p.L;
+    if (p.depth >= ST_GUIDE_RING) /* vertex depth - RING leaves the ring */
+      guide_vertex_record(guide_records, guide, &ring[p.depth % ST_GUIDE_RING],
+                          (uint4)(p.pixel, p.sample, p.channel, (uint)(p.depth - ST_GUIDE_RING)));
   }
   if (ST_HAS_GUIDING && guide->origin.w > 0.0f && p.depth < guide->guided_depth) {
     region = guide_regions(guide) + guide_region_index(guide, p.o.x, p.o.y, p.o.z);

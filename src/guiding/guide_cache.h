@@ -40,13 +40,14 @@ constexpr uint32_t kGuideTrainingSeed = 0x6a09e667u;
 constexpr int kGuideDepth = 1;
 static_assert(kGuideDepth >= 1 && kGuideDepth <= ST_GUIDE_RING, "records of guided vertices come from the ring");
 
-// Bytes of the record buffer for Q path slots: the count, the records of one iteration (a slot
-// records at most one vertex per scatter event and kGuideDepth when it finishes), the slots' guide
-// state, and in training passes the vertex rings (kernels/guiding.h).
+// Bytes of the record buffer for Q path slots: the count, and in training passes the records of
+// one iteration (a slot records at most one vertex per scatter event and kGuideDepth when it
+// finishes), the slots' guide state and the vertex rings (kernels/guiding.h).
 inline uint64_t guide_record_capacity(uint64_t Q) { return Q * uint64_t(kGuideDepth + 1); }
 inline size_t guide_record_buffer_bytes(uint64_t Q, bool training) {
-  return 16 + Q * sizeof(st_guide_slot) +
-         (training ? guide_record_capacity(Q) * sizeof(st_guide_record) + Q * ST_GUIDE_RING * sizeof(st_guide_vertex) : 0);
+  return 16 + (training ? guide_record_capacity(Q) * sizeof(st_guide_record) +
+                              Q * (sizeof(st_guide_slot) + ST_GUIDE_RING * sizeof(st_guide_vertex))
+                        : 0);
 }
 
 struct GuideCache {
