@@ -2,7 +2,7 @@
 //
 //   kernel_throughput SCENE.json [--device D] [--points N] [--paths N] [--medium I] [--json FILE]
 //
-// Design: every figure runs the renderer's own kernels through the test probes (render/probe.h), so
+// Design: every figure runs the renderer's own kernels through the test probes (device/probe.h), so
 // nothing here re-implements tracking. (1) Kernel build: construction time (VDB load, majorant
 // grid, program build from source or from the on-disk cache) and the first and second tiny
 // renders (16x16, 1 spp): the difference is the driver's first-launch cost (PoCL compiles the
@@ -32,8 +32,8 @@
 
 #include <nanovdb/NanoVDB.h>
 
-#include "render/probe.h"
-#include "render/renderer.h"
+#include "device/probe.h"
+#include "integrator/renderer.h"
 #include "scene/scene.h"
 #include "util/error.h"
 #include "volume/volume.h"

@@ -12,6 +12,8 @@
 #ifndef SPECTRACK_FEATURES_H
 #define SPECTRACK_FEATURES_H
 
+#include "types.h"
+
 #ifndef ST_FEATURES
 #define ST_FEATURES ST_FEATURES_ALL
 #endif

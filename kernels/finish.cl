@@ -2,6 +2,11 @@
  * buffer at its own index (in spectral mode its beauty and layers turned into linear sRGB); k_accumulate then adds a whole batch to the film per pixel in a fixed
  * order, so the image does not depend on the order in which paths finished (bit-identical
  * renders for one seed). Non-finite samples are counted and dropped, never hidden. */
+#include "types.h"
+#include "features.h"
+#include "spectrum.h"
+#include "queues.h"
+
 /* Spectral mode: the radiance layers a path wrote at its wavelengths (environment, emission and
  * direct passes) become linear sRGB through the film, as its beauty does. Alpha (1 - T) and the
  * albedo (sigma_s / sigma_t) are linear sRGB already: raygen.cl turns them into reflectances under

@@ -22,14 +22,17 @@
 #ifndef SPECTRACK_GUIDING_H
 #define SPECTRACK_GUIDING_H
 
+#include "types.h"
+
 #ifdef __OPENCL_VERSION__
+#include "phase.h"
+#include "sampling.h"
 typedef float3 st_vec3;
 #define ST_GUIDE_GLOBAL __global
 inline st_vec3 vec3_make(float x, float y, float z) { return (float3)(x, y, z); }
 #else
 #include <math.h>
 
-#include "types.h"
 typedef struct {
   float x, y, z;
 } st_vec3;
@@ -317,6 +320,15 @@ inline void guide_credit(__global st_guide_vertex* ring, int first, int last, in
   }
 }
 
+/* Vertex `depth` of a training path enters the ring: its position, scattered direction wi with the
+ * phase function's value f there, and the throughput beta_in that arrived at it. */
+inline void guide_ring_enter(__global st_guide_vertex* ring, int depth, float3 x, float3 wi, float f, float4 beta_in) {
+  __global st_guide_vertex* v = &ring[depth % ST_GUIDE_RING];
+  v->pos = (float4)(x, 0.0f);
+  v->dir = (float4)(wi, f);
+  v->beta = beta_in;
+}
+
 /* The record of ring vertex k of a path: what its scattered direction brought back per unit
  * throughput arriving at it, f_phase L / p_mix (its credited sum): the fit's density then follows
  * the product of the phase function and the incident radiance, averaged over the region's
@@ -328,6 +340,19 @@ inline void guide_vertex_record(__global uint* rec, __global const st_guide_head
   if (w > 0.0f && isfinite(w))
     guide_record_push(rec, (uint)h->dims[3], v->pos.xyz, guide_region_index(h, v->pos.x, v->pos.y, v->pos.z), v->dir.xyz,
                       w, key);
+}
+/* A scatter event of a training path: credits what the path gathered since its last scatter
+ * event (emission) to its vertices, records the vertex that leaves the ring; the slot's state
+ * starts at the path's first scatter event. */
+inline void guide_training_scatter(__global const st_guide_header* h, __global uint* rec, __global st_guide_vertex* ring,
+                                   uint slot, const st_path* p, float4 mask) {
+  __global st_guide_slot* gs = guide_slot(rec, (uint)h->dims[3], slot);
+  if (p->depth == 0) gs->L_seen = p->L;
+  guide_credit(ring, 0, p->depth - 1, p->depth, p->L - gs->L_seen, mask);
+  gs->L_seen = p->L;
+  if (p->depth >= ST_GUIDE_RING) /* vertex depth - RING leaves the ring */
+    guide_vertex_record(rec, h, &ring[p->depth % ST_GUIDE_RING],
+                        (uint4)(p->pixel, p->sample, p->channel, (uint)(p->depth - ST_GUIDE_RING)));
 }
 #endif
 

@@ -7,6 +7,12 @@
 #ifndef SPECTRACK_LIGHT_H
 #define SPECTRACK_LIGHT_H
 
+#include "types.h"
+#include "features.h"
+#include "sampling.h"
+#include "spectrum.h"
+#include "phase.h"
+
 inline float2 env_dir_to_uv(float3 d) {
   float v = acos(clamp(d.y, -1.0f, 1.0f)) / ST_PI;
   float u = 0.5f + atan2(d.x, -d.z) / (2.0f * ST_PI);
@@ -25,7 +31,7 @@ inline __global const float* env_texel_at(__constant const st_light* l, __global
 }
 
 /* The texel's rgb (w = 0); in spectral mode (l->spectral) texels hold the sigmoid coefficients of
- * their colour instead (src/render/spectral_pack.cpp: rgb2spec_unbounded_lookup, whose scale, lane
+ * their colour instead (src/scene/spectral_pack.cpp: rgb2spec_unbounded_lookup, whose scale, lane
  * w, is exactly twice the colour's largest component). */
 inline float4 env_texel(__constant const st_light* l, __global const float* env, float2 uv) {
   __global const float* px = env_texel_at(l, env, uv);

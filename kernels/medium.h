@@ -11,6 +11,12 @@
 #ifndef SPECTRACK_MEDIUM_H
 #define SPECTRACK_MEDIUM_H
 
+#include "types.h"
+#include "features.h"
+#include "rng.h"
+#include "spectrum.h"
+#include "pnanovdb_cl.h"
+
 inline float3 medium_to_index(__constant const st_medium* m, float3 p) {
   float4 q = (float4)(p, 1.0f);
   return (float3)(dot(m->world_to_index[0], q), dot(m->world_to_index[1], q), dot(m->world_to_index[2], q));

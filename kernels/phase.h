@@ -8,6 +8,9 @@
 #ifndef SPECTRACK_PHASE_H
 #define SPECTRACK_PHASE_H
 
+#include "features.h"
+#include "sampling.h"
+
 inline float phase_hg(float g, float cos_theta) {
   /* 1 + g^2 - 2 g cos = (1 - g)^2 + 2 g (1 - cos) = (1 + g)^2 - 2 g (1 + cos) */
   float denom = cos_theta >= 0.0f ? (1.0f - g) * (1.0f - g) + 2.0f * g * (1.0f - cos_theta)

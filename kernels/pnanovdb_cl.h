@@ -1,8 +1,8 @@
 /* pnanovdb_cl.h: the settings that let Debian's PNanoVDB.h (nanovdb/PNanoVDB.h of libnanovdb-dev,
  * NanoVDB 32.4, C path) compile as OpenCL C and read the NanoVDB grids in the device buffer
  * (docs/architecture.md, "NanoVDB on the device").
- * The kernel assembler (assemble_kernel_source and rewrite_pnanovdb in src/cl/opencl.cpp)
- * includes a copy of PNanoVDB.h right after this file, with its <stdint.h>/<string.h> includes
+ * The kernel assembler (assemble_kernel_source and rewrite_pnanovdb in src/device/kernel_source.cpp)
+ * inlines, for the include of nanovdb/PNanoVDB.h at the end of this file, a copy of PNanoVDB.h with its <stdint.h>/<string.h> includes
  * replaced by comments and its program-scope tables moved to __constant memory (OpenCL 1.2
  * drivers reject program-scope `static const`).
  * A buffer is the word array of one grid: grids of all media share one device buffer and each
@@ -46,5 +46,7 @@ inline void pnanovdb_memcpy(void* dst, const void* src, size_t n) {
   const char* s = (const char*)src;
   for (size_t i = 0; i < n; ++i) d[i] = s[i];
 }
+
+#include "nanovdb/PNanoVDB.h"
 
 #endif

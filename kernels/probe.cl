@@ -1,6 +1,16 @@
 /* probe.cl: kernels for tests and benchmarks that call the renderer's own device functions in
  * isolation: density lookups, majorant cells, free-path sampling and transmittance along a
  * given ray. Each item uses its own random stream (pixel = item index, stream = 7). */
+#include "types.h"
+#include "rng.h"
+#include "sampling.h"
+#include "spectrum.h"
+#include "phase.h"
+#include "medium.h"
+#include "majorant.h"
+#include "tracking.h"
+#include "transmittance.h"
+
 
 /* Density of medium `medium` at world points (xyz). */
 __kernel void k_probe_density(__constant const st_scene* scene, __global const uint* grids,

@@ -12,6 +12,14 @@
 #ifndef SPECTRACK_QUEUES_H
 #define SPECTRACK_QUEUES_H
 
+#include "types.h"
+#include "features.h"
+#include "rng.h"
+#include "sampling.h"
+#include "spectrum.h"
+#include "tracking.h"
+#include "guiding.h"
+
 #define ST_STAGE_ARGS                                                                              \
   __constant const st_scene *scene, __global const uint *grids, __global const float2 *maj,       \
       __global const float *env, __global st_path *paths, __global st_shadow *shadows,            \

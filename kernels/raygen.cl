@@ -3,6 +3,17 @@
  * slot it lands in never changes the image. The launch covers the n_new slots it fills, the top
  * of the free stack (queues.h: places n_free - n_new .. n_free - 1); the free slots below them are
  * not touched and stay free. */
+#include "types.h"
+#include "features.h"
+#include "rng.h"
+#include "spectrum.h"
+#include "medium.h"
+#include "majorant.h"
+#include "walker.h"
+#include "tracking.h"
+#include "transmittance.h"
+#include "queues.h"
+
 
 /* The camera ray's first collision for the albedo and depth layers (types.h ST_AOVS): a delta-tracking
  * free flight whose collision density is sigma_t T with sigma_t the mean over the lanes (channels or wavelengths) of the

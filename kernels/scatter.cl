@@ -13,6 +13,84 @@
  * (guiding.h) at the first scatter events, beta takes f_phase / p_mix and d.w holds p_mix, which
  * the light samples' MIS weights use too; training passes keep the path's last vertices in a ring
  * and credit every later contribution to them (guiding.h, st_guide_vertex). */
+#include "types.h"
+#include "features.h"
+#include "rng.h"
+#include "sampling.h"
+#include "phase.h"
+#include "tracking.h"
+#include "transmittance.h"
+#include "light.h"
+#include "guiding.h"
+#include "queues.h"
+
+/* Folds the finished shadow entries of bounce depth - R (R: the shadow ring) into their lights'
+ * accumulators, in a guide training pass crediting them to the ring's earlier vertices (ring not
+ * 0); returns 1 while one of them is still running (the path then waits). */
+inline int shadows_busy(__constant const st_scene* scene, __global st_shadow* shadows, __global float4* results,
+                        uint NL, uint slot, const st_path* p, __global st_guide_vertex* ring) {
+  int busy = 0;
+  const int bounce = p->depth - shadow_ring(NL, scene->n_lights);
+  for (int l = 0; l < scene->n_lights; ++l) {
+    __global st_shadow* e = &shadows[shadow_entry(slot, NL, scene->n_lights, p->depth, l)];
+    if (e->state == ST_SHADOW_PENDING) {
+      busy = 1;
+    } else if (e->state == ST_SHADOW_DONE) { /* the entry of bounce depth - R (R: the shadow ring) */
+      if (ST_HAS_GUIDING && ring) guide_credit(ring, 0, bounce - 1, p->depth, e->weight * e->tr.T, path_mask(scene, p));
+      shadow_fold(scene, &shadows[slot * NL + (uint)l], e, bounce, &results[p->result_index * (uint)scene->result_layers]);
+    }
+  }
+  return busy;
+}
+
+/* The lights next-event estimation samples at this event, [first, *end), and the probability
+ * *pick_pmf of a one-light choice (1 when every light is sampled). */
+inline int lights_to_sample(__constant const st_scene* scene, __constant const st_medium* m, float3 wo, st_rng* rng,
+                            int* end, float* pick_pmf) {
+  int first = 0;
+  *end = scene->n_lights;
+  *pick_pmf = 1.0f;
+  if (scene->light_sampling != ST_LIGHT_SAMPLING_ALL && scene->n_lights > 1) {
+    if (scene->light_sampling == ST_LIGHT_SAMPLING_CONTRIBUTION) {
+      first = light_select_contribution(scene, m->phase_type, m->g, wo, rng_uniform(rng), pick_pmf);
+      *end = first < 0 ? 0 : first + 1;
+    } else {
+      first = light_select(scene, rng_uniform(rng));
+      *end = first + 1;
+      *pick_pmf = scene->lights[first].select_pmf;
+    }
+  }
+  return first;
+}
+
+/* A shadow entry's start: the ray from o along wi, its weight, an empty transmittance estimate
+ * of the carried channels and its own random stream. */
+inline void shadow_begin(__global st_shadow* sh, float3 o, float3 wi, float4 weight, float4 mask, uint stream, uint slot) {
+  sh->o = (float4)(o, 0.0f);
+  sh->d = (float4)(wi, 0.0f);
+  sh->weight = weight;
+  st_trans tr;
+  transmittance_begin(&tr, mask);
+  sh->tr = tr;
+  sh->rng_draw = 0u;
+  sh->stream = stream;
+  sh->slot = slot;
+  sh->state = ST_SHADOW_PENDING;
+}
+
+/* Russian roulette on the throughput, from depth 3 on: the queue the path goes to next. */
+inline int path_roulette(st_path* p, float4 mask, st_rng* rng) {
+  int q = ST_Q_TRACK;
+  if (p->depth > 2) {
+    float survive = fmin(1.0f, masked_max(fabs(p->beta), mask));
+    if (survive < 1.0f) {
+      if (rng_uniform(rng) >= survive) q = ST_Q_FINISH;
+      else p->beta /= survive;
+    }
+  }
+  return q;
+}
+
 __kernel void k_scatter(ST_STAGE_ARGS) {
   const uint cur = it.cur, n = it.n_queue[ST_Q_SCATTER];
   uint gid = get_global_id(0);
@@ -25,17 +103,7 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
   }
   const int training = ST_HAS_GUIDING && guide->inv_cell.w > 0.0f;
   __global st_guide_vertex* ring = training ? guide_ring(guide_records, (uint)guide->dims[3], Q, slot) : 0;
-  int busy = 0;
-  for (int l = 0; l < scene->n_lights; ++l) {
-    __global st_shadow* e = &shadows[shadow_entry(slot, NL, scene->n_lights, p.depth, l)];
-    if (e->state == ST_SHADOW_PENDING) busy = 1;
-    else if (e->state == ST_SHADOW_DONE) { /* the entry of bounce depth - R (R: the shadow ring) */
-      const int bounce = p.depth - shadow_ring(NL, scene->n_lights);
-      if (training) guide_credit(ring, 0, bounce - 1, p.depth, e->weight * e->tr.T, path_mask(scene, &p));
-      shadow_fold(scene, &shadows[slot * NL + (uint)l], e, bounce, &results[p.result_index * (uint)scene->result_layers]);
-    }
-  }
-  if (busy) {
+  if (shadows_busy(scene, shadows, results, NL, slot, &p, ring)) {
     atomic_inc(&counters[ST_C_WAITS]);
     queue_push(queues, counters, Q, NL, cur, ST_Q_SCATTER, slot);
     return;
@@ -45,36 +113,18 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
   __constant const st_medium* m = &scene->media[p.medium];
   float3 wo = p.d.xyz;
   const float4 mask = path_mask(scene, &p);
-  /* guiding: the region's mixture and selection probability (alpha 0: plain phase sampling); the
-   * slot's guide state starts with the path's first scatter event; training credits what the path
-   * gathered since its last scatter event (escape aside, which ends it: k_finish) */
+  /* guiding: training credits what the path gathered since its last scatter event; the region's
+   * mixture and selection probability (alpha 0: plain phase sampling) */
+  if (training) guide_training_scatter(guide, guide_records, ring, slot, &p, mask);
   __global const st_guide_region* region = 0;
   float alpha = 0.0f;
-  if (training) { /* the record buffer holds the slots' state and rings only in training passes */
-    __global st_guide_slot* gs = guide_slot(guide_records, (uint)guide->dims[3], slot);
-    if (p.depth == 0) gs->L_seen = p.L;
-    guide_credit(ring, 0, p.depth - 1, p.depth, p.L - gs->L_seen, mask);
-    gs->L_seen = p.L;
-    if (p.depth >= ST_GUIDE_RING) /* vertex depth - RING leaves the ring */
-      guide_vertex_record(guide_records, guide, &ring[p.depth % ST_GUIDE_RING],
-                          (uint4)(p.pixel, p.sample, p.channel, (uint)(p.depth - ST_GUIDE_RING)));
-  }
   if (ST_HAS_GUIDING && guide->origin.w > 0.0f && p.depth < guide->guided_depth) {
     region = guide_regions(guide) + guide_region_index(guide, p.o.x, p.o.y, p.o.z);
     alpha = region->alpha;
   }
-  int l_begin = 0, l_end = scene->n_lights;
-  float pick_pmf = 1.0f; /* the probability of a one-light choice */
-  if (scene->light_sampling != ST_LIGHT_SAMPLING_ALL && scene->n_lights > 1) {
-    if (scene->light_sampling == ST_LIGHT_SAMPLING_CONTRIBUTION) {
-      l_begin = light_select_contribution(scene, m->phase_type, m->g, wo, rng_uniform(&rng), &pick_pmf);
-      l_end = l_begin < 0 ? 0 : l_begin + 1;
-    } else {
-      l_begin = light_select(scene, rng_uniform(&rng));
-      l_end = l_begin + 1;
-      pick_pmf = scene->lights[l_begin].select_pmf;
-    }
-  }
+  int l_end;
+  float pick_pmf; /* the probability of a one-light choice */
+  const int l_begin = lights_to_sample(scene, m, wo, &rng, &l_end, &pick_pmf);
   for (int l = l_begin; l < l_end; ++l) {
     __constant const st_light* light = &scene->lights[l];
     float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
@@ -91,49 +141,28 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     if (!(masked_max(fabs(weight), mask) > 0.0f)) continue;
     uint id = shadow_entry(slot, NL, scene->n_lights, p.depth, l);
     __global st_shadow* sh = &shadows[id];
-    sh->o = (float4)(p.o.xyz, 0.0f);
-    sh->d = (float4)(wi, 0.0f);
-    sh->weight = weight;
-    st_trans tr;
-    transmittance_begin(&tr, mask);
-    sh->tr = tr;
-    sh->rng_draw = 0u;
-    sh->stream = 1u + (uint)p.depth * ST_MAX_LIGHTS + (uint)l;
-    sh->slot = slot;
-    sh->state = ST_SHADOW_PENDING;
+    shadow_begin(sh, p.o.xyz, wi, weight, mask, 1u + (uint)p.depth * ST_MAX_LIGHTS + (uint)l, slot);
     p.pending += 1;
     queue_push(queues, counters, Q, NL, cur, ST_Q_SHADOW, id);
   }
-  float pdf, f_wi;
+  float pdf, f;
   float3 wi;
   const float4 beta_in = p.beta;
   if (ST_HAS_GUIDING && alpha > 0.0f) {
     /* the one-sample mixture of phase function and guide: weight f_phase / p_mix, unbiased for any guide */
     float u0 = rng_uniform(&rng), u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
-    wi = guided_phase_sample(&region->mix, alpha, m->phase_type, m->g, wo, u0, u1, u2, &pdf, &f_wi);
-    p.beta *= pdf > 0.0f ? f_wi / pdf : 0.0f;
+    wi = guided_phase_sample(&region->mix, alpha, m->phase_type, m->g, wo, u0, u1, u2, &pdf, &f);
+    p.beta *= pdf > 0.0f ? f / pdf : 0.0f;
   } else {
     float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
     wi = phase_sample(m->phase_type, m->g, wo, u1, u2, &pdf);
-    f_wi = pdf; /* exact sampling: f / pdf = 1, beta unchanged */
+    f = pdf; /* exact sampling: f / pdf = 1, beta unchanged */
   }
-  if (training) { /* this vertex enters the ring */
-    __global st_guide_vertex* v = &ring[p.depth % ST_GUIDE_RING];
-    v->pos = (float4)(p.o.xyz, 0.0f);
-    v->dir = (float4)(wi, f_wi);
-    v->beta = beta_in;
-  }
+  if (training) guide_ring_enter(ring, p.depth, p.o.xyz, wi, f, beta_in);
   p.d = (float4)(wi, pdf);
   p.o.w = 0.0f;
   p.depth += 1;
-  int q = ST_Q_TRACK;
-  if (p.depth > 2) {
-    float survive = fmin(1.0f, masked_max(fabs(p.beta), mask));
-    if (survive < 1.0f) {
-      if (rng_uniform(&rng) >= survive) q = ST_Q_FINISH;
-      else p.beta /= survive;
-    }
-  }
+  const int q = path_roulette(&p, mask, &rng);
   p.rng_draw = rng_draw_index(&rng);
   paths[slot] = p;
   queue_push(queues, counters, Q, NL, cur, q, slot);

@@ -3,6 +3,13 @@
  * (d.w holds that pdf; 0 for camera rays, which take the full radiance). Next-event estimation
  * reaches a light with its pdf times select_pmf (1 when every light gets a shadow ray). With the
  * alpha or environment layer, what a camera ray sees before any scattering goes to that layer. */
+#include "types.h"
+#include "features.h"
+#include "sampling.h"
+#include "spectrum.h"
+#include "light.h"
+#include "queues.h"
+
 __kernel void k_escape(ST_STAGE_ARGS) {
   const uint cur = it.cur, n = it.n_queue[ST_Q_ESCAPE];
   uint gid = get_global_id(0);

@@ -1,7 +1,16 @@
 /* shadow.cl: transmittance of a next-event-estimation ray through the majorant grid by the
- * scene's estimator (ratio tracking or ray marching, tracking.h), resumable across launches; when
+ * scene's estimator (ratio tracking or ray marching, transmittance.h), resumable across launches; when
  * done, marks its entry done (the path adds weight * T to its light's accumulator: queues.h) and
  * releases the path. */
+#include "types.h"
+#include "features.h"
+#include "rng.h"
+#include "sampling.h"
+#include "tracking.h"
+#include "transmittance.h"
+#include "guiding.h"
+#include "queues.h"
+
 __kernel void k_shadow(ST_STAGE_ARGS) {
   const uint cur = it.cur, n = it.n_queue[ST_Q_SHADOW];
   uint gid = get_global_id(0);
@@ -14,7 +23,7 @@ __kernel void k_shadow(ST_STAGE_ARGS) {
   track_stats_clear(&st);
   float t = sh.o.w;
   /* roulette by what the estimate is for: weight * T per channel, relative to the weight's largest
-   * channel (tracking.h transmittance_roulette); the weight is never 0 (scatter.cl) */
+   * channel (transmittance.h transmittance_roulette); the weight is never 0 (scatter.cl) */
   const float4 mask = path_mask(scene, &p), w = fabs(sh.weight);
   const float w_max = masked_max(w, mask);
   const float4 importance = w_max > 0.0f ? w / w_max : mask;

@@ -16,6 +16,10 @@
 #ifndef SPECTRACK_SPECTRUM_H
 #define SPECTRACK_SPECTRUM_H
 
+#include "types.h"
+#include "features.h"
+#include "film_table.h"
+
 #define ST_LAMBDA_MIN 360.0f
 #define ST_LAMBDA_MAX 830.0f
 #define ST_FILM_SAMPLES 471 /* F on the observer's 1 nm grid, 360..830 nm (kCieSamples) */
@@ -124,7 +128,7 @@ inline float4 blackbody_over_norm(float4 lambda, float T, float log_norm) {
   return select(v, (float4)(0.0f), islessequal(lambda, (float4)(0.0f)));
 }
 
-/* st_film_table (generated into every program by the host, src/cl/opencl.cpp film_table_source):
+/* st_film_table (generated into every program by the host, src/device/kernel_source.cpp film_table_source):
  * entry i is the wavelength 360 + i nm: xyz = the film's weights F (film_rgb_weights), w = CIE D65
  * (cie_d65), both linear between the entries as on the host; 0 outside 360..830 nm. */
 inline float4 film_table_at(float lambda) {

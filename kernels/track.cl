@@ -1,6 +1,13 @@
 /* track.cl: one call of the tracking routine per queued path; pushes the path to exactly one of
  * scatter (real scattering), escape (left every medium), finish (absorbed) or track again
  * (launch budget spent: it resumes at its saved t). */
+#include "types.h"
+#include "features.h"
+#include "rng.h"
+#include "spectrum.h"
+#include "tracking.h"
+#include "queues.h"
+
 __kernel void k_track(ST_STAGE_ARGS) {
   const uint cur = it.cur, n = it.n_queue[ST_Q_TRACK];
   uint gid = get_global_id(0);

@@ -76,7 +76,7 @@ enum st_absorption { ST_ABSORPTIONS(ST_X_ABSORPTION_ENUM) ST_ABSORPTION_COUNT };
 #define ST_X_LIGHT_SAMPLING_ENUM(E, name) ST_LIGHT_SAMPLING_##E,
 enum st_light_sampling { ST_LIGHT_SAMPLINGS(ST_X_LIGHT_SAMPLING_ENUM) ST_LIGHT_SAMPLING_COUNT };
 
-/* The transmittance estimator of shadow rays (and of every other transmittance; tracking.h):
+/* The transmittance estimator of shadow rays (and of every other transmittance; transmittance.h):
  * X(ENUM suffix, name).
  *   ratio:        (residual) ratio tracking, one lookup per tentative collision;
  *   ray-marching: the unbiased ray-marching estimator of Kettunen et al. 2021 (docs/transmittance.md):
@@ -321,7 +321,7 @@ typedef struct {
   st_uint blackbody_offset;
   /* spectral mode: 1 when sigma_a, sigma_s and Le hold spectra, not rgb: the sigmoid coefficients
    * (c0, c1, c2, scale) of kernels/spectrum.h, Le's times CIE D65 (an illuminant); the majorants
-   * take the extinction at the path's wavelengths (majorant.h st_walker) */
+   * take the extinction at the path's wavelengths (walker.h st_walker) */
   st_int spectral;
   /* spectral mode, blackbody emission (0 otherwise, and in rgb mode): Le = scale times the film's
    * emission scale (src/color/spectrum.h film_emission_scale) in lanes xyz, and the spectrum is
@@ -418,7 +418,7 @@ typedef struct {
                        * (queues.h path_wavelengths) and read by every later kernel; rgb: 0 */
 } st_path;
 
-/* A transmittance estimate in progress, resumable across launches (tracking.h). Ratio tracking
+/* A transmittance estimate in progress, resumable across launches (transmittance.h). Ratio tracking
  * uses T only; ray marching (docs/transmittance.md) walks the ray once for the pilot and the
  * first estimate together (pass 0) and once more for each further term of the series. */
 typedef struct {

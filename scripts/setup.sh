@@ -8,7 +8,7 @@ cd "$(dirname "$0")/.."
 PKGS=(build-essential cmake pkg-config ocl-icd-opencl-dev opencl-clhpp-headers opencl-c-headers pocl-opencl-icd
       libopenvdb-dev libnanovdb-dev libopenimageio-dev openimageio-tools libcli11-dev nlohmann-json3-dev
       libfmt-dev libboost-iostreams-dev libgtest-dev libbenchmark-dev libtbb-dev libblosc-dev zlib1g-dev clinfo
-      clang libclang-rt-14-dev libopenmpi-dev openmpi-bin)
+      clang libclang-rt-14-dev libopenmpi-dev openmpi-bin python3)
 missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

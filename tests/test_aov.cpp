@@ -8,8 +8,8 @@
 #include <cmath>
 
 #include "image/image.h"
-#include "render/film.h"
-#include "render/renderer.h"
+#include "film/film.h"
+#include "integrator/renderer.h"
 #include "color/spectrum.h"
 #include "test_util.h"
 

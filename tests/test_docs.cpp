@@ -62,9 +62,11 @@ TEST(DocsExamples, EveryExampleRendersAtOneSpp) {
   }
 }
 
-// Every field name the parser accepts (the lists in src/scene/scene.cpp) is in the reference.
+// Every field name the parser accepts (the lists in src/scene/scene.cpp, scene_media.cpp and
+// scene_parser.h) is in the reference.
 TEST(DocsExamples, EveryParserFieldIsDocumented) {
-  const std::string parser = read_text(kSrc + "/src/scene/scene.cpp");
+  const std::string parser = read_text(kSrc + "/src/scene/scene.cpp") + read_text(kSrc + "/src/scene/scene_media.cpp") +
+                             read_text(kSrc + "/src/scene/scene_parser.h");
   const std::string doc = read_text(kSrc + "/docs/scene-format.md");
   ASSERT_FALSE(parser.empty());
   ASSERT_FALSE(doc.empty());
@@ -132,7 +134,7 @@ bool documents_flag(const std::string& doc, const std::string& f) {
 }
 
 // Every flag of `spectrack --help` and of each subcommand's --help is in docs/cli.md; a flag
-// added to src/cli/main.cpp without a line there fails here, naming the subcommand and the flag.
+// added to src/cli/render_flags.cpp without a line there fails here, naming the subcommand and the flag.
 TEST(DocsCli, EveryHelpFlagIsInCliMd) {
   const std::string doc = read_text(kSrc + "/docs/cli.md");
   ASSERT_FALSE(doc.empty());

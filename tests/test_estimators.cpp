@@ -6,7 +6,7 @@
 #include <algorithm>
 
 #include "image/image.h"
-#include "render/scene_pack.h"
+#include "scene/scene_pack.h"
 #include "test_util.h"
 
 using namespace spectrack;

@@ -10,9 +10,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "render/media_bounds.h"
-#include "render/scene_pack.h"
-#include "render/settings.h"
+#include "scene/media_bounds.h"
+#include "scene/scene_pack.h"
+#include "integrator/settings.h"
 #include "scene/framing.h"
 #include "scene/scene.h"
 #include "test_util.h"

@@ -8,14 +8,8 @@
 //   - the device's guided estimator, with a guide pointing away from the light, estimates the
 //     integral of f_phase g within 4 standard errors; twin: the pdf 3% off is detected;
 //   - the renderer's program contains guiding.h (its kernels use it only with ST_FEATURE_GUIDING).
-#include <map>
-
-#include "cl/opencl.h"
+#include "device/opencl.h"
 #include "guiding_util.h"
-
-namespace spectrack {
-const std::map<std::string, std::string>& embedded_kernel_sources();
-}
 
 using namespace guiding_test;
 
@@ -41,11 +35,7 @@ __kernel void k_guiding_probe(__global const st_vmf_mixture* mix, __global const
 )CL";
 
 std::string probe_source() {
-  const auto& files = spectrack::embedded_kernel_sources();
-  std::string src = "#pragma OPENCL FP_CONTRACT OFF\n";
-  for (const char* name : {"types.h", "features.h", "sampling.h", "phase.h", "guiding.h"})
-    src += std::string("#line 1 \"kernels/") + name + "\"\n" + files.at(name) + "\n";
-  return src + kProbe;
+  return "#pragma OPENCL FP_CONTRACT OFF\n" + spectrack::kernel_files_source({"guiding.h"}) + kProbe;
 }
 
 // Henyey-Greenstein sampled in double in the frame phase.h uses (Duff et al.'s, as vmf_frame), so

@@ -12,7 +12,7 @@
 #include <cstring>
 
 #include "guiding/guide_cache.h"
-#include "render/multi_device.h"
+#include "integrator/multi_device.h"
 #include "test_util.h"
 
 using namespace spectrack;

@@ -15,7 +15,7 @@
 #include <random>
 #include <tuple>
 
-#include "render/probe.h"
+#include "device/probe.h"
 #include "test_util.h"
 #include "volume/volume.h"
 

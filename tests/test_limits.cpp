@@ -12,10 +12,10 @@
 #include <openvdb/openvdb.h>
 
 #include "image/image.h"
-#include "render/memory_budget.h"
-#include "render/renderer.h"
-#include "render/scene_pack.h"
-#include "render/settings.h"
+#include "integrator/memory_budget.h"
+#include "integrator/renderer.h"
+#include "scene/scene_pack.h"
+#include "integrator/settings.h"
 #include "test_util.h"
 #include "volume/volume.h"
 

@@ -1,5 +1,5 @@
 // test_merge_stream.cpp: `spectrack merge` streams its inputs a band of rows at a time
-// (render/merge_files.h) and must give the image a merge of whole images gives, bit for bit; it
+// (film/merge_files.h) and must give the image a merge of whole images gives, bit for bit; it
 // refuses inputs whose sample counts disagree with their sample ranges, and an input found
 // damaged part-way leaves no output behind.
 //
@@ -12,8 +12,8 @@
 #include <random>
 
 #include "cli_util.h"
-#include "render/film.h"
-#include "render/merge_files.h"
+#include "film/film.h"
+#include "film/merge_files.h"
 
 namespace {
 

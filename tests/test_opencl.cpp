@@ -7,7 +7,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "cl/opencl.h"
+#include "device/opencl.h"
 
 using namespace spectrack;
 
@@ -126,6 +126,33 @@ TEST(OpenCL, DeviceSelection) {
     EXPECT_NE(std::string(e.what()).find("SPECTRACK_DEVICE"), std::string::npos) << e.what();
   }
   ::unsetenv("SPECTRACK_DEVICE");
+}
+
+// The assembler resolves the kernels' own #includes: the renderer's program holds every kernel
+// file once (so the cache key, a hash of this text, changes with any of them), no #include of a
+// kernel file is left for the device compiler, and a file is inlined before its first user.
+TEST(OpenCL, AssemblerInlinesEachKernelFileOnce) {
+  const std::string src = assemble_kernel_source({{"ST_KERNEL_MAX_MEDIA", "1"}});
+  auto count = [&](const std::string& what) {
+    size_t n = 0;
+    for (size_t p = src.find(what); p != std::string::npos; p = src.find(what, p + 1)) ++n;
+    return n;
+  };
+  for (const auto& e : std::filesystem::directory_iterator(std::string(SPECTRACK_SOURCE_DIR) + "/kernels")) {
+    const std::string name = e.path().filename().string();
+    if (name == "probe.cl") continue;  // the test probes' program only
+    EXPECT_EQ(count("#line 1 \"kernels/" + name + "\""), 1u) << name;
+  }
+  EXPECT_EQ(count("#line 1 \"nanovdb/PNanoVDB.h\""), 1u);
+  EXPECT_EQ(count("#line 1 \"<film_table.h"), 1u);
+  EXPECT_EQ(count("#include \""), 0u);
+  EXPECT_LT(src.find("#line 1 \"kernels/types.h\""), src.find("#line 1 \"kernels/medium.h\""));
+  EXPECT_LT(src.find("#line 1 \"kernels/tracking.h\""), src.find("#line 1 \"kernels/track.cl\""));
+  // probe.cl adds itself and nothing the renderer already holds
+  const std::string probe = assemble_kernel_source({{"ST_KERNEL_MAX_MEDIA", "1"}}, {"probe.cl"});
+  EXPECT_EQ(probe.size() > src.size(), true);
+  EXPECT_EQ(probe.find("#line 1 \"kernels/types.h\""), probe.rfind("#line 1 \"kernels/types.h\""));
+  EXPECT_THROW(kernel_files_source({"no_such_file.h"}), Error);
 }
 
 }  // namespace

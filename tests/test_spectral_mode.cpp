@@ -17,7 +17,7 @@
 
 #include "color/spectrum.h"
 #include "image/image.h"
-#include "render/spectral_pack.h"
+#include "scene/spectral_pack.h"
 #include "test_util.h"
 
 using namespace spectrack;

@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "color/spectrum.h"
-#include "render/probe.h"
+#include "device/probe.h"
 #include "test_util.h"
 
 namespace spectrack {

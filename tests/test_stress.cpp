@@ -10,7 +10,7 @@
 #include <nanovdb/util/IO.h>
 #include <nanovdb/util/OpenToNanoVDB.h>
 
-#include "cl/opencl.h"
+#include "device/opencl.h"
 #include "cli_util.h"
 #include "test_util.h"
 

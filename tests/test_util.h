@@ -15,8 +15,8 @@
 #include <nlohmann/json.hpp>
 
 #include "color/spectrum.h"
-#include "render/probe.h"
-#include "render/renderer.h"
+#include "device/probe.h"
+#include "integrator/renderer.h"
 #include "scene/scene.h"
 
 namespace st_test {

@@ -26,10 +26,11 @@
 #include <vector>
 
 #include "image/image.h"
-#include "render/renderer.h"
+#include "integrator/renderer.h"
 #include "scene/frames.h"
 #include "scene/scene.h"
 #include "util/files.h"
+#include "util/strings.h"
 
 namespace spectrack {
 
@@ -113,8 +114,7 @@ inline void check_frame_files(const SceneDesc& scene, long long first, long long
 // the flag with a PNG output is refused (exit 2), and film.half of the scene is a warning (a
 // scene may be rendered to either format).
 inline void check_half(bool half_flag, const SceneDesc& scene, const std::string& output, bool quiet) {
-  std::string e = std::filesystem::path(output).extension().string();
-  for (char& c : e) c = char(std::tolower(static_cast<unsigned char>(c)));
+  std::string e = lower_extension(output);
   if (e != ".png") return;
   if (half_flag)
     throw UsageError(fmt::format("--half: the output {} is a PNG, which holds 8-bit values; --half applies to EXR "

@@ -1,5 +1,5 @@
 // info.cpp: `spectrack info` (info.h). Volumes through inspect_volume (volume/inspect.h), scenes
-// through load_scene and the loaders (render/media_bounds.h); the camera as framing resolves it.
+// through load_scene and the loaders (scene/media_bounds.h); the camera as framing resolves it.
 #include "cli/info.h"
 
 #include <fmt/format.h>
@@ -10,12 +10,13 @@
 #include <filesystem>
 #include <iostream>
 
-#include "render/media_bounds.h"
+#include "scene/media_bounds.h"
 #include "scene/framing.h"
 #include "scene/scene.h"
 #include "util/error.h"
 #include "volume/inspect.h"
 #include "volume/volume.h"
+#include "util/strings.h"
 
 namespace spectrack {
 namespace {
@@ -83,6 +84,55 @@ const char* light_type(int t) {
   return t == ST_LIGHT_DIRECTIONAL ? "directional" : t == ST_LIGHT_ENV_MAP ? "environment (map)" : "environment (uniform)";
 }
 
+// One medium of `info`'s scene report: its world box (in *box), largest extinction and optical
+// depths, as JSON and as lines of text appended to t.
+json medium_json(const SceneDesc& s, const MediumDesc& md, std::string& t, Box3* box) {
+  json m = {{"name", md.name}, {"type", md.type == ST_MEDIUM_VDB ? "vdb" : "homogeneous"}};
+  Box3 b;
+  double dmax = 1, voxel = 0;
+  if (md.type == ST_MEDIUM_VDB) {
+    GridData g = load_float_grid(md.file, md.grid, md.grid_index, s.path + ": " + md.json_path);
+    b = medium_world_box(md, g);
+    dmax = g.value_max;
+    // the longest world step of one index unit along an axis
+    const Vec3 o = medium_index_to_world(md, g, {0, 0, 0});
+    for (int a = 0; a < 3; ++a) {
+      Vec3 e{0, 0, 0};
+      e[a] = 1;
+      const Vec3 w = medium_index_to_world(md, g, e);
+      voxel = std::max(voxel, std::sqrt((w[0] - o[0]) * (w[0] - o[0]) + (w[1] - o[1]) * (w[1] - o[1]) + (w[2] - o[2]) * (w[2] - o[2])));
+    }
+    m["file"] = md.file;
+    m["grid"] = g.name;
+    m["density_range"] = {g.value_min, g.value_max};
+    m["voxel_world_size"] = voxel;
+  } else {
+    b = Box3{md.bounds[0], md.bounds[1]};
+  }
+  *box = b;
+  const double diag = std::sqrt((b.hi[0] - b.lo[0]) * (b.hi[0] - b.lo[0]) + (b.hi[1] - b.lo[1]) * (b.hi[1] - b.lo[1]) +
+                                (b.hi[2] - b.lo[2]) * (b.hi[2] - b.lo[2]));
+  Vec3 st, tau_diag, tau_voxel;
+  for (int c = 0; c < 3; ++c) {
+    st[c] = (md.sigma_s[c] + md.sigma_a[c]) * md.density_scale;
+    tau_diag[c] = st[c] * dmax * diag;
+    tau_voxel[c] = st[c] * dmax * voxel;
+  }
+  m["world_bbox"] = {vec(b.lo), vec(b.hi)};
+  const Vec3 st_max{st[0] * dmax, st[1] * dmax, st[2] * dmax};
+  m["sigma_t_max"] = vec(st_max);
+  m["optical_depth_diagonal_max"] = vec(tau_diag);
+  if (md.type == ST_MEDIUM_VDB) m["optical_depth_voxel_max"] = vec(tau_voxel);
+  t += fmt::format("  medium \"{}\" ({}{})\n", md.name, md.type == ST_MEDIUM_VDB ? "vdb " : "homogeneous",
+                   md.type == ST_MEDIUM_VDB ? md.file : "");
+  t += fmt::format("      world bbox     {} .. {}\n", v3(b.lo), v3(b.hi));
+  t += fmt::format("      max sigma_t    {}  (coefficients x density_scale x max density {:.6g})\n", v3(st_max),
+                   dmax);
+  t += fmt::format("      optical depth  up to {} along the box diagonal", v3(tau_diag));
+  t += md.type == ST_MEDIUM_VDB ? fmt::format(", up to {} per voxel\n", v3(tau_voxel)) : std::string("\n");
+  return m;
+}
+
 json scene_json(const SceneDesc& s, std::string* text) {
   json out = {{"file", s.path}, {"kind", "scene"}, {"media", json::array()}, {"lights", json::array()}};
   std::string& t = *text;
@@ -90,50 +140,9 @@ json scene_json(const SceneDesc& s, std::string* text) {
                    tracker_name(s.render.tracker));
   std::vector<Box3> boxes;
   for (const MediumDesc& md : s.media) {
-    json m = {{"name", md.name}, {"type", md.type == ST_MEDIUM_VDB ? "vdb" : "homogeneous"}};
     Box3 b;
-    double dmax = 1, voxel = 0;
-    if (md.type == ST_MEDIUM_VDB) {
-      GridData g = load_float_grid(md.file, md.grid, md.grid_index, s.path + ": " + md.json_path);
-      b = medium_world_box(md, g);
-      dmax = g.value_max;
-      // the longest world step of one index unit along an axis
-      const Vec3 o = medium_index_to_world(md, g, {0, 0, 0});
-      for (int a = 0; a < 3; ++a) {
-        Vec3 e{0, 0, 0};
-        e[a] = 1;
-        const Vec3 w = medium_index_to_world(md, g, e);
-        voxel = std::max(voxel, std::sqrt((w[0] - o[0]) * (w[0] - o[0]) + (w[1] - o[1]) * (w[1] - o[1]) + (w[2] - o[2]) * (w[2] - o[2])));
-      }
-      m["file"] = md.file;
-      m["grid"] = g.name;
-      m["density_range"] = {g.value_min, g.value_max};
-      m["voxel_world_size"] = voxel;
-    } else {
-      b = Box3{md.bounds[0], md.bounds[1]};
-    }
+    out["media"].push_back(medium_json(s, md, t, &b));
     boxes.push_back(b);
-    const double diag = std::sqrt((b.hi[0] - b.lo[0]) * (b.hi[0] - b.lo[0]) + (b.hi[1] - b.lo[1]) * (b.hi[1] - b.lo[1]) +
-                                  (b.hi[2] - b.lo[2]) * (b.hi[2] - b.lo[2]));
-    Vec3 st, tau_diag, tau_voxel;
-    for (int c = 0; c < 3; ++c) {
-      st[c] = (md.sigma_s[c] + md.sigma_a[c]) * md.density_scale;
-      tau_diag[c] = st[c] * dmax * diag;
-      tau_voxel[c] = st[c] * dmax * voxel;
-    }
-    m["world_bbox"] = {vec(b.lo), vec(b.hi)};
-    const Vec3 st_max{st[0] * dmax, st[1] * dmax, st[2] * dmax};
-    m["sigma_t_max"] = vec(st_max);
-    m["optical_depth_diagonal_max"] = vec(tau_diag);
-    if (md.type == ST_MEDIUM_VDB) m["optical_depth_voxel_max"] = vec(tau_voxel);
-    out["media"].push_back(m);
-    t += fmt::format("  medium \"{}\" ({}{})\n", md.name, md.type == ST_MEDIUM_VDB ? "vdb " : "homogeneous",
-                     md.type == ST_MEDIUM_VDB ? md.file : "");
-    t += fmt::format("      world bbox     {} .. {}\n", v3(b.lo), v3(b.hi));
-    t += fmt::format("      max sigma_t    {}  (coefficients x density_scale x max density {:.6g})\n", v3(st_max),
-                     dmax);
-    t += fmt::format("      optical depth  up to {} along the box diagonal", v3(tau_diag));
-    t += md.type == ST_MEDIUM_VDB ? fmt::format(", up to {} per voxel\n", v3(tau_voxel)) : std::string("\n");
   }
   for (const LightDesc& l : s.lights) {
     json j = {{"type", light_type(l.type)}};
@@ -176,8 +185,7 @@ int cmd_info(const std::vector<std::string>& files, bool as_json) {
   int failed = 0;
   for (const std::string& f : files) {
     try {
-      std::string ext = std::filesystem::path(f).extension().string();
-      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return char(std::tolower(ch)); });
+      std::string ext = lower_extension(f);
       if (ext == ".json") {
         std::string text;
         json j = scene_json(load_scene(f), &text);

@@ -2,9 +2,9 @@
 // combines sample-range shards and pixel tiles of one render into one EXR.
 //
 // Design: every input's header is read and checked first (a spectrack EXR, no dropped samples,
-// consistent sample counts), the merge is planned on the headers (render/film.h: plan_merge),
+// consistent sample counts), the merge is planned on the headers (film/film.h: plan_merge),
 // and only then are the pixels streamed through, a band of rows at a time
-// (render/merge_files.h), so memory stays bounded whatever the number and size of the inputs.
+// (film/merge_files.h), so memory stays bounded whatever the number and size of the inputs.
 // The merged image and its preview appear whole or not at all.
 #include "cli/merge.h"
 
@@ -16,9 +16,10 @@
 
 #include "cli/checks.h"
 #include "cli/options.h"
-#include "render/film.h"
-#include "render/merge_files.h"
+#include "film/film.h"
+#include "film/merge_files.h"
 #include "scene/scene.h"
+#include "util/strings.h"
 
 namespace spectrack {
 
@@ -64,8 +65,7 @@ Metadata merged_metadata(const std::vector<MergeInput>& inputs) {
 }  // namespace
 
 int cmd_merge(const MergeArgs& a) {
-  std::string ext = std::filesystem::path(a.output).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  std::string ext = lower_extension(a.output);
   if (ext != ".exr") throw Error(fmt::format("{}: the merged image must be an EXR (use --preview for a PNG)", a.output));
   check_output_path(a.output);
   if (!a.preview.empty()) check_output_path(a.preview);

@@ -8,8 +8,8 @@
 
 #include <algorithm>
 
-#include "cl/opencl.h"
-#include "render/stats_json.h"
+#include "device/opencl.h"
+#include "integrator/stats_json.h"
 
 namespace spectrack {
 

@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "render/film.h"
-#include "render/multi_device.h"
+#include "film/film.h"
+#include "integrator/multi_device.h"
 
 namespace spectrack {
 

@@ -1,5 +1,6 @@
 // options.cpp: see options.h.
 #include "cli/options.h"
+#include "util/strings.h"
 
 #include <fmt/format.h>
 
@@ -123,8 +124,7 @@ CLI::Validator finite_range(double lo, double hi) {
 CLI::Validator png_file() {
   return CLI::Validator(
       [](std::string& v) {
-        std::string e = std::filesystem::path(v).extension().string();
-        std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+        std::string e = lower_extension(v);
         return e == ".png" ? std::string() : "a preview is a PNG file (FILE.png), got '" + v + "'";
       },
       "FILE.png");

@@ -10,18 +10,13 @@
 
 #include "cli/checks.h"
 #include "cli/run_control.h"
-#include "render/film.h"
-#include "render/stats_json.h"
+#include "film/film.h"
+#include "integrator/stats_json.h"
 #include "util/output_file.h"
+#include "util/strings.h"
 
 namespace spectrack {
 namespace {
-
-std::string join(const std::vector<std::string>& v, const char* sep) {
-  std::string s;
-  for (auto& x : v) s += (s.empty() ? "" : sep) + x;
-  return s;
-}
 
 void write_stats_json(const std::string& path, const MultiDeviceResult& r, double seconds_total,
                       double seconds_to_renderer, int mpi_ranks, const Metadata& meta) {

@@ -11,7 +11,7 @@
 #include <string>
 
 #include "image/image.h"
-#include "render/multi_device.h"
+#include "integrator/multi_device.h"
 #include "scene/scene.h"
 
 namespace spectrack {

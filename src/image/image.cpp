@@ -3,6 +3,7 @@
 #include "image/image_open.h"
 #include "scene/scene.h"
 #include "util/files.h"
+#include "util/strings.h"
 
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
@@ -45,6 +46,68 @@ static std::string channel_list(const OIIO::ImageSpec& spec) {
     s += (c ? ", " : "") + (c < int(spec.channelnames.size()) ? spec.channelnames[c] : std::string("?"));
   if (spec.nchannels > 16) s += ", ...";
   return s;
+}
+
+// The value of EXR attribute `name` of type `type`, which claims `size` bytes at f's position:
+// a fixed-size type must claim its size, and a channel list or preview (which OpenEXR reads by
+// their own structure) must fill the claim exactly. Leaves f where the value starts.
+static void check_exr_attribute_value(std::istream& f, const std::string& name, const std::string& type, int32_t size,
+                                      size_t max_name, const std::function<void(const std::string&)>& fail) {
+  // OpenEXR reads a fixed-size type's value whatever size the attribute claims, so a claim
+  // that disagrees would make this walk and OpenEXR's part ways (the rest of the header read
+  // as other attributes, one of them a 2 GB string)
+  static const std::pair<const char*, int32_t> fixed[] = {
+      {"box2i", 16}, {"box2f", 16}, {"v2i", 8},   {"v2f", 8},        {"v2d", 16},          {"v3i", 12},
+      {"v3f", 12},   {"v3d", 24},   {"int", 4},   {"float", 4},      {"double", 8},        {"compression", 1},
+      {"lineOrder", 1}, {"envmap", 1}, {"m33f", 36}, {"m33d", 72}, {"m44f", 64},  {"m44d", 128},
+      {"chromaticities", 32}, {"keycode", 28}, {"timecode", 8}, {"rational", 8}, {"tiledesc", 9},
+      {"deepImageState", 1}};
+  for (const auto& [t, n] : fixed)
+    if (type == t && size != n)
+      fail(fmt::format("attribute '{}' claims {} bytes, but a {} value has {}", name, size, type, n));
+  if (type == "chlist" || type == "preview") {
+    // OpenEXR reads these by their own structure, not by the claimed size: a channel list up to
+    // its empty name (each channel: name, then 16 bytes), a preview's width x height x 4 bytes.
+    // Walk them the same way; the structure must fill the claim exactly.
+    const std::streamoff value_at = f.tellg();
+    uint64_t used = 0;
+    auto need = [&](uint64_t n) {
+      if (used + n > uint64_t(size))
+        fail(fmt::format("attribute '{}' ({}) runs past the {} bytes it claims", name, type, size));
+      used += n;
+    };
+    if (type == "chlist") {
+      for (int channels = 0;; ++channels) {
+        if (channels > 4096) fail(fmt::format("attribute '{}' lists more than 4096 channels", name));
+        need(1);
+        const int c = f.get();
+        if (c == EOF) fail(fmt::format("the file ends inside attribute '{}'", name));
+        if (c == 0) break;  // the list's end
+        for (int k = 0;; ++k) {
+          need(1);
+          const int ch = f.get();
+          if (ch == EOF) fail(fmt::format("the file ends inside attribute '{}'", name));
+          if (ch == 0) break;
+          if (k >= int(max_name)) fail(fmt::format("attribute '{}' has a channel name over {} characters", name, max_name));
+        }
+        need(16);
+        f.seekg(16, std::ios::cur);
+      }
+    } else {
+      unsigned char wh[8];
+      need(8);
+      if (!f.read(reinterpret_cast<char*>(wh), 8)) fail(fmt::format("the file ends inside attribute '{}'", name));
+      const uint64_t pw = uint64_t(wh[0]) | uint64_t(wh[1]) << 8 | uint64_t(wh[2]) << 16 | uint64_t(wh[3]) << 24;
+      const uint64_t ph = uint64_t(wh[4]) | uint64_t(wh[5]) << 8 | uint64_t(wh[6]) << 16 | uint64_t(wh[7]) << 24;
+      if (ph != 0 && pw > uint64_t(size) / 4 / ph)  // (no overflow: checked before the product)
+        fail(fmt::format("attribute '{}' (preview) of {}x{} pixels runs past the {} bytes it claims", name, pw, ph, size));
+      need(pw * ph * 4);
+    }
+    if (used != uint64_t(size))
+      fail(fmt::format("attribute '{}' ({}) claims {} bytes but its contents take {}", name, type, size, used));
+    f.clear();
+    f.seekg(value_at);
+  }
 }
 
 // OpenEXR allocates what a header attribute claims (a 2 GB string for a damaged "capDate") before
@@ -96,61 +159,7 @@ static void check_exr_header(const std::string& path, std::istream& f, uint64_t 
       if (size < 0 || at + uint64_t(size) > file_bytes)
         fail(fmt::format("attribute '{}' ({}) claims {} bytes, but only {} remain in the {}-byte file", name, type,
                          size, file_bytes - std::min<uint64_t>(at, file_bytes), file_bytes));
-      // OpenEXR reads a fixed-size type's value whatever size the attribute claims, so a claim
-      // that disagrees would make this walk and OpenEXR's part ways (the rest of the header read
-      // as other attributes, one of them a 2 GB string)
-      static const std::pair<const char*, int32_t> fixed[] = {
-          {"box2i", 16}, {"box2f", 16}, {"v2i", 8},   {"v2f", 8},        {"v2d", 16},          {"v3i", 12},
-          {"v3f", 12},   {"v3d", 24},   {"int", 4},   {"float", 4},      {"double", 8},        {"compression", 1},
-          {"lineOrder", 1}, {"envmap", 1}, {"m33f", 36}, {"m33d", 72}, {"m44f", 64},  {"m44d", 128},
-          {"chromaticities", 32}, {"keycode", 28}, {"timecode", 8}, {"rational", 8}, {"tiledesc", 9},
-          {"deepImageState", 1}};
-      for (const auto& [t, n] : fixed)
-        if (type == t && size != n)
-          fail(fmt::format("attribute '{}' claims {} bytes, but a {} value has {}", name, size, type, n));
-      if (type == "chlist" || type == "preview") {
-        // OpenEXR reads these by their own structure, not by the claimed size: a channel list up to
-        // its empty name (each channel: name, then 16 bytes), a preview's width x height x 4 bytes.
-        // Walk them the same way; the structure must fill the claim exactly.
-        const std::streamoff value_at = f.tellg();
-        uint64_t used = 0;
-        auto need = [&](uint64_t n) {
-          if (used + n > uint64_t(size))
-            fail(fmt::format("attribute '{}' ({}) runs past the {} bytes it claims", name, type, size));
-          used += n;
-        };
-        if (type == "chlist") {
-          for (int channels = 0;; ++channels) {
-            if (channels > 4096) fail(fmt::format("attribute '{}' lists more than 4096 channels", name));
-            need(1);
-            const int c = f.get();
-            if (c == EOF) fail(fmt::format("the file ends inside attribute '{}'", name));
-            if (c == 0) break;  // the list's end
-            for (int k = 0;; ++k) {
-              need(1);
-              const int ch = f.get();
-              if (ch == EOF) fail(fmt::format("the file ends inside attribute '{}'", name));
-              if (ch == 0) break;
-              if (k >= int(max_name)) fail(fmt::format("attribute '{}' has a channel name over {} characters", name, max_name));
-            }
-            need(16);
-            f.seekg(16, std::ios::cur);
-          }
-        } else {
-          unsigned char wh[8];
-          need(8);
-          if (!f.read(reinterpret_cast<char*>(wh), 8)) fail(fmt::format("the file ends inside attribute '{}'", name));
-          const uint64_t pw = uint64_t(wh[0]) | uint64_t(wh[1]) << 8 | uint64_t(wh[2]) << 16 | uint64_t(wh[3]) << 24;
-          const uint64_t ph = uint64_t(wh[4]) | uint64_t(wh[5]) << 8 | uint64_t(wh[6]) << 16 | uint64_t(wh[7]) << 24;
-          if (ph != 0 && pw > uint64_t(size) / 4 / ph)  // (no overflow: checked before the product)
-            fail(fmt::format("attribute '{}' (preview) of {}x{} pixels runs past the {} bytes it claims", name, pw, ph, size));
-          need(pw * ph * 4);
-        }
-        if (used != uint64_t(size))
-          fail(fmt::format("attribute '{}' ({}) claims {} bytes but its contents take {}", name, type, size, used));
-        f.clear();
-        f.seekg(value_at);
-      }
+      check_exr_attribute_value(f, name, type, size, max_name, fail);
       f.seekg(size, std::ios::cur);
       at += uint64_t(size);
     }
@@ -335,8 +344,7 @@ namespace {
 // 8-bit PNG and JPEG files hold sRGB-encoded values; radiance is linear.
 void decode_colour_space(const OIIO::ImageSpec& spec, std::vector<float>& rgb, const std::function<void(const std::string&)>& fail) {
   std::string cs = spec.get_string_attribute("oiio:ColorSpace");
-  std::string lower = cs;
-  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  const std::string lower = to_lower(cs);
   if (lower == "srgb") {
     for (float& v : rgb) v = srgb_decode(v);
   } else if (lower.rfind("gammacorrected", 0) == 0) {

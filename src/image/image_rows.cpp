@@ -14,6 +14,7 @@
 #include "image/image_open.h"
 #include "image/output_proxy.h"
 #include "util/output_file.h"
+#include "util/strings.h"
 
 namespace spectrack {
 
@@ -78,8 +79,7 @@ ImageRowWriter::ImageRowWriter(const std::string& path, int width, int height, c
     : impl_(new Impl) {
   Impl& w = *impl_;
   check_output_path(path);
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  std::string ext = lower_extension(path);
   w.png = ext == ".png";
   if (w.png && names != std::vector<std::string>{"R", "G", "B"})
     throw Error(fmt::format("{}: internal: a PNG holds R, G, B only", path));

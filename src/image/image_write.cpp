@@ -13,6 +13,7 @@
 #include "image/output_proxy.h"
 #include "util/files.h"
 #include "util/output_file.h"
+#include "util/strings.h"
 
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
@@ -29,8 +30,7 @@ namespace spectrack {
 namespace {
 
 std::string extension(const std::string& path) {
-  std::string e = std::filesystem::path(path).extension().string();
-  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  std::string e = lower_extension(path);
   return e;
 }
 

@@ -1,4 +1,4 @@
-// framing.cpp: see framing.h. The camera basis is the one of render/scene_pack.cpp set_camera:
+// framing.cpp: see framing.h. The camera basis is the one of scene/scene_pack.cpp set_camera:
 // forward = normalize(look_at - position), right = normalize(forward x up), up' = right x forward;
 // the half extent of the frame at unit depth is tan(fov/2) across the shorter image side.
 #include "scene/framing.h"

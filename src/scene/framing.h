@@ -4,7 +4,7 @@
 // when `up` is parallel to z) and "fit" (move
 // the camera along its view direction, for an orthographic camera also set its height, so that
 // every medium's box spans at most 1/fit of the frame on each side of the centre). pack_scene
-// resolves it (render/scene_pack.cpp set_camera) with the boxes of render/media_bounds.h.
+// resolves it (scene/scene_pack.cpp set_camera) with the boxes of scene/media_bounds.h.
 #pragma once
 #include <vector>
 

@@ -24,175 +24,14 @@
 #include <nlohmann/json.hpp>
 
 #include "scene/scene.h"
+#include "scene/scene_parser.h"
 #include "scene/radiance.h"
 #include "util/files.h"
 #include "scene/frames.h"
+#include "util/strings.h"
 
 namespace spectrack {
-namespace {
-
-using json = nlohmann::json;
-namespace fs = std::filesystem;
-using Names = std::vector<const char*>;
-
-constexpr const char* kFormat = "spectrack-scene/1";
-constexpr double kInf = std::numeric_limits<double>::infinity();
-
-std::string num(double v) {
-  std::ostringstream s;
-  s << std::setprecision(12) << v;
-  return s.str();
-}
-
-std::string join(const Names& names) {
-  std::string s;
-  for (const char* n : names) s += (s.empty() ? "" : ", ") + std::string(n);
-  return s;
-}
-
-bool contains(const Names& names, const std::string& key) {
-  for (const char* n : names)
-    if (key == n) return true;
-  return false;
-}
-
-// A JSON pointer (RFC 6901) step: "~" and "/" inside keys are escaped.
-std::string child(const std::string& path, const std::string& key) {
-  std::string s = path + "/";
-  for (char c : key) s += c == '~' ? "~0" : c == '/' ? "~1" : std::string(1, c);
-  return s;
-}
-std::string child(const std::string& path, size_t index) { return path + "/" + std::to_string(index); }
-
-std::string in_quotes(const std::string& s) { return "\"" + s + "\""; }
-
-// A closed or open interval for number checks; the message says which bound was broken.
-struct Range {
-  double lo, hi;
-  bool lo_open, hi_open;
-  bool holds(double v) const {
-    return (lo_open ? v > lo : v >= lo) && (hi_open ? v < hi : v <= hi);
-  }
-  std::string describe() const {
-    if (hi == kInf) return std::string(lo_open ? "> " : ">= ") + num(lo);
-    return "in " + std::string(lo_open ? "(" : "[") + num(lo) + ", " + num(hi) + (hi_open ? ")" : "]");
-  }
-};
-const Range kAny{-kInf, kInf, true, true};
-const Range kNonNegative{0, kInf, false, true};
-const Range kPositive{0, kInf, true, true};
-
-fs::path normalized(const fs::path& p) {
-  fs::path q = fs::absolute(p).lexically_normal();
-  // "/a/b/." normalises to "/a/b/": drop the empty last element.
-  if (!q.has_filename() && q != q.root_path()) q = q.parent_path();
-  return q;
-}
-
-class Parser {
- public:
-  Parser(std::string name, const std::string& dir)
-      : name_(std::move(name)), dir_(normalized(dir.empty() ? fs::path(".") : fs::path(dir))) {}
-
-  SceneDesc scene(const json& root);
-
- private:
-  void camera(const json& j, const std::string& path, CameraDesc& c);
-  void camera_framing(const json& j, const std::string& path, CameraDesc& c);
-  void film(const json& j, const std::string& path, FilmDesc& f);
-  void render(const json& j, const std::string& path, RenderDesc& r);
-  LightDesc light(const json& j, const std::string& path);
-  MediumDesc medium(const json& j, const std::string& path, size_t index);
-  PhaseDesc phase(const json& j, const std::string& path);
-  EmissionDesc emission(const json& j, const std::string& path, bool vdb);
-  ColorDesc color(const json& j, const std::string& path);
-  TransformDesc transform(const json& j, const std::string& path);
-
-  [[noreturn]] void fail(const std::string& path, const std::string& reason) const {
-    throw Error(name_ + ": " + (path.empty() ? "/" : path) + ": " + reason + context_);
-  }
-  void expect_object(const json& j, const std::string& path) const {
-    if (!j.is_object()) fail(path, std::string("expected an object, got ") + j.type_name());
-  }
-  // Unknown fields fail; a field listed in `elsewhere` is known but not valid for `what`.
-  void fields(const json& obj, const std::string& path, const Names& allowed, const char* what = nullptr,
-              const Names& elsewhere = {}) const {
-    for (auto it = obj.begin(); it != obj.end(); ++it) {
-      if (contains(allowed, it.key())) continue;
-      if (what && contains(elsewhere, it.key()))
-        fail(child(path, it.key()),
-             std::string("field not allowed for ") + what + " (expected one of: " + join(allowed) + ")");
-      fail(child(path, it.key()), "unknown field (expected one of: " + join(allowed) + ")");
-    }
-  }
-  static const json* find(const json& obj, const char* key) {
-    auto it = obj.find(key);
-    return it == obj.end() ? nullptr : &*it;
-  }
-  const json& need(const json& obj, const std::string& path, const char* key, const std::string& hint = "") const {
-    const json* v = find(obj, key);
-    if (!v) fail(child(path, key), "missing required field" + (hint.empty() ? "" : " (" + hint + ")"));
-    return *v;
-  }
-  void check_number(double v, const std::string& path, const Range& r) const {
-    if (!std::isfinite(v)) fail(path, "value " + num(v) + " is not finite");
-    if (r.holds(v)) return;
-    if (r.lo == 0 && !r.lo_open && r.hi == kInf) fail(path, "value " + num(v) + " is negative");
-    fail(path, "value " + num(v) + " is out of range (must be " + r.describe() + ")");
-  }
-  double number_at(const json& v, const std::string& path, const Range& r) const {
-    if (!v.is_number()) fail(path, std::string("expected a number, got ") + v.type_name());
-    double d = v.get<double>();
-    check_number(d, path, r);
-    return d;
-  }
-  double number(const json& obj, const std::string& path, const char* key, double def, const Range& r) const {
-    const json* v = find(obj, key);
-    return v ? number_at(*v, child(path, key), r) : def;
-  }
-  long long integer(const json& obj, const std::string& path, const char* key, long long def, long long lo,
-                    long long hi) const;
-  std::string string(const json& obj, const std::string& path, const char* key, const std::string& def) const {
-    const json* v = find(obj, key);
-    if (!v) return def;
-    if (!v->is_string()) fail(child(path, key), std::string("expected a string, got ") + v->type_name());
-    if (v->get_ref<const std::string&>().empty()) fail(child(path, key), "must not be empty");
-    return v->get<std::string>();
-  }
-  Vec3 vec3_at(const json& v, const std::string& path, const Range& r) const {
-    if (!v.is_array() || v.size() != 3 || !v[0].is_number() || !v[1].is_number() || !v[2].is_number())
-      fail(path, std::string("expected an array of 3 numbers, got ") +
-                     (v.is_array() ? "an array of " + std::to_string(v.size()) + " values" : v.type_name()));
-    Vec3 out;
-    for (int i = 0; i < 3; ++i) out[i] = number_at(v[i], path, r);
-    return out;
-  }
-  Vec3 vec3(const json& obj, const std::string& path, const char* key, const Vec3& def, const Range& r) const {
-    const json* v = find(obj, key);
-    return v ? vec3_at(*v, child(path, key), r) : def;
-  }
-  // Resolves `key` (a path string) against the scene folder; `must_exist` for input files.
-  std::string file(const json& obj, const std::string& path, const char* key, bool must_exist) const {
-    std::string p = string(obj, path, key, "");
-    fs::path resolved = normalized(fs::path(p).is_absolute() ? fs::path(p) : dir_ / p);
-    std::error_code ec;
-    if (must_exist && has_frame_pattern(resolved.filename().string())) return resolved.string();  // checked per frame (--frames)
-    if (must_exist && !fs::exists(resolved, ec)) fail(child(path, key), resolved.string() + ": no such file");
-    if (must_exist && fs::is_directory(resolved, ec)) fail(child(path, key), resolved.string() + ": is a directory");
-    if (must_exist) {
-      try {
-        check_input_file(resolved.string(), "");  // a FIFO or device would block or never end
-      } catch (const Error& e) {
-        fail(child(path, key), e.what());
-      }
-    }
-    return resolved.string();
-  }
-
-  std::string name_;
-  fs::path dir_;
-  std::string context_;  // appended to messages while inside a medium
-};
+namespace parsing {
 
 long long Parser::integer(const json& obj, const std::string& path, const char* key, long long def, long long lo,
                           long long hi) const {
@@ -369,8 +208,7 @@ void Parser::film(const json& j, const std::string& path, FilmDesc& f) {
     return;
   }
   f.output = file(j, path, "output", false);
-  std::string ext = fs::path(f.output).extension().string();
-  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  std::string ext = lower_extension(f.output);
   if (ext != ".exr" && ext != ".png")
     fail(path + "/output", "unsupported image type " + in_quotes(ext) + " (expected .exr or .png)");
 }
@@ -404,192 +242,6 @@ void Parser::render(const json& j, const std::string& path, RenderDesc& r) {
   if (find(j, "time_limit")) r.time_limit = number(j, path, "time_limit", 0.0, Range{0, 1e9, true, false});
 }
 
-LightDesc Parser::light(const json& j, const std::string& path) {
-  expect_object(j, path);
-  const Names all = {"type", "radiance", "map", "scale", "to_light", "irradiance", "angle_deg"};
-  fields(j, path, all);
-  LightDesc l;
-  l.json_path = path;
-  need(j, path, "type", "expected \"environment\" or \"directional\"");
-  std::string type = string(j, path, "type", "");
-  if (type == "environment") {
-    fields(j, path, {"type", "radiance", "map", "scale"}, "an environment light", all);
-    if (find(j, "map")) {
-      if (find(j, "radiance")) fail(path + "/radiance", "not allowed together with \"map\" (use \"scale\")");
-      l.type = ST_LIGHT_ENV_MAP;
-      l.map = file(j, path, "map", true);
-      l.scale = number(j, path, "scale", l.scale, kNonNegative);
-    } else {
-      if (find(j, "scale")) fail(path + "/scale", "only allowed with \"map\"");
-      l.type = ST_LIGHT_ENV_UNIFORM;
-      l.radiance = vec3(j, path, "radiance", l.radiance, kNonNegative);
-    }
-  } else if (type == "directional") {
-    fields(j, path, {"type", "to_light", "irradiance", "angle_deg"}, "a directional light", all);
-    l.type = ST_LIGHT_DIRECTIONAL;
-    l.to_light = vec3_at(need(j, path, "to_light"), path + "/to_light", kAny);
-    if (l.to_light[0] == 0 && l.to_light[1] == 0 && l.to_light[2] == 0) fail(path + "/to_light", "must not be zero");
-    l.irradiance = vec3(j, path, "irradiance", l.irradiance, kNonNegative);
-    l.angle_deg = number(j, path, "angle_deg", l.angle_deg, Range{0, 180, false, true});
-  } else {
-    fail(path + "/type", "unknown light type " + in_quotes(type) + " (expected one of: environment, directional)");
-  }
-  return l;
-}
-
-MediumDesc Parser::medium(const json& j, const std::string& path, size_t index) {
-  expect_object(j, path);
-  const Names all = {"name", "type", "file", "grid", "grid_index", "bounds", "density_scale", "sigma_s",
-                     "sigma_a", "phase", "emission", "color", "transform", "majorant_scale", "minorant_scale"};
-  Names vdb, homogeneous;
-  for (const char* k : all) {
-    if (std::strcmp(k, "bounds") != 0) vdb.push_back(k);
-    if (!contains({"file", "grid", "grid_index", "transform", "color"}, k)) homogeneous.push_back(k);
-  }
-  fields(j, path, all);
-
-  MediumDesc m;
-  m.json_path = path;
-  m.name = string(j, path, "name", "medium" + std::to_string(index));
-  context_ = ", in medium " + in_quotes(m.name);
-  need(j, path, "type", "expected \"vdb\" or \"homogeneous\"");
-  std::string type = string(j, path, "type", "");
-  if (type == "vdb") {
-    fields(j, path, vdb, "a vdb medium", all);
-    m.type = ST_MEDIUM_VDB;
-    need(j, path, "file", "the .vdb or .nvdb file");
-    m.file = file(j, path, "file", true);
-    m.grid = string(j, path, "grid", m.grid);
-    m.grid_index = static_cast<int>(integer(j, path, "grid_index", m.grid_index, 0, std::numeric_limits<int>::max()));
-    if (const json* t = find(j, "transform")) m.transform = transform(*t, path + "/transform");
-    if (const json* c = find(j, "color")) m.color = color(*c, path + "/color");
-  } else if (type == "homogeneous") {
-    fields(j, path, homogeneous, "a homogeneous medium", all);
-    m.type = ST_MEDIUM_HOMOGENEOUS;
-    const json& b = need(j, path, "bounds", "[[xmin, ymin, zmin], [xmax, ymax, zmax]]");
-    if (!b.is_array() || b.size() != 2)
-      fail(path + "/bounds", "expected [[xmin, ymin, zmin], [xmax, ymax, zmax]]");
-    m.bounds = {vec3_at(b[0], path + "/bounds/0", kAny), vec3_at(b[1], path + "/bounds/1", kAny)};
-    for (int a = 0; a < 3; ++a)
-      if (!(m.bounds[0][a] < m.bounds[1][a]))
-        fail(path + "/bounds", std::string("min >= max on the ") + "xyz"[a] + " axis (" + num(m.bounds[0][a]) +
-                                   " >= " + num(m.bounds[1][a]) + ")");
-  } else {
-    fail(path + "/type", "unknown medium type " + in_quotes(type) + " (expected one of: vdb, homogeneous)");
-  }
-  m.density_scale = number(j, path, "density_scale", m.density_scale, kNonNegative);
-  m.sigma_s = vec3(j, path, "sigma_s", m.sigma_s, kNonNegative);
-  m.sigma_a = vec3(j, path, "sigma_a", m.sigma_a, kNonNegative);
-  if (const json* p = find(j, "phase")) m.phase = phase(*p, path + "/phase");
-  if (const json* e = find(j, "emission")) m.emission = emission(*e, path + "/emission", m.type == ST_MEDIUM_VDB);
-  m.majorant_scale = number(j, path, "majorant_scale", m.majorant_scale, kPositive);
-  m.minorant_scale = number(j, path, "minorant_scale", m.minorant_scale, kNonNegative);
-  context_.clear();
-  return m;
-}
-
-PhaseDesc Parser::phase(const json& j, const std::string& path) {
-  expect_object(j, path);
-  fields(j, path, {"type", "g"});
-  PhaseDesc p;
-  need(j, path, "type", "expected \"isotropic\" or \"hg\"");
-  std::string type = string(j, path, "type", "");
-  if (type == "isotropic") {
-    fields(j, path, {"type"}, "an isotropic phase function", {"g"});
-    p.type = ST_PHASE_ISOTROPIC;
-  } else if (type == "hg") {
-    p.type = ST_PHASE_HG;
-    p.g = number_at(need(j, path, "g", "the asymmetry, in (-1, 1)"), path + "/g", Range{-1, 1, true, true});
-  } else {
-    fail(path + "/type", "unknown phase function " + in_quotes(type) + " (expected one of: isotropic, hg)");
-  }
-  return p;
-}
-
-EmissionDesc Parser::emission(const json& j, const std::string& path, bool vdb) {
-  expect_object(j, path);
-  EmissionDesc e;
-  e.present = true;
-  const std::string type = string(j, path, "type", "radiance");
-  if (type == "radiance") {
-    const Names all = {"type", "grid", "radiance", "scale"};
-    fields(j, path, all);
-    if (!vdb) fields(j, path, {"type", "radiance", "scale"}, "a homogeneous medium's emission", all);
-    e.grid = string(j, path, "grid", "");
-    e.radiance = vec3_at(need(j, path, "radiance"), path + "/radiance", kNonNegative);
-    e.scale = number(j, path, "scale", e.scale, kNonNegative);
-    return e;
-  }
-  if (type != "blackbody")
-    fail(path + "/type", "unknown emission type " + in_quotes(type) + " (expected one of: radiance, blackbody)");
-  const Names all = {"type",        "scale",           "temperature",        "temperature_grid", "temperature_scale",
-                     "temperature_offset", "temperature_cutoff", "normalization"};
-  fields(j, path, all);
-  const Names constant = {"type", "scale", "temperature", "temperature_cutoff", "normalization"};
-  if (!vdb) fields(j, path, constant, "a homogeneous medium's blackbody emission (a constant `temperature`)", all);
-  e.blackbody = true;
-  // at most kMaxRadiance: the kernels hold scale x colour in float, colours <= ~1e6
-  e.scale = number(j, path, "scale", e.scale, Range{0, kMaxRadiance, false, false});
-  e.temperature_cutoff = number(j, path, "temperature_cutoff", e.temperature_cutoff, Range{0, kMaxTemperature, true, true});
-  if (find(j, "temperature")) {
-    if (find(j, "temperature_grid") || find(j, "temperature_scale") || find(j, "temperature_offset"))
-      fail(path + "/temperature", "a constant temperature excludes temperature_grid, temperature_scale and "
-                                  "temperature_offset (they map a grid's values)");
-    e.temperature = number(j, path, "temperature", 0.0, Range{0, kMaxTemperature, true, false});
-  } else if (!vdb) {
-    fail(path + "/temperature", "required: a homogeneous medium's blackbody emission needs a constant temperature (K)");
-  } else {
-    e.temperature_grid = string(j, path, "temperature_grid", "");
-    e.temperature_scale = number(j, path, "temperature_scale", e.temperature_scale, kAny);
-    e.temperature_offset = number(j, path, "temperature_offset", e.temperature_offset, kAny);
-  }
-  const std::string norm = string(j, path, "normalization", blackbody_norm_name(BlackbodyNorm::Peak));
-  if (!blackbody_norm_from_name(norm, &e.normalization))
-    fail(path + "/normalization",
-         "unknown normalization " + in_quotes(norm) + " (expected one of: " + blackbody_norm_names() + ")");
-  return e;
-}
-
-ColorDesc Parser::color(const json& j, const std::string& path) {
-  expect_object(j, path);
-  fields(j, path, {"grid", "mode"});
-  ColorDesc c;
-  c.present = true;
-  c.grid = string(j, path, "grid", c.grid);
-  if (c.grid.empty()) fail(path + "/grid", "must name a vec3 grid of the medium's file");
-  const std::string mode = string(j, path, "mode", "albedo");
-  if (mode == "albedo") {
-    c.mode = ST_COLOR_ALBEDO;
-  } else if (mode == "scattering") {
-    c.mode = ST_COLOR_SCATTERING;
-  } else {
-    fail(path + "/mode", "unknown colour mode " + in_quotes(mode) + " (expected one of: albedo, scattering)");
-  }
-  return c;
-}
-
-TransformDesc Parser::transform(const json& j, const std::string& path) {
-  expect_object(j, path);
-  fields(j, path, {"scale", "rotate_deg", "translate"});
-  TransformDesc t;
-  if (const json* s = find(j, "scale")) {
-    const std::string p = path + "/scale";
-    if (s->is_number()) {
-      double v = number_at(*s, p, kAny);
-      t.scale = {v, v, v};
-    } else if (s->is_array()) {
-      t.scale = vec3_at(*s, p, kAny);
-    } else {
-      fail(p, std::string("expected a number or an array of 3 numbers, got ") + s->type_name());
-    }
-    for (double v : t.scale)
-      if (v == 0) fail(p, "scale must not be zero");
-  }
-  t.rotate_deg = vec3(j, path, "rotate_deg", t.rotate_deg, kAny);
-  t.translate = vec3(j, path, "translate", t.translate, kAny);
-  return t;
-}
-
 // nlohmann's messages start with "[json.exception.parse_error.101] "; keep what follows.
 std::string library_reason(const std::exception& e) {
   std::string w = e.what();
@@ -597,7 +249,10 @@ std::string library_reason(const std::exception& e) {
   return k == std::string::npos ? w : w.substr(k + 2);
 }
 
-}  // namespace
+}  // namespace parsing
+
+
+using namespace parsing;
 
 SceneDesc parse_scene(const std::string& json_text, const std::string& name, const std::string& dir) {
   // Duplicate keys: a stack of open containers gives the JSON path of the repeated key.

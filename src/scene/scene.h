@@ -17,6 +17,8 @@
 namespace spectrack {
 
 using Vec3 = std::array<double, 3>;
+// Whether a colour (sigma_a, sigma_s, ...) is gray: the same value in every channel.
+inline bool achromatic(const Vec3& v) { return v[0] == v[1] && v[1] == v[2]; }
 
 struct TransformDesc {
   Vec3 scale{1, 1, 1};       // "scale": a number or a triple

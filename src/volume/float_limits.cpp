@@ -47,7 +47,7 @@ void check_coefficient(const std::string& context, const char* field, const Vec3
 }
 
 // A homogeneous box has a tight majorant (no null collisions to pay for), so its size is no
-// limit: the walker advances t exactly whatever the flight length (kernels/majorant.h). What a
+// limit: the walker advances t exactly whatever the flight length (kernels/walker.h). What a
 // float cannot do is move a scattering point by less than the spacing of its coordinates: a mean
 // free path below the float spacing of world coordinates everywhere in the box (at its point
 // nearest the origin, where they are finest) leaves paths scattering in place.

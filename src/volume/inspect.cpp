@@ -17,6 +17,7 @@
 #include "volume/vdb_open.h"
 #include "volume/volume.h"
 #include "volume/volume_detail.h"
+#include "util/strings.h"
 
 namespace spectrack {
 namespace {
@@ -222,8 +223,7 @@ std::string printable_name(const std::string& s) { return printable(s); }
 
 std::vector<GridInfo> inspect_volume(const std::string& file) {
   const Fail fail{"", file};
-  std::string ext = std::filesystem::path(file).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  std::string ext = lower_extension(file);
   if (ext != ".vdb" && ext != ".nvdb") fail("unknown volume file extension " + in_quotes(ext) + " (expected .vdb or .nvdb)");
   std::error_code ec;
   if (!std::filesystem::exists(file, ec)) fail("no such file");

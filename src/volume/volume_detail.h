@@ -12,6 +12,9 @@
 #include "util/error.h"
 
 namespace spectrack {
+
+struct GridData;  // volume.h
+
 namespace volume_detail {
 
 using FloatGrid = nanovdb::NanoGrid<float>;
@@ -71,6 +74,14 @@ inline std::string describe(const Entry& e) {
 // and one grid read (decompressed, validated) into a handle.
 std::vector<Entry> nvdb_entries(const std::string& file, const Fail& fail);
 nanovdb::GridHandle<nanovdb::HostBuffer> nvdb_read(const std::string& file, const Entry& e, const Fail& fail);
+
+// A float as the messages print it (9 significant digits: reads back as the same float).
+std::string value_str(float v);
+// Fills a GridData from its NanoVDB float grid after the tree checks (grid_checks.cpp); throws
+// through fail for level sets, non-zero backgrounds, degenerate maps and negative or non-finite
+// active values. untrusted: the tree came from a file's bytes (.nvdb), so its pointers are
+// validated first.
+void finish_grid(GridData& out, const Fail& fail, bool untrusted);
 
 }  // namespace volume_detail
 }  // namespace spectrack

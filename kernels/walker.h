@@ -1,0 +1,164 @@
+/* walker.h: the segment walker, the one loop skeleton of free-path sampling (tracking.h) and
+ * transmittance (transmittance.h) over the majorant segments of majorant.h. */
+#ifndef SPECTRACK_WALKER_H
+#define SPECTRACK_WALKER_H
+
+#include "types.h"
+#include "features.h"
+#include "rng.h"
+#include "sampling.h"
+#include "spectrum.h"
+#include "medium.h"
+#include "majorant.h"
+
+/* ---- the segment walker: the one loop skeleton of free-path sampling and transmittance ----
+ *
+ * Owns the merged DDA, the exponential flights and the iteration budget (after pbrt-v4's
+ * SampleT_maj; OpenCL C has no callbacks, so the caller loops on walker_step and runs its own
+ * per-collision body). Each step is one iteration of the budget: a flight of rate mu_bar from
+ * w->t that ends either at a tentative collision inside the current segment or past its end,
+ * where the walk restarts at the next segment (memoryless restart, docs/estimators.md, 'Walking the grid'; segments
+ * with mu_bar = 0 are crossed without drawing). Two modes:
+ *   ST_WALK_SAMPLE_CONTROL: flights of rate mu_bar_c + mu_bar_r, so tentative collisions of both
+ *     components (free-path sampling; the body tells control from residual collisions).
+ *   ST_WALK_CONTROL_CLOSED_FORM: flights of rate mu_bar_r (residual ratio tracking); when the
+ *     tracker decomposes, w->T_control is the control transmittance exp(-(sigma_a_c + sigma_s_c) dt)
+ *     (masked) of each flight, collision or not. */
+#define ST_WALK_COLLISION 0 /* a tentative collision at w->t, in segment w->seg */
+#define ST_WALK_CROSSED 1   /* the flight passed the segment's end: w->seg is the next segment, w->t its start */
+#define ST_WALK_DONE 2      /* no medium ahead: the walk is over at w->t */
+#define ST_WALK_BUDGET 3    /* the iteration budget is spent; w->t has no collision pending (resume there) */
+
+#define ST_WALK_SAMPLE_CONTROL 0
+#define ST_WALK_CONTROL_CLOSED_FORM 1
+
+typedef struct {
+  st_segments dda;  /* the merged DDA (the walker's own) */
+  st_segment seg;   /* the current segment */
+  float t;          /* where the walk is (the float nearest to it: see walker_flight_end) */
+  float carry;      /* flight length that t does not hold yet */
+  float mu_bar;     /* rate of the flights in seg */
+  float4 T_control; /* ST_WALK_CONTROL_CLOSED_FORM with decomposition: the last flight's control transmittance */
+  float4 mask;      /* channels of the path */
+  /* spectral mode: each spectral medium's coefficients at the path's wavelengths (st_rng.lambda),
+   * evaluated once per walk, and their sum (segments_current, segments_sigma_maj); a colour
+   * medium's sigma_s_l is its bound over the colour (walker_begin) */
+  float4 sigma_a_l[ST_KERNEL_MAX_MEDIA], sigma_s_l[ST_KERNEL_MAX_MEDIA], sigma_t_l[ST_KERNEL_MAX_MEDIA];
+  int decompose, mode, iter, budget;
+  int exact;        /* flights below the float spacing of t were met: positions are summed exactly */
+} st_walker;
+
+inline void walker_load_segment(__constant const st_scene* scene, st_walker* w) {
+  w->seg = segments_current(scene, &w->dda, w->t, w->mask, w->sigma_a_l, w->sigma_s_l, w->decompose);
+  w->mu_bar = w->mode == ST_WALK_CONTROL_CLOSED_FORM ? w->seg.mu_bar_r : w->seg.mu_bar_c + w->seg.mu_bar_r;
+}
+
+/* Starts a walk along the world ray (o, d) from parameter t with at most `budget` steps. */
+inline void walker_begin(__constant const st_scene* scene, __global const float2* maj, st_walker* w, float3 o,
+                         float3 d, float t, float4 mask, float4 lambda, int decompose, int mode, int budget) {
+  segments_init(scene, maj, &w->dda, o, d, t);
+  w->t = t;
+  w->mask = mask;
+  if (ST_HAS_SPECTRAL)
+    for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
+      if (i >= scene->n_media || !medium_is_spectral(&scene->media[i])) continue;
+      w->sigma_a_l[i] = medium_sigma_a(&scene->media[i], lambda);
+      w->sigma_s_l[i] = medium_sigma_s(&scene->media[i], lambda);
+      /* a colour medium's scattering part at its bound (medium.h: 1 for an albedo grid, whose
+       * extinction is the colour-free one; the colour spectrum's bound for a scattering grid) */
+      if (medium_has_color(&scene->media[i])) w->sigma_s_l[i] *= scene->media[i].sigma_t_maj.x;
+      w->sigma_t_l[i] = w->sigma_a_l[i] + w->sigma_s_l[i];
+    }
+  w->decompose = decompose;
+  w->mode = mode;
+  w->iter = 0;
+  w->budget = budget;
+  w->T_control = mask;
+  w->carry = 0.0f;
+  w->exact = 0;
+  walker_load_segment(scene, w);
+}
+
+/* Where a flight of length `flight` from w->t ends. Far from the ray origin a flight can be
+ * shorter than half the float spacing of t (densities of 1e6 per unit at t ~ 200), so
+ * t + flight == t: the flight cannot move t, and without care a walk would repeat the same null
+ * collision forever. The walker keeps such a flight's length in w->carry; at the second one in
+ * a row it switches the walk to exact summation (two-sum): t is the float nearest to the exact
+ * position, w->carry the remainder, and every flight advances the exact position by its full
+ * length (to 2^-24 of the flight), so a run of short flights moves t by their total and the
+ * walk always progresses. Until then (every flight that moves t on its own, and a single one
+ * that does not) the arithmetic is the plain float sum t + flight, so walks whose flights the
+ * floats resolve are computed exactly as without the carry. */
+inline float walker_flight_end(st_walker* w, float flight) {
+  float tc = w->t + flight;
+  if (!w->exact) {
+    if (tc != w->t || !(flight > 0.0f)) {
+      w->carry = 0.0f;
+      return tc;
+    }
+    if (w->carry == 0.0f) { /* a first flight that cannot move t: keep its length */
+      w->carry = flight;
+      return tc;
+    }
+    w->exact = 1; /* the second in a row: the flights are below the float spacing of t */
+  }
+  float s = w->carry + flight;
+  tc = w->t + s;
+  float moved = tc - w->t;
+  w->carry = (w->t - (tc - moved)) + (s - moved); /* t + s == tc + carry exactly */
+  return tc;
+}
+
+/* A flight passed the current segment's end: the walk restarts exactly there, in the next segment. */
+inline int walker_cross(__constant const st_scene* scene, __global const float2* maj, st_walker* w, uint* dda_steps,
+                        uint* dda_nonempty) {
+  w->t = fmax(w->t, w->seg.t1);
+  w->carry = 0.0f;
+  *dda_steps += segments_next(scene, maj, &w->dda, dda_nonempty);
+  walker_load_segment(scene, w);
+  return ST_WALK_CROSSED;
+}
+
+/* One step of the walk: returns ST_WALK_* (above). DDA steps are added to *dda_steps, those
+ * entering a non-empty cell also to *dda_nonempty. */
+inline int walker_step(__constant const st_scene* scene, __global const float2* maj, st_walker* w, st_rng* rng,
+                       uint* dda_steps, uint* dda_nonempty) {
+  if (isinf(w->seg.t1)) return ST_WALK_DONE;
+  if (w->iter >= w->budget) return ST_WALK_BUDGET;
+  w->iter += 1;
+  float tc = w->mu_bar > 0.0f ? walker_flight_end(w, sample_exponential(rng_uniform(rng), w->mu_bar)) : INFINITY;
+  if (w->decompose && w->mode == ST_WALK_CONTROL_CLOSED_FORM)
+    w->T_control = exp(-(w->seg.sigma_a_c + w->seg.sigma_s_c) * (fmin(tc, w->seg.t1) - w->t)) * w->mask;
+  if (tc < w->seg.t1) {
+    w->t = tc;
+    return ST_WALK_COLLISION;
+  }
+  return walker_cross(scene, maj, w, dda_steps, dda_nonempty);
+}
+
+/* One step of a ray march (docs/transmittance.md) in ST_WALK_CONTROL_CLOSED_FORM mode: the same
+ * walk as walker_step with the exponential flight replaced by a deterministic one of `s` units of
+ * the residual majorant's optical depth (mu_bar_r), so samples can be placed at fixed spacings in
+ * majorant optical depth and segments with mu_bar = 0 get none. Returns ST_WALK_COLLISION when
+ * the flight ends inside the segment (at w->t; *walked = s), ST_WALK_CROSSED (*walked: the
+ * majorant optical depth to the segment's end), ST_WALK_DONE or ST_WALK_BUDGET as walker_step;
+ * *tau_control gains the control's optical depth over the step (masked; an optical depth, not its
+ * exponential, so that callers can combine it with others before one exp). */
+inline int walker_march(__constant const st_scene* scene, __global const float2* maj, st_walker* w, float s,
+                        float* walked, float4* tau_control, uint* dda_steps, uint* dda_nonempty) {
+  *walked = 0.0f;
+  if (isinf(w->seg.t1)) return ST_WALK_DONE;
+  if (w->iter >= w->budget) return ST_WALK_BUDGET;
+  w->iter += 1;
+  float tc = w->mu_bar > 0.0f ? walker_flight_end(w, s / w->mu_bar) : INFINITY;
+  if (w->decompose) *tau_control += (w->seg.sigma_a_c + w->seg.sigma_s_c) * (fmin(tc, w->seg.t1) - w->t) * w->mask;
+  if (tc < w->seg.t1) {
+    *walked = s;
+    w->t = tc;
+    return ST_WALK_COLLISION;
+  }
+  if (w->mu_bar > 0.0f) *walked = fmax(w->seg.t1 - w->t, 0.0f) * w->mu_bar;
+  return walker_cross(scene, maj, w, dda_steps, dda_nonempty);
+}
+
+#endif

@@ -1,0 +1,282 @@
+// render.cpp: `spectrack render`: the command line's overrides of the scene (RenderOptions, once),
+// the film layers and EXR options of the output, this process's share of the samples (several
+// devices, MPI ranks) and the render of one scene or of a frame sequence, then its files
+// (render_outputs.h). A render is a FilmPiece (film/film.h): the window and sample range it holds,
+// with exact per-pixel sums; shards, tiles, devices and MPI ranks all combine through merge_pieces.
+#include "cli/render.h"
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <cstdint>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <future>
+#include <memory>
+#include <sstream>
+#include <tuple>
+#include <iostream>
+#include <unistd.h>
+
+#include "cli/checks.h"
+#include "cli/options.h"
+#include "device/opencl.h"
+#include "cli/progress.h"
+#include "cli/render_outputs.h"
+#include "cli/run_control.h"
+#include "image/image.h"
+#include "film/film.h"
+#include "integrator/multi_device.h"
+#include "integrator/renderer.h"
+#include "scene/frames.h"
+#include "scene/scene.h"
+#include "util/strings.h"
+
+namespace fs = std::filesystem;
+
+namespace spectrack {
+namespace {
+
+// The command line's overrides of the scene (the flags CLI11 has already range-checked).
+RenderOptions render_options(const RenderArgs& a, bool quiet) {
+  RenderOptions opt;
+  if (a.seed >= 0) opt.seed = a.seed;
+  opt.quiet = quiet;
+  opt.path_slots = a.path_slots;
+  opt.iteration_budget = a.budget;
+  opt.majorant_cell = a.majorant_cell;
+  opt.majorant_block = a.majorant_block;
+  opt.majorant_step_cost = a.majorant_step_cost;
+  opt.generic_kernels = a.generic_kernels;
+  opt.batches_in_flight = a.batches_in_flight;
+  opt.shadow_ring = a.shadow_ring;
+  opt.feature_floor = a.feature_floor;
+  if (!a.tracker.empty()) {
+    opt.tracker = tracker_from_name(a.tracker);
+    if (*opt.tracker < 0) throw Error(fmt::format("--tracker {}: unknown tracker (one of: {})", a.tracker, tracker_names()));
+  }
+  if (!a.scheme.empty()) {
+    opt.scheme = scheme_from_name(a.scheme);
+    if (*opt.scheme < 0) throw Error(fmt::format("--scheme {}: unknown scheme (one of: {})", a.scheme, scheme_names()));
+  }
+  if (!a.light_sampling.empty()) {
+    opt.light_sampling = light_sampling_from_name(a.light_sampling);
+    if (*opt.light_sampling < 0)
+      throw Error(fmt::format("--light-sampling {}: unknown light sampling (one of: {})", a.light_sampling,
+                              light_sampling_names()));
+  }
+  if (!a.transmittance.empty()) {
+    opt.transmittance = transmittance_from_name(a.transmittance);
+    if (*opt.transmittance < 0)
+      throw Error(fmt::format("--transmittance {}: unknown transmittance estimator (one of: {})", a.transmittance,
+                              transmittance_names()));
+  }
+  if (!a.lookup.empty()) {
+    opt.lookup = lookup_from_name(a.lookup);
+    if (*opt.lookup < 0)
+      throw Error(fmt::format("--lookup {}: unknown density lookup mode (one of: {})", a.lookup, lookup_names()));
+  }
+  if (!a.guiding.empty()) opt.guiding = guiding_from_name(a.guiding);  // checked by CLI11
+  if (a.spectral) opt.color = ST_FILM_COLOR_SPECTRAL;
+  if (a.march_spacing > 0) opt.march_spacing = a.march_spacing;
+  if (a.pilot_spacing > 0) opt.pilot_spacing = a.pilot_spacing;
+  if (!a.absorption.empty()) {
+    opt.absorption = absorption_from_name(a.absorption);
+    if (*opt.absorption < 0)
+      throw Error(fmt::format("--absorption {}: unknown absorption mode (one of: {})", a.absorption, absorption_names()));
+  }
+  if (a.spp > 0) opt.spp = a.spp;
+  if (!a.spp_range.empty()) {
+    int64_t b = 0;
+    check_spp_range(a.spp_range, &opt.sample_begin, &b);  // checked by CLI11 already
+    opt.spp = int(b - opt.sample_begin);
+  }
+  if (!a.pixel_bounds.empty()) {
+    std::array<int, 4> bounds;
+    check_pixel_bounds(a.pixel_bounds, &bounds);  // checked by CLI11 already
+    opt.pixel_bounds = bounds;
+  }
+  return opt;
+}
+
+// How many samples this process renders (its share under MPI), for the progress line.
+int64_t process_samples(const RenderSettings& set, MpiArg& mpi) {
+  int64_t my_begin = set.sample_begin, my_end = set.sample_begin + set.spp;
+#ifdef SPECTRACK_HAVE_MPI
+  if (mpi.on) std::tie(my_begin, my_end) = mpi_sample_share(mpi.world, set.sample_begin, set.spp);
+#endif
+  return std::max<int64_t>(my_end - my_begin, 0);
+}
+
+// This process's share of the samples rendered on its devices (an MPI rank with no samples, when
+// there are more ranks than samples, contributes an empty piece), reduced to rank 0 under MPI.
+MultiDeviceResult render_share(const SceneDesc& scene, const RenderOptions& opt, const RenderSettings& set,
+                               const std::vector<std::string>& devices, int chunk_spp, MpiArg& mpi) {
+  int64_t my_begin = set.sample_begin, my_end = set.sample_begin + set.spp;
+#ifdef SPECTRACK_HAVE_MPI
+  if (mpi.on) std::tie(my_begin, my_end) = mpi_sample_share(mpi.world, set.sample_begin, set.spp);
+#endif
+  MultiDeviceResult r;
+  if (my_end > my_begin) {
+    r = render_multi_device(scene, opt, set, devices, my_begin, int(my_end - my_begin), chunk_spp);
+  } else {
+    r.piece = empty_piece(render_identity(set), set.window, "render");
+    r.record_settings(set);
+    r.light_sampling_used = set.light_sampling;  // no scene packed here: the request ("auto" unresolved)
+  }
+  r.spp_requested = set.spp;
+  r.piece.interrupted = r.piece.interrupted || r.piece.samples() < my_end - my_begin;
+#ifdef SPECTRACK_HAVE_MPI
+  if (mpi.on) mpi_reduce_to_root(mpi.world, r);
+#endif
+  if (mpi.rank == 0) r.piece.interrupted = r.piece.interrupted || r.piece.samples() < set.spp;
+  return r;
+}
+
+// The film layers of a render to `output` (docs/aov.md): film.aovs and --aov; alpha from --alpha /
+// --no-alpha, else film.alpha, else on for an EXR output. Layers need an EXR (a PNG holds the beauty).
+uint32_t film_layers(const RenderArgs& a, const SceneDesc& scene, const std::string& output) {
+  uint32_t aovs = scene.film.aovs & ~uint32_t(ST_AOV_BIT(ALPHA));
+  std::stringstream list(a.aov);
+  std::string name;
+  bool alpha_listed = false;
+  while (std::getline(list, name, ',')) {
+    const int k = aov_from_name(name);
+    if (k < 0) throw Error(fmt::format("--aov {}: unknown layer '{}' (one of: {})", a.aov, name, aov_names()));
+    if (k == ST_AOV_INDEX_ALPHA) alpha_listed = true;
+    else aovs |= 1u << k;
+  }
+  std::string ext = lower_extension(output);
+  const bool exr = ext == ".exr";
+  if (a.alpha && a.no_alpha) throw Error("--alpha and --no-alpha: choose one");
+  if (alpha_listed && a.no_alpha) throw Error(fmt::format("--aov {} lists alpha, which --no-alpha turns off", a.aov));
+  bool alpha = a.alpha || alpha_listed ? true : a.no_alpha ? false : scene.film.alpha.value_or(exr);
+  if (!exr && (aovs || ((a.alpha || alpha_listed || scene.film.alpha.value_or(false)) && !a.no_alpha)))
+    throw Error(fmt::format("{}: film layers ({}) need an EXR output; a PNG holds the beauty only (write an EXR and add "
+                            "--preview for a PNG)",
+                            output, a.aov.empty() ? std::string("film.aovs / film.alpha of ") + scene.path : "--aov " + a.aov));
+  if (!exr) alpha = false;
+  return aovs | (alpha ? uint32_t(ST_AOV_BIT(ALPHA)) : 0u);
+}
+
+ExrOptions exr_options(bool half, const std::string& compression, const FilmDesc& film) {
+  ExrOptions o;
+  o.half = half || film.half;
+  o.compression = compression.empty() ? film.compression : compression;
+  return o;
+}
+
+// One render of a loaded scene (one frame of a sequence) to `output`.
+int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const std::string& output,
+                 std::chrono::steady_clock::time_point t0) {
+  const bool root = mpi.rank == 0;
+  const bool quiet = a.quiet || !root;
+  RenderOptions opt = render_options(a, quiet);
+  opt.aovs = film_layers(a, scene, output);
+  check_half(a.half, scene, output, quiet);  // --half with a PNG: exit 2
+  check_tracker_scheme(scene, opt, a.scheme, a.tracker);  // --scheme with a tracker that ignores it: exit 2
+  const RenderSettings set = resolve_settings(scene, opt);
+  const double time_limit = a.time_limit > 0 ? a.time_limit : scene.render.time_limit;
+  loop_started_flag()->store(false);  // this frame's loop: until it starts, a signal ends the process at once
+  if (time_limit > 0) {
+    opt.deadline = t0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(time_limit));
+    if (std::chrono::steady_clock::now() >= *opt.deadline)  // spent before this frame's set-up began
+      throw TimeLimitError(time_limit_message(deadline_watch().context(), time_limit, phase_slot().load()));
+    deadline_watch().arm(*opt.deadline, time_limit);  // set-up phases: ends the process at the deadline
+  }
+  set_phase("output checks and device selection");
+  check_distinct_paths({{"the image", output}, {"--preview", a.preview}, {"--stats-json", a.stats_json}},
+                       scene_inputs(scene));
+  if (root) {
+    check_output_path(output);
+    if (!a.preview.empty()) check_output_path(a.preview);
+    if (!a.stats_json.empty()) check_writable_file(a.stats_json);
+  }
+  std::vector<std::string> devices = parse_device_list(a.device);
+  check_chunk_spp(a.chunk_spp, devices, a.device);  // meaningless with one device: exit 2
+  if (set.guiding && mpi.on)
+    throw UsageError("--mpi: guiding renders in one process for now (each rank would train its own cache); use "
+                     "--guiding off");
+#ifdef SPECTRACK_HAVE_MPI
+  if (mpi.on && devices.size() == 1 && devices[0].empty()) devices[0] = mpi_default_device(mpi.world);
+#endif
+  // The scene hash reads every VDB and map once more: on the writing rank only, beside the render.
+  std::future<std::string> hash;
+  if (root) hash = std::async(std::launch::async, [&scene] { return scene_hash(scene); });
+  const bool tty = ::isatty(2);
+  opt.progress = progress_reporter(quiet, tty, double(process_samples(set, mpi)));
+  opt.stop = stop_flag();
+  opt.loop_started = loop_started_flag();
+  if (!quiet)
+    std::cerr << fmt::format("spectrack: {} on {} ({}x{}{}, samples {}:{}, tracker {}, scheme {}{})\n", scene.path,
+                             devices.size() == 1 && devices[0].empty() ? select_device("").name : join(devices, ","),
+                             scene.film.width, scene.film.height,
+                             a.pixel_bounds.empty() ? "" : ", pixels " + a.pixel_bounds, set.sample_begin,
+                             set.sample_begin + set.spp, tracker_name(set.tracker), scheme_name(set.scheme),
+                             mpi.on ? fmt::format(", {} MPI ranks", mpi.size) : "");
+  const double seconds_to_renderer = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  set_phase("renderer set-up");
+  MultiDeviceResult r = render_share(scene, opt, set, devices, a.chunk_spp, mpi);
+  deadline_watch().disarm();  // the stage loop ran: what it finished is written whatever the time
+  if (tty && !quiet) std::fprintf(stderr, "\n");
+  const bool signalled = stop_flag()->load();
+  if (!root) return signalled || (r.piece.interrupted && !r.time_limit_reached) ? kExitInterrupted : 0;
+  if (r.piece.samples() > 0) r.piece.id.scene_hash = hash.get();
+  const RenderOutputs out{output, a.preview, a.stats_json, exr_options(a.half, a.compression, scene.film), a.quiet, a.mpi};
+  const RenderTimes times{std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), seconds_to_renderer};
+  return finish_render(out, scene, r, times, mpi.size, time_limit, signalled);
+}
+
+}  // namespace
+
+// A render, or with --frames A:B a sequence: frame patterns (frames.h) in the media's files and
+// in the output, preview and statistics names are replaced per frame; every frame's files are
+// checked before the first render, and a missing one is named.
+int cmd_render(const RenderArgs& a, MpiArg& mpi) {
+  const auto t0 = command_start();
+  // --time-limit bounds the scene loading too (a scene's render.time_limit is known once it is loaded)
+  if (a.time_limit > 0)
+    deadline_watch().arm(t0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                  std::chrono::duration<double>(a.time_limit)),
+                         a.time_limit);
+  set_phase("scene loading");
+  SceneDesc scene = load_scene(a.scene);
+  const std::string output = a.output.empty() ? scene.film.output : a.output;
+  check_no_nul(scene, output);
+  if (a.frames.empty()) {
+    for (const MediumDesc& m : scene.media)
+      if (has_frame_pattern(fs::path(m.file).filename().string()))
+        throw Error(fmt::format("{}: {}/file: {} is a frame pattern: render it with --frames A:B", scene.path, m.json_path, m.file));
+    return render_scene(a, mpi, scene, output, t0);
+  }
+  long long first = 0, last = 0;
+  check_frames(a.frames, &first, &last);  // checked by CLI11 already
+  if (!has_frame_pattern(fs::path(output).filename().string()))
+    throw Error(fmt::format("--frames {}: the output {} has no frame pattern (e.g. out_####.exr or out_$F4.exr), so "
+                            "every frame would overwrite it", a.frames, output));
+  set_phase("the frames' file checks");
+  check_frame_files(scene, first, last);
+  for (long long f = first; f <= last; ++f) {
+    SceneDesc frame = scene;
+    for (MediumDesc& m : frame.media) m.file = expand_frame(m.file, f);
+    RenderArgs fa = a;
+    // the majorant hierarchy is compiled in for every frame (an empty frame has none), so that the
+    // frames share one kernel build
+    if (a.majorant_block > 1) fa.feature_floor = ST_FEATURE_COARSE_MAJORANT;
+    fa.preview = expand_frame(a.preview, f);
+    fa.stats_json = expand_frame(a.stats_json, f);
+    if (!a.quiet && mpi.rank == 0) std::cerr << fmt::format("frame {} ({} of {})\n", f, f - first + 1, last - first + 1);
+    deadline_watch().set_context(fmt::format("frame {}: ", f));  // each frame's limit counts from its start
+    const int code = render_scene(fa, mpi, frame, expand_frame(output, f),
+                                  f == first ? t0 : std::chrono::steady_clock::now());
+    if (code != 0) return code;
+  }
+  return 0;
+}
+
+}  // namespace spectrack

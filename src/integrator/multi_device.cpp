@@ -1,0 +1,249 @@
+// multi_device.cpp: see multi_device.h. Threads share one mutex for the chunk counter, the
+// progress sums and the first error; everything else (renderer, piece, stats) is per device
+// (MultiDeviceRun::PerDevice).
+#include "integrator/multi_device.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdlib>
+#include <exception>
+#include <mutex>
+#include <sstream>
+#include <thread>
+
+#include "device/opencl.h"
+
+namespace spectrack {
+
+std::vector<std::string> parse_device_list(const std::string& spec_in) {
+  std::string spec = spec_in;
+  if (spec.empty())
+    if (const char* e = std::getenv("SPECTRACK_DEVICE")) spec = e;
+  if (spec == "all") {
+    std::vector<std::string> out;
+    for (auto& d : enumerate_devices()) out.push_back(fmt::format("{}:{}", d.platform_index, d.device_index));
+    if (out.empty())
+      throw Error("--device all: no OpenCL device found (install pocl-opencl-icd or a GPU driver)");
+    return out;
+  }
+  if (spec.find(',') == std::string::npos) return {spec};
+  std::vector<std::string> out;
+  std::stringstream ss(spec);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    if (item.empty()) throw Error(fmt::format("--device {}: empty device in the list", spec));
+    out.push_back(item);
+  }
+  if (spec.back() == ',') throw Error(fmt::format("--device {}: empty device in the list", spec));
+  return out;
+}
+
+namespace {
+
+// One multi-device render: the shared chunk counter and progress (under mu), and per device its
+// film piece and statistics.
+class MultiDeviceRun {
+ public:
+  MultiDeviceRun(const SceneDesc& scene, const RenderOptions& base, const RenderSettings& settings,
+                 const std::vector<std::string>& devices, int64_t sample_begin, int spp, int chunk_spp)
+      : scene_(scene), base_(base), settings_(settings), devices_(devices), id_(render_identity(settings)),
+        n_dev_(devices.size()), next_(sample_begin), end_(sample_begin + spp), spp_(spp), chunk_spp_(chunk_spp),
+        dev_(n_dev_), in_chunk_(n_dev_, 0.0) {}
+
+  void run() {
+    if (n_dev_ == 1) {
+      work(0);
+    } else {
+      std::vector<std::thread> threads;
+      for (size_t i = 0; i < n_dev_; ++i) threads.emplace_back([this, i] { work(i); });
+      for (auto& t : threads) t.join();
+    }
+    if (error_) std::rethrow_exception(error_);
+  }
+  MultiDeviceResult combine() const;
+
+ private:
+  struct PerDevice {
+    std::string name;
+    FilmPiece piece;
+    RenderStats stats;
+    int64_t samples = 0;
+    double setup = 0, build = 0, first_pass = -1.0, render = 0;  // render: its stage loops
+    bool from_cache = true, time_limit_reached = false;
+    uint32_t features = 0;
+    int light_sampling_used = 0;
+    std::vector<MajorantInfo> majorants;
+    GuideInfo guide;
+  };
+  bool stopped() const {
+    return failed_.load() || (base_.stop && base_.stop->load()) ||
+           (base_.deadline && std::chrono::steady_clock::now() >= *base_.deadline);
+  }
+  void report() const {  // with mu_ held
+    if (!base_.progress) return;
+    double f = double(finished_);
+    for (double c : in_chunk_) f += c;
+    base_.progress(std::min(1.0, f / double(spp_)));
+  }
+  bool next_chunk(int64_t* begin, int64_t* len) {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (next_ >= end_) return false;
+    *begin = next_;
+    *len = std::min<int64_t>(chunk_spp_, end_ - next_);
+    next_ += *len;
+    return true;
+  }
+  std::string device_label(size_t i) const { return devices_[i].empty() ? "default" : devices_[i]; }
+  void add_chunk(size_t i, int64_t begin, const RenderResult& res);
+  void work(size_t i);
+  void fail(size_t i);
+
+  const SceneDesc& scene_;
+  const RenderOptions& base_;
+  const RenderSettings& settings_;
+  const std::vector<std::string>& devices_;
+  const RenderIdentity id_;
+  const size_t n_dev_;
+  std::mutex mu_;
+  int64_t next_, end_;
+  const int spp_, chunk_spp_;
+  std::vector<PerDevice> dev_;
+  std::vector<double> in_chunk_;  // samples done of each device's current chunk
+  int64_t finished_ = 0;
+  std::exception_ptr error_;
+  std::atomic<bool> failed_{false};
+};
+
+void MultiDeviceRun::add_chunk(size_t i, int64_t begin, const RenderResult& res) {
+  PerDevice& d = dev_[i];
+  FilmPiece& p = d.piece;
+  if (p.sum.empty()) {
+    p.x0 = res.x0, p.y0 = res.y0, p.width = res.width, p.height = res.height;
+    p.sum.assign(res.sum.size(), 0.0);
+    p.aov_sum.assign(res.aov_sum.size(), 0.0);
+    d.setup = res.seconds_setup;
+    d.build = res.seconds_build;
+    d.from_cache = res.kernels_from_cache;
+    d.first_pass = res.seconds_first_pass;
+    d.features = res.features;
+    d.light_sampling_used = res.light_sampling_used;
+    d.majorants = res.majorants;
+    d.guide = res.guide;
+  }
+  d.render += res.seconds_render;
+  for (size_t k = 0; k < res.sum.size(); ++k) p.sum[k] += res.sum[k];
+  for (size_t k = 0; k < res.aov_sum.size(); ++k) p.aov_sum[k] += res.aov_sum[k];
+  if (res.spp_done > 0) p.ranges.push_back({begin, begin + res.spp_done});
+  p.ranges = join_ranges(p.ranges);
+  p.interrupted |= res.interrupted;
+  d.time_limit_reached |= res.time_limit_reached;
+  d.stats.add(res.stats);
+  std::lock_guard<std::mutex> lock(mu_);
+  d.samples += res.spp_done;
+  finished_ += res.spp_done;
+  in_chunk_[i] = 0;
+  report();
+}
+
+void MultiDeviceRun::work(size_t i) {
+  try {
+    RenderOptions opt = base_;
+    opt.device = devices_[i];
+    int64_t chunk_len = 0;
+    opt.progress = [&, i](double f) {
+      std::lock_guard<std::mutex> lock(mu_);
+      in_chunk_[i] = f * double(chunk_len);
+      report();
+    };
+    Renderer r(scene_, opt);
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      dev_[i].name = r.device_name();
+    }
+    dev_[i].piece.source = fmt::format("device {} ({})", device_label(i), r.device_name());
+    dev_[i].piece.id = id_;
+    int64_t begin = 0;
+    while (!stopped() && next_chunk(&begin, &chunk_len)) {
+      RenderResult res = r.render(begin, int(chunk_len));
+      add_chunk(i, begin, res);
+      if (res.interrupted) break;
+    }
+  } catch (...) {
+    fail(i);
+  }
+}
+
+// Keeps the first error (naming the device when there are several) and stops the others.
+void MultiDeviceRun::fail(size_t i) {
+  std::lock_guard<std::mutex> lock(mu_);
+  if (!error_) {
+    try {
+      throw;
+    } catch (const std::exception& e) {
+      error_ = std::make_exception_ptr(Error(n_dev_ == 1 ? std::string(e.what())
+                                                         : fmt::format("device {} of --device list: {}", device_label(i), e.what())));
+    } catch (...) {
+      error_ = std::current_exception();
+    }
+  }
+  failed_.store(true);
+}
+
+MultiDeviceResult MultiDeviceRun::combine() const {
+  MultiDeviceResult out;
+  out.spp_requested = spp_;
+  std::vector<FilmPiece> with_samples;
+  bool interrupted = (base_.stop && base_.stop->load()) ||
+                     (base_.deadline && std::chrono::steady_clock::now() >= *base_.deadline);
+  for (const PerDevice& d : dev_) {
+    out.devices.push_back(d.name);
+    out.samples_per_device.push_back(d.samples);
+    interrupted |= d.piece.interrupted;
+    out.time_limit_reached |= d.time_limit_reached;
+    if (d.piece.samples() > 0) with_samples.push_back(d.piece);
+    out.stats.add(d.stats);
+    out.seconds_setup = std::max(out.seconds_setup, d.setup);
+    out.seconds_build = std::max(out.seconds_build, d.build);
+    out.seconds_render = std::max(out.seconds_render, d.render);
+    out.kernels_from_cache = out.kernels_from_cache && d.from_cache;
+    if (d.first_pass >= 0) {
+      out.seconds_first_pass = out.seconds_first_pass > 0 ? std::min(out.seconds_first_pass, d.first_pass) : d.first_pass;
+      out.features = d.features;
+      out.light_sampling_used = d.light_sampling_used;
+      out.majorants = d.majorants;
+      out.guide = d.guide;
+    }
+  }
+  out.record_settings(settings_);
+  if (with_samples.empty())  // stopped before any sample finished
+    out.piece = empty_piece(id_, settings_.window, "render");
+  else
+    out.piece = with_samples.size() == 1 ? with_samples[0] : merge_pieces(with_samples);
+  out.piece.source = "render";
+  out.piece.interrupted = interrupted || out.piece.samples() < spp_;
+  if (base_.deadline && std::chrono::steady_clock::now() >= *base_.deadline && out.piece.samples() < spp_)
+    out.time_limit_reached = true;  // also when the deadline fell between two chunks
+  return out;
+}
+
+}  // namespace
+
+MultiDeviceResult render_multi_device(const SceneDesc& scene, const RenderOptions& base, const RenderSettings& settings,
+                                      const std::vector<std::string>& devices, int64_t sample_begin, int spp,
+                                      int chunk_spp) {
+  const size_t n_dev = devices.size();
+  if (n_dev == 0) throw Error("internal: no device to render on");
+  if (spp < 1) throw Error("internal: empty sample range");
+  if (settings.guiding && n_dev > 1)
+    throw UsageError("guiding renders on one device for now (each device would train its own cache); use --guiding "
+                     "off with several devices");
+  if (chunk_spp <= 0) chunk_spp = n_dev == 1 ? spp : std::max(1, (spp + int(4 * n_dev) - 1) / int(4 * n_dev));
+  MultiDeviceRun run(scene, base, settings, devices, sample_begin, spp, chunk_spp);
+  run.run();
+  return run.combine();
+}
+
+}  // namespace spectrack

@@ -1,0 +1,343 @@
+// renderer.cpp: the wavefront stage loop on one device (see renderer.h for the design).
+// Set-up: resolve the settings (integrator/settings.h), pack the scene (scene/scene_pack.h), choose
+// the device and upload (device/device_scene.h), build the kernels (cached) for the scene's
+// st_feature mask (--generic-kernels: every feature and ST_MAX_MEDIA media). A render is then a
+// few named steps: plan the batches, check the memory, allocate, bind the stage arguments, run the
+// iterations (launch the stages, read the counters, fold them into the statistics, add finished
+// batches to the film), read the film back. What a scene lacks costs nothing: a scene without
+// lights gets no shadow-ray buffer or queue, and one whose escaping rays see no light gets no
+// escape launch (track sends them straight to finish). With guiding, the first render trains the
+// guide cache (docs/guiding.md): a few passes over the full film with random streams of their own,
+// whose images are dropped and whose radiance records are drained after every iteration and fitted
+// on the host; the render then runs with the cache, its training time counted in seconds_render.
+#include "integrator/renderer_impl.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <cstring>
+#include <iostream>
+
+#include "guiding/guide_cache.h"
+#include "device/device_scene.h"
+#include "integrator/memory_budget.h"
+#include "util/phase.h"
+
+namespace spectrack {
+
+void Renderer::Impl::setup() {
+  auto t0 = Clock::now();
+  settings = resolve_settings(scene, opt);
+  set_phase("scene packing (volumes, environment maps and their CDFs, majorant grids)");
+  PackedScene packed = pack_scene(scene, settings, {opt.majorant_cell, opt.majorant_block, opt.iteration_budget, opt.majorant_step_cost});
+  // the feature mask is in the source, hence in the kernel-cache key
+  if (opt.generic_kernels) packed.features = ST_FEATURES_ALL;
+  packed.features |= opt.feature_floor & uint32_t(ST_FEATURES_ALL);
+  if (settings.guiding) packed.features |= ST_FEATURE_GUIDING;
+  const int max_media = opt.generic_kernels ? ST_MAX_MEDIA : std::max(1, packed.st.n_media);
+  std::vector<std::pair<std::string, std::string>> defines = {
+      {"ST_KERNEL_MAX_MEDIA", std::to_string(max_media)}, {"ST_FEATURES", fmt::format("0x{:x}u", packed.features)}};
+  set_phase("device upload and kernel build");
+  ds = upload_scene(opt.device, std::move(packed), std::move(defines));
+  // guiding off: a header of zeros (nothing guides, nothing records); the kernels compiled without
+  // ST_FEATURE_GUIDING never read it
+  if (settings.guiding) guide = make_guide_cache(ds.packed.st, opt.guide_grid_cells > 0 ? opt.guide_grid_cells : kGuideGridCells);
+  const std::vector<unsigned char> g = guide.serialize();
+  b_guide = ds.buffer(CL_MEM_READ_ONLY, g.size(), g.data(), "guide cache");
+  const uint32_t no_records[4] = {0, 0, 0, 0};
+  b_records = ds.buffer(CL_MEM_READ_WRITE, sizeof(no_records), no_records, "guide records");
+  auto tb = Clock::now();
+  ProgramBuild pb = build_program(ds.ctx, ds.dev, assemble_kernel_source(ds.defines), "-cl-std=CL1.2", opt.quiet);
+  launcher = std::make_unique<KernelLauncher>(ds.queue, pb.program);
+  from_cache = pb.from_cache;
+  warm_kernels();
+  seconds_build = seconds_since(tb);
+  seconds_setup = seconds_since(t0);
+}
+
+// PoCL compiles each kernel for its work-group size at its first launch (seconds per kernel with
+// a cold PoCL cache), which would land in the first render's stage loop: one empty launch of each
+// kernel the renders can launch, at the real work-group size, moves it here, into seconds_build.
+// Every item returns at once without touching memory: the stage kernels see queue sizes and
+// n_new of 0, k_accumulate npix = 0 (each kernel's first statement). The escape stage is skipped
+// when the kernels have none (track never queues an escape), the shadow stage without lights.
+void Renderer::Impl::warm_kernels() {
+  const cl::Buffer none = ds.buffer(CL_MEM_READ_WRITE, 16, nullptr, "warm-up");
+  const st_iteration idle{};
+  for (const Stage& s : kStages) {
+    if (s.queue == ST_Q_ESCAPE && !(ds.packed.features & ST_FEATURE_ESCAPE)) continue;
+    if (s.queue == ST_Q_SHADOW && ds.packed.st.n_lights == 0) continue;
+    cl::Kernel& k = launcher->kernel(s.kernel);
+    k.setArg(ST_ARG_SCENE, ds.b_scene);
+    k.setArg(ST_ARG_GRIDS, ds.b_grids);
+    k.setArg(ST_ARG_MAJORANTS, ds.b_maj);
+    k.setArg(ST_ARG_ENV, ds.b_env);
+    for (int a : {ST_ARG_PATHS, ST_ARG_SHADOWS, ST_ARG_QUEUES, ST_ARG_COUNTERS, ST_ARG_RESULTS, ST_ARG_GUIDE,
+                  ST_ARG_GUIDE_RECORDS})
+      k.setArg(a, none);
+    k.setArg(ST_ARG_SLOTS, cl_uint(0));
+    k.setArg(ST_ARG_LIGHTS, cl_uint(0));
+    k.setArg(ST_ARG_ITERATION, idle);
+    launcher->warm(s.kernel);
+  }
+  cl::Kernel& acc = launcher->kernel("k_accumulate");
+  acc.setArg(0, none);
+  acc.setArg(1, none);
+  for (int a = 2; a < 8; ++a) acc.setArg(a, cl_uint(0));
+  launcher->warm("k_accumulate");
+  ST_CL_CHECK(ds.queue.finish(), "kernel warm-up");
+}
+
+// Launches one iteration's stages; false on a stop request or at the deadline, which end the
+// render at once: the film holds the batches finished so far (samples 0 .. samples_done - 1 of
+// the range, every batch being whole samples of every pixel), and the paths in flight are dropped.
+bool Renderer::Impl::begin_iteration(LoopState& s, const BatchPlan& p, int64_t sample_begin) {
+  if (opt.stop && opt.stop->load()) return false;
+  if (opt.deadline && Clock::now() >= *opt.deadline) {
+    s.time_limit_reached = true;
+    return false;
+  }
+  uint64_t issue_limit = std::min<uint64_t>(p.total_paths, (s.accumulated + batches_ahead(s.accumulated, p.ring)) * p.batch_paths);
+  issue_limit = std::min<uint64_t>(issue_limit, s.batches_target * p.batch_paths);
+  uint64_t n_new = std::min<uint64_t>(s.n_q[ST_Q_FREE], issue_limit > s.issued ? issue_limit - s.issued : 0);
+  uint64_t in_flight = 0;
+  for (int q = ST_Q_TRACK; q < ST_Q_COUNT; ++q) in_flight += s.n_q[q];
+  if (n_new == 0 && in_flight == 0)
+    throw Error(fmt::format("internal: wavefront stalled with {} of {} batches accumulated", s.accumulated, s.batches_target));
+  st_iteration it{};
+  it.first = s.issued;
+  it.cur = s.cur;
+  for (int q = 0; q < ST_Q_COUNT; ++q) it.n_queue[q] = cl_uint(s.n_q[q]);
+  it.n_new = cl_uint(n_new);
+  it.batch_paths = cl_uint(p.batch_paths);
+  it.sample_begin = cl_uint(sample_begin);
+  it.samples_per_batch = cl_uint(p.samples_per_batch);
+  for (const Stage& st : kStages) launcher->kernel(st.kernel).setArg(ST_ARG_ITERATION, it);
+  // raygen runs over the n_new slots it fills (the top of the free stack); the others stay put
+  for (const Stage& st : kStages) launcher->launch(st.kernel, st.queue == ST_Q_FREE ? n_new : s.n_q[st.queue]);
+  s.free_kept = s.n_q[ST_Q_FREE] - n_new;
+  s.issued += n_new;
+  return true;
+}
+
+void Renderer::Impl::fold_counters(LoopState& s, const BatchPlan& p, RenderStats& S) const {
+  const std::vector<uint32_t>& c = s.counters;
+  for (int q = 0; q < ST_Q_COUNT; ++q) s.n_q[q] = c[ST_C_QUEUE + q];
+  s.n_q[ST_Q_FREE] = s.free_kept + c[ST_C_QUEUE + ST_Q_FREE];  // the stack: kept + pushed by finish
+  // every path slot is in exactly one path queue at an iteration boundary
+  uint64_t slots = 0;
+  for (int q = 0; q < ST_Q_PATH_QUEUES; ++q) slots += s.n_q[q];
+  if (slots != p.Q)
+    throw Error(fmt::format("internal: the path queues hold {} slots after iteration {}, not {}", slots, S.iterations, p.Q));
+  record_occupancy(S, s.n_q, p.Q);
+  s.cur = 1 - s.cur;
+  static const bool trace = [] {
+    const char* e = std::getenv("SPECTRACK_TRACE_QUEUES");
+    return e && std::string(e) != "0";
+  }();
+  if (trace)
+    std::cerr << fmt::format("iteration {}: issued {} free {} track {} escape {} scatter {} finish {} shadow {} "
+                             "done {}+{} accumulated {}\n",
+                             S.iterations, s.issued, s.n_q[ST_Q_FREE], s.n_q[ST_Q_TRACK], s.n_q[ST_Q_ESCAPE],
+                             s.n_q[ST_Q_SCATTER], s.n_q[ST_Q_FINISH], s.n_q[ST_Q_SHADOW],
+                             s.batch_done[0] + c[ST_C_BATCH_DONE], p.ring > 1 ? s.batch_done[1] + c[ST_C_BATCH_DONE + 1] : 0,
+                             s.accumulated);
+  for (uint64_t r = 0; r < p.ring; ++r) s.batch_done[r] += c[ST_C_BATCH_DONE + r];
+#define ST_X_FOLD(E, field, key) S.field += c[ST_C_##E];
+  ST_SUM_COUNTERS(ST_X_FOLD)
+#undef ST_X_FOLD
+  s.max_bits = std::max(s.max_bits, c[ST_C_MAX_THROUGHPUT_BITS]);
+}
+
+// Adds every completed batch to the film, in batch order.
+void Renderer::Impl::accumulate_finished(LoopState& s, const BatchPlan& p, RenderResult& res) {
+  cl::Kernel& acc = launcher->kernel("k_accumulate");
+  while (s.accumulated < s.batches_target) {
+    uint64_t b = s.accumulated;
+    uint64_t expected = p.batch_samples(b) * p.npix * p.nch;
+    if (s.batch_done[b % p.ring] < expected) break;
+    acc.setArg(2, cl_uint((b % p.ring) * p.batch_paths));
+    acc.setArg(3, cl_uint(p.batch_samples(b)));
+    acc.setArg(4, cl_uint(p.npix));
+    acc.setArg(5, cl_uint(p.nch));
+    acc.setArg(6, cl_uint(p.L));
+    acc.setArg(7, cl_uint(p.moments));
+    launcher->launch("k_accumulate", p.npix);
+    s.batch_done[b % p.ring] -= expected;
+    s.samples_done += p.batch_samples(b);
+    res.stats.paths += expected;
+    if (s.accumulated == 0) res.seconds_first_pass = first_pass_seconds();
+    ++s.accumulated;
+  }
+}
+
+RenderResult Renderer::Impl::result_header(int64_t sample_begin, int spp) const {
+  RenderResult res;
+  res.width = settings.window.width;
+  res.height = settings.window.height;
+  res.full_width = settings.full_width;
+  res.full_height = settings.full_height;
+  res.x0 = settings.window.x0;
+  res.y0 = settings.window.y0;
+  res.sample_begin = sample_begin;
+  res.spp_requested = spp;
+  res.record_settings(settings);
+  res.device = ds.dev.name;
+  res.seconds_setup = seconds_setup;
+  res.seconds_build = seconds_build;
+  res.kernels_from_cache = from_cache;
+  res.features = ds.packed.features;
+  res.light_sampling_used = ds.packed.st.light_sampling;
+  res.majorants = ds.packed.majorants;
+  return res;
+}
+
+void Renderer::Impl::read_film(const RenderBuffers& b, const BatchPlan& p, const LoopState& s, RenderResult& res) {
+  res.spp_done = int(s.samples_done);
+  res.interrupted = s.samples_done < p.spp;
+  res.time_limit_reached = s.time_limit_reached;
+  res.aov_channels = aov_sum_channels(settings.aovs);
+  const size_t na = res.aov_channels.size();
+  res.rgb.assign(p.npix * 3, 0.0f);
+  res.sum.assign(p.npix * 3, 0.0);
+  res.aov_sum.assign(p.npix * na, 0.0);
+  // the film comes back in chunks of pixels (every layer's sums and compensations of the chunk),
+  // so the host never holds a copy of the whole device film
+  const uint64_t segments = 2 * p.film_layers(), chunk = std::min<uint64_t>(p.npix, uint64_t(1) << 16);
+  std::vector<st_float4> film(segments * chunk);
+  uint64_t i0 = 0;
+  // Kahan: the exact sum of layer l is (to float rounding of the terms) sum - compensation
+  auto layer = [&](uint64_t l, uint64_t i, int k) {
+    const st_float4& f = film[2 * l * chunk + (i - i0)];
+    const st_float4& c = film[(2 * l + 1) * chunk + (i - i0)];
+    const float* fv = &f.x;
+    const float* cv = &c.x;
+    return double(fv[k]) - double(cv[k]);
+  };
+  for (uint64_t i = 0; i < p.npix; ++i) {
+    if (i == i0 + chunk || i == 0) {
+      i0 = i;
+      const uint64_t n = std::min(chunk, p.npix - i0);
+      for (uint64_t g = 0; g < segments; ++g)
+        ST_CL_CHECK(ds.queue.enqueueReadBuffer(b.film, CL_FALSE, (g * p.npix + i0) * sizeof(st_float4),
+                                               n * sizeof(st_float4), film.data() + g * chunk),
+                    "read film");
+      ST_CL_CHECK(ds.queue.finish(), "read film");
+    }
+    size_t a = 0;  // next aov channel, in aov_sum_channels order: alpha, environment, variance
+    for (int k = 0; k < 3; ++k) {
+      // the environment layer is the part of the beauty the paths did not keep (shade.cl): a
+      // transparent film (alpha) leaves it out of R, G, B, an opaque one adds it back
+      const double env = p.L > 1 && !(settings.aovs & ST_AOV_BIT(ALPHA)) ? layer(ST_RESULT_ENVIRONMENT, i, k) : 0.0;
+      res.sum[i * 3 + k] = layer(ST_RESULT_BEAUTY, i, k) + env;
+      if (s.samples_done > 0) res.rgb[i * 3 + k] = float(res.sum[i * 3 + k] / double(s.samples_done));
+    }
+    if (settings.aovs & ST_AOV_BIT(ALPHA))
+      for (int k = 0; k < 3; ++k) res.aov_sum[i * na + a++] = layer(ST_RESULT_ALPHA, i, k);
+    if (settings.aovs & ST_AOV_BIT(ENVIRONMENT))
+      for (int k = 0; k < 3; ++k) res.aov_sum[i * na + a++] = layer(ST_RESULT_ENVIRONMENT, i, k);
+    if (settings.aovs & ST_AOV_BIT(VARIANCE))
+      for (int k = 0; k < 3; ++k) res.aov_sum[i * na + a++] = layer(p.L, i, k);
+    if (settings.aovs & ST_AOV_BIT(EMISSION))
+      for (int k = 0; k < 3; ++k) res.aov_sum[i * na + a++] = layer(ST_RESULT_EMISSION, i, k);
+    if (settings.aovs & ST_AOV_BIT(DIRECT))
+      for (int k = 0; k < 3; ++k) res.aov_sum[i * na + a++] = layer(ST_RESULT_DIRECT, i, k);
+    if (settings.aovs & ST_AOV_BIT(INDIRECT))  // the rest of what the paths kept: the passes add up
+      for (int k = 0; k < 3; ++k)
+        res.aov_sum[i * na + a++] =
+            layer(ST_RESULT_BEAUTY, i, k) - layer(ST_RESULT_EMISSION, i, k) - layer(ST_RESULT_DIRECT, i, k);
+    if (settings.aovs & ST_AOV_BIT(ALBEDO))  // sums over the samples whose camera ray collided
+      for (int k = 0; k < 3; ++k) res.aov_sum[i * na + a++] = layer(ST_RESULT_AUX, i, k);
+    if (settings.aovs & ST_AOV_BIT(DEPTH)) res.aov_sum[i * na + a++] = layer(ST_RESULT_AUX, i, 3);
+    if (settings.aovs & (ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH)))
+      res.aov_sum[i * na + a++] = layer(ST_RESULT_ALPHA, i, 3);  // how many of them collided
+  }
+}
+
+RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
+  if (sample_begin < 0 || spp < 1 || uint64_t(sample_begin) + uint64_t(spp) > (uint64_t(1) << 32))
+    throw Error(fmt::format("sample range {}:{} is not a non-empty range of sample indices 0 .. 2^32",
+                            sample_begin, sample_begin + spp));
+  const double seconds_training = settings.guiding && !guide_trained ? train_guide() : 0.0;
+  RenderResult res = run_stage_loop(sample_begin, spp, nullptr);
+  res.seconds_render += seconds_training;  // efficiency counts the training
+  res.guide = guide_info;
+  return res;
+}
+
+RenderResult Renderer::Impl::run_stage_loop(int64_t sample_begin, int spp, std::vector<st_guide_record>* records) {
+  RenderResult res = result_header(sample_begin, spp);
+  launcher->times().clear();
+  BatchPlan plan = plan_batches(spp);
+  // the default shadow ring falls back to one entry per (path, light) where two would not fit (the
+  // image is the same; paths may wait for their shadow rays)
+  if (opt.shadow_ring == 0 && plan.shadow_ring > 1 && memory_need(plan).device > double(ds.dev.global_mem)) {
+    plan.shadow_ring = 1;
+    plan.NL = uint64_t(ds.packed.st.n_lights);
+  }
+  check_memory(plan);  // refuse what cannot fit before allocating anything
+  set_phase("film allocation");
+  set_ring_size(plan.ring);
+  RenderBuffers buf = allocate(plan);
+  if (settings.guiding) {  // training: records on, vertex rings, one iteration's records
+    const uint64_t capacity = records ? guide_record_capacity(plan.Q) : 0;
+    const uint32_t head[4] = {0, 0, 0, 0};
+    b_records = ds.buffer(CL_MEM_READ_WRITE, guide_record_buffer_bytes(plan.Q, records != nullptr), nullptr, "guide records");
+    ST_CL_CHECK(ds.queue.enqueueWriteBuffer(b_records, CL_TRUE, 0, sizeof(head), head), "clear the guide record count");
+    guide.header.dims[3] = int(capacity);
+    guide.header.inv_cell.w = records ? 1.0f : 0.0f;
+    upload_guide();
+  }
+  bind_stage_args(buf, plan);
+
+  LoopState s;
+  s.n_q[ST_Q_FREE] = plan.Q;
+  s.batch_done.assign(plan.ring, 0);
+  s.batches_target = plan.n_batches;
+  const std::vector<uint32_t> zeros(ST_C_COUNT, 0u);
+  auto t_loop = Clock::now();
+  if (opt.loop_started) opt.loop_started->store(true);
+  while (s.accumulated < s.batches_target) {
+    if (!begin_iteration(s, plan, sample_begin)) break;
+    ST_CL_CHECK(ds.queue.enqueueReadBuffer(buf.counters, CL_TRUE, 0, s.counters.size() * 4, s.counters.data()), "read counters");
+    ST_CL_CHECK(ds.queue.enqueueWriteBuffer(buf.counters, CL_FALSE, 0, zeros.size() * 4, zeros.data()), "reset counters");
+    if (records) drain_records(*records);
+    launcher->collect_profiling();
+    res.stats.iterations++;
+    fold_counters(s, plan, res.stats);
+    accumulate_finished(s, plan, res);
+    if (opt.progress) {  // finished paths, the accumulated batches' and those in flight: smooth within batches
+      uint64_t paths = s.samples_done * plan.npix * plan.nch;
+      for (uint64_t d : s.batch_done) paths += d;
+      opt.progress(std::min(1.0, double(paths) / double(plan.total_paths)));
+    }
+  }
+  ST_CL_CHECK(ds.queue.finish(), "finish stage loop");
+  res.seconds_render = seconds_since(t_loop);  // the stage loop alone (kernel JIT is in seconds_build)
+  read_film(buf, plan, s, res);
+  launcher->collect_profiling();
+  float mt;
+  std::memcpy(&mt, &s.max_bits, 4);
+  res.stats.max_throughput = mt;
+  res.stats.kernels = launcher->times();
+  return res;
+}
+
+Renderer::Renderer(const SceneDesc& scene, const RenderOptions& options) : impl_(new Impl) {
+  impl_->scene = scene;
+  impl_->opt = options;
+  impl_->setup();
+}
+Renderer::~Renderer() = default;
+
+RenderResult Renderer::render() { return impl_->render(impl_->settings.sample_begin, impl_->settings.spp); }
+RenderResult Renderer::render(int64_t sample_begin, int spp) { return impl_->render(sample_begin, spp); }
+const std::string& Renderer::device_name() const { return impl_->ds.dev.name; }
+uint32_t Renderer::features() const { return impl_->ds.packed.features; }
+const SceneDesc& Renderer::scene() const { return impl_->scene; }
+const RenderSettings& Renderer::settings() const { return impl_->settings; }
+DeviceScene& Renderer::device_scene() { return impl_->ds; }
+
+}  // namespace spectrack

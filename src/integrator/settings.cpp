@@ -1,0 +1,97 @@
+// settings.cpp: see settings.h. The tracker's properties come from the tracker table of
+// kernels/types.h (ST_TRACKERS), which the kernels read too.
+#include "integrator/settings.h"
+
+#include <fmt/format.h>
+
+namespace spectrack {
+
+namespace {
+
+FilmWindow resolve_window(const SceneDesc& scene, const RenderOptions& o) {
+  const int W = scene.film.width, H = scene.film.height;
+  if (!o.pixel_bounds) return FilmWindow{0, 0, W, H};
+  auto [x0, x1, y0, y1] = *o.pixel_bounds;
+  if (!(0 <= x0 && x0 < x1 && 0 <= y0 && y0 < y1))
+    throw Error(fmt::format("pixel bounds {},{},{},{} (x0,x1,y0,y1) are not a non-empty window", x0, x1, y0, y1));
+  if (x1 > W || y1 > H)
+    throw Error(fmt::format("--pixel-bounds {},{},{},{}: the window x {}..{}, y {}..{} leaves the {}x{} film of {} "
+                            "(/film/width, /film/height)",
+                            x0, x1, y0, y1, x0, x1 - 1, y0, y1 - 1, W, H, scene.path));
+  return FilmWindow{x0, y0, x1 - x0, y1 - y0};
+}
+
+}  // namespace
+
+RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) {
+  RenderSettings s;
+  s.tracker = o.tracker.value_or(scene.render.tracker);
+  s.scheme = o.scheme.value_or(scene.render.scheme);
+  if (s.tracker < 0 || s.tracker >= ST_TRACKER_COUNT) throw Error(fmt::format("tracker {} does not exist", s.tracker));
+  if (s.scheme < 0 || s.scheme >= ST_SCHEME_COUNT) throw Error(fmt::format("spectral scheme {} does not exist", s.scheme));
+  // a tracker without a scheme runs the analog probabilities (kernels/tracking.h): record those
+  if (!st_tracker_uses_scheme(s.tracker)) s.scheme = ST_SCHEME_MAX;
+  // absorption: the option, else the scene, else the tracker's default (ST_TRACKERS)
+  s.absorption = o.absorption.value_or(scene.render.absorption >= 0 ? scene.render.absorption
+                                                                     : st_tracker_default_absorption(s.tracker));
+  if (s.absorption < 0 || s.absorption >= ST_ABSORPTION_COUNT)
+    throw Error(fmt::format("absorption mode {} does not exist", s.absorption));
+  s.light_sampling = o.light_sampling.value_or(scene.render.light_sampling >= 0 ? scene.render.light_sampling
+                                                                             : kDefaultLightSampling);
+  if (s.light_sampling < 0 || s.light_sampling >= ST_LIGHT_SAMPLING_COUNT)
+    throw Error(fmt::format("light sampling mode {} does not exist", s.light_sampling));
+  s.transmittance = o.transmittance.value_or(scene.render.transmittance >= 0 ? scene.render.transmittance
+                                                                           : kDefaultTransmittance);
+  if (s.transmittance < 0 || s.transmittance >= ST_TRANSMITTANCE_COUNT)
+    throw Error(fmt::format("transmittance estimator {} does not exist", s.transmittance));
+  s.lookup = o.lookup.value_or(scene.render.lookup >= 0 ? scene.render.lookup : kDefaultLookup);
+  if (s.lookup < 0 || s.lookup >= ST_LOOKUP_COUNT) throw Error(fmt::format("density lookup mode {} does not exist", s.lookup));
+  s.color = o.color.value_or(scene.render.color);
+  if (s.color < 0 || s.color >= ST_FILM_COLOR_COUNT) throw Error(fmt::format("colour mode {} does not exist", s.color));
+  s.march_spacing = o.march_spacing.value_or(kDefaultMarchSpacing);
+  s.pilot_spacing = o.pilot_spacing.value_or(kDefaultPilotSpacing);
+  // below 1e-3 a sample per thousandth of an optical depth; above 1e3 one sample per ray
+  for (auto [name, v] : {std::pair<const char*, double>{"--march-spacing", s.march_spacing}, {"--pilot-spacing", s.pilot_spacing}})
+    if (!(v >= 1e-3 && v <= 1e3))
+      throw Error(fmt::format("{} {}: the majorant optical depth between ray-marching samples must be in [0.001, 1000]",
+                              name, v));
+  // film layers: the option, else film.aovs with film.alpha (library default: no alpha; the CLI
+  // turns it on for EXR outputs); alpha makes the film transparent, so the environment layer
+  // holds what RGB leaves out
+  s.aovs = o.aovs ? *o.aovs : (scene.film.aovs | (scene.film.alpha.value_or(false) ? uint32_t(ST_AOV_BIT(ALPHA)) : 0u));
+  if (s.aovs >= (1u << ST_AOV_COUNT)) throw Error(fmt::format("film layer mask 0x{:x} names layers that do not exist", s.aovs));
+  if (s.aovs & ST_AOV_BIT(ALPHA)) s.aovs |= ST_AOV_BIT(ENVIRONMENT);
+  s.seed = o.seed ? uint32_t(*o.seed) : scene.render.seed;
+  s.spp = o.spp.value_or(scene.film.spp);
+  s.sample_begin = o.sample_begin;
+  if (s.sample_begin < 0 || s.spp < 1 || uint64_t(s.sample_begin) + uint64_t(s.spp) > (uint64_t(1) << 32))
+    throw Error(fmt::format("sample range {}:{} is not a non-empty range of sample indices 0 .. 2^32", s.sample_begin,
+                            s.sample_begin + s.spp));
+  s.window = resolve_window(scene, o);
+  s.full_width = scene.film.width;
+  s.full_height = scene.film.height;
+  s.channels_per_sample = st_paths_per_sample(s.tracker, s.color);
+  // guiding: auto resolves to off until measurements say where it pays (docs/guiding.md); the
+  // cache is trained over the full film and every sample from 0, so a window or a sample range
+  // would train another cache than the single render's: refused for now
+  const int guiding = o.guiding.value_or(scene.render.guiding >= 0 ? scene.render.guiding : int(kGuidingAuto));
+  s.guiding = guiding == kGuidingOn;
+  if (s.guiding && (o.pixel_bounds || s.sample_begin != 0))
+    throw UsageError("guiding does not work with --pixel-bounds or --spp-range yet (its cache is trained over the "
+                     "full film); use --guiding off for shards and tiles");
+  if (st_tracker_achromatic_only(s.tracker)) {
+    for (auto& m : scene.media) {
+      if (!achromatic(m.sigma_a) || !achromatic(m.sigma_s))
+        throw Error(fmt::format("{}: {}: tracker '{}' needs achromatic media (equal sigma_a and sigma_s in every "
+                                "channel); medium '{}' is chromatic: use delta-per-channel or spectral",
+                                scene.path, m.json_path, tracker_name(s.tracker), m.name));
+      else if (m.color.present)
+        throw Error(fmt::format("{}: {}/color: tracker '{}' needs achromatic media; medium '{}' has a colour grid, "
+                                "which makes its coefficients differ by channel: use delta-per-channel or spectral",
+                                scene.path, m.json_path, tracker_name(s.tracker), m.name));
+    }
+  }
+  return s;
+}
+
+}  // namespace spectrack

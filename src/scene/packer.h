@@ -1,0 +1,112 @@
+// packer.h: the scene compiler's parts, shared by its files: scene_pack.cpp (pack_scene and the
+// feature mask), pack_media.cpp (transforms, grids, majorants, emission bounds), pack_lights.cpp
+// (lights, environment maps and their CDFs, light selection) and pack_camera.cpp (the camera).
+// Internal to src/scene: pack_scene (scene_pack.h) is the interface.
+#pragma once
+#include <array>
+#include <string>
+#include <vector>
+
+#include "scene/scene_pack.h"
+#include "volume/volume.h"
+#include "scene/framing.h"
+
+namespace spectrack {
+namespace packing {
+
+// Entries of a blackbody colour table (kernels/medium.h blackbody_rgb, src/color/blackbody.h): 16384
+// keep linear interpolation within ~1e-4 of the integral from 100 K to 1e9 K, at 256 KiB.
+constexpr int kBlackbodyEntries = 16384;
+static_assert(ST_BLACKBODY_T_FLOOR == kBlackbodyTableFloor, "kernels/types.h and src/color/blackbody.h: one floor");
+
+// The emission bounds (scene/radiance.h) of a blackbody medium whose brightest colour component
+// up to T_hi kelvin, before `scale`, is `peak` (`what`: "colour"; spectral mode checks its
+// brightest spectral radiance as the film reads it as well).
+void check_blackbody_bounds(const std::string& ctx, const MediumDesc& md, double peak, double T_hi, double density_max,
+                            const char* what = "colour");
+
+// The brightest spectral radiance of a blackbody at T as the film reads it, before `scale`
+// (kernels/medium.h blackbody_spectral_Le; temperatures below the table's floor emit as the floor).
+double spectral_blackbody_peak(double T, BlackbodyNorm norm);
+
+inline st_float4 f4(double x, double y, double z, double w = 0) { return st_float4{float(x), float(y), float(z), float(w)}; }
+inline st_float4 f4(const Vec3& v, double w = 0) { return f4(v[0], v[1], v[2], w); }
+
+// 4x4 affine matrices in double precision, row-major, for the medium transforms.
+struct Mat4 {
+  double m[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
+  Mat4 operator*(const Mat4& b) const {
+    Mat4 r;
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) {
+        r.m[i][j] = 0;
+        for (int k = 0; k < 4; ++k) r.m[i][j] += m[i][k] * b.m[k][j];
+      }
+    return r;
+  }
+};
+
+Mat4 inverse_affine(const Mat4& a, const std::string& what);
+// The mean length of the chords of a box with sides a over uniformly random lines crossing it
+// (Cauchy: 4 V / S).
+double mean_chord(const std::array<double, 3>& a);
+// The residual majorant of a majorant cell with bounds (dmax, dmin), per unit of sigma_t, as the
+// walk's segments take it (majorant.h segments_current); without decomposition the majorant.
+double residual_majorant(double dmax, double dmin, double majorant_scale, double minorant_scale, bool decompose);
+// The largest channel's extinction per unit density (a colour medium's: its bound sigma_t_maj, at
+// which its flights run): the gray rate a shadow ray's lookups scale with.
+double max_sigma_t(const st_medium& m);
+// scale, then rotations about x, y, z, then translate (docs/scene-format.md, `transform`)
+Mat4 user_transform(const TransformDesc& t);
+// The hierarchy's automatic step cost (docs/majorant-hierarchy.md, bench/RESULTS.md "Adaptive
+// majorant hierarchy"): 0.6 density lookups per DDA step, measured on PoCL, where the render time
+// stays level while lookups fall; 2 for spectral trackers that decompose, whose variance grows by
+// about 10% with the tighter control of finer levels (media with a control: not colour media) (the control's per-channel collision weights
+// replace the residual's history-aware probabilities), which the lookup-only model does not see.
+double auto_majorant_step_cost(int tracker, bool has_control);
+Vec3 normalize(Vec3 v);
+Vec3 cross(const Vec3& a, const Vec3& b);
+
+// Fills a PackedScene; member names follow st_scene's buffers.
+struct Packer {
+  const SceneDesc& scene;
+  const PackOptions& opt;
+  st_scene& st;
+  std::vector<uint32_t>& grid_words;
+  std::vector<float>& maj_cells;
+  std::vector<float>& env_data;
+  std::vector<MajorantInfo>& majorants;
+  int tracker = 0;                     // st_tracker: the majorant hierarchy's cost model
+  bool spectral = false;               // spectral mode (make_spectral follows): its bounds are checked too
+  std::vector<Box3> media_boxes = {};  // world boxes, for the camera's framing
+  Vec3 camera_position = {};          // as placed (framing included), in double
+  // Each light's power up to the common factor pi r^2 of pbrt-v4's Light::Phi (r: the scene
+  // radius): the mean over channels of the irradiance a directional light gives, or 4 pi times the
+  // mean radiance of an environment over the sphere.
+  std::array<double, ST_MAX_LIGHTS> light_power = {};
+  // density lookups of a shadow ray crossing every medium along its box's mean chord (the sum of
+  // MajorantInfo::chord_lookups, homogeneous media included): light sampling "auto"
+  double chord_lookups = 0;
+
+  void add_medium(int i, const MediumDesc& md);
+  void add_vdb_medium(st_medium& m, const MediumDesc& md, const std::string& ctx_name);
+  // the majorant grid (and hierarchy) of a VDB medium, its MajorantInfo and chord lookups
+  void add_majorants(st_medium& m, const MediumDesc& md, const GridData& g, const Mat4& index_to_scene);
+  // a VDB medium's emission: blackbody bounds, temperature or emission grid
+  void add_emission(st_medium& m, const MediumDesc& md, const GridData& g, const std::string& ctx_name);
+  // returns the colour's largest value over its channels, its voxels and its background
+  double add_color_grid(st_medium& m, const MediumDesc& md, const GridData& density, const std::string& ctx_name);
+  GridData add_temperature_grid(st_medium& m, const MediumDesc& md, const GridData& density, const std::string& ctx_name);
+  uint32_t upload_grid(const std::string& ctx_name, const GridData& g);
+  void add_light(int i, const LightDesc& ld);
+  // both return the map's mean radiance over the sphere (before its scale)
+  double add_env_map(st_light& l, const LightDesc& ld);
+  double add_env_cdf(st_light& l);
+  void set_light_selection(int light_sampling);
+  int resolve_light_sampling(int requested) const;
+  void set_camera();
+  uint32_t scene_features() const;
+};
+
+}  // namespace packing
+}  // namespace spectrack

@@ -1,0 +1,215 @@
+// scene_media.cpp: the media and lights of a spectrack-scene/1 file (docs/scene-format.md):
+// each medium's type, coefficients, grids, phase function, emission, colour and transform, and
+// each light, read by the Parser of scene_parser.h.
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <iomanip>
+#include <limits>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "scene/scene_parser.h"
+#include "scene/radiance.h"
+#include "util/files.h"
+#include "scene/frames.h"
+#include "util/strings.h"
+
+namespace spectrack {
+namespace parsing {
+
+LightDesc Parser::light(const json& j, const std::string& path) {
+  expect_object(j, path);
+  const Names all = {"type", "radiance", "map", "scale", "to_light", "irradiance", "angle_deg"};
+  fields(j, path, all);
+  LightDesc l;
+  l.json_path = path;
+  need(j, path, "type", "expected \"environment\" or \"directional\"");
+  std::string type = string(j, path, "type", "");
+  if (type == "environment") {
+    fields(j, path, {"type", "radiance", "map", "scale"}, "an environment light", all);
+    if (find(j, "map")) {
+      if (find(j, "radiance")) fail(path + "/radiance", "not allowed together with \"map\" (use \"scale\")");
+      l.type = ST_LIGHT_ENV_MAP;
+      l.map = file(j, path, "map", true);
+      l.scale = number(j, path, "scale", l.scale, kNonNegative);
+    } else {
+      if (find(j, "scale")) fail(path + "/scale", "only allowed with \"map\"");
+      l.type = ST_LIGHT_ENV_UNIFORM;
+      l.radiance = vec3(j, path, "radiance", l.radiance, kNonNegative);
+    }
+  } else if (type == "directional") {
+    fields(j, path, {"type", "to_light", "irradiance", "angle_deg"}, "a directional light", all);
+    l.type = ST_LIGHT_DIRECTIONAL;
+    l.to_light = vec3_at(need(j, path, "to_light"), path + "/to_light", kAny);
+    if (l.to_light[0] == 0 && l.to_light[1] == 0 && l.to_light[2] == 0) fail(path + "/to_light", "must not be zero");
+    l.irradiance = vec3(j, path, "irradiance", l.irradiance, kNonNegative);
+    l.angle_deg = number(j, path, "angle_deg", l.angle_deg, Range{0, 180, false, true});
+  } else {
+    fail(path + "/type", "unknown light type " + in_quotes(type) + " (expected one of: environment, directional)");
+  }
+  return l;
+}
+
+MediumDesc Parser::medium(const json& j, const std::string& path, size_t index) {
+  expect_object(j, path);
+  const Names all = {"name", "type", "file", "grid", "grid_index", "bounds", "density_scale", "sigma_s",
+                     "sigma_a", "phase", "emission", "color", "transform", "majorant_scale", "minorant_scale"};
+  Names vdb, homogeneous;
+  for (const char* k : all) {
+    if (std::strcmp(k, "bounds") != 0) vdb.push_back(k);
+    if (!contains({"file", "grid", "grid_index", "transform", "color"}, k)) homogeneous.push_back(k);
+  }
+  fields(j, path, all);
+
+  MediumDesc m;
+  m.json_path = path;
+  m.name = string(j, path, "name", "medium" + std::to_string(index));
+  context_ = ", in medium " + in_quotes(m.name);
+  need(j, path, "type", "expected \"vdb\" or \"homogeneous\"");
+  std::string type = string(j, path, "type", "");
+  if (type == "vdb") {
+    fields(j, path, vdb, "a vdb medium", all);
+    m.type = ST_MEDIUM_VDB;
+    need(j, path, "file", "the .vdb or .nvdb file");
+    m.file = file(j, path, "file", true);
+    m.grid = string(j, path, "grid", m.grid);
+    m.grid_index = static_cast<int>(integer(j, path, "grid_index", m.grid_index, 0, std::numeric_limits<int>::max()));
+    if (const json* t = find(j, "transform")) m.transform = transform(*t, path + "/transform");
+    if (const json* c = find(j, "color")) m.color = color(*c, path + "/color");
+  } else if (type == "homogeneous") {
+    fields(j, path, homogeneous, "a homogeneous medium", all);
+    m.type = ST_MEDIUM_HOMOGENEOUS;
+    const json& b = need(j, path, "bounds", "[[xmin, ymin, zmin], [xmax, ymax, zmax]]");
+    if (!b.is_array() || b.size() != 2)
+      fail(path + "/bounds", "expected [[xmin, ymin, zmin], [xmax, ymax, zmax]]");
+    m.bounds = {vec3_at(b[0], path + "/bounds/0", kAny), vec3_at(b[1], path + "/bounds/1", kAny)};
+    for (int a = 0; a < 3; ++a)
+      if (!(m.bounds[0][a] < m.bounds[1][a]))
+        fail(path + "/bounds", std::string("min >= max on the ") + "xyz"[a] + " axis (" + num(m.bounds[0][a]) +
+                                   " >= " + num(m.bounds[1][a]) + ")");
+  } else {
+    fail(path + "/type", "unknown medium type " + in_quotes(type) + " (expected one of: vdb, homogeneous)");
+  }
+  m.density_scale = number(j, path, "density_scale", m.density_scale, kNonNegative);
+  m.sigma_s = vec3(j, path, "sigma_s", m.sigma_s, kNonNegative);
+  m.sigma_a = vec3(j, path, "sigma_a", m.sigma_a, kNonNegative);
+  if (const json* p = find(j, "phase")) m.phase = phase(*p, path + "/phase");
+  if (const json* e = find(j, "emission")) m.emission = emission(*e, path + "/emission", m.type == ST_MEDIUM_VDB);
+  m.majorant_scale = number(j, path, "majorant_scale", m.majorant_scale, kPositive);
+  m.minorant_scale = number(j, path, "minorant_scale", m.minorant_scale, kNonNegative);
+  context_.clear();
+  return m;
+}
+
+PhaseDesc Parser::phase(const json& j, const std::string& path) {
+  expect_object(j, path);
+  fields(j, path, {"type", "g"});
+  PhaseDesc p;
+  need(j, path, "type", "expected \"isotropic\" or \"hg\"");
+  std::string type = string(j, path, "type", "");
+  if (type == "isotropic") {
+    fields(j, path, {"type"}, "an isotropic phase function", {"g"});
+    p.type = ST_PHASE_ISOTROPIC;
+  } else if (type == "hg") {
+    p.type = ST_PHASE_HG;
+    p.g = number_at(need(j, path, "g", "the asymmetry, in (-1, 1)"), path + "/g", Range{-1, 1, true, true});
+  } else {
+    fail(path + "/type", "unknown phase function " + in_quotes(type) + " (expected one of: isotropic, hg)");
+  }
+  return p;
+}
+
+EmissionDesc Parser::emission(const json& j, const std::string& path, bool vdb) {
+  expect_object(j, path);
+  EmissionDesc e;
+  e.present = true;
+  const std::string type = string(j, path, "type", "radiance");
+  if (type == "radiance") {
+    const Names all = {"type", "grid", "radiance", "scale"};
+    fields(j, path, all);
+    if (!vdb) fields(j, path, {"type", "radiance", "scale"}, "a homogeneous medium's emission", all);
+    e.grid = string(j, path, "grid", "");
+    e.radiance = vec3_at(need(j, path, "radiance"), path + "/radiance", kNonNegative);
+    e.scale = number(j, path, "scale", e.scale, kNonNegative);
+    return e;
+  }
+  if (type != "blackbody")
+    fail(path + "/type", "unknown emission type " + in_quotes(type) + " (expected one of: radiance, blackbody)");
+  const Names all = {"type",        "scale",           "temperature",        "temperature_grid", "temperature_scale",
+                     "temperature_offset", "temperature_cutoff", "normalization"};
+  fields(j, path, all);
+  const Names constant = {"type", "scale", "temperature", "temperature_cutoff", "normalization"};
+  if (!vdb) fields(j, path, constant, "a homogeneous medium's blackbody emission (a constant `temperature`)", all);
+  e.blackbody = true;
+  // at most kMaxRadiance: the kernels hold scale x colour in float, colours <= ~1e6
+  e.scale = number(j, path, "scale", e.scale, Range{0, kMaxRadiance, false, false});
+  e.temperature_cutoff = number(j, path, "temperature_cutoff", e.temperature_cutoff, Range{0, kMaxTemperature, true, true});
+  if (find(j, "temperature")) {
+    if (find(j, "temperature_grid") || find(j, "temperature_scale") || find(j, "temperature_offset"))
+      fail(path + "/temperature", "a constant temperature excludes temperature_grid, temperature_scale and "
+                                  "temperature_offset (they map a grid's values)");
+    e.temperature = number(j, path, "temperature", 0.0, Range{0, kMaxTemperature, true, false});
+  } else if (!vdb) {
+    fail(path + "/temperature", "required: a homogeneous medium's blackbody emission needs a constant temperature (K)");
+  } else {
+    e.temperature_grid = string(j, path, "temperature_grid", "");
+    e.temperature_scale = number(j, path, "temperature_scale", e.temperature_scale, kAny);
+    e.temperature_offset = number(j, path, "temperature_offset", e.temperature_offset, kAny);
+  }
+  const std::string norm = string(j, path, "normalization", blackbody_norm_name(BlackbodyNorm::Peak));
+  if (!blackbody_norm_from_name(norm, &e.normalization))
+    fail(path + "/normalization",
+         "unknown normalization " + in_quotes(norm) + " (expected one of: " + blackbody_norm_names() + ")");
+  return e;
+}
+
+ColorDesc Parser::color(const json& j, const std::string& path) {
+  expect_object(j, path);
+  fields(j, path, {"grid", "mode"});
+  ColorDesc c;
+  c.present = true;
+  c.grid = string(j, path, "grid", c.grid);
+  if (c.grid.empty()) fail(path + "/grid", "must name a vec3 grid of the medium's file");
+  const std::string mode = string(j, path, "mode", "albedo");
+  if (mode == "albedo") {
+    c.mode = ST_COLOR_ALBEDO;
+  } else if (mode == "scattering") {
+    c.mode = ST_COLOR_SCATTERING;
+  } else {
+    fail(path + "/mode", "unknown colour mode " + in_quotes(mode) + " (expected one of: albedo, scattering)");
+  }
+  return c;
+}
+
+TransformDesc Parser::transform(const json& j, const std::string& path) {
+  expect_object(j, path);
+  fields(j, path, {"scale", "rotate_deg", "translate"});
+  TransformDesc t;
+  if (const json* s = find(j, "scale")) {
+    const std::string p = path + "/scale";
+    if (s->is_number()) {
+      double v = number_at(*s, p, kAny);
+      t.scale = {v, v, v};
+    } else if (s->is_array()) {
+      t.scale = vec3_at(*s, p, kAny);
+    } else {
+      fail(p, std::string("expected a number or an array of 3 numbers, got ") + s->type_name());
+    }
+    for (double v : t.scale)
+      if (v == 0) fail(p, "scale must not be zero");
+  }
+  t.rotate_deg = vec3(j, path, "rotate_deg", t.rotate_deg, kAny);
+  t.translate = vec3(j, path, "translate", t.translate, kAny);
+  return t;
+}
+
+}  // namespace parsing
+}  // namespace spectrack
