@@ -32,15 +32,26 @@ __kernel void k_finish(ST_STAGE_ARGS) {
     queue_push(queues, counters, Q, NL, cur, ST_Q_FINISH, slot);
     return;
   }
-  /* the shadow rays not added yet: bounces depth - R .. depth - 1 (R: the shadow ring), oldest first */
+  /* the shadow rays not added yet: bounces depth - R .. depth - 1 (R: the shadow ring), oldest first;
+   * a guide training pass credits them, and what the path gathered since its last scatter event,
+   * to the path's vertices, which then become records (guiding.h) */
+  const int training = ST_HAS_GUIDING && guide->inv_cell.w > 0.0f;
+  __global st_guide_vertex* ring = training ? guide_ring(guide_records, (uint)guide->dims[3], Q, slot) : 0;
+  const float4 mask = path_mask(scene, &p);
   for (int k = shadow_ring(NL, scene->n_lights); k >= 1; --k) {
     int bounce = p.depth - k;
     if (bounce < 0) continue;
     for (int l = 0; l < scene->n_lights; ++l) {
       __global st_shadow* e = &shadows[shadow_entry(slot, NL, scene->n_lights, bounce, l)];
-      if (e->state == ST_SHADOW_DONE)
-        shadow_fold(scene, &shadows[slot * NL + (uint)l], e, bounce, &results[p.result_index * (uint)scene->result_layers]);
+      if (e->state != ST_SHADOW_DONE) continue;
+      if (training) guide_credit(ring, 0, bounce - 1, p.depth, e->weight * e->tr.T, mask);
+      shadow_fold(scene, &shadows[slot * NL + (uint)l], e, bounce, &results[p.result_index * (uint)scene->result_layers]);
     }
+  }
+  if (training && p.depth > 0) {
+    guide_credit(ring, 0, p.depth - 1, p.depth, p.L - guide_slot(guide_records, (uint)guide->dims[3], slot)->L_seen, mask);
+    for (int k = max(0, p.depth - ST_GUIDE_RING); k < p.depth; ++k)
+      guide_vertex_record(guide_records, guide, &ring[k % ST_GUIDE_RING], (uint4)(p.pixel, p.sample, p.channel, (uint)k));
   }
   float4 r = p.L;
   for (uint l = 0; l < (uint)scene->n_lights; ++l) r += shadows[slot * NL + l].Ls;

@@ -26,6 +26,7 @@
 
 #ifdef __OPENCL_VERSION__
 #include "phase.h"
+#include "sampling.h"
 typedef float3 st_vec3;
 #define ST_GUIDE_GLOBAL __global
 inline st_vec3 vec3_make(float x, float y, float z) { return (float3)(x, y, z); }
@@ -156,28 +157,57 @@ typedef struct {
   st_float4 origin;   /* xyz: the grid's world-space corner; w: 1 when guided sampling is on */
   st_float4 inv_cell; /* xyz: cells per world unit along each axis; w: 1 when records are collected */
   st_int dims[4];     /* xyz: cells per axis; w: record capacity of the record buffer */
-  st_float4 pad;
+  st_int guided_depth; /* scatter events of depth below this are guided, and record in training */
+  st_int pad[3];
 } st_guide_header;
 
 typedef struct {
   st_vmf_mixture mix; /* the incident radiance's directional distribution */
   float alpha;        /* selection probability of the guide (0: phase sampling only) */
-  float records;      /* records the fit used */
-  float radiance;     /* mean record weight (luminance of incident radiance / pdf) */
+  float records;      /* records of the region in the last training pass */
+  float radiance;     /* their mean weight: the mean of f_phase L / p_mix per unit throughput */
   float pad;
 } st_guide_region;
 
-/* One radiance record: a finished shadow ray's estimate of the radiance arriving at a scatter
- * position from the direction it was sent in. */
+/* One radiance record: a scatter vertex of a training path, the direction it scattered in and
+ * what that direction brought back (st_guide_vertex). */
 typedef struct {
   st_float4 pos;  /* xyz: the scatter position; w: the region index (its bits) */
-  st_float4 dir;  /* xyz: the direction towards the light; w: the weight (mean of the lanes of Le T / pdf) */
-  st_uint key[4]; /* pixel, sample, channel, shadow stream: the record's place in a canonical order */
+  st_float4 dir;  /* xyz: the scattered direction; w: the weight, f_phase L / p_mix (a lane mean per unit throughput) */
+  st_uint key[4]; /* pixel, sample, channel, depth: the record's place in a canonical order */
 } st_guide_record;
+
+/* Per path slot in a training pass, what guiding keeps besides st_path (in the record buffer,
+ * after the records): the radiance already credited to the path's vertices. */
+typedef struct {
+  st_float4 L_seen; /* training: the path's st_path.L when last credited to its vertices */
+  st_float4 pad;
+} st_guide_slot;
+
+/* The last ST_GUIDE_RING scatter vertices of a path in a training pass (vertex k at ring[k mod
+ * ST_GUIDE_RING]): every contribution the path adds later (a finished shadow ray of a later
+ * bounce, an escape, emission) is divided by the throughput that arrived at the vertex and added
+ * to the vertex's sum; when a vertex leaves the ring or the path ends it becomes one record of the
+ * radiance its scattered direction brought back. */
+#define ST_GUIDE_RING 8
+typedef struct {
+  st_float4 pos;  /* xyz: the scatter position; w: the sum of (contribution / beta) credited so far */
+  st_float4 dir;  /* xyz: the scattered direction; w: f_phase at it */
+  st_float4 beta; /* the throughput that arrived at the vertex (before its scatter weight) */
+} st_guide_vertex;
 
 #define ST_SIZEOF_GUIDE_HEADER 64
 #define ST_SIZEOF_GUIDE_REGION 176
 #define ST_SIZEOF_GUIDE_RECORD 48
+#define ST_SIZEOF_GUIDE_SLOT 32
+#define ST_SIZEOF_GUIDE_VERTEX 48
+#ifdef __OPENCL_VERSION__
+typedef char st_check_guide_slot[(sizeof(st_guide_slot) == ST_SIZEOF_GUIDE_SLOT) ? 1 : -1];
+typedef char st_check_guide_vertex[(sizeof(st_guide_vertex) == ST_SIZEOF_GUIDE_VERTEX) ? 1 : -1];
+#else
+static_assert(sizeof(st_guide_slot) == ST_SIZEOF_GUIDE_SLOT, "st_guide_slot layout");
+static_assert(sizeof(st_guide_vertex) == ST_SIZEOF_GUIDE_VERTEX, "st_guide_vertex layout");
+#endif
 #ifdef __OPENCL_VERSION__
 typedef char st_check_guide_header[(sizeof(st_guide_header) == ST_SIZEOF_GUIDE_HEADER) ? 1 : -1];
 typedef char st_check_guide_region[(sizeof(st_guide_region) == ST_SIZEOF_GUIDE_REGION) ? 1 : -1];
@@ -260,6 +290,71 @@ inline void guide_record_push(__global uint* rec, uint capacity, float3 pos, int
   r->key[1] = key.y;
   r->key[2] = key.z;
   r->key[3] = key.w;
+}
+
+/* The record buffer of a training pass: a uint count (16 bytes), `capacity` records, one
+ * st_guide_slot per path slot (Q of them), then ST_GUIDE_RING vertices per path slot. Outside
+ * training it holds the count only, and no kernel reads further. */
+inline __global st_guide_slot* guide_slot(__global uint* rec, uint capacity, uint slot) {
+  return (__global st_guide_slot*)(rec + 4 + capacity * (ST_SIZEOF_GUIDE_RECORD / 4)) + slot;
+}
+inline __global st_guide_vertex* guide_ring(__global uint* rec, uint capacity, uint Q, uint slot) {
+  return (__global st_guide_vertex*)guide_slot(rec, capacity, Q) + slot * ST_GUIDE_RING;
+}
+
+/* The mean over the path's lanes of c / beta (lanes whose beta is 0 left out): what a contribution
+ * c of the path says about the radiance at a vertex that beta arrived at. */
+inline float guide_ratio(float4 c, float4 beta, float4 mask) {
+  float cc[4] = {c.x, c.y, c.z, c.w}, bb[4] = {beta.x, beta.y, beta.z, beta.w}, mm[4] = {mask.x, mask.y, mask.z, mask.w};
+  float sum = 0.0f, n = 0.0f;
+  for (int i = 0; i < 4; ++i)
+    if (mm[i] > 0.0f && bb[i] != 0.0f) sum += cc[i] / bb[i], n += 1.0f;
+  return n > 0.0f ? sum / n : 0.0f;
+}
+
+/* Credits the contribution c to the ring's vertices of depths first .. last (those below 0 or out
+ * of the ring are skipped). */
+inline void guide_credit(__global st_guide_vertex* ring, int first, int last, int depth, float4 c, float4 mask) {
+  if (!(masked_max(fabs(c), mask) > 0.0f)) return;
+  for (int k = max(max(first, 0), depth - ST_GUIDE_RING); k <= last; ++k) {
+    __global st_guide_vertex* v = &ring[k % ST_GUIDE_RING];
+    v->pos.w += guide_ratio(c, v->beta, mask);
+  }
+}
+
+/* Vertex `depth` of a training path enters the ring: its position, scattered direction wi with the
+ * phase function's value f there, and the throughput beta_in that arrived at it. */
+inline void guide_ring_enter(__global st_guide_vertex* ring, int depth, float3 x, float3 wi, float f, float4 beta_in) {
+  __global st_guide_vertex* v = &ring[depth % ST_GUIDE_RING];
+  v->pos = (float4)(x, 0.0f);
+  v->dir = (float4)(wi, f);
+  v->beta = beta_in;
+}
+
+/* The record of ring vertex k of a path: what its scattered direction brought back per unit
+ * throughput arriving at it, f_phase L / p_mix (its credited sum): the fit's density then follows
+ * the product of the phase function and the incident radiance, averaged over the region's
+ * vertices (at the first scatter event their propagation directions are close: the camera's). */
+inline void guide_vertex_record(__global uint* rec, __global const st_guide_header* h, __global st_guide_vertex* v,
+                                uint4 key) {
+  if ((int)key.w >= h->guided_depth) return; /* only the guided scatter events record */
+  float w = v->pos.w;
+  if (w > 0.0f && isfinite(w))
+    guide_record_push(rec, (uint)h->dims[3], v->pos.xyz, guide_region_index(h, v->pos.x, v->pos.y, v->pos.z), v->dir.xyz,
+                      w, key);
+}
+/* A scatter event of a training path: credits what the path gathered since its last scatter
+ * event (emission) to its vertices, records the vertex that leaves the ring; the slot's state
+ * starts at the path's first scatter event. */
+inline void guide_training_scatter(__global const st_guide_header* h, __global uint* rec, __global st_guide_vertex* ring,
+                                   uint slot, const st_path* p, float4 mask) {
+  __global st_guide_slot* gs = guide_slot(rec, (uint)h->dims[3], slot);
+  if (p->depth == 0) gs->L_seen = p->L;
+  guide_credit(ring, 0, p->depth - 1, p->depth, p->L - gs->L_seen, mask);
+  gs->L_seen = p->L;
+  if (p->depth >= ST_GUIDE_RING) /* vertex depth - RING leaves the ring */
+    guide_vertex_record(rec, h, &ring[p->depth % ST_GUIDE_RING],
+                        (uint4)(p->pixel, p->sample, p->channel, (uint)(p->depth - ST_GUIDE_RING)));
 }
 #endif
 

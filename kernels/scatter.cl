@@ -11,8 +11,9 @@
  * bounce's shadow rays take, is still running; the finished ones are added to their light's
  * accumulator first (queues.h, "shadow-ray entries"). With guiding (features.h), the scattered
  * direction comes from the one-sample mixture of the phase function and the region's guide
- * (guiding.h), beta takes f_phase / p_mix and d.w holds p_mix, which the light samples' MIS weights
- * use too; training passes leave in each shadow entry's d.w what turns its result into a record. */
+ * (guiding.h) at the first scatter events, beta takes f_phase / p_mix and d.w holds p_mix, which
+ * the light samples' MIS weights use too; training passes keep the path's last vertices in a ring
+ * and credit every later contribution to them (guiding.h, st_guide_vertex). */
 #include "types.h"
 #include "features.h"
 #include "rng.h"
@@ -25,16 +26,20 @@
 #include "queues.h"
 
 /* Folds the finished shadow entries of bounce depth - R (R: the shadow ring) into their lights'
- * accumulators; returns 1 while one of them is still running (the path then waits). */
+ * accumulators, in a guide training pass crediting them to the ring's earlier vertices (ring not
+ * 0); returns 1 while one of them is still running (the path then waits). */
 inline int shadows_busy(__constant const st_scene* scene, __global st_shadow* shadows, __global float4* results,
-                        uint NL, uint slot, const st_path* p) {
+                        uint NL, uint slot, const st_path* p, __global st_guide_vertex* ring) {
   int busy = 0;
+  const int bounce = p->depth - shadow_ring(NL, scene->n_lights);
   for (int l = 0; l < scene->n_lights; ++l) {
     __global st_shadow* e = &shadows[shadow_entry(slot, NL, scene->n_lights, p->depth, l)];
-    if (e->state == ST_SHADOW_PENDING) busy = 1;
-    else if (e->state == ST_SHADOW_DONE)  /* the entry of bounce depth - R (R: the shadow ring) */
-      shadow_fold(scene, &shadows[slot * NL + (uint)l], e, p->depth - shadow_ring(NL, scene->n_lights),
-                  &results[p->result_index * (uint)scene->result_layers]);
+    if (e->state == ST_SHADOW_PENDING) {
+      busy = 1;
+    } else if (e->state == ST_SHADOW_DONE) { /* the entry of bounce depth - R (R: the shadow ring) */
+      if (ST_HAS_GUIDING && ring) guide_credit(ring, 0, bounce - 1, p->depth, e->weight * e->tr.T, path_mask(scene, p));
+      shadow_fold(scene, &shadows[slot * NL + (uint)l], e, bounce, &results[p->result_index * (uint)scene->result_layers]);
+    }
   }
   return busy;
 }
@@ -100,7 +105,9 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     queue_push(queues, counters, Q, NL, cur, ST_Q_FINISH, slot);
     return;
   }
-  if (shadows_busy(scene, shadows, results, NL, slot, &p)) {
+  const int training = ST_HAS_GUIDING && guide->inv_cell.w > 0.0f;
+  __global st_guide_vertex* ring = training ? guide_ring(guide_records, (uint)guide->dims[3], Q, slot) : 0;
+  if (shadows_busy(scene, shadows, results, NL, slot, &p, ring)) {
     atomic_inc(&counters[ST_C_WAITS]);
     queue_push(queues, counters, Q, NL, cur, ST_Q_SCATTER, slot);
     return;
@@ -110,10 +117,12 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
   __constant const st_medium* m = &scene->media[p.medium];
   float3 wo = p.d.xyz;
   const float4 mask = path_mask(scene, &p);
-  /* guiding: the region's mixture and selection probability (alpha 0: plain phase sampling) */
+  /* guiding: training credits what the path gathered since its last scatter event; the region's
+   * mixture and selection probability (alpha 0: plain phase sampling) */
+  if (training) guide_training_scatter(guide, guide_records, ring, slot, &p, mask);
   __global const st_guide_region* region = 0;
   float alpha = 0.0f;
-  if (ST_HAS_GUIDING && guide->origin.w > 0.0f) {
+  if (ST_HAS_GUIDING && guide->origin.w > 0.0f && p.depth < guide->guided_depth) {
     region = guide_regions(guide) + guide_region_index(guide, p.o.x, p.o.y, p.o.z);
     alpha = region->alpha;
   }
@@ -137,24 +146,23 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     uint id = shadow_entry(slot, NL, scene->n_lights, p.depth, l);
     __global st_shadow* sh = &shadows[id];
     shadow_begin(sh, p.o.xyz, wi, t_max, weight, mask, 1u + (uint)p.depth * ST_MAX_LIGHTS + (uint)l, slot);
-    /* training: what divides the shadow ray's weight into the record's Le T / pdf (shadow.cl) */
-    if (ST_HAS_GUIDING && guide->inv_cell.w > 0.0f)
-      sh->d.w = masked_avg(p.beta * mask, mask) * f * w / pick_pmf;
     p.pending += 1;
     queue_push(queues, counters, Q, NL, cur, ST_Q_SHADOW, id);
   }
-  float pdf;
+  float pdf, f;
   float3 wi;
+  const float4 beta_in = p.beta;
   if (ST_HAS_GUIDING && alpha > 0.0f) {
     /* the one-sample mixture of phase function and guide: weight f_phase / p_mix, unbiased for any guide */
-    float u0 = rng_uniform(&rng), u1 = rng_uniform(&rng), u2 = rng_uniform(&rng), f;
+    float u0 = rng_uniform(&rng), u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
     wi = guided_phase_sample(&region->mix, alpha, m->phase_type, m->g, m->phase, wo, u0, u1, u2, &rng, &pdf, &f);
     p.beta *= pdf > 0.0f ? f / pdf : 0.0f;
   } else {
-    float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng), f;
+    float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
     wi = phase_sample(m->phase_type, m->g, m->phase, wo, u1, u2, &rng, &pdf, &f);
     /* exact sampling: f / pdf = 1, beta unchanged */
   }
+  if (training) guide_ring_enter(ring, p.depth, p.o.xyz, wi, f, beta_in);
   p.d = (float4)(wi, pdf);
   p.o.w = 0.0f;
   p.depth += 1;

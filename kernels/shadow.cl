@@ -1,8 +1,7 @@
 /* shadow.cl: transmittance of a next-event-estimation ray through the majorant grid by the
  * scene's estimator (ratio tracking or ray marching, transmittance.h), resumable across launches; when
  * done, marks its entry done (the path adds weight * T to its light's accumulator: queues.h) and
- * releases the path. In training passes with guiding, a finished ray also appends a radiance
- * record (guiding.h): its position, direction and the estimate of Le T / pdf it carried. */
+ * releases the path. */
 #include "types.h"
 #include "features.h"
 #include "rng.h"
@@ -32,14 +31,6 @@ __kernel void k_shadow(ST_STAGE_ARGS) {
                                     scene->iteration_budget, &st);
   sh.rng_draw = rng_draw_index(&rng);
   if (done) {
-    /* training: the record of the radiance that reached the scatter position along the ray */
-    if (ST_HAS_GUIDING && guide->inv_cell.w > 0.0f && sh.d.w != 0.0f) {
-      float rw = fabs(masked_avg(sh.weight * sh.tr.T, mask) / sh.d.w);
-      if (rw > 0.0f && isfinite(rw))
-        guide_record_push(guide_records, (uint)guide->dims[3], sh.o.xyz,
-                          guide_region_index(guide, sh.o.x, sh.o.y, sh.o.z), sh.d.xyz, rw,
-                          (uint4)(p.pixel, p.sample, p.channel, sh.stream));
-    }
     sh.state = ST_SHADOW_DONE;
     shadows[id] = sh;
     atomic_dec(&paths[sh.slot].pending);

@@ -7,7 +7,8 @@
 //   - a deliberately wrong cache (every region's lobes pointing away from the sun) still agrees;
 //   - the same seed gives the same image twice, and generic and specialised kernels agree bit for
 //     bit with guiding on; the cache is reported and bounded;
-//   - guiding refuses pixel windows, sample ranges and several devices (a usage error).
+//   - guiding refuses pixel windows, sample ranges and several devices (a usage error);
+//   - the training passes' vertex ring credits a path's later radiance to its first vertex exactly.
 #include <cstring>
 
 #include "guiding/guide_cache.h"
@@ -133,4 +134,36 @@ TEST(GuidingRender, AutoIsOffAndShardsAreRefused) {
   EXPECT_THROW(resolve_settings(scene, shard), UsageError);
   const RenderSettings set = resolve_settings(scene, o);
   EXPECT_THROW(render_multi_device(scene, o, set, {"", ""}, 0, 2), UsageError);
+}
+
+// A white furnace cut after the first scatter event (a uniform sky of radiance 1 around a thin,
+// non-absorbing, isotropic medium; max_depth 1): a first-event vertex's scattered ray either leaves
+// the medium and sees the sky, weighted by the power heuristic of two equal pdfs (the phase
+// function's and the uniform sky's, 1 / 4 pi): 1/2, or scatters and ends with nothing. The ring
+// credits the escape to the vertex through the path's radiance at k_finish, so every record (only
+// positive ones are kept) weighs exactly 1/2, and so does every region's mean. The twin asks for 3%
+// more and must fail.
+TEST(GuidingRender, RingRecordsCreditTheEscapeToTheFirstVertex) {
+  const std::string dir = temp_dir("guided_furnace");
+  json s = {{"format", "spectrack-scene/1"},
+            {"camera", {{"type", "perspective"}, {"position", {0, 0, -4.5}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 26}}},
+            {"film", {{"width", 32}, {"height", 32}, {"spp", 1}}},
+            {"render", {{"seed", 5}, {"light_sampling", "all"}, {"max_depth", 1}}},
+            {"lights", {{{"type", "environment"}, {"radiance", {1, 1, 1}}}}},
+            {"media", json::array()}};
+  s["media"].push_back({{"type", "homogeneous"}, {"bounds", {{-1, -1, -1}, {1, 1, 1}}}, {"sigma_a", {0, 0, 0}},
+                        {"sigma_s", {0.3, 0.3, 0.3}}, {"phase", {{"type", "isotropic"}}}});
+  std::vector<st_guide_region> first;
+  auto hook = [&](GuideCache& c) {
+    if (first.empty()) first = c.regions;
+  };
+  render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 11, true, hook);
+  int regions = 0;
+  for (const st_guide_region& g : first)
+    if (g.records > 0) {
+      ++regions;
+      EXPECT_NEAR(g.radiance, 0.5, 1e-5) << "records " << g.records;
+      EXPECT_GT(std::abs(g.radiance - 0.5 * 1.03), 1e-5) << "twin: a 3% error must be detected";
+    }
+  EXPECT_GE(regions, 4) << "the first pass must fill most of the 2 x 2 x 2 regions";
 }

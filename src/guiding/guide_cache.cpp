@@ -70,6 +70,7 @@ GuideCache make_guide_cache(const st_scene& st, int cells_longest_axis) {
   }
   c.header.origin = st_float4{origin[0], origin[1], origin[2], 0.0f};
   c.header.inv_cell = st_float4{inv_cell[0], inv_cell[1], inv_cell[2], 0.0f};
+  c.header.guided_depth = kGuideDepth;
   c.regions.assign(size_t(c.header.dims[0]) * c.header.dims[1] * c.header.dims[2], st_guide_region{});
   return c;
 }

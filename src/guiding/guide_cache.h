@@ -11,6 +11,7 @@
 // settings and the seed.
 #pragma once
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <vector>
 
@@ -32,6 +33,23 @@ constexpr int kGuideTrainingPasses = 3;
 // The training passes' random streams: the render's seed xor this.
 constexpr uint32_t kGuideTrainingSeed = 0x6a09e667u;
 
+// Scatter events that are guided: those of depth below this (the first only). Guiding deeper events
+// measured worse on the bench scenes (bench/results/guiding_*.txt): in dense media one direction
+// moves the path by a mean free path, which changes little of what it brings back, while the weights
+// f_phase / p_mix of every guided event multiply into the path's variance.
+constexpr int kGuideDepth = 1;
+static_assert(kGuideDepth >= 1 && kGuideDepth <= ST_GUIDE_RING, "records of guided vertices come from the ring");
+
+// Bytes of the record buffer for Q path slots: the count, and in training passes the records of
+// one iteration (a slot records at most one vertex per scatter event and kGuideDepth when it
+// finishes), the slots' guide state and the vertex rings (kernels/guiding.h).
+inline uint64_t guide_record_capacity(uint64_t Q) { return Q * uint64_t(kGuideDepth + 1); }
+inline size_t guide_record_buffer_bytes(uint64_t Q, bool training) {
+  return 16 + (training ? guide_record_capacity(Q) * sizeof(st_guide_record) +
+                              Q * (sizeof(st_guide_slot) + ST_GUIDE_RING * sizeof(st_guide_vertex))
+                        : 0);
+}
+
 struct GuideCache {
   st_guide_header header{};
   std::vector<st_guide_region> regions;
@@ -43,7 +61,8 @@ struct GuideCache {
 // An empty cache (every alpha 0, guided sampling and training off) over the media of `st`.
 GuideCache make_guide_cache(const st_scene& st, int cells_longest_axis = kGuideGridCells);
 
-// Refits every region from `records` (any order; sorted here); regions with fewer than
+// Refits every region from `records` (any order; sorted here): the records of every scatter event
+// whose direction was guided (depth below kGuideDepth); regions with fewer than
 // kGuideMinRecords records get alpha 0 and the uniform mixture. Returns the regions that guide.
 int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records);
 

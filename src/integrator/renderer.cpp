@@ -290,10 +290,10 @@ RenderResult Renderer::Impl::run_stage_loop(int64_t sample_begin, int spp, std::
   set_phase("film allocation");
   set_ring_size(plan.ring);
   RenderBuffers buf = allocate(plan);
-  if (settings.guiding) {  // training: records on, a record buffer for one iteration's shadow rays
-    const uint64_t capacity = records ? std::max<uint64_t>(1, plan.Q * plan.NL) : 0;
+  if (settings.guiding) {  // training: records on, vertex rings, one iteration's records
+    const uint64_t capacity = records ? guide_record_capacity(plan.Q) : 0;
     const uint32_t head[4] = {0, 0, 0, 0};
-    b_records = ds.buffer(CL_MEM_READ_WRITE, 16 + capacity * sizeof(st_guide_record), nullptr, "guide records");
+    b_records = ds.buffer(CL_MEM_READ_WRITE, guide_record_buffer_bytes(plan.Q, records != nullptr), nullptr, "guide records");
     ST_CL_CHECK(ds.queue.enqueueWriteBuffer(b_records, CL_TRUE, 0, sizeof(head), head), "clear the guide record count");
     guide.header.dims[3] = int(capacity);
     guide.header.inv_cell.w = records ? 1.0f : 0.0f;

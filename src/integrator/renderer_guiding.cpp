@@ -17,7 +17,7 @@ void Renderer::Impl::upload_guide() {
 }
 
 // Appends the records of the last iteration (their order is the device's; the fit sorts them)
-// and empties the buffer. Its capacity is the shadow queue's, the most rays one iteration finishes.
+// and empties the buffer. Its capacity (guide_record_capacity) is the most one iteration records.
 void Renderer::Impl::drain_records(std::vector<st_guide_record>& out) {
   uint32_t n = 0;
   ST_CL_CHECK(ds.queue.enqueueReadBuffer(b_records, CL_TRUE, 0, 4, &n), "read the guide record count");
