@@ -226,7 +226,8 @@ enum st_feature {
   ST_FEATURES_ALL = ((1 << 16) - 1) | ST_FEATURE_PHASE_SET | ST_FEATURE_THIN_LENS | ST_FEATURE_TIME
 };
 
-#include "stage_types.h" /* the wavefront's queues, counters and stage arguments */
+/* the wavefront's queues, counters and stage arguments */
+#include "stage_types.h"
 
 /* One participating medium as the kernels see it. Coefficients are per unit density and already
  * multiplied by density_scale. The majorant grid is in the medium's index space: cell (i,j,k)
