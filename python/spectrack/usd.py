@@ -5,9 +5,10 @@ Mapped: ``Volume`` prims with their ``field:*`` relationships to ``OpenVDBAsset`
 temperature/heat field its blackbody emission, a ``Cd`` field its per-voxel albedo, all read from
 the density's file; the ``UsdGeomCamera`` (transform, projection, focal length and apertures);
 ``UsdLux`` ``DistantLight`` (a directional light), ``DomeLight`` (the environment, uniform or with
-its texture). Everything else that could shape the image (meshes, sphere and other lights, the
-camera's clipping range, focus, aperture offsets, velocity fields, shears, dome rotations) is
-named in a warning. The stage's axes and units are kept: coefficients are per stage unit.
+its texture), ``SphereLight`` (a point light of the sphere's intensity, a spot light with
+``ShapingAPI``'s cone); the camera's fStop and focusDistance (a thin lens). Everything else that
+could shape the image (meshes, other lights, a sphere light's size, the camera's clipping range,
+aperture offsets, velocity fields, shears, dome rotations) is named in a warning. The stage's axes and units are kept: coefficients are per stage unit.
 """
 import math
 import os
@@ -191,8 +192,11 @@ def _camera(mp, prim, width):
     if cam.GetClippingRangeAttr().HasAuthoredValue():
         mp.warn(prim, f"clippingRange ({gf.clippingRange.min}, {gf.clippingRange.max}) is not applied "
                       "(rays start at the camera and do not end)")
-    if gf.fStop > 0:
-        mp.warn(prim, f"fStop {gf.fStop} and focusDistance {gf.focusDistance}: no depth of field (a pinhole camera)")
+    if gf.fStop > 0 and gf.focusDistance > 0:
+        # a thin lens: the aperture's radius is focalLength / (2 fStop), focalLength in tenths of a unit
+        c.update(aperture_radius=0.1 * gf.focalLength / (2.0 * gf.fStop), focus_distance=gf.focusDistance)
+    elif gf.fStop > 0:
+        mp.warn(prim, f"fStop {gf.fStop} without a focusDistance: no depth of field (a pinhole camera)")
     return c, height
 
 
@@ -220,8 +224,40 @@ def _light(mp, prim):
                 mp.warn(prim, f"inputs:color {color} with a texture: only the intensity scales the map")
             return {"type": "environment", "map": _asset_path(mp, prim, tex), "scale": k}
         return {"type": "environment", "radiance": radiance}
-    mp.warn(prim, f"{prim.GetTypeName()}: not mapped (spectrack lights: DistantLight, DomeLight)")
+    if prim.IsA(UsdLux.SphereLight):
+        return _sphere_light(mp, prim)
+    mp.warn(prim, f"{prim.GetTypeName()}: not mapped (spectrack lights: DistantLight, DomeLight, SphereLight)")
     return None
+
+
+def _sphere_light(mp, prim):
+    """A SphereLight as a point light of the same radiant intensity: a sphere of radius r and
+    radiance L has I = L pi r^2 (W/sr) from every side; with inputs:normalize the radiance is
+    divided by the sphere's area 4 pi r^2 (UsdLux), so I = L / 4. With ShapingAPI's cone it is a
+    spot light along the light's -z: cone_angle_deg the cone's angle, cone_delta_deg angle x softness."""
+    light = UsdLux.SphereLight(prim)
+    radiance, _, _ = _intensity(mp, light)
+    m = mp.world(prim)
+    r = float(mp.value(light.GetRadiusAttr(), 0.5)) * m.TransformDir(Gf.Vec3d(1, 0, 0)).GetLength()
+    normalize = bool(mp.value(light.GetNormalizeAttr(), False))
+    area_factor = 0.25 if normalize else math.pi * r * r
+    if not normalize and r == 0:
+        mp.warn(prim, "SphereLight: radius 0 without inputs:normalize emits nothing")
+    elif r > 0:
+        mp.warn(prim, f"SphereLight: radius {r:g} rendered as a point light of the same intensity (no soft shadows)")
+    light_dict = {"type": "point", "position": list(m.Transform(Gf.Vec3d(0, 0, 0))),
+                  "intensity": [area_factor * c for c in radiance]}
+    if prim.HasAPI(UsdLux.ShapingAPI):
+        shaping = UsdLux.ShapingAPI(prim)
+        angle = float(mp.value(shaping.GetShapingConeAngleAttr(), 90.0))
+        softness = float(mp.value(shaping.GetShapingConeSoftnessAttr(), 0.0))
+        if 0 < angle < 180:
+            forward = m.TransformDir(Gf.Vec3d(0, 0, -1)).GetNormalized()
+            light_dict.update(type="spot", look_at=list(m.Transform(Gf.Vec3d(0, 0, 0)) + forward),
+                              cone_angle_deg=angle, cone_delta_deg=angle * min(max(softness, 0.0), 1.0))
+        if mp.value(shaping.GetShapingFocusAttr(), 0.0) or mp.value(shaping.GetShapingIesFileAttr()) is not None:
+            mp.warn(prim, "ShapingAPI: focus and IES profiles are not applied")
+    return light_dict
 
 
 def stage_to_dict(path, frame=None, camera=None, width=512, spp=64, **options):

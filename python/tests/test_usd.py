@@ -34,7 +34,8 @@ def test_openusd_vdb_volume_stage():
     assert cam["fov_deg"] == pytest.approx(math.degrees(2 * math.atan(0.5 * 15.2908 / 150)), rel=1e-5)
     assert scene["film"]["height"] == round(64 * 15.2908 / 20.955)
     assert any("Checkerboard: Mesh: not mapped" in w for w in warns)
-    assert any("fStop" in w for w in warns)
+    # focalLength 150 (tenths of a unit), fStop 100: a lens of radius 15 / 200 units, in focus at 200
+    assert cam["aperture_radius"] == pytest.approx(0.075) and cam["focus_distance"] == pytest.approx(200.0)
     with warnings.catch_warnings(record=True):
         warnings.simplefilter("always")
         img = spectrack.load_usd(USD / "refs" / "vdbVolume.usda", search_paths=[str(USD)], width=64, spp=2).render()
@@ -102,23 +103,44 @@ def test_a_made_stage_maps_fields_dome_texture_and_warns_by_name(tmp_path):
     sun = UsdLux.DistantLight.Define(stage, "/sun")
     sun.CreateAngleAttr().Set(0.53)
     sun.AddRotateXOp().Set(-90.0)  # its +z turned to +y: it shines along -y
-    UsdLux.SphereLight.Define(stage, "/bulb")
+    bulb = UsdLux.SphereLight.Define(stage, "/bulb")
+    bulb.CreateRadiusAttr().Set(0.5)
+    bulb.CreateIntensityAttr().Set(4.0)
+    bulb.AddTranslateOp().Set(Gf.Vec3d(0, 0, 20))
+    lamp = UsdLux.SphereLight.Define(stage, "/lamp")
+    lamp.CreateNormalizeAttr().Set(True)
+    lamp.CreateIntensityAttr().Set(8.0)
+    shaping = UsdLux.ShapingAPI.Apply(lamp.GetPrim())
+    shaping.CreateShapingConeAngleAttr().Set(30.0)
+    shaping.CreateShapingConeSoftnessAttr().Set(0.5)
     cam = UsdGeom.Camera.Define(stage, "/cam")
     cam.AddTranslateOp().Set(Gf.Vec3d(0, -30, 5))
     cam.AddRotateXOp().Set(90.0)  # looking along +y, up +z
+    cam.CreateFocalLengthAttr().Set(50.0)
+    cam.CreateFStopAttr().Set(2.5)
+    cam.CreateFocusDistanceAttr().Set(30.0)
     stage.GetRootLayer().Save()
 
     scene, warns = stage_to_dict(tmp_path / "made.usda", width=32, temperature_scale=2600)
     (m,) = scene["media"]
     assert m["transform"]["scale"] == pytest.approx([2, 2, 2]) and m["transform"]["translate"] == pytest.approx([1, 2, 3])
     assert m["emission"]["temperature_grid"] == "heat" and m["emission"]["temperature_scale"] == 2600
-    dome_l, sun_l = sorted(scene["lights"], key=lambda x: x["type"])[::-1]
+    by_type = {lt["type"]: lt for lt in scene["lights"]}
+    dome_l, sun_l = by_type["environment"], by_type["directional"]
+    # a sphere of radius r and radiance L: I = L pi r^2; normalized: I = L / 4, a spot along -z
+    assert by_type["point"]["position"] == pytest.approx([0, 0, 20])
+    assert by_type["point"]["intensity"] == pytest.approx([4.0 * math.pi * 0.25] * 3)
+    assert by_type["spot"]["intensity"] == pytest.approx([2.0] * 3)
+    assert by_type["spot"]["look_at"] == pytest.approx([0, 0, -1], abs=1e-9)
+    assert by_type["spot"]["cone_angle_deg"] == 30.0 and by_type["spot"]["cone_delta_deg"] == 15.0
+    assert scene["camera"]["aperture_radius"] == pytest.approx(0.1 * 50.0 / (2 * 2.5))
+    assert scene["camera"]["focus_distance"] == pytest.approx(30.0)
     assert dome_l == {"type": "environment", "map": str(env), "scale": pytest.approx(1.0)}
     assert sun_l["to_light"] == pytest.approx([0, 1, 0], abs=1e-9)
     assert sun_l["angle_deg"] == pytest.approx(0.53)
     assert scene["camera"]["look_at"] == pytest.approx([0, -29, 5], abs=1e-9)
     assert scene["camera"]["up"] == pytest.approx([0, 0, 1], abs=1e-9)
-    assert any("/bulb: SphereLight: not mapped" in w for w in warns)
+    assert any("/bulb: SphereLight: radius 0.5 rendered as a point light" in w for w in warns)
     assert any("/fire: field vel: velocity is not used" in w for w in warns)
     with warnings.catch_warnings(record=True):
         warnings.simplefilter("always")
