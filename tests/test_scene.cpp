@@ -551,7 +551,7 @@ TEST_F(SceneTest, UnknownFieldInSections) {
   EXPECT_SCENE_ERROR(j, "/film/samples", "unknown field");
   j = example();
   j["render"]["scheme"] = "max";
-  EXPECT_SCENE_ERROR(j, "/render/scheme", "unknown field (expected one of: tracker, spectral_scheme, absorption, light_sampling, transmittance, lookup, color, max_depth, seed, time_limit, guiding)");
+  EXPECT_SCENE_ERROR(j, "/render/scheme", "unknown field (expected one of: tracker, spectral_scheme, absorption, light_sampling, transmittance, lookup, color, max_depth, seed, time_limit, guiding, noise_target)");
 }
 
 TEST_F(SceneTest, UnknownFieldInArrays) {
@@ -745,8 +745,8 @@ TEST_F(SceneTest, UnknownTypeNames) {
   j["media"][0]["type"] = "grid";
   EXPECT_SCENE_ERROR(j, "/media/0/type", "unknown medium type \"grid\"");
   j = example();
-  j["media"][0]["phase"]["type"] = "rayleigh";
-  EXPECT_SCENE_ERROR(j, "/media/0/phase/type", "unknown phase function \"rayleigh\"");
+  j["media"][0]["phase"]["type"] = "fournier-forand";  // rayleigh, draine, hg2 and mie are phases now
+  EXPECT_SCENE_ERROR(j, "/media/0/phase/type", "unknown phase function \"fournier-forand\"");
 }
 
 // ---- ranges ----
