@@ -21,6 +21,13 @@
 #      trilinear and stochastic lookups, after a warm-up render each (the figure bench/RESULTS.md compares
 #      with the 2-core PoCL rows of bench/RESULTS.md: target >= 50x);
 #   6. bench/run --quick --no-mitsuba --device there (needs apt; skipped where a bundle was used);
+#   8. the wavefront against the bundle's spectrack_old (gpu_bundle.py --old: f9c773d's binary):
+#      paths/s of both at 16 spp on every bench scene, interleaved, 2 rounds (wavefront.tsv, with
+#      iterations, host_waits and occupancy), their ratios, the grid's ratio from step 7
+#      (GRID_SPP, 256), and the registers of every kernel (registers.txt: the new binary's NVIDIA
+#      build log with -cl-nv-verbose, and ptxas -v on both binaries' cached PTX where ptxas is);
+#      STEPS="0 2 7 8" is this check alone (about 4 minutes); OUT_DIR=$OUT on the device machine
+#      brings gpu.log, wavefront.tsv and registers.txt back for bench/results/;
 #   3. the test suite on it, last (the longest): ctest with SPECTRACK_DEVICE set, or, from a
 #      bundle, spectrack_tests itself in TEST_SHARDS (8) parallel gtest shards (ctest.log).
 # Everything goes to OUT_DIR (default out/gpu-<UTC date>): gpu.log (all output), devices.txt,
@@ -33,7 +40,7 @@ cd "$(dirname "$0")/.."
 OUT=${1:-out/gpu-$(date -u +%Y%m%dT%H%M%S)}
 mkdir -p "$OUT"
 OUT=$(cd "$OUT" && pwd)
-STEPS=${STEPS:-"0 1 2 3 4 5 6 7"}
+STEPS=${STEPS:-"0 1 2 3 4 5 6 7 8"}
 exec > >(tee "$OUT/gpu.log") 2>&1
 status=0
 step() { case " $STEPS " in *" $1 "*) return 0 ;; *) return 1 ;; esac; }
@@ -163,6 +170,65 @@ if step 3; then
       fail "ctest (see ctest.log)"
     tail -n 4 "$OUT/ctest.log"
   fi
+fi
+
+if step 8; then
+  bins=(build/spectrack); [ -x build/spectrack_old ] && bins+=(build/spectrack_old)
+  # registers: a build from source with NVIDIA's verbose log (the new binary), and ptxas on the
+  # PTX each binary's kernel cache holds (NVIDIA's program binaries are PTX)
+  : > "$OUT/registers.txt"
+  for bin in "${bins[@]}"; do
+    kc="$OUT/kcache_$(basename "$bin")"; rm -rf "$kc"; mkdir -p "$kc"
+    for s in bench/scenes/dense_chromatic.json bench/scenes/smoke1.json; do
+      SPECTRACK_KERNEL_CACHE_DIR="$kc" SPECTRACK_CL_OPTIONS=-cl-nv-verbose SPECTRACK_CL_BUILD_LOG="$OUT/build_log.txt" \
+        $bin render "$s" --spp 1 -q --no-alpha -o "$OUT/warm.exr" >/dev/null 2>&1 || fail "registers: $bin $s"
+    done
+    if command -v ptxas >/dev/null; then
+      sm=$(nvidia-smi --query-gpu=compute_cap --format=csv,noheader 2>/dev/null | head -n 1 | tr -d .)
+      for f in "$kc"/*.bin; do
+        echo "== $(basename "$bin") $(basename "$f") (ptxas -v, sm_${sm:-90})" >> "$OUT/registers.txt"
+        ptxas -v --gpu-name "sm_${sm:-90}" "$f" -o /dev/null 2>&1 | grep -E "Compiling entry|registers" >> "$OUT/registers.txt"
+      done
+    fi
+  done
+  [ -f "$OUT/build_log.txt" ] && { echo "== build/spectrack, NVIDIA build log"; grep -E "Compiling entry|registers" "$OUT/build_log.txt"; } >> "$OUT/registers.txt"
+  grep -A1 -E "k_(track|shadow)" "$OUT/registers.txt" | head -n 40
+  printf 'binary\tscene\tround\tpaths_per_second\tseconds_render\titerations\thost_waits\toccupancy_mean\n' > "$OUT/wavefront.tsv"
+  for s in bench/scenes/*.json; do
+    for bin in "${bins[@]}"; do $bin render "$s" --spp 1 -q --no-alpha -o "$OUT/warm.exr" >/dev/null 2>&1; done
+    for round in 1 2; do
+      for bin in "${bins[@]}"; do
+        $bin render "$s" --spp 16 -q --no-alpha -o "$OUT/render.exr" --stats-json "$OUT/stats.json" >/dev/null 2>&1 ||
+          { fail "wavefront $bin $s"; continue; }
+        python3 -c "
+import json; j = json.load(open('$OUT/stats.json'))
+print('\t'.join(str(x) for x in ['$(basename "$bin")', '$(basename "$s" .json)', $round, round(j['paths_per_second']), j['seconds_render'], j['iterations'], j.get('host_waits', '-'), round(j['occupancy_mean'], 3)]))" >> "$OUT/wavefront.tsv"
+      done
+    done
+  done
+  rm -f "$OUT/warm.exr" "$OUT/render.exr" "$OUT/stats.json"
+  cat "$OUT/wavefront.tsv"
+  python3 - "$OUT" <<'PY'
+import csv, os, statistics, sys
+out = sys.argv[1]
+rows = list(csv.DictReader(open(os.path.join(out, "wavefront.tsv")), delimiter="\t"))
+def pps(rows, binary, key):
+    return [float(r["paths_per_second"]) for r in rows if r["binary"] == binary and r[key[0]] == key[1]]
+for scene in sorted({r["scene"] for r in rows}):
+    new, old = pps(rows, "spectrack", ("scene", scene)), pps(rows, "spectrack_old", ("scene", scene))
+    if new and old:
+        print(f"wavefront {scene}: new/old paths/s {statistics.median(new) / statistics.median(old):.2f}x "
+              f"(new {statistics.median(new):.0f}, old {statistics.median(old):.0f}, 16 spp)")
+grid = os.path.join(out, "grid.tsv")
+if os.path.exists(grid):
+    g = list(csv.DictReader(open(grid), delimiter="\t"))
+    for mode in ("rgb", "spectral"):
+        new = [float(r["paths_per_second"]) for r in g if r["binary"] == "spectrack" and r["mode"] == mode]
+        old = [float(r["paths_per_second"]) for r in g if r["binary"] == "spectrack_old" and r["mode"] == mode]
+        if new and old:
+            print(f"wavefront grid {mode}: new/old paths/s {statistics.median(new) / statistics.median(old):.2f}x "
+                  f"({g[0]['spp']} spp)")
+PY
 fi
 
 echo "gpu.sh: done, status $status, results in $OUT"

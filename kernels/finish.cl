@@ -6,6 +6,7 @@
 #include "features.h"
 #include "spectrum.h"
 #include "queues.h"
+#include "wavefront.h"
 
 /* Spectral mode: the radiance layers a path wrote at its wavelengths (environment, emission and
  * direct passes) become linear sRGB through the film, as its beauty does. Alpha (1 - T) and the
@@ -21,10 +22,8 @@ inline void spectral_layers_to_rgb(__global float4* out, uint L, float4 lambda, 
   }
 }
 
-__kernel void k_finish(ST_STAGE_ARGS) {
-  const uint cur = it.cur, n = it.n_queue[ST_Q_FINISH];
-  uint gid = get_global_id(0);
-  if (gid >= n) return;
+ST_STAGE_FUNCTION(finish) {
+  const uint cur = it.cur;
   uint slot = queue_item(queues, Q, NL, cur, ST_Q_FINISH, gid);
   st_path p = paths[slot];
   if (p.pending > 0) {
@@ -87,35 +86,43 @@ inline void kahan_add(float4* f, float4* c, float4 y) {
   *f = t;
 }
 
-/* Adds the n_samples samples (times channels) of each window pixel of one batch to the film.
+/* Adds the batches the loop state marks (acc_first .. acc_end - 1, wavefront.h), in batch order,
+ * each with its n_samples samples (times channels) of each window pixel, to the film.
  * The film holds `layers` float4 sums per pixel, layer l at film[2 * l * npix + pix] with its
  * Kahan compensation at film[(2 * l + 1) * npix + pix], so a pixel's sum is exact to a few float
  * roundings of its terms whatever the sample count: sample-range shards merged on the host (in
  * double) then agree with one long render to float precision. Layers 0 .. L - 1 are the batch
  * results' layers (st_result_layer); with `moments`, layer L sums the square of each sample's
- * whole beauty (the beauty and environment layers, over its channels' paths): the variance layer. */
-__kernel void k_accumulate(__global const float4* results, __global float4* film, uint base, uint n_samples,
+ * whole beauty (the beauty and environment layers, over its channels' paths): the variance layer.
+ * Work-item i adds pixels i, i + G, ... (G the launch's work-items). */
+__kernel void k_accumulate(__global const float4* results, __global float4* film, __global const st_loop* loop,
                            uint npix, uint nch, uint L, uint moments) {
-  uint pix = get_global_id(0);
-  if (pix >= npix) return;
-  /* one sample at a time, in sample order: the sum does not depend on how samples were batched */
-  for (uint l = 0; l < L + moments; ++l) {
-    float4 f = film[2u * l * npix + pix];
-    float4 c = film[(2u * l + 1u) * npix + pix];
-    for (uint s = 0; s < n_samples; ++s) {
-      if (l < L) {
-        for (uint k = 0; k < nch; ++k) kahan_add(&f, &c, results[(base + (s * npix + pix) * nch + k) * L + l]);
-      } else {
-        float4 x = (float4)(0.0f);
-        for (uint k = 0; k < nch; ++k) {
-          uint i = (base + (s * npix + pix) * nch + k) * L;
-          x += results[i + ST_RESULT_BEAUTY];
-          if (L > 1u) x += results[i + ST_RESULT_ENVIRONMENT];
+  const uint first = loop->acc_first, end = loop->acc_end;
+  if (first == end) return;
+  const st_loop s = *loop;
+  for (uint pix = get_global_id(0); pix < npix; pix += get_global_size(0)) {
+    /* one sample at a time, in sample order: the sum does not depend on how samples were batched */
+    for (uint l = 0; l < L + moments; ++l) {
+      float4 f = film[2u * l * npix + pix];
+      float4 c = film[(2u * l + 1u) * npix + pix];
+      for (uint b = first; b < end; ++b) {
+        const uint base = (b % s.ring) * s.batch_paths, n_samples = loop_batch_samples(&s, b);
+        for (uint sa = 0; sa < n_samples; ++sa) {
+          if (l < L) {
+            for (uint k = 0; k < nch; ++k) kahan_add(&f, &c, results[(base + (sa * npix + pix) * nch + k) * L + l]);
+          } else {
+            float4 x = (float4)(0.0f);
+            for (uint k = 0; k < nch; ++k) {
+              uint i = (base + (sa * npix + pix) * nch + k) * L;
+              x += results[i + ST_RESULT_BEAUTY];
+              if (L > 1u) x += results[i + ST_RESULT_ENVIRONMENT];
+            }
+            kahan_add(&f, &c, x * x);
+          }
         }
-        kahan_add(&f, &c, x * x);
       }
+      film[2u * l * npix + pix] = f;
+      film[(2u * l + 1u) * npix + pix] = c;
     }
-    film[2u * l * npix + pix] = f;
-    film[(2u * l + 1u) * npix + pix] = c;
   }
 }

@@ -1,14 +1,16 @@
-/* queues.h: the wavefront's device queues and counters, the stage kernels' argument list
- * (ST_STAGE_ARGS), the flush of a work item's tracking statistics into the counters, and the
- * random stream of a path.
+/* queues.h: the wavefront's device queues and counters, the stage functions' argument lists
+ * (ST_STAGE_ARGS for the kernels, ST_STAGE_PARAMS for the stage functions they wrap), the flush of
+ * a work item's tracking statistics into the counters, and the random stream of a path.
  * Every queue has two buffers (parity cur / 1 - cur); a stage reads n items of its queue in the
  * current buffer and pushes into the next buffers with atomic_inc on the next-size counters,
- * which the host reads once per iteration. Queues FREE..FINISH hold path slots (capacity Q);
- * FREE is the exception to the two buffers: one stack of free slots (free_push below).
- * SHADOW holds shadow-ray entry ids slot * NL + ring * n_lights + light (capacity Q * NL, NL =
- * n_lights * R, R the shadow ring of types.h). ST_STAGE_ARGS is the argument
- * list of every stage kernel, in the order of enum st_stage_arg (types.h), by which the host binds
- * them; `it` (st_iteration) holds the queue parity and sizes of the current iteration. */
+ * which k_advance (wavefront.h) folds once per iteration on the device. The queues of path slots
+ * (stage_types.h ST_STAGES, SLOTS) have capacity Q; FREE is the exception to the two buffers: one
+ * stack of free slots (free_push below). SHADOW holds shadow-ray entry ids slot * NL + ring *
+ * n_lights + light (capacity Q * NL, NL = n_lights * R, R the shadow ring of types.h).
+ * ST_STAGE_ARGS is the argument list of every stage kernel, generated from ST_STAGE_ARG_LIST
+ * (stage_types.h) like enum st_stage_arg, by which the host binds them; `it` (st_iteration) holds
+ * the queue parity and sizes of the current iteration, which the kernels read from the loop state
+ * (kernels/stages.cl). */
 #ifndef SPECTRACK_QUEUES_H
 #define SPECTRACK_QUEUES_H
 
@@ -19,15 +21,31 @@
 #include "spectrum.h"
 #include "tracking.h"
 #include "guiding.h"
+#include "wavefront.h"
 
-#define ST_STAGE_ARGS                                                                              \
-  __constant const st_scene *scene, __global const uint *grids, __global const float2 *maj,       \
-      __global const float *env, __global st_path *paths, __global st_shadow *shadows,            \
-      __global uint *queues, __global uint *counters, __global float4 *results, uint Q, uint NL,   \
-      st_iteration it, __global const st_guide_header *guide, __global uint *guide_records
+#define ST_X_ARG_DECL(E, type, name) , type name
+#define ST_X_ARG_PASS(E, type, name) , name
+#define ST_STAGE_ARGS __constant const st_scene *scene ST_STAGE_ARG_LIST(ST_X_ARG_DECL)
+/* A stage function's parameters: this iteration's `it`, the item gid of its queue, and the
+ * kernel's arguments (ST_STAGE_FUNCTION(track) declares stage_track). */
+#define ST_STAGE_PARAMS const st_iteration it, uint gid, ST_STAGE_ARGS
+#define ST_STAGE_PASS(it, gid) it, gid, scene ST_STAGE_ARG_LIST(ST_X_ARG_PASS)
+#define ST_STAGE_FUNCTION(stage) inline void stage_##stage(ST_STAGE_PARAMS)
 
+/* Where queue k's buffer of parity `parity` starts: each parity holds every queue in table order,
+ * a queue of path slots taking Q entries and the shadow queue Q * NL (k is a constant where the
+ * kernels call this, so the sum folds). */
+#define ST_X_QUEUE_BEFORE(stage, QUEUE, HOLDS, GATE) \
+  if ((int)ST_Q_##QUEUE < k) off += ST_HOLDS_##HOLDS == ST_HOLDS_SLOTS ? Q : Q * NL;
 inline uint queue_offset(uint Q, uint NL, uint parity, int k) {
-  return parity * ((uint)ST_Q_PATH_QUEUES * Q + Q * NL) + (uint)k * Q;
+  uint off = parity * ((uint)ST_Q_PATH_QUEUES * Q + Q * NL);
+  ST_STAGES(ST_X_QUEUE_BEFORE)
+  return off;
+}
+
+/* Items of queue k in iteration `it`: raygen's are the n_new slots it fills. */
+inline uint stage_items(const st_iteration* it, int k) {
+  return k == ST_Q_FREE ? it->n_new : it->n_queue[k];
 }
 
 inline void queue_push(__global uint* queues, __global uint* counters, uint Q, uint NL, uint cur, int k, uint item) {

@@ -168,10 +168,8 @@ inline void camera_ray(__constant const st_scene* scene, const st_path* p, int x
   }
 }
 
-__kernel void k_raygen(ST_STAGE_ARGS) {
+ST_STAGE_FUNCTION(raygen) {
   const uint cur = it.cur, n_new = it.n_new;
-  uint gid = get_global_id(0);
-  if (gid >= n_new) return;
   uint slot = queues[free_offset(Q) + free_base(it.n_queue[ST_Q_FREE], n_new) + gid];
   ulong g = it.first + gid;
   uint nch = (uint)scene->n_channels_per_sample;

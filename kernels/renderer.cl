@@ -1,7 +1,7 @@
 /* renderer.cl: the renderer's program, the root the kernel assembler (src/device/kernel_source.cpp)
  * starts from. Every kernel file includes what it uses and the assembler inlines each file once,
  * at its first #include; this list fixes one order for the whole program (the shared headers
- * first, then the stage kernels in the order of the stage loop), so the text the device compiler
+ * first, then the stage functions in the order of the stage loop, then their kernels), so the text the device compiler
  * reads, and with it the kernel cache key, changes only when a kernel file does. */
 #include "types.h"
 #include "features.h"
@@ -25,3 +25,4 @@
 #include "scatter.cl"
 #include "shadow.cl"
 #include "finish.cl"
+#include "stages.cl"

@@ -95,10 +95,8 @@ inline int path_roulette(st_path* p, float4 mask, st_rng* rng) {
   return q;
 }
 
-__kernel void k_scatter(ST_STAGE_ARGS) {
-  const uint cur = it.cur, n = it.n_queue[ST_Q_SCATTER];
-  uint gid = get_global_id(0);
-  if (gid >= n) return;
+ST_STAGE_FUNCTION(scatter) {
+  const uint cur = it.cur;
   uint slot = queue_item(queues, Q, NL, cur, ST_Q_SCATTER, gid);
   st_path p = paths[slot];
   if (scene->max_depth >= 0 && p.depth >= scene->max_depth) {

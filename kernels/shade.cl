@@ -10,10 +10,8 @@
 #include "light.h"
 #include "queues.h"
 
-__kernel void k_escape(ST_STAGE_ARGS) {
-  const uint cur = it.cur, n = it.n_queue[ST_Q_ESCAPE];
-  uint gid = get_global_id(0);
-  if (gid >= n) return;
+ST_STAGE_FUNCTION(escape) {
+  const uint cur = it.cur;
   uint slot = queue_item(queues, Q, NL, cur, ST_Q_ESCAPE, gid);
   st_path p = paths[slot];
   float3 d = p.d.xyz;

@@ -11,10 +11,8 @@
 #include "guiding.h"
 #include "queues.h"
 
-__kernel void k_shadow(ST_STAGE_ARGS) {
-  const uint cur = it.cur, n = it.n_queue[ST_Q_SHADOW];
-  uint gid = get_global_id(0);
-  if (gid >= n) return;
+ST_STAGE_FUNCTION(shadow) {
+  const uint cur = it.cur;
   uint id = queue_item(queues, Q, NL, cur, ST_Q_SHADOW, gid);
   st_shadow sh = shadows[id];
   st_path p = paths[sh.slot];

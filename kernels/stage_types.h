@@ -1,27 +1,44 @@
-/* stage_types.h: the wavefront's plain data shared by the host and the kernels: its queues, the
- * counters the device sums per iteration, and the arguments every stage kernel takes. Part of
+/* stage_types.h: the wavefront's plain data shared by the host and the kernels: its stage table
+ * and queues, the counters the device sums per iteration, and the arguments every stage kernel
+ * takes. Part of
  * types.h (which includes it after ST_MAX_BATCHES_IN_FLIGHT); include types.h, not this file.
  */
 #ifndef SPECTRACK_STAGE_TYPES_H
 #define SPECTRACK_STAGE_TYPES_H
 
-/* Queues of the wavefront. Each stage reads the current buffer of its queue and pushes into the
- * next buffers; the host swaps them once per iteration. The queues before ST_Q_SHADOW hold path
- * slots (capacity Q each); ST_Q_SHADOW holds shadow-ray ids (capacity Q * lights). */
+/* The wavefront's stages, in launch order: one row each, from which the queue enum, the host's
+ * launch list, kernel warm-up, the queue buffer's layout and sizing and the queue trace all come
+ * (src/integrator/stage_table.h). X(stage, QUEUE, HOLDS, GATE): the kernel k_<stage> (a wrapper
+ * around stage_<stage>, kernels/stages.cl) reads queue ST_Q_<QUEUE>, whose items are path slots
+ * (SLOTS: capacity Q) or shadow-ray entries (SHADOW: capacity Q * NL); GATE says when a render
+ * launches it (ALWAYS; ESCAPE: the scene's escaping rays can see a light, ST_FEATURE_ESCAPE;
+ * LIGHTS: the scene has lights). Each stage reads the current buffer of its queue and pushes into
+ * the next buffers (queues.h); FREE is one stack of free path slots, not two buffers. Adding a
+ * stage is a row here and its stage function. */
+#define ST_STAGES(X)                  \
+  X(raygen, FREE, SLOTS, ALWAYS)      \
+  X(track, TRACK, SLOTS, ALWAYS)      \
+  X(escape, ESCAPE, SLOTS, ESCAPE)    \
+  X(scatter, SCATTER, SLOTS, ALWAYS)  \
+  X(shadow, SHADOW, SHADOW, LIGHTS)   \
+  X(finish, FINISH, SLOTS, ALWAYS)
+/* raygen: free path slots -> new camera paths; track: free-flight sampling; escape: paths that
+ * left every medium see the lights at infinity; scatter: next-event estimation and phase sampling
+ * at a real scattering event; shadow: transmittance of shadow rays; finish: a finished path
+ * writes its sample once its shadow rays are done and frees its slot. */
+enum st_queue_holds { ST_HOLDS_SLOTS = 0, ST_HOLDS_SHADOW = 1 };
+enum st_stage_gate { ST_GATE_ALWAYS = 0, ST_GATE_ESCAPE = 1, ST_GATE_LIGHTS = 2 };
+#define ST_X_QUEUE_ENUM(stage, QUEUE, HOLDS, GATE) ST_Q_##QUEUE,
+#define ST_X_SLOT_QUEUE(stage, QUEUE, HOLDS, GATE) +(ST_HOLDS_##HOLDS == ST_HOLDS_SLOTS ? 1 : 0)
 enum st_queue {
-  ST_Q_FREE = 0,    /* free path slots (raygen input): one stack, not two buffers (queues.h free_push) */
-  ST_Q_TRACK = 1,   /* paths to track (free-flight sampling) */
-  ST_Q_ESCAPE = 2,  /* paths that left every medium (shade: environment and sun) */
-  ST_Q_SCATTER = 3, /* paths at a real scattering event (NEE + phase sampling) */
-  ST_Q_FINISH = 4,  /* finished paths (write the sample once its shadow rays are done) */
-  ST_Q_SHADOW = 5,  /* shadow rays (transmittance); capacity slots * NL (lights * shadow ring) */
-  ST_Q_COUNT = 6,
-  ST_Q_PATH_QUEUES = ST_Q_SHADOW /* queues of path slots */
+  ST_STAGES(ST_X_QUEUE_ENUM)
+  ST_Q_COUNT,
+  ST_Q_PATH_QUEUES = 0 ST_STAGES(ST_X_SLOT_QUEUE) /* queues of path slots */
 };
 
-/* Statistic counters that the device sums per iteration (32-bit) and the host adds into 64-bit
- * totals: X(ENUM suffix, RenderStats field, --stats-json key). The one list behind the enum, the
- * host's fold and the JSON names (Cycles' state_template.h pattern). */
+/* Statistic counters that the device sums per iteration (32-bit) and k_advance adds into 64-bit
+ * totals (wavefront.h st_loop.sums): X(ENUM suffix, RenderStats field, --stats-json key). The one
+ * list behind the enum, the fold and the JSON names (Cycles' state_template.h pattern). */
 #define ST_SUM_COUNTERS(X)                                         \
   X(LOOKUPS_TRACK, lookups_track, "density_lookups_tracking")      \
   X(LOOKUPS_SHADOW, lookups_shadow, "density_lookups_shadow")      \
@@ -48,24 +65,29 @@ enum st_counter {
   ST_C_COUNT
 };
 
-/* Arguments of every stage kernel, in order (kernels/queues.h ST_STAGE_ARGS spells the same list;
- * the host binds by these names). st_iteration changes every iteration; the guide cache and the
- * radiance records (kernels/guiding.h) are read only by kernels compiled with guiding. */
+/* Arguments of every stage kernel after the scene (ST_ARG_SCENE = 0), in order: X(ENUM suffix,
+ * OpenCL C type, name). The one list behind enum st_stage_arg, by which the host binds them, and
+ * the kernels' and stage functions' parameter lists (kernels/queues.h), so an argument is one row.
+ * The loop state's st_iteration changes every iteration (k_advance, wavefront.h); the guide cache
+ * and the radiance records (kernels/guiding.h) are read only by kernels compiled with guiding. */
+#define ST_STAGE_ARG_LIST(X)                                                          \
+  X(GRIDS, __global const uint*, grids)                                               \
+  X(MAJORANTS, __global const float2*, maj)                                           \
+  X(ENV, __global const float*, env)                                                  \
+  X(PATHS, __global st_path*, paths)                                                  \
+  X(SHADOWS, __global st_shadow*, shadows)                                            \
+  X(QUEUES, __global uint*, queues)                                                   \
+  X(COUNTERS, __global uint*, counters)                                               \
+  X(RESULTS, __global float4*, results)                                               \
+  X(SLOTS, uint, Q)            /* path slots */                                       \
+  X(LIGHTS, uint, NL)          /* shadow-ray entries per path slot (lights * ring) */ \
+  X(LOOP, __global const st_loop*, loop) /* the loop state (wavefront.h): its `it` */ \
+  X(GUIDE, __global const st_guide_header*, guide) /* st_guide_header, then its regions */ \
+  X(GUIDE_RECORDS, __global uint*, guide_records) /* a uint count, then st_guide_record entries */
+#define ST_X_ARG_ENUM(E, type, name) ST_ARG_##E,
 enum st_stage_arg {
-  ST_ARG_SCENE = 0,
-  ST_ARG_GRIDS,
-  ST_ARG_MAJORANTS,
-  ST_ARG_ENV,
-  ST_ARG_PATHS,
-  ST_ARG_SHADOWS,
-  ST_ARG_QUEUES,
-  ST_ARG_COUNTERS,
-  ST_ARG_RESULTS,
-  ST_ARG_SLOTS,      /* Q: path slots */
-  ST_ARG_LIGHTS,     /* NL: shadow-ray entries per path slot (lights * shadow ring) */
-  ST_ARG_ITERATION,  /* st_iteration */
-  ST_ARG_GUIDE,      /* the guide cache: st_guide_header, then its regions */
-  ST_ARG_GUIDE_RECORDS, /* radiance records: a uint count, then st_guide_record entries */
+  ST_ARG_SCENE = 0, /* __constant const st_scene* scene */
+  ST_STAGE_ARG_LIST(ST_X_ARG_ENUM)
   ST_ARG_COUNT
 };
 

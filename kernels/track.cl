@@ -8,10 +8,8 @@
 #include "tracking.h"
 #include "queues.h"
 
-__kernel void k_track(ST_STAGE_ARGS) {
-  const uint cur = it.cur, n = it.n_queue[ST_Q_TRACK];
-  uint gid = get_global_id(0);
-  if (gid >= n) return;
+ST_STAGE_FUNCTION(track) {
+  const uint cur = it.cur;
   uint slot = queue_item(queues, Q, NL, cur, ST_Q_TRACK, gid);
   st_path p = paths[slot];
   st_rng rng = path_rng(scene, &p, 0u, p.rng_draw);

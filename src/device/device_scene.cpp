@@ -95,14 +95,20 @@ void KernelLauncher::warm(const std::string& name) {
 }
 
 void KernelLauncher::collect_profiling() {
+  std::vector<Record> running;  // launched but not finished: collected at a later call
   for (auto& r : pending_) {
+    cl_int status = CL_COMPLETE;
+    if (r.event.getInfo(CL_EVENT_COMMAND_EXECUTION_STATUS, &status) == CL_SUCCESS && status > CL_COMPLETE) {
+      running.push_back(std::move(r));
+      continue;
+    }
     cl_ulong a = 0, b = 0;
     if (r.event.getProfilingInfo(CL_PROFILING_COMMAND_START, &a) == CL_SUCCESS &&
         r.event.getProfilingInfo(CL_PROFILING_COMMAND_END, &b) == CL_SUCCESS && b >= a)
       times_[r.name].seconds += double(b - a) * 1e-9;
     times_[r.name].launches += 1;
   }
-  pending_.clear();
+  pending_ = std::move(running);
 }
 
 }  // namespace spectrack

@@ -48,7 +48,8 @@ class KernelLauncher {
   // binds arguments that say so: queue sizes of 0), so that a driver that compiles a kernel at its
   // first launch per work-group size (PoCL) does it now. Not recorded in times().
   void warm(const std::string& name);
-  // Adds the finished launches' device time to times().
+  // Adds the finished launches' device time to times(); those still queued or running stay for a
+  // later call.
   void collect_profiling();
   std::map<std::string, KernelTime>& times() { return times_; }
   static constexpr size_t kLocalSize = 64;  // every launch's work-group size

@@ -203,9 +203,25 @@ static void write_cache(const std::string& path, const std::vector<unsigned char
   std::filesystem::rename(tmp, path, ec);
 }
 
+// SPECTRACK_CL_OPTIONS: more build options (measurements: -cl-nv-verbose makes NVIDIA's log list
+// each kernel's registers); they are part of the cache key like every option.
+static std::string with_extra_options(const std::string& options) {
+  const char* e = std::getenv("SPECTRACK_CL_OPTIONS");
+  return e && *e ? options + " " + e : options;
+}
+
+// SPECTRACK_CL_BUILD_LOG=FILE: the log of a build from source (not from the cache) goes to FILE.
+static void keep_build_log(const cl::Program& prog, const DeviceInfo& dev) {
+  const char* file = std::getenv("SPECTRACK_CL_BUILD_LOG");
+  if (!file || !*file) return;
+  std::string log;
+  if (prog.getBuildInfo(dev.device, CL_PROGRAM_BUILD_LOG, &log) == CL_SUCCESS) std::ofstream(file, std::ios::app) << log;
+}
+
 ProgramBuild build_program(const cl::Context& ctx, const DeviceInfo& dev, const std::string& source,
-                           const std::string& options, bool quiet) {
+                           const std::string& options_in, bool quiet) {
   auto t0 = std::chrono::steady_clock::now();
+  const std::string options = with_extra_options(options_in);
   ProgramBuild out;
   std::string key = sha1_hex(source + '\0' + options + '\0' + dev.name + '\0' + dev.vendor + '\0' + dev.version + '\0' +
                              dev.driver_version + '\0' + dev.platform_name + '\0' + dev.platform_version + '\0' +
@@ -246,6 +262,7 @@ ProgramBuild build_program(const cl::Context& ctx, const DeviceInfo& dev, const 
                             dev.name, cl_error_name(berr), berr, options, log, src_file));
   }
   out.program = prog;
+  keep_build_log(prog, dev);
   if (!out.cache_file.empty()) {
     std::vector<std::vector<unsigned char>> bins;
     if (prog.getInfo(CL_PROGRAM_BINARIES, &bins) == CL_SUCCESS && !bins.empty() && !bins[0].empty())

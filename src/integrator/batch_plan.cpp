@@ -72,7 +72,7 @@ MemoryNeed Renderer::Impl::memory_need(const BatchPlan& p) const {
   r.aov_channels = aov_sum_channels(settings.aovs).size();
   r.path_slots = p.Q;
   r.path_bytes = sizeof(st_path) + p.NL * sizeof(st_shadow) + (settings.guiding ? guide_record_buffer_bytes(1, true) : 0);
-  r.queue_words = 2 * (ST_Q_PATH_QUEUES + p.NL);
+  r.queue_words = queue_words_per_slot(p.NL);
   r.result_values = p.ring * p.batch_paths * p.L;
   r.scene_bytes = ds.scene_bytes + (settings.guiding ? double(guide.bytes()) : 0.0);
   return render_memory(r);
@@ -120,14 +120,15 @@ RenderBuffers Renderer::Impl::allocate(const BatchPlan& p) {
     ST_CL_CHECK(ds.queue.enqueueFillBuffer(b.shadows, cl_uint(ST_SHADOW_EMPTY), 0, p.Q * p.NL * sizeof(st_shadow)),
                 "clear the shadow-ray entries");
   ST_CL_CHECK(ds.queue.finish(), "allocate render buffers");  // set-up, not seconds_render
-  // two parities of: the path-slot queues (Q each), then the shadow queue (Q * NL)
-  const uint64_t per_parity = ST_Q_PATH_QUEUES * p.Q + p.Q * p.NL;
+  // two parities of every queue in table order (stage_table.h): Q path slots or Q * NL shadow rays
+  const uint64_t per_parity = p.Q * queue_words_per_slot(p.NL) / 2;
   std::vector<uint32_t> init_queue(2 * per_parity, 0u);
   for (uint64_t i = 0; i < p.Q; ++i) init_queue[i] = uint32_t(i);  // parity 0, FREE: every slot
   b.queues = ds.buffer(CL_MEM_READ_WRITE, init_queue.size() * 4, init_queue.data(),
                        fmt::format("queues ({})", slot_cause(opt, p, true)).c_str());
   std::vector<uint32_t> counters(ST_C_COUNT, 0u);
   b.counters = ds.buffer(CL_MEM_READ_WRITE, counters.size() * 4, counters.data(), "counters");
+  b.loop = ds.buffer(CL_MEM_READ_WRITE, sizeof(st_loop), nullptr, "loop state");
   b.results = ds.buffer(CL_MEM_READ_WRITE, p.ring * p.batch_paths * p.L * sizeof(st_float4), nullptr, "batch results");
   // film: per layer, per pixel the running sum, then its Kahan compensation terms (finish.cl),
   // cleared on the device (no host copy of zeros)
@@ -139,8 +140,8 @@ RenderBuffers Renderer::Impl::allocate(const BatchPlan& p) {
 }
 
 void Renderer::Impl::bind_stage_args(const RenderBuffers& b, const BatchPlan& p) {
-  for (const Stage& s : kStages) {
-    cl::Kernel& k = launcher->kernel(s.kernel);
+  for (const Stage* s : launched_stages()) {
+    cl::Kernel& k = launcher->kernel(s->kernel);
     k.setArg(ST_ARG_SCENE, ds.b_scene);
     k.setArg(ST_ARG_GRIDS, ds.b_grids);
     k.setArg(ST_ARG_MAJORANTS, ds.b_maj);
@@ -152,12 +153,22 @@ void Renderer::Impl::bind_stage_args(const RenderBuffers& b, const BatchPlan& p)
     k.setArg(ST_ARG_RESULTS, b.results);
     k.setArg(ST_ARG_SLOTS, cl_uint(p.Q));
     k.setArg(ST_ARG_LIGHTS, cl_uint(p.NL));
+    k.setArg(ST_ARG_LOOP, b.loop);
     k.setArg(ST_ARG_GUIDE, b_guide);
     k.setArg(ST_ARG_GUIDE_RECORDS, b_records);
   }
   cl::Kernel& acc = launcher->kernel("k_accumulate");
   acc.setArg(0, b.results);
   acc.setArg(1, b.film);
+  acc.setArg(2, b.loop);
+  acc.setArg(3, cl_uint(p.npix));
+  acc.setArg(4, cl_uint(p.nch));
+  acc.setArg(5, cl_uint(p.L));
+  acc.setArg(6, cl_uint(p.moments));
+  cl::Kernel& adv = launcher->kernel("k_advance");
+  adv.setArg(0, b.loop);
+  adv.setArg(1, b.counters);
+  adv.setArg(2, cl_uint(sizeof(st_loop)));
 }
 
 }  // namespace spectrack

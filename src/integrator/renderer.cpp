@@ -3,8 +3,9 @@
 // the device and upload (device/device_scene.h), build the kernels (cached) for the scene's
 // st_feature mask (--generic-kernels: every feature and ST_MAX_MEDIA media). A render is then a
 // few named steps: plan the batches, check the memory, allocate, bind the stage arguments, run the
-// iterations (launch the stages, read the counters, fold them into the statistics, add finished
-// batches to the film), read the film back. What a scene lacks costs nothing: a scene without
+// iterations (stage_loop.cpp: the device keeps the queue sizes, folds the counters and adds finished
+// batches to the film; the host enqueues chunks of iterations and reads the loop state between
+// them), read the film back. What a scene lacks costs nothing: a scene without
 // lights gets no shadow-ray buffer or queue, and one whose escaping rays see no light gets no
 // escape launch (track sends them straight to finish). With guiding, the first render trains the
 // guide cache (docs/guiding.md): a few passes over the full film with random streams of their own,
@@ -60,17 +61,16 @@ void Renderer::Impl::setup() {
 
 // PoCL compiles each kernel for its work-group size at its first launch (seconds per kernel with
 // a cold PoCL cache), which would land in the first render's stage loop: one empty launch of each
-// kernel the renders can launch, at the real work-group size, moves it here, into seconds_build.
-// Every item returns at once without touching memory: the stage kernels see queue sizes and
-// n_new of 0, k_accumulate npix = 0 (each kernel's first statement). The escape stage is skipped
-// when the kernels have none (track never queues an escape), the shadow stage without lights.
+// kernel the renders launch, at the real work-group size, moves it here, into seconds_build.
+// Every item returns at once without touching memory but a loop state of zeros: its queue sizes
+// are 0 and it marks no batch for k_accumulate; k_advance sees a size that is not its own and
+// only marks that state.
 void Renderer::Impl::warm_kernels() {
   const cl::Buffer none = ds.buffer(CL_MEM_READ_WRITE, 16, nullptr, "warm-up");
-  const st_iteration idle{};
-  for (const Stage& s : kStages) {
-    if (s.queue == ST_Q_ESCAPE && !(ds.packed.features & ST_FEATURE_ESCAPE)) continue;
-    if (s.queue == ST_Q_SHADOW && ds.packed.st.n_lights == 0) continue;
-    cl::Kernel& k = launcher->kernel(s.kernel);
+  const std::vector<unsigned char> zeros(sizeof(st_loop), 0);
+  const cl::Buffer idle = ds.buffer(CL_MEM_READ_WRITE, zeros.size(), zeros.data(), "warm-up loop state");
+  for (const Stage* s : launched_stages()) {
+    cl::Kernel& k = launcher->kernel(s->kernel);
     k.setArg(ST_ARG_SCENE, ds.b_scene);
     k.setArg(ST_ARG_GRIDS, ds.b_grids);
     k.setArg(ST_ARG_MAJORANTS, ds.b_maj);
@@ -80,98 +80,21 @@ void Renderer::Impl::warm_kernels() {
       k.setArg(a, none);
     k.setArg(ST_ARG_SLOTS, cl_uint(0));
     k.setArg(ST_ARG_LIGHTS, cl_uint(0));
-    k.setArg(ST_ARG_ITERATION, idle);
-    launcher->warm(s.kernel);
+    k.setArg(ST_ARG_LOOP, idle);
+    launcher->warm(s->kernel);
   }
   cl::Kernel& acc = launcher->kernel("k_accumulate");
   acc.setArg(0, none);
   acc.setArg(1, none);
-  for (int a = 2; a < 8; ++a) acc.setArg(a, cl_uint(0));
+  acc.setArg(2, idle);
+  for (int a = 3; a < 7; ++a) acc.setArg(a, cl_uint(0));
   launcher->warm("k_accumulate");
+  cl::Kernel& adv = launcher->kernel("k_advance");
+  adv.setArg(0, idle);
+  adv.setArg(1, none);
+  adv.setArg(2, cl_uint(0));
+  launcher->warm("k_advance");
   ST_CL_CHECK(ds.queue.finish(), "kernel warm-up");
-}
-
-// Launches one iteration's stages; false on a stop request or at the deadline, which end the
-// render at once: the film holds the batches finished so far (samples 0 .. samples_done - 1 of
-// the range, every batch being whole samples of every pixel), and the paths in flight are dropped.
-bool Renderer::Impl::begin_iteration(LoopState& s, const BatchPlan& p, int64_t sample_begin) {
-  if (opt.stop && opt.stop->load()) return false;
-  if (opt.deadline && Clock::now() >= *opt.deadline) {
-    s.time_limit_reached = true;
-    return false;
-  }
-  uint64_t issue_limit = std::min<uint64_t>(p.total_paths, (s.accumulated + batches_ahead(s.accumulated, p.ring)) * p.batch_paths);
-  issue_limit = std::min<uint64_t>(issue_limit, std::min(s.batches_target, s.batches_issuable) * p.batch_paths);
-  uint64_t n_new = std::min<uint64_t>(s.n_q[ST_Q_FREE], issue_limit > s.issued ? issue_limit - s.issued : 0);
-  uint64_t in_flight = 0;
-  for (int q = ST_Q_TRACK; q < ST_Q_COUNT; ++q) in_flight += s.n_q[q];
-  if (n_new == 0 && in_flight == 0)
-    throw Error(fmt::format("internal: wavefront stalled with {} of {} batches accumulated", s.accumulated, s.batches_target));
-  st_iteration it{};
-  it.first = s.issued;
-  it.cur = s.cur;
-  for (int q = 0; q < ST_Q_COUNT; ++q) it.n_queue[q] = cl_uint(s.n_q[q]);
-  it.n_new = cl_uint(n_new);
-  it.batch_paths = cl_uint(p.batch_paths);
-  it.sample_begin = cl_uint(sample_begin);
-  it.samples_per_batch = cl_uint(p.samples_per_batch);
-  for (const Stage& st : kStages) launcher->kernel(st.kernel).setArg(ST_ARG_ITERATION, it);
-  // raygen runs over the n_new slots it fills (the top of the free stack); the others stay put
-  for (const Stage& st : kStages) launcher->launch(st.kernel, st.queue == ST_Q_FREE ? n_new : s.n_q[st.queue]);
-  s.free_kept = s.n_q[ST_Q_FREE] - n_new;
-  s.issued += n_new;
-  return true;
-}
-
-void Renderer::Impl::fold_counters(LoopState& s, const BatchPlan& p, RenderStats& S) const {
-  const std::vector<uint32_t>& c = s.counters;
-  for (int q = 0; q < ST_Q_COUNT; ++q) s.n_q[q] = c[ST_C_QUEUE + q];
-  s.n_q[ST_Q_FREE] = s.free_kept + c[ST_C_QUEUE + ST_Q_FREE];  // the stack: kept + pushed by finish
-  // every path slot is in exactly one path queue at an iteration boundary
-  uint64_t slots = 0;
-  for (int q = 0; q < ST_Q_PATH_QUEUES; ++q) slots += s.n_q[q];
-  if (slots != p.Q)
-    throw Error(fmt::format("internal: the path queues hold {} slots after iteration {}, not {}", slots, S.iterations, p.Q));
-  record_occupancy(S, s.n_q, p.Q);
-  s.cur = 1 - s.cur;
-  static const bool trace = [] {
-    const char* e = std::getenv("SPECTRACK_TRACE_QUEUES");
-    return e && std::string(e) != "0";
-  }();
-  if (trace)
-    std::cerr << fmt::format("iteration {}: issued {} free {} track {} escape {} scatter {} finish {} shadow {} "
-                             "done {}+{} accumulated {}\n",
-                             S.iterations, s.issued, s.n_q[ST_Q_FREE], s.n_q[ST_Q_TRACK], s.n_q[ST_Q_ESCAPE],
-                             s.n_q[ST_Q_SCATTER], s.n_q[ST_Q_FINISH], s.n_q[ST_Q_SHADOW],
-                             s.batch_done[0] + c[ST_C_BATCH_DONE], p.ring > 1 ? s.batch_done[1] + c[ST_C_BATCH_DONE + 1] : 0,
-                             s.accumulated);
-  for (uint64_t r = 0; r < p.ring; ++r) s.batch_done[r] += c[ST_C_BATCH_DONE + r];
-#define ST_X_FOLD(E, field, key) S.field += c[ST_C_##E];
-  ST_SUM_COUNTERS(ST_X_FOLD)
-#undef ST_X_FOLD
-  s.max_bits = std::max(s.max_bits, c[ST_C_MAX_THROUGHPUT_BITS]);
-}
-
-// Adds every completed batch to the film, in batch order.
-void Renderer::Impl::accumulate_finished(LoopState& s, const BatchPlan& p, RenderResult& res) {
-  cl::Kernel& acc = launcher->kernel("k_accumulate");
-  while (s.accumulated < s.batches_target) {
-    uint64_t b = s.accumulated;
-    uint64_t expected = p.batch_samples(b) * p.npix * p.nch;
-    if (s.batch_done[b % p.ring] < expected) break;
-    acc.setArg(2, cl_uint((b % p.ring) * p.batch_paths));
-    acc.setArg(3, cl_uint(p.batch_samples(b)));
-    acc.setArg(4, cl_uint(p.npix));
-    acc.setArg(5, cl_uint(p.nch));
-    acc.setArg(6, cl_uint(p.L));
-    acc.setArg(7, cl_uint(p.moments));
-    launcher->launch("k_accumulate", p.npix);
-    s.batch_done[b % p.ring] -= expected;
-    s.samples_done += p.batch_samples(b);
-    res.stats.paths += expected;
-    if (s.accumulated == 0) res.seconds_first_pass = first_pass_seconds();
-    ++s.accumulated;
-  }
 }
 
 RenderResult Renderer::Impl::result_header(int64_t sample_begin, int spp) const {
@@ -304,38 +227,22 @@ RenderResult Renderer::Impl::run_stage_loop(int64_t sample_begin, int spp, std::
 
   LoopState s;
   s.samples_before = uint64_t(before);
+  s.lockstep = records != nullptr || watch != nullptr;
   if (watch) limit_issue(s, plan, *watch);
-  s.n_q[ST_Q_FREE] = plan.Q;
-  s.batch_done.assign(plan.ring, 0);
-  s.batches_target = plan.n_batches;
-  const std::vector<uint32_t> zeros(ST_C_COUNT, 0u);
   auto t_loop = Clock::now();
   if (opt.loop_started) opt.loop_started->store(true);
-  while (s.accumulated < s.batches_target) {
-    if (!begin_iteration(s, plan, sample_begin + before)) break;
-    ST_CL_CHECK(ds.queue.enqueueReadBuffer(buf.counters, CL_TRUE, 0, s.counters.size() * 4, s.counters.data()), "read counters");
-    ST_CL_CHECK(ds.queue.enqueueWriteBuffer(buf.counters, CL_FALSE, 0, zeros.size() * 4, zeros.data()), "reset counters");
-    if (records) drain_records(*records);
-    launcher->collect_profiling();
-    res.stats.iterations++;
-    fold_counters(s, plan, res.stats);
-    const uint64_t accumulated = s.accumulated;
-    accumulate_finished(s, plan, res);
-    if (opt.progress) {  // finished paths, the accumulated batches' and those in flight: smooth within batches
-      uint64_t paths = (s.samples_before + s.samples_done) * plan.npix * plan.nch;
-      for (uint64_t d : s.batch_done) paths += d;
-      opt.progress(std::min(1.0, double(paths) / double(uint64_t(spp) * plan.npix * plan.nch)));
-    }
-    if (watch && s.accumulated > accumulated && s.accumulated < s.batches_target && watch_film(buf, plan, s, res)) break;
-  }
-  ST_CL_CHECK(ds.queue.finish(), "finish stage loop");
+  start_loop(buf, plan, s, sample_begin + before);
+  drive_loop(buf, plan, s, res, records);
+  ST_CL_CHECK(ds.queue.enqueueReadBuffer(buf.loop, CL_TRUE, 0, sizeof(st_loop), &s.dev), "read the loop state");
+  s.host_waits++;
   res.seconds_render = seconds_since(t_loop);  // the stage loop alone (kernel JIT is in seconds_build)
+  s.accumulated = s.dev.accumulated;
+  s.samples_done = s.dev.samples_done;
+  if (s.accumulated > 0 && res.seconds_first_pass == 0) res.seconds_first_pass = seconds_since(t_created);
+  loop_stats(plan, s, res.stats);
   read_film(buf, plan, s, res);
   if (watch && watch->wants_final_state()) watch->final_state(film_state(buf, plan, s, sample_begin));
   launcher->collect_profiling();
-  float mt;
-  std::memcpy(&mt, &s.max_bits, 4);
-  res.stats.max_throughput = mt;
   res.stats.kernels = launcher->times();
   return res;
 }

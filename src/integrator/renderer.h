@@ -33,7 +33,8 @@ struct KernelTime {
 #define ST_HOST_COUNTERS(X)    \
   X(paths, "paths")            \
   X(iterations, "iterations")  \
-  X(iterations_below_half, "iterations_below_half_occupancy")
+  X(iterations_below_half, "iterations_below_half_occupancy") \
+  X(host_waits, "host_waits")
 
 struct RenderStats {
   // Adds another shard's statistics (counters summed, max_throughput maxed, kernel times summed).

@@ -17,6 +17,7 @@
 #include "integrator/film_watch.h"
 #include "device/device_scene.h"
 #include "integrator/memory_budget.h"
+#include "integrator/stage_table.h"
 #include "util/phase.h"
 
 namespace spectrack {
@@ -24,15 +25,6 @@ namespace render_detail {
 
 using Clock = std::chrono::steady_clock;
 inline double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
-
-// The stages of one iteration in launch order, each with the queue it reads.
-struct Stage {
-  const char* kernel;
-  st_queue queue;
-};
-constexpr Stage kStages[] = {{"k_raygen", ST_Q_FREE},     {"k_track", ST_Q_TRACK},   {"k_escape", ST_Q_ESCAPE},
-                             {"k_scatter", ST_Q_SCATTER}, {"k_shadow", ST_Q_SHADOW}, {"k_finish", ST_Q_FINISH}};
-static_assert(sizeof(kStages) / sizeof(kStages[0]) == ST_Q_COUNT, "one stage per queue");
 
 // How one render's paths are cut into batches of whole samples per pixel.
 struct BatchPlan {
@@ -51,31 +43,22 @@ struct BatchPlan {
 
 struct RenderBuffers {
   cl::Buffer paths, shadows, queues, counters, results, film;
+  cl::Buffer loop;  // the stage loop's state (st_loop, kernels/wavefront.h)
 };
 
-// The stage loop's progress.
+// The stage loop's progress on the host: its last copy of the device's loop state (read every
+// few iterations: stage_loop.cpp) and what the host decides.
 struct LoopState {
-  uint64_t n_q[ST_Q_COUNT] = {};  // FREE: size of the free stack (kernels/queues.h free_push)
-  uint64_t free_kept = 0;           // free slots raygen left below its launch this iteration
-  uint32_t cur = 0;
-  uint64_t issued = 0, accumulated = 0, samples_done = 0, batches_target = 0;
+  st_loop dev{};                      // the device's loop state, as last read
+  st_loop reads[2] = {};              // the non-blocking reads' targets (stage_loop.cpp drive_loop)
+  uint64_t accumulated = 0, samples_done = 0;  // of dev, for the watch and the film
   uint64_t samples_before = 0;       // samples of a resumed film (FilmWatch::resume) before sample_begin
   uint64_t batches_issuable = UINT64_MAX;  // batches that may be issued before the watch looks again
   bool time_limit_reached = false, noise_target_reached = false;
-  std::vector<uint64_t> batch_done;  // finished paths per ring slot
-  std::vector<uint32_t> counters = std::vector<uint32_t>(ST_C_COUNT, 0u);
-  uint32_t max_bits = 0;             // of the largest throughput component
+  bool lockstep = false;             // one iteration per read (training records, the watch, the trace)
+  uint64_t chunk = 1;                // iterations enqueued per read
+  uint64_t host_waits = 0;           // blocking reads and finishes in the stage loop
 };
-
-inline void record_occupancy(RenderStats& S, const uint64_t* n_q, uint64_t Q) {
-  uint64_t busy = 0;
-  for (int q = ST_Q_TRACK; q < ST_Q_PATH_QUEUES; ++q) busy += n_q[q];  // path slots (shadow rays are per light)
-  double occ = double(busy) / double(Q);
-  // running mean over the iterations recorded so far (S.iterations counts this one)
-  S.occupancy_mean += (occ - S.occupancy_mean) / double(S.iterations);
-  S.occupancy_min = S.iterations == 1 ? occ : std::min(S.occupancy_min, occ);
-  if (occ < 0.5) S.iterations_below_half++;
-}
 
 }  // namespace render_detail
 
@@ -122,9 +105,17 @@ struct Renderer::Impl {
   void set_ring_size(uint64_t ring);
   RenderBuffers allocate(const BatchPlan& plan);
   void bind_stage_args(const RenderBuffers& b, const BatchPlan& plan);
-  bool begin_iteration(LoopState& s, const BatchPlan& plan, int64_t sample_begin);
-  void fold_counters(LoopState& s, const BatchPlan& plan, RenderStats& S) const;
-  void accumulate_finished(LoopState& s, const BatchPlan& plan, RenderResult& res);
+  // The stage loop on the device (stage_loop.cpp): its first state, the enqueueing of iterations,
+  // what the host does with each read of the state (false: the loop is over), and the statistics.
+  void start_loop(const RenderBuffers& b, const BatchPlan& plan, LoopState& s, int64_t sample_begin);
+  void enqueue_iterations(const BatchPlan& plan, uint64_t n);
+  bool see_loop(const RenderBuffers& b, const BatchPlan& plan, LoopState& s, const st_loop& read, RenderResult& res,
+                std::vector<st_guide_record>* records);
+  void drive_loop(const RenderBuffers& b, const BatchPlan& plan, LoopState& s, RenderResult& res,
+                  std::vector<st_guide_record>* records);
+  void loop_stats(const BatchPlan& plan, const LoopState& s, RenderStats& S) const;
+  bool stop_requested(LoopState& s) const;
+  size_t launch_items(uint64_t capacity) const;  // work-items of a launch over a queue of this capacity
   RenderResult result_header(int64_t sample_begin, int spp) const;
   void read_film(const RenderBuffers& b, const BatchPlan& plan, const LoopState& s, RenderResult& res);
   // The watch of the stage loop (film_watch.h; renderer_watch.cpp): the film state, the resumed
@@ -133,11 +124,8 @@ struct Renderer::Impl {
   void load_film_state(const RenderBuffers& b, const BatchPlan& plan, const FilmState& st);
   bool watch_film(const RenderBuffers& b, const BatchPlan& plan, LoopState& s, const RenderResult& header);
   void limit_issue(LoopState& s, const BatchPlan& plan, const FilmWatch& w);
-  // Construction to the first batch on the film (waits for the accumulation launch).
-  double first_pass_seconds() {
-    ST_CL_CHECK(ds.queue.finish(), "finish first pass");
-    return seconds_since(t_created);
-  }
+  // The stage kernels launched for this scene, in launch order.
+  std::vector<const Stage*> launched_stages() const;
 };
 
 }  // namespace spectrack

@@ -1,0 +1,68 @@
+/* wavefront.h: the stage loop's state on the device (st_loop), shared by the host and the kernels.
+ *
+ * Design: the queue sizes, the batches' progress and the statistics live on the device, so the
+ * host never waits for them between iterations. An iteration is the stage launches (each stage
+ * reads its queue's size from `it`), then k_advance (one work-item, kernels/stages.cl), which folds
+ * the iteration's counters into this state (queue sizes, finished paths per batch ring slot,
+ * 64-bit sums, occupancy), marks the completed batches for k_accumulate (launched next, it adds
+ * them to the film in batch order), and writes the next iteration's `it`: the paths raygen issues
+ * (from the top of the free stack, within the batches the ring and the host allow) and the queue
+ * parity. The host writes the plan once, enqueues several iterations at a time and reads this state
+ * every few iterations (src/integrator/stage_loop.cpp), for progress, the end, and its statistics.
+ * Which slot a path occupies and when an iteration runs never change a result: paths are keyed
+ * by (pixel, sample, channel), write their sample at their own result index, and the film adds
+ * whole batches in batch order. Layout: the 64-bit fields first, then the 32-bit ones, the same on
+ * the host and the device (k_advance compares sizeof with the host's and stops on a mismatch). */
+#ifndef SPECTRACK_WAVEFRONT_H
+#define SPECTRACK_WAVEFRONT_H
+
+#include "types.h"
+
+/* What the loop is doing after a k_advance. */
+enum st_loop_status {
+  ST_LOOP_RUNNING = 0,   /* `it` has work */
+  ST_LOOP_DONE = 1,      /* every batch is on the film */
+  ST_LOOP_WAITING = 2,   /* nothing in flight and the host's batches_issuable reached: the host's turn */
+  ST_LOOP_STALLED = 3,   /* nothing in flight and nothing to issue (an internal error) */
+  ST_LOOP_SLOTS_LOST = 4, /* the path queues do not hold every slot (an internal error) */
+  ST_LOOP_LAYOUT = 5     /* the host's st_loop differs from the device's */
+};
+
+#define ST_X_SUM_ONE(E, field, key) +1
+enum { ST_SUM_COUNT = 0 ST_SUM_COUNTERS(ST_X_SUM_ONE) };
+
+typedef struct {
+  st_iteration it;              /* what the next stage launches read */
+  st_ulong issued;              /* paths issued so far */
+  st_ulong total_paths;         /* of the render */
+  st_ulong busy_sum;            /* path slots in flight at the iteration boundaries, summed */
+  st_ulong sums[ST_SUM_COUNT];  /* ST_SUM_COUNTERS, in order */
+  /* the plan (the host, once) */
+  st_uint Q, ring, batch_paths, samples_per_batch, spp, paths_per_sample, batches_target;
+  st_uint batches_issuable;     /* the host: batches that may be issued before it looks again */
+  /* the loop */
+  st_uint n_q[ST_Q_COUNT];      /* queue sizes at the iteration boundary (FREE: the free stack) */
+  st_uint free_kept;            /* free slots raygen leaves below its places this iteration */
+  st_uint cur;                  /* parity of the queue buffers the next iteration reads */
+  st_uint live;                 /* `it` has work: the next k_advance folds its counters */
+  st_uint status;               /* st_loop_status */
+  st_uint accumulated;          /* batches on the film (or marked for the k_accumulate after this k_advance) */
+  st_uint samples_done;         /* their samples */
+  st_uint acc_first, acc_end;   /* batches the next k_accumulate adds */
+  st_uint batch_done[ST_MAX_BATCHES_IN_FLIGHT]; /* finished paths per ring slot, not yet accumulated */
+  st_uint iterations;           /* iterations with work */
+  st_uint busy_min, below_half; /* occupancy: fewest busy slots; iterations with fewer than Q / 2 */
+  st_uint max_bits;             /* float bits of the largest throughput component */
+} st_loop;
+
+/* Bit q is set for the queues of path slots. */
+#define ST_X_SLOT_BIT(stage, QUEUE, HOLDS, GATE) | (ST_HOLDS_##HOLDS == ST_HOLDS_SLOTS ? 1u << ST_Q_##QUEUE : 0u)
+enum { ST_SLOT_QUEUE_BITS = 0u ST_STAGES(ST_X_SLOT_BIT) };
+
+/* Samples per pixel of batch b (the last batch may be shorter). */
+inline st_uint loop_batch_samples(const st_loop* s, st_uint b) {
+  const st_uint rest = s->spp - b * s->samples_per_batch;
+  return s->samples_per_batch < rest ? s->samples_per_batch : rest;
+}
+
+#endif /* SPECTRACK_WAVEFRONT_H */

@@ -1,0 +1,89 @@
+// test_wavefront.cpp: the stage loop on the device (docs/architecture.md, 'The stage loop on the
+// device'): a plain render waits for the device at most once per 8 iterations (host_waits in the
+// stats), the schedule changes no pixel (one iteration per read, the queue trace, against chunks
+// of iterations; one work-group per stage launch, whose work-items then stride over many items,
+// against the default launch size), and every statistic the device folds matches the lockstep
+// render's. The twins: the lockstep render's own host_waits, one per iteration, must fail the
+// 1/8 bound, so the bound can fail; and another seed must change the image, so the comparison can.
+#include "cli_util.h"
+
+namespace {
+
+using namespace st_cli;
+
+struct ScopedEnv {
+  std::string name;
+  ScopedEnv(const char* n, const char* v) : name(n) { ::setenv(n, v, 1); }
+  ~ScopedEnv() { ::unsetenv(name.c_str()); }
+};
+
+struct Render {
+  std::vector<float> pixels;
+  json stats;
+};
+
+// The lumpy chromatic volume under a sky and a sun (every stage runs), 24x24, several batches.
+Render render(const std::string& dir, const std::string& tag, const std::vector<std::string>& extra = {}) {
+  const std::string vdb = dir + "/lumpy.vdb";
+  if (!fs::exists(vdb)) st_test::write_lumpy(vdb);
+  json scene = lumpy_sky_scene(vdb);
+  scene["film"]["width"] = 24;
+  scene["film"]["height"] = 24;
+  const std::string path = write_scene(dir, tag + ".json", scene);
+  std::vector<std::string> args = {"render", path, "--spp", "8", "--path-slots", "1024", "--batches-in-flight", "2",
+                                   "-o", dir + "/" + tag + ".exr", "--stats-json", dir + "/" + tag + ".json", "--quiet"};
+  args.insert(args.end(), extra.begin(), extra.end());
+  RunOptions o;
+  o.timeout_s = 600;
+  Proc p = run(args, o);
+  EXPECT_TRUE(p.exited && p.code == 0) << p.describe();
+  Render r;
+  r.pixels = image_pixels(dir + "/" + tag + ".exr");
+  r.stats = json::parse(std::ifstream(dir + "/" + tag + ".json"));
+  return r;
+}
+
+double waits_per_iteration(const json& s) {
+  return s["host_waits"].get<double>() / std::max(1.0, s["iterations"].get<double>());
+}
+
+TEST(Wavefront, ChunksOfIterationsWaitRarelyAndChangeNoPixel) {
+  const std::string dir = test_dir();
+  const Render chunked = render(dir, "chunked");
+  Render lockstep;
+  {
+    ScopedEnv trace("SPECTRACK_TRACE_QUEUES", "1");  // one iteration per read
+    lockstep = render(dir, "lockstep");
+  }
+  ASSERT_FALSE(chunked.pixels.empty());
+  EXPECT_EQ(chunked.pixels, lockstep.pixels);
+  ASSERT_GE(chunked.stats["iterations"].get<int>(), 64) << "too few iterations to measure waits";
+  EXPECT_LE(waits_per_iteration(chunked.stats), 1.0 / 8.0) << chunked.stats.dump();
+  // twin: the lockstep loop waits once per iteration, which the bound refuses
+  EXPECT_GT(waits_per_iteration(lockstep.stats), 1.0 / 8.0) << lockstep.stats.dump();
+  EXPECT_GE(lockstep.stats["host_waits"].get<int>(), lockstep.stats["iterations"].get<int>());
+  // the device's sums and occupancy are the same whatever the host's reads
+  for (const char* k : {"iterations", "paths", "density_lookups", "real_collisions", "null_collisions", "dda_steps",
+                        "scatter_events", "waiting_requeues", "iterations_below_half_occupancy", "occupancy_mean",
+                        "occupancy_min", "max_throughput"})
+    EXPECT_EQ(chunked.stats[k], lockstep.stats[k]) << k;
+  EXPECT_EQ(chunked.stats["paths"].get<int>(), 24 * 24 * 8);
+}
+
+TEST(Wavefront, StridingWorkItemsChangeNoPixel) {
+  const std::string dir = test_dir();
+  const Render wide = render(dir, "wide");
+  Render narrow;
+  {
+    ScopedEnv items("SPECTRACK_STAGE_ITEMS", "64");  // one work-group per launch strides over its queue
+    narrow = render(dir, "narrow");
+  }
+  ASSERT_FALSE(wide.pixels.empty());
+  EXPECT_EQ(wide.pixels, narrow.pixels);
+  EXPECT_EQ(wide.stats["density_lookups"], narrow.stats["density_lookups"]);
+  // twin: another seed changes the image, so equal images are not a blind comparison
+  const Render other = render(dir, "other", {"--seed", "8"});
+  EXPECT_NE(wide.pixels, other.pixels);
+}
+
+}  // namespace
