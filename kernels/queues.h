@@ -43,11 +43,6 @@ inline uint queue_offset(uint Q, uint NL, uint parity, int k) {
   return off;
 }
 
-/* Items of queue k in iteration `it`: raygen's are the n_new slots it fills. */
-inline uint stage_items(const st_iteration* it, int k) {
-  return k == ST_Q_FREE ? it->n_new : it->n_queue[k];
-}
-
 inline void queue_push(__global uint* queues, __global uint* counters, uint Q, uint NL, uint cur, int k, uint item) {
   uint i = atomic_inc(&counters[ST_C_QUEUE + k]);
   queues[queue_offset(Q, NL, 1u - cur, k) + i] = item;

@@ -59,6 +59,11 @@ typedef struct {
 #define ST_X_SLOT_BIT(stage, QUEUE, HOLDS, GATE) | (ST_HOLDS_##HOLDS == ST_HOLDS_SLOTS ? 1u << ST_Q_##QUEUE : 0u)
 enum { ST_SLOT_QUEUE_BITS = 0u ST_STAGES(ST_X_SLOT_BIT) };
 
+/* Items of queue k in iteration `it`: raygen's are the n_new slots it fills. */
+inline st_uint stage_items(const st_iteration* it, int k) {
+  return k == ST_Q_FREE ? it->n_new : it->n_queue[k];
+}
+
 /* Samples per pixel of batch b (the last batch may be shorter). */
 inline st_uint loop_batch_samples(const st_loop* s, st_uint b) {
   const st_uint rest = s->spp - b * s->samples_per_batch;

@@ -1,9 +1,9 @@
 // test_wavefront.cpp: the stage loop on the device (docs/architecture.md, 'The stage loop on the
-// device'): a plain render waits for the device at most once per 8 iterations (host_waits in the
-// stats), the schedule changes no pixel (one iteration per read, the queue trace, against chunks
-// of iterations; one work-group per stage launch, whose work-items then stride over many items,
-// against the default launch size), and every statistic the device folds matches the lockstep
-// render's. The twins: the lockstep render's own host_waits, one per iteration, must fail the
+// device'): a render in chunks of iterations (a GPU's loop) waits for the device at most once per
+// 8 iterations (host_waits in the stats), the schedule changes no pixel (one iteration per read,
+// the queue trace, and the sized loop of a CPU device against chunks of iterations; one
+// work-group per stage launch, whose work-items then stride over many items, against the default
+// launch size), and every statistic the device folds matches the lockstep render's. The twins: the lockstep render's own host_waits, one per iteration, must fail the
 // 1/8 bound, so the bound can fail; and another seed must change the image, so the comparison can.
 #include "cli_util.h"
 
@@ -49,14 +49,21 @@ double waits_per_iteration(const json& s) {
 
 TEST(Wavefront, ChunksOfIterationsWaitRarelyAndChangeNoPixel) {
   const std::string dir = test_dir();
-  const Render chunked = render(dir, "chunked");
-  Render lockstep;
+  Render chunked, lockstep, sized;
   {
+    ScopedEnv loop("SPECTRACK_LOOP", "chunked");  // the GPU's loop, on any device
+    chunked = render(dir, "chunked");
     ScopedEnv trace("SPECTRACK_TRACE_QUEUES", "1");  // one iteration per read
     lockstep = render(dir, "lockstep");
   }
+  {
+    ScopedEnv loop("SPECTRACK_LOOP", "sized");  // a CPU device's loop, on any device
+    sized = render(dir, "sized");
+  }
   ASSERT_FALSE(chunked.pixels.empty());
   EXPECT_EQ(chunked.pixels, lockstep.pixels);
+  EXPECT_EQ(chunked.pixels, sized.pixels);
+  EXPECT_EQ(chunked.stats["density_lookups"], sized.stats["density_lookups"]);
   ASSERT_GE(chunked.stats["iterations"].get<int>(), 64) << "too few iterations to measure waits";
   EXPECT_LE(waits_per_iteration(chunked.stats), 1.0 / 8.0) << chunked.stats.dump();
   // twin: the lockstep loop waits once per iteration, which the bound refuses
@@ -72,9 +79,10 @@ TEST(Wavefront, ChunksOfIterationsWaitRarelyAndChangeNoPixel) {
 
 TEST(Wavefront, StridingWorkItemsChangeNoPixel) {
   const std::string dir = test_dir();
-  const Render wide = render(dir, "wide");
-  Render narrow;
+  Render wide, narrow;
   {
+    ScopedEnv loop("SPECTRACK_LOOP", "chunked");  // launches of a fixed size, whatever the queue's
+    wide = render(dir, "wide");
     ScopedEnv items("SPECTRACK_STAGE_ITEMS", "64");  // one work-group per launch strides over its queue
     narrow = render(dir, "narrow");
   }

@@ -55,7 +55,8 @@ struct LoopState {
   uint64_t samples_before = 0;       // samples of a resumed film (FilmWatch::resume) before sample_begin
   uint64_t batches_issuable = UINT64_MAX;  // batches that may be issued before the watch looks again
   bool time_limit_reached = false, noise_target_reached = false;
-  bool lockstep = false;             // one iteration per read (training records, the watch, the trace)
+  bool lockstep = false;             // one iteration per read (training records, the watch, the trace, sized)
+  bool sized = false;                // each launch sized by the state last read (stage_loop.cpp)
   uint64_t chunk = 1;                // iterations enqueued per read
   uint64_t host_waits = 0;           // blocking reads and finishes in the stage loop
 };
@@ -108,7 +109,7 @@ struct Renderer::Impl {
   // The stage loop on the device (stage_loop.cpp): its first state, the enqueueing of iterations,
   // what the host does with each read of the state (false: the loop is over), and the statistics.
   void start_loop(const RenderBuffers& b, const BatchPlan& plan, LoopState& s, int64_t sample_begin);
-  void enqueue_iterations(const BatchPlan& plan, uint64_t n);
+  void enqueue_iterations(const BatchPlan& plan, const LoopState& s, uint64_t n);
   bool see_loop(const RenderBuffers& b, const BatchPlan& plan, LoopState& s, const st_loop& read, RenderResult& res,
                 std::vector<st_guide_record>* records);
   void drive_loop(const RenderBuffers& b, const BatchPlan& plan, LoopState& s, RenderResult& res,

@@ -2,8 +2,9 @@
 // wavefront.h): every iteration is the stage launches, k_advance (one work-item: it folds the
 // counters, marks completed batches and writes the next iteration's queue sizes) and k_accumulate
 // (the marked batches onto the film). The host only launches: it enqueues a chunk of iterations,
-// then a non-blocking read of the state, and waits for the read of the chunk before (so the device
-// always has a chunk queued), then looks at the state for progress, the end and errors. The chunk
+// then a non-blocking read of the state, and on a GPU waits for the read of the chunk before (so
+// the device always has a chunk queued; on a CPU device for its own), then looks at the state for
+// progress, the end and errors. The chunk
 // grows to about kChunkSeconds of device time, so a stop request or the time limit takes effect
 // within two chunks (about half a second); the guide's training passes (one iteration's records
 // at a time), the film watch (it looks after each new batch) and the queue trace run one
@@ -23,7 +24,7 @@ namespace {
 
 constexpr double kChunkSeconds = 0.25;   // device time per chunk of iterations, at most
 constexpr uint64_t kMaxChunk = 256;      // iterations per chunk, at most
-constexpr uint64_t kMinChunk = 8;        // unless 8 iterations take more than 2 kChunkSeconds
+constexpr uint64_t kMinChunk = 8;        // unless 8 iterations take more than 4 kChunkSeconds
 
 bool trace_queues() {
   static const bool trace = [] {
@@ -37,6 +38,16 @@ bool trace_queues() {
 uint64_t stage_items_override() {
   const char* e = std::getenv("SPECTRACK_STAGE_ITEMS");
   return e ? std::strtoull(e, nullptr, 10) : 0;
+}
+
+// SPECTRACK_LOOP: "chunked" (chunks of iterations over fixed launch sizes, one read per chunk) or
+// "sized" (one read per iteration, each stage launched over its queue's size, none when empty);
+// unset: chunked on a GPU, sized on a CPU device.
+bool loop_sized(cl_device_type type) {
+  const char* e = std::getenv("SPECTRACK_LOOP");
+  if (e && std::string(e) == "chunked") return false;
+  if (e && std::string(e) == "sized") return true;
+  return (type & CL_DEVICE_TYPE_GPU) == 0;
 }
 
 void trace_iteration(const st_loop& d) {
@@ -111,19 +122,30 @@ void Renderer::Impl::start_loop(const RenderBuffers& b, const BatchPlan& p, Loop
   d.n_q[ST_Q_FREE] = cl_uint(p.Q);
   d.status = ST_LOOP_RUNNING;
   ST_CL_CHECK(ds.queue.enqueueWriteBuffer(b.loop, CL_TRUE, 0, sizeof(st_loop), &d), "write the loop state");
-  s.lockstep = s.lockstep || trace_queues();
-  s.chunk = s.lockstep ? 1 : 4;
+  s.sized = loop_sized(ds.dev.type);
+  s.lockstep = s.lockstep || s.sized || trace_queues();
+  s.chunk = s.lockstep ? 1 : kMinChunk;
   launcher->launch("k_advance", 1);
-  launcher->launch("k_accumulate", launch_items(p.npix));
+  if (!s.sized) {
+    launcher->launch("k_accumulate", launch_items(p.npix));
+    return;
+  }
+  // sized: the first iteration's launches need the state the first k_advance wrote
+  ST_CL_CHECK(ds.queue.enqueueReadBuffer(b.loop, CL_TRUE, 0, sizeof(st_loop), &d), "read the loop state");
+  s.host_waits++;
 }
 
-// n iterations: the stages this scene has, k_advance, k_accumulate.
-void Renderer::Impl::enqueue_iterations(const BatchPlan& p, uint64_t n) {
+// n iterations: the stages this scene has, k_advance, k_accumulate. Sized (one iteration): each
+// stage over the items its queue holds in the state last read, none when empty, and k_accumulate
+// after the read, where the state marks batches (see_loop).
+void Renderer::Impl::enqueue_iterations(const BatchPlan& p, const LoopState& s, uint64_t n) {
   const std::vector<const Stage*> stages = launched_stages();
   for (uint64_t i = 0; i < n; ++i) {
-    for (const Stage* s : stages) launcher->launch(s->kernel, launch_items(queue_capacity(*s, p.Q, p.NL)));
+    for (const Stage* st : stages)
+      launcher->launch(st->kernel, s.sized ? stage_items(&s.dev.it, st->queue)
+                                           : launch_items(queue_capacity(*st, p.Q, p.NL)));
     launcher->launch("k_advance", 1);
-    launcher->launch("k_accumulate", launch_items(p.npix));
+    if (!s.sized) launcher->launch("k_accumulate", launch_items(p.npix));
   }
 }
 
@@ -148,6 +170,7 @@ bool Renderer::Impl::see_loop(const RenderBuffers& b, const BatchPlan& p, LoopSt
                             d.batches_target));
   if (trace_queues()) trace_iteration(d);
   if (records) drain_records(*records);
+  if (s.sized && d.acc_first != d.acc_end) launcher->launch("k_accumulate", launch_items(p.npix));
   const uint64_t before = s.accumulated;
   s.dev = d;
   s.accumulated = d.accumulated;
@@ -169,6 +192,9 @@ bool Renderer::Impl::see_loop(const RenderBuffers& b, const BatchPlan& p, LoopSt
     s.dev.batches_issuable = issuable;
     // a loop waiting for the host starts again (k_advance folds nothing: no iteration ran)
     if (d.status == ST_LOOP_WAITING) launcher->launch("k_advance", 1);
+  } else if (d.status == ST_LOOP_WAITING) {
+    throw Error(fmt::format("internal: wavefront stalled with {} of {} batches accumulated (the watch allows no more)",
+                            d.accumulated, d.batches_target));
   }
   return true;
 }
@@ -186,13 +212,16 @@ void Renderer::Impl::drive_loop(const RenderBuffers& b, const BatchPlan& p, Loop
   uint64_t finished_last = 0, iterations_last = 0;  // at the last read looked at
   for (int next = 0;; next = 1 - next) {
     if (stop_requested(s)) break;
-    enqueue_iterations(p, s.chunk);
+    enqueue_iterations(p, s, s.chunk);
     chunk_of[next] = s.chunk;
     ST_CL_CHECK(ds.queue.enqueueReadBuffer(b.loop, CL_FALSE, 0, sizeof(st_loop), &read[next], nullptr, &ev[next]),
                 "read the loop state");
     ST_CL_CHECK(ds.queue.flush(), "flush the stage loop");
-    const int look = s.lockstep ? next : pending;
-    pending = s.lockstep ? -1 : next;
+    // a CPU device shares the host's memory and cores: its reads cost microseconds, and a chunk
+    // queued ahead would only add empty iterations at the end
+    const bool ahead = !s.lockstep && (ds.dev.type & CL_DEVICE_TYPE_GPU) != 0;
+    const int look = ahead ? pending : next;
+    pending = ahead ? next : -1;
     if (look < 0) continue;
     ST_CL_CHECK(ev[look].wait(), "wait for the loop state");
     s.host_waits++;
@@ -214,7 +243,8 @@ void Renderer::Impl::drive_loop(const RenderBuffers& b, const BatchPlan& p, Loop
     const double rate = s.dev.iterations > iterations_last
                             ? double(finished - finished_last) / double(s.dev.iterations - iterations_last)
                             : 0.0;
-    const double left = rate > 0 ? double(s.dev.total_paths - finished) / rate - double(chunk_of[1 - look]) : -1.0;
+    const double left = rate > 0 ? double(s.dev.total_paths - finished) / rate - double(ahead ? chunk_of[1 - look] : 0)
+                                 : -1.0;
     finished_last = finished;
     iterations_last = s.dev.iterations;
     if (!s.lockstep) s.chunk = next_chunk(s.chunk, seconds, chunk_of[look], s.dev.iterations, left);
