@@ -22,7 +22,8 @@
 #      with the 2-core PoCL rows of bench/RESULTS.md: target >= 50x);
 #   6. bench/run --quick --no-mitsuba --device there (needs apt; skipped where a bundle was used);
 #   8. the wavefront against the bundle's spectrack_old (gpu_bundle.py --old: f9c773d's binary):
-#      paths/s of both at 16 spp on every bench scene, interleaved, 2 rounds (wavefront.tsv, with
+#      paths/s of both (and of the new one's sized loop, SPECTRACK_LOOP=sized) at 16 spp on every
+#      bench scene (WAVEFRONT_SPP), interleaved, 2 rounds (wavefront.tsv, with
 #      iterations, host_waits and occupancy), their ratios, the grid's ratio from step 7
 #      (GRID_SPP, 256), and the registers of every kernel (registers.txt: the new binary's NVIDIA
 #      build log with -cl-nv-verbose, and ptxas -v on both binaries' cached PTX where ptxas is);
@@ -194,15 +195,24 @@ if step 8; then
   [ -f "$OUT/build_log.txt" ] && { echo "== build/spectrack, NVIDIA build log"; grep -E "Compiling entry|registers" "$OUT/build_log.txt"; } >> "$OUT/registers.txt"
   grep -A1 -E "k_(track|shadow)" "$OUT/registers.txt" | head -n 40
   printf 'binary\tscene\tround\tpaths_per_second\tseconds_render\titerations\thost_waits\toccupancy_mean\n' > "$OUT/wavefront.tsv"
+  # variants: the new binary (chunked on a GPU), f9c773d's, and the new one's sized loop (a CPU's)
+  variants=(spectrack); [ -x build/spectrack_old ] && variants+=(spectrack_old); variants+=(spectrack_sized)
+  run_variant() {  # variant args...
+    local v=$1; shift
+    case $v in
+      spectrack_sized) SPECTRACK_LOOP=sized build/spectrack "$@" ;;
+      *) build/$v "$@" ;;
+    esac
+  }
   for s in bench/scenes/*.json; do
-    for bin in "${bins[@]}"; do $bin render "$s" --spp 1 -q --no-alpha -o "$OUT/warm.exr" >/dev/null 2>&1; done
+    for v in "${variants[@]}"; do run_variant $v render "$s" --spp 1 -q --no-alpha -o "$OUT/warm.exr" >/dev/null 2>&1; done
     for round in 1 2; do
-      for bin in "${bins[@]}"; do
-        $bin render "$s" --spp 16 -q --no-alpha -o "$OUT/render.exr" --stats-json "$OUT/stats.json" >/dev/null 2>&1 ||
-          { fail "wavefront $bin $s"; continue; }
+      for v in "${variants[@]}"; do
+        run_variant $v render "$s" --spp "${WAVEFRONT_SPP:-16}" -q --no-alpha -o "$OUT/render.exr" --stats-json "$OUT/stats.json" >/dev/null 2>&1 ||
+          { fail "wavefront $v $s"; continue; }
         python3 -c "
 import json; j = json.load(open('$OUT/stats.json'))
-print('\t'.join(str(x) for x in ['$(basename "$bin")', '$(basename "$s" .json)', $round, round(j['paths_per_second']), j['seconds_render'], j['iterations'], j.get('host_waits', '-'), round(j['occupancy_mean'], 3)]))" >> "$OUT/wavefront.tsv"
+print('\t'.join(str(x) for x in ['$v', '$(basename "$s" .json)', $round, round(j['paths_per_second']), j['seconds_render'], j['iterations'], j.get('host_waits', '-'), round(j['occupancy_mean'], 3)]))" >> "$OUT/wavefront.tsv"
       done
     done
   done
@@ -216,9 +226,11 @@ def pps(rows, binary, key):
     return [float(r["paths_per_second"]) for r in rows if r["binary"] == binary and r[key[0]] == key[1]]
 for scene in sorted({r["scene"] for r in rows}):
     new, old = pps(rows, "spectrack", ("scene", scene)), pps(rows, "spectrack_old", ("scene", scene))
+    sized = pps(rows, "spectrack_sized", ("scene", scene))
     if new and old:
         print(f"wavefront {scene}: new/old paths/s {statistics.median(new) / statistics.median(old):.2f}x "
-              f"(new {statistics.median(new):.0f}, old {statistics.median(old):.0f}, 16 spp)")
+              f"(new {statistics.median(new):.0f}, old {statistics.median(old):.0f})"
+              + (f"; sized loop/old {statistics.median(sized) / statistics.median(old):.2f}x" if sized else ""))
 grid = os.path.join(out, "grid.tsv")
 if os.path.exists(grid):
     g = list(csv.DictReader(open(grid), delimiter="\t"))
