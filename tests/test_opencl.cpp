@@ -155,4 +155,24 @@ TEST(OpenCL, AssemblerInlinesEachKernelFileOnce) {
   EXPECT_THROW(kernel_files_source({"no_such_file.h"}), Error);
 }
 
+// An include may carry a one-line comment; any other quoted include is refused by file and line
+// instead of reaching the device compiler as a file it cannot find.
+TEST(KernelSource, IncludesWithTrailingCommentsAreInlined) {
+  const std::map<std::string, std::string> files = {
+      {"a.h", "int a;\n"},
+      {"b.h", "int b;\n"},
+      {"root.cl", "#include \"a.h\"  // a comment\n#include \"b.h\" /* another */\nint r;\n"},
+      {"bad.cl", "int x;\n#include \"a.h\" int y;\n"}};
+  const std::string src = kernel_files_source({"root.cl"}, files);
+  EXPECT_NE(src.find("int a;"), std::string::npos);
+  EXPECT_NE(src.find("int b;"), std::string::npos);
+  EXPECT_EQ(src.find("#include"), std::string::npos) << src;
+  try {
+    kernel_files_source({"bad.cl"}, files);
+    ADD_FAILURE() << "an unreadable include passed";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("kernels/bad.cl:2"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace

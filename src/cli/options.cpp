@@ -71,10 +71,11 @@ std::string check_shutter(const std::string& text, std::array<double, 2>* out) {
   for (int k = 0; k < 2; ++k) {
     char* end = nullptr;
     v[k] = std::strtod(f[k].c_str(), &end);
-    if (f[k].empty() || *end != '\0' || !std::isfinite(v[k]))
-      return fmt::format("{}, got '{}': '{}' is not a finite number", form, text, f[k]);
+    if (f[k].empty() || *end != '\0' || !std::isfinite(float(v[k])))
+      return fmt::format("{}, got '{}': '{}' is not a finite number (as a float)", form, text, f[k]);
   }
   if (v[1] < v[0]) return fmt::format("{}, got '{}': CLOSE is before OPEN", form, text);
+  if (!std::isfinite(float(v[1] - v[0]))) return fmt::format("{}, got '{}': CLOSE - OPEN is not finite", form, text);
   *out = v;
   return "";
 }

@@ -34,7 +34,7 @@ void check_blackbody_bounds(const std::string& ctx, const MediumDesc& md, double
                             const char* what) {
   const EmissionDesc& e = md.emission;
   const double le = peak * e.scale;
-  const char* why = " (the kernels carry light in single-precision float: see README \"Limits\")";
+  const char* why = " (the kernels carry light in single-precision float: see docs/limits.md)";
   if (le > kMaxRadiance)
     throw Error(fmt::format("{}/emission/scale: scale ({}) x the brightest blackbody {} up to {} K ({}, "
                             "normalization {}) = {} is more than {:g}{}, in medium \"{}\"",

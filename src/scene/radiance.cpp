@@ -29,7 +29,7 @@ double max3(const Vec3& v) { return std::max({v[0], v[1], v[2]}); }
   throw Error(s.path + ": " + path + ": " + reason + (medium.empty() ? "" : ", in medium \"" + medium + "\""));
 }
 
-const char* kWhy = " (the kernels carry light in single-precision float: see README \"Limits\")";
+const char* kWhy = " (the kernels carry light in single-precision float: see docs/limits.md)";
 
 }  // namespace
 

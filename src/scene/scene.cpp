@@ -166,8 +166,9 @@ void Parser::camera_lens_time(const json& j, const std::string& path, CameraDesc
     if (!v->is_array() || v->size() != 2)
       fail(p, std::string("expected [open, close] in seconds, got ") +
                   (v->is_array() ? "an array of " + std::to_string(v->size()) + " values" : v->type_name()));
-    const std::array<double, 2> sh{number_at((*v)[0], p + "/0", kAny), number_at((*v)[1], p + "/1", kAny)};
+    const std::array<double, 2> sh{number_at((*v)[0], p + "/0", kFloat), number_at((*v)[1], p + "/1", kFloat)};
     if (!(sh[1] >= sh[0])) fail(p, "close " + num(sh[1]) + " is before open " + num(sh[0]));
+    if (!kFloat.holds(sh[1] - sh[0])) fail(p, "its length " + num(sh[1] - sh[0]) + " is not finite as a float");
     c.shutter = sh;
   }
   if (find(j, "position_close")) c.position_close = vec3(j, path, "position_close", c.position, kAny);

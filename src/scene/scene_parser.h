@@ -68,6 +68,8 @@ struct Range {
   }
 };
 inline const Range kAny{-kInf, kInf, true, true};
+// A value the kernels hold as a float (a shutter time): finite as a float.
+inline const Range kFloat{-3.4028234663852886e38, 3.4028234663852886e38, false, false};
 inline const Range kNonNegative{0, kInf, false, true};
 inline const Range kPositive{0, kInf, true, true};
 
