@@ -30,8 +30,8 @@ Render render(const std::string& dir, const std::string& tag, const std::vector<
   scene["film"]["width"] = 24;
   scene["film"]["height"] = 24;
   const std::string path = write_scene(dir, tag + ".json", scene);
-  std::vector<std::string> args = {"render", path, "--spp", "8", "--path-slots", "1024", "--batches-in-flight", "2",
-                                   "-o", dir + "/" + tag + ".exr", "--stats-json", dir + "/" + tag + ".json", "--quiet"};
+  std::vector<std::string> args = {"render", path, "--spp", "32", "--path-slots", "1024", "--batches-in-flight", "2",
+                                   "-o", dir + "/" + tag + ".exr", "--stats-json", dir + "/" + tag + ".stats.json", "--quiet"};
   args.insert(args.end(), extra.begin(), extra.end());
   RunOptions o;
   o.timeout_s = 600;
@@ -39,7 +39,7 @@ Render render(const std::string& dir, const std::string& tag, const std::vector<
   EXPECT_TRUE(p.exited && p.code == 0) << p.describe();
   Render r;
   r.pixels = image_pixels(dir + "/" + tag + ".exr");
-  r.stats = json::parse(std::ifstream(dir + "/" + tag + ".json"));
+  r.stats = json::parse(std::ifstream(dir + "/" + tag + ".stats.json"));
   return r;
 }
 
@@ -74,7 +74,7 @@ TEST(Wavefront, ChunksOfIterationsWaitRarelyAndChangeNoPixel) {
                         "scatter_events", "waiting_requeues", "iterations_below_half_occupancy", "occupancy_mean",
                         "occupancy_min", "max_throughput"})
     EXPECT_EQ(chunked.stats[k], lockstep.stats[k]) << k;
-  EXPECT_EQ(chunked.stats["paths"].get<int>(), 24 * 24 * 8);
+  EXPECT_EQ(chunked.stats["paths"].get<int>(), 24 * 24 * 32);
 }
 
 TEST(Wavefront, StridingWorkItemsChangeNoPixel) {
