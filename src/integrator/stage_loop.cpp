@@ -191,7 +191,13 @@ bool Renderer::Impl::see_loop(const RenderBuffers& b, const BatchPlan& p, LoopSt
                 "write the issuable batches");
     s.dev.batches_issuable = issuable;
     // a loop waiting for the host starts again (k_advance folds nothing: no iteration ran)
-    if (d.status == ST_LOOP_WAITING) launcher->launch("k_advance", 1);
+    if (d.status == ST_LOOP_WAITING) {
+      launcher->launch("k_advance", 1);
+      if (s.sized) {  // the next launches are sized by the state that k_advance writes
+        ST_CL_CHECK(ds.queue.enqueueReadBuffer(b.loop, CL_TRUE, 0, sizeof(st_loop), &s.dev), "read the loop state");
+        s.host_waits++;
+      }
+    }
   } else if (d.status == ST_LOOP_WAITING) {
     throw Error(fmt::format("internal: wavefront stalled with {} of {} batches accumulated (the watch allows no more)",
                             d.accumulated, d.batches_target));
