@@ -7,8 +7,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include <nanovdb/util/OpenToNanoVDB.h>
-
 #include "util/strings.h"
 #include "volume/vdb_open.h"
 #include "volume/vdb_prescan.h"
@@ -111,28 +109,10 @@ VelocityGrid load_velocity_grid(const std::string& file, const std::string& grid
   VelocityGrid out;
   out.staggered = grid->getGridClass() == openvdb::GRID_STAGGERED;
   const std::array<openvdb::FloatGrid::Ptr, 3> comp = split(*grid, gname, outlier_speed, fail, out);
-  const openvdb::math::Mat4d mat = grid->transform().baseMap()->getAffineMap()->getMat4();
-  const openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
+  out.comp = vec3_components(*grid, comp, grid_name, "velocity grid " + gname, fail);
   for (int c = 0; c < 3; ++c) {
-    GridData& g = out.comp[size_t(c)];
-    g.file = file;
-    g.name = grid_name + "." + "xyz"[c];
-    try {
-      g.handle = nanovdb::openToNanoVDB(*comp[size_t(c)]);
-    } catch (const std::exception& ex) {
-      fail("cannot convert velocity grid " + gname + " to NanoVDB: " + ex.what());
-    }
-    g.empty = box.empty();
-    if (!g.empty) {
-      g.index_min = {box.min()[0], box.min()[1], box.min()[2]};
-      g.index_max = {box.max()[0], box.max()[1], box.max()[2]};
-    }
-    g.value_min = float(-out.max_abs[size_t(c)]);
-    g.value_max = float(out.max_abs[size_t(c)]);
-    for (int r = 0; r < 3; ++r) {
-      for (int k = 0; k < 3; ++k) g.index_to_world[r][k] = mat(k, r);
-      g.index_to_world[r][3] = mat(3, r);
-    }
+    out.comp[size_t(c)].value_min = float(-out.max_abs[size_t(c)]);
+    out.comp[size_t(c)].value_max = float(out.max_abs[size_t(c)]);
   }
   return out;
 }
