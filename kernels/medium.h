@@ -132,17 +132,45 @@ inline float grid_stochastic(__global const uint* grids, uint offset, float3 pi,
   return pnanovdb_read_float(buf, pnanovdb_readaccessor_get_value_address(PNANOVDB_GRID_TYPE_FLOAT, buf, &acc, &ijk));
 }
 
+/* The trilinear value at index point q of a NanoVDB Vec3f grid, through the caller's accessor
+ * (its cached nodes make the 8 corner reads cheap after the first walk). */
+inline float3 vec3_trilinear(pnanovdb_buf_t buf, pnanovdb_readaccessor_t* acc, float3 q) {
+  const float3 fl = floor(q), f = q - fl;
+  const int3 i0 = convert_int3(fl);
+  float3 v[8];
+  for (int k = 0; k < 8; ++k) {
+    pnanovdb_coord_t ijk;
+    ijk.x = i0.x + (k & 1);
+    ijk.y = i0.y + ((k >> 1) & 1);
+    ijk.z = i0.z + ((k >> 2) & 1);
+    const pnanovdb_address_t a = pnanovdb_readaccessor_get_value_address(PNANOVDB_GRID_TYPE_VEC3F, buf, acc, &ijk);
+    v[k] = (float3)(pnanovdb_read_float(buf, a), pnanovdb_read_float(buf, pnanovdb_address_offset(a, 4u)),
+                    pnanovdb_read_float(buf, pnanovdb_address_offset(a, 8u)));
+  }
+  const float3 x00 = mix(v[0], v[1], f.x), x10 = mix(v[2], v[3], f.x);
+  const float3 x01 = mix(v[4], v[5], f.x), x11 = mix(v[6], v[7], f.x);
+  return mix(mix(x00, x10, f.y), mix(x01, x11, f.y), f.z);
+}
+
 /* The index point whose values medium m shows at world-index point pi at time t (seconds):
- * pi - velocity_to_index v(pi) t, with v the velocity grid's trilinear value at pi (a staggered
- * grid's component a read half a voxel up along axis a, as OpenVDB's StaggeredBoxSampler); pi
- * itself for a medium that does not move. */
+ * pi - velocity_to_index v(pi) t, with v the velocity grid's (a NanoVDB Vec3f grid) trilinear value
+ * at pi, or for a staggered grid each component a at pi + 1/2 along axis a (OpenVDB's
+ * StaggeredBoxSampler), all through one accessor (one tree walk); pi itself for a medium that
+ * does not move. Counts as 3 lookups. */
 inline float3 medium_lookup_index(__constant const st_medium* m, __global const uint* grids, float3 pi, float t,
                                   uint* lookups) {
   if (!ST_HAS_VELOCITY || m->velocity_grid[0] == ST_NO_GRID) return pi;
-  const float h = m->velocity_grid[3] ? 0.5f : 0.0f;
-  const float4 vt = (float4)(grid_trilinear(grids, m->velocity_grid[0], pi + (float3)(h, 0.0f, 0.0f)),
-                             grid_trilinear(grids, m->velocity_grid[1], pi + (float3)(0.0f, h, 0.0f)),
-                             grid_trilinear(grids, m->velocity_grid[2], pi + (float3)(0.0f, 0.0f, h)), 0.0f) * t;
+  pnanovdb_buf_t buf;
+  pnanovdb_readaccessor_t acc = grid_accessor(grids, m->velocity_grid[0], &buf);
+  float3 v;
+  if (m->velocity_grid[3]) {
+    v.x = vec3_trilinear(buf, &acc, pi + (float3)(0.5f, 0.0f, 0.0f)).x;
+    v.y = vec3_trilinear(buf, &acc, pi + (float3)(0.0f, 0.5f, 0.0f)).y;
+    v.z = vec3_trilinear(buf, &acc, pi + (float3)(0.0f, 0.0f, 0.5f)).z;
+  } else {
+    v = vec3_trilinear(buf, &acc, pi);
+  }
+  const float4 vt = (float4)(v * t, 0.0f);
   *lookups += 3u;
   return pi - (float3)(dot(m->velocity_to_index[0], vt), dot(m->velocity_to_index[1], vt),
                        dot(m->velocity_to_index[2], vt));

@@ -278,9 +278,9 @@ typedef struct {
   st_int blackbody;
   float blackbody_log_norm;
   st_float4 phase;             /* Draine blend: (alpha of lobe 1, g of lobe 2, alpha of lobe 2, w: lobe 2's weight) */
-  /* motion blur (medium.h medium_lookup_index): word offsets of the velocity grid's x, y, z
-   * component float grids (x: ST_NO_GRID when the medium does not move); w: 1 for a staggered
-   * (MAC) grid, whose component a sits half a voxel below the voxel centre along axis a */
+  /* motion blur (medium.h medium_lookup_index): x: word offset of the NanoVDB Vec3f velocity grid
+   * (ST_NO_GRID when the medium does not move); y, z: unused; w: 1 for a staggered (MAC) grid,
+   * whose component a sits half a voxel below the voxel centre along axis a */
   st_uint velocity_grid[4];
   /* rows of the map from a velocity value times a time (s) to an index-space displacement: the
    * inverse of the file's index-to-world linear part times scale (times fps for per-frame grids) */

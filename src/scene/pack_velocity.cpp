@@ -39,7 +39,7 @@ std::array<double, 3> Packer::add_velocity_grid(st_medium& m, const MediumDesc& 
   const double outlier_speed = per_second != 0 ? vd.outlier_threshold / std::abs(per_second)
                                                : std::numeric_limits<double>::infinity();
   VelocityGrid v = load_velocity_grid(md.file, vd.grid, outlier_speed, ctx);
-  if (!same_index_to_world(v.comp[0], density))
+  if (!same_index_to_world(v.grid, density))
     throw Error(fmt::format("{}/grid: grid '{}' has a different index-to-world transform than density grid '{}'; "
                             "both grids must share one transform (resample one onto the other)",
                             ctx, vd.grid, md.grid));
@@ -62,7 +62,8 @@ std::array<double, 3> Packer::add_velocity_grid(st_medium& m, const MediumDesc& 
       throw Error(fmt::format("{}/scale: the largest displacement over the shutter, {:.6g} voxels, is out of range", ctx,
                               reach[size_t(r)]));
   }
-  for (int c = 0; c < 3; ++c) m.velocity_grid[c] = upload_grid(ctx, v.comp[size_t(c)]);
+  m.velocity_grid[0] = upload_grid(ctx, v.grid);
+  m.velocity_grid[1] = m.velocity_grid[2] = ST_NO_GRID;
   m.velocity_grid[3] = v.staggered ? 1u : 0u;
   return reach;
 }

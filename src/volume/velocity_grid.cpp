@@ -1,11 +1,13 @@
 // velocity_grid.cpp: loading a velocity grid (velocity_grid.h) through the loaders' structural
-// checks (vdb_open.h), split into three float grids converted to NanoVDB.
+// checks (vdb_open.h), cleaned of outliers and converted to a NanoVDB Vec3f grid.
 #include "volume/velocity_grid.h"
 
 #include <openvdb/openvdb.h>
 
 #include <algorithm>
 #include <cmath>
+
+#include <nanovdb/util/OpenToNanoVDB.h>
 
 #include "util/strings.h"
 #include "volume/vdb_open.h"
@@ -54,9 +56,10 @@ openvdb::Vec3SGrid::Ptr read_vec3s(const std::string& file, const std::string& n
   }
 }
 
-// The three component grids (transform and background kept), outliers zeroed, with the bounds.
-std::array<openvdb::FloatGrid::Ptr, 3> split(const openvdb::Vec3SGrid& grid, const std::string& gname,
-                                              double outlier_speed, const Fail& fail, VelocityGrid& out) {
+// The grid with its outliers (and a background beyond the threshold) zeroed, transform and class
+// kept, with the bounds; refuses non-finite values.
+openvdb::Vec3SGrid::Ptr clean(const openvdb::Vec3SGrid& grid, const std::string& gname, double outlier_speed,
+                              const Fail& fail, VelocityGrid& out) {
   openvdb::Vec3s bg = grid.background();
   if (!finite(bg)) fail("velocity grid " + gname + " has background " + vec_str(bg) + ", which is not finite");
   if (double(bg.length()) > outlier_speed) bg = openvdb::Vec3s(0.0f);  // an outlier as every other value
@@ -65,13 +68,10 @@ std::array<openvdb::FloatGrid::Ptr, 3> split(const openvdb::Vec3SGrid& grid, con
     out.max_speed = std::max(out.max_speed, double(v.length()));
   };
   account(bg);
-  std::array<openvdb::FloatGrid::Ptr, 3> comp;
-  for (int c = 0; c < 3; ++c) {
-    comp[size_t(c)] = openvdb::FloatGrid::create(bg[c]);
-    comp[size_t(c)]->setTransform(grid.transform().copy());
-  }
-  std::array<openvdb::FloatGrid::UnsafeAccessor, 3> acc{comp[0]->getUnsafeAccessor(), comp[1]->getUnsafeAccessor(),
-                                                        comp[2]->getUnsafeAccessor()};
+  openvdb::Vec3SGrid::Ptr g = openvdb::Vec3SGrid::create(bg);
+  g->setTransform(grid.transform().copy());
+  g->setGridClass(grid.getGridClass());
+  auto acc = g->getUnsafeAccessor();
   for (auto it = grid.cbeginValueOn(); it; ++it) {
     openvdb::Vec3s v = *it;
     if (!finite(v)) {
@@ -83,12 +83,10 @@ std::array<openvdb::FloatGrid::Ptr, 3> split(const openvdb::Vec3SGrid& grid, con
       out.outliers += it.isVoxelValue() ? 1 : it.getBoundingBox().volume();
     }
     account(v);
-    for (int c = 0; c < 3; ++c) {
-      if (it.isVoxelValue()) acc[size_t(c)].setValue(it.getCoord(), v[c]);
-      else comp[size_t(c)]->fill(it.getBoundingBox(), v[c], true);
-    }
+    if (it.isVoxelValue()) acc.setValue(it.getCoord(), v);
+    else g->fill(it.getBoundingBox(), v, true);
   }
-  return comp;
+  return g;
 }
 
 }  // namespace
@@ -108,12 +106,16 @@ VelocityGrid load_velocity_grid(const std::string& file, const std::string& grid
   check_vdb_file_bbox(*grid, fail);
   VelocityGrid out;
   out.staggered = grid->getGridClass() == openvdb::GRID_STAGGERED;
-  const std::array<openvdb::FloatGrid::Ptr, 3> comp = split(*grid, gname, outlier_speed, fail, out);
-  out.comp = vec3_components(*grid, comp, grid_name, "velocity grid " + gname, fail);
-  for (int c = 0; c < 3; ++c) {
-    out.comp[size_t(c)].value_min = float(-out.max_abs[size_t(c)]);
-    out.comp[size_t(c)].value_max = float(out.max_abs[size_t(c)]);
+  const openvdb::Vec3SGrid::Ptr g = clean(*grid, gname, outlier_speed, fail, out);
+  out.grid.file = file;
+  out.grid.name = grid_name;
+  try {
+    out.grid.handle = nanovdb::openToNanoVDB(*g);
+  } catch (const std::exception& ex) {
+    fail("cannot convert velocity grid " + gname + " to NanoVDB: " + ex.what());
   }
+  set_box_and_map(out.grid, *grid);
+  out.grid.value_max = float(out.max_speed);
   return out;
 }
 

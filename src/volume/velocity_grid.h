@@ -1,7 +1,7 @@
 // velocity_grid.h: a medium's velocity grid for motion blur (docs/scene-format.md, "Motion blur"):
-// a vec3s grid of an OpenVDB file read as three float component grids on the device
-// (kernels/medium.h medium_lookup_index), with the bounds of its values that the majorant
-// margin needs.
+// a vec3s grid of an OpenVDB file read as one NanoVDB Vec3f grid on the device (kernels/medium.h
+// medium_lookup_index: one tree walk for the three components), with the bounds of its values
+// that the majorant margin needs.
 //
 // Design: the velocity is read once, at load, into what the kernels use: outliers (voxels whose
 // speed exceeds the threshold) are zeroed there, so the interpolated velocity and the bounds
@@ -19,7 +19,7 @@
 namespace spectrack {
 
 struct VelocityGrid {
-  std::array<GridData, 3> comp;       // x, y, z components (as stored: grid units, outliers zeroed)
+  GridData grid;                      // a NanoVDB Vec3f grid (values as stored: grid units, outliers zeroed)
   bool staggered = false;             // grid class "staggered" (MAC)
   std::array<double, 3> max_abs{};    // largest |component| over active values and the background
   double max_speed = 0;               // largest |v| over active values and the background

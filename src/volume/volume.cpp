@@ -251,11 +251,23 @@ std::unique_ptr<openvdb::io::File> open_vdb_checked(const std::string& file, con
 }
 void check_vdb_file_bbox(const openvdb::GridBase& g, const Fail& fail) { check_file_bbox(g, fail); }
 
+void set_box_and_map(GridData& g, const openvdb::GridBase& grid) {
+  const openvdb::math::Mat4d mat = grid.transform().baseMap()->getAffineMap()->getMat4();
+  const openvdb::CoordBBox box = grid.evalActiveVoxelBoundingBox();
+  g.empty = box.empty();
+  if (!g.empty) {
+    g.index_min = {box.min()[0], box.min()[1], box.min()[2]};
+    g.index_max = {box.max()[0], box.max()[1], box.max()[2]};
+  }
+  for (int r = 0; r < 3; ++r) {
+    for (int k = 0; k < 3; ++k) g.index_to_world[r][k] = mat(k, r);
+    g.index_to_world[r][3] = mat(3, r);
+  }
+}
+
 std::array<GridData, 3> vec3_components(const openvdb::Vec3SGrid& grid, const std::array<openvdb::FloatGrid::Ptr, 3>& comp,
                                         const std::string& grid_name, const std::string& what, const Fail& fail) {
   std::array<GridData, 3> out;
-  const openvdb::math::Mat4d mat = grid.transform().baseMap()->getAffineMap()->getMat4();
-  const openvdb::CoordBBox box = grid.evalActiveVoxelBoundingBox();
   for (int c = 0; c < 3; ++c) {
     GridData& g = out[size_t(c)];
     g.file = fail.file;
@@ -265,15 +277,7 @@ std::array<GridData, 3> vec3_components(const openvdb::Vec3SGrid& grid, const st
     } catch (const std::exception& ex) {
       fail("cannot convert " + what + " to NanoVDB: " + ex.what());
     }
-    g.empty = box.empty();
-    if (!g.empty) {
-      g.index_min = {box.min()[0], box.min()[1], box.min()[2]};
-      g.index_max = {box.max()[0], box.max()[1], box.max()[2]};
-    }
-    for (int r = 0; r < 3; ++r) {
-      for (int k = 0; k < 3; ++k) g.index_to_world[r][k] = mat(k, r);
-      g.index_to_world[r][3] = mat(3, r);
-    }
+    set_box_and_map(g, grid);
   }
   return out;
 }
