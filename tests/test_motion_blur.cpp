@@ -17,7 +17,7 @@
 // staggered grid is read half a voxel up; density at random points and times of a real smoke
 // frame with a swirling velocity stays within the dilated cells' bounds; a grid of zeros (Blender's
 // own, empty, staggered velocity) and no shutter keep the kernels and the image of a still medium;
-// shards add up; bad grids and fields are refused by name.
+// shards add up; bad grids and fields are refused by name; `info` lists velocity grids.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -27,6 +27,7 @@
 #include <random>
 #include <string>
 
+#include "cli_util.h"
 #include "device/probe.h"
 #include "test_util.h"
 #include "volume/velocity_grid.h"
@@ -403,4 +404,23 @@ TEST(MotionBlur, BadVelocityGridsAndFieldsAreRefusedByName) {
                     s["media"][0] = {{"type", "homogeneous"}, {"bounds", {{0, 0, 0}, {1, 1, 1}}}, {"velocity", {{"grid", "vel"}}}};
                   }),
                   {"/media/0", "velocity"}));
+}
+
+// `info` lists a vec3s grid's use as a velocity and its largest speed; `render` refuses a bad
+// velocity grid by file and field with a non-zero exit.
+TEST(MotionBlur, InfoListsVelocityGridsAndRenderRefusesBadOnes) {
+  const std::string dir = temp_dir("blur_info");
+  write_moving_box(dir + "/box.vdb", openvdb::Vec3s(3.0f, 4.0f, 0), true);
+  const st_cli::Proc p = st_cli::run({"info", dir + "/box.vdb"});
+  EXPECT_EQ(p.code, 0) << p.describe();
+  EXPECT_NE(p.out.find("as velocity    yes (staggered), largest speed 5 "), std::string::npos) << p.out;
+  const st_cli::Proc j = st_cli::run({"info", "--json", dir + "/box.vdb"});
+  EXPECT_NE(j.out.find("\"velocity_use\""), std::string::npos) << j.out;
+  json s = box_scene(dir + "/box.vdb", 1);
+  s["media"][0]["velocity"]["grid"] = "density";
+  write_text(dir + "/bad.json", s.dump());
+  const st_cli::Proc r = st_cli::run({"render", dir + "/bad.json", "-o", dir + "/bad.exr", "--quiet"});
+  EXPECT_NE(r.code, 0) << r.describe();
+  EXPECT_NE(r.out.find("/media/0/velocity"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("box.vdb"), std::string::npos) << r.out;
 }
