@@ -12,14 +12,14 @@
 #include "transmittance.h"
 
 
-/* Density of medium `medium` at world points (xyz). */
+/* Density of medium `medium` at world points (xyz) at times w (seconds; a moving medium's). */
 __kernel void k_probe_density(__constant const st_scene* scene, __global const uint* grids,
                               __global const float4* points, __global float* out, int medium, uint n) {
   uint i = get_global_id(0);
   if (i >= n) return;
   uint lookups = 0;
   st_rng rng = rng_make(scene->seed, i, 3u, 0u, 7u, 0u); /* stochastic lookups: one draw */
-  out[i] = medium_density(scene, &scene->media[medium], grids, points[i].xyz, &lookups, &rng);
+  out[i] = medium_density(scene, &scene->media[medium], grids, points[i].xyz, points[i].w, &lookups, &rng);
 }
 
 /* (dmax, dmin) the walk uses at each world point: its fine cell's (one level), or in the

@@ -119,6 +119,13 @@ inline float path_shutter_u(__constant const st_scene* scene, uint pixel, uint s
   return fmin(u - floor(u), 0x1.fffffep-1f);
 }
 
+/* The time of sample (pixel, sample) in seconds: open + u (close - open) (0 without a shutter). */
+inline float path_time(__constant const st_scene* scene, uint pixel, uint sample) {
+  __constant const st_camera* cam = &scene->camera;
+  if (!(cam->shutter.z > 0.0f)) return 0.0f;
+  return mix(cam->shutter.x, cam->shutter.y, path_shutter_u(scene, pixel, sample));
+}
+
 /* The lanes a path carries: its own lane for a per-channel tracker, else every lane of the scene. */
 inline float4 path_mask(__constant const st_scene* scene, const st_path* p) {
   return scene->n_channels_per_sample > 1 ? one_hot((int)p->channel) : scene_lanes(scene);
@@ -128,6 +135,7 @@ inline float4 path_mask(__constant const st_scene* scene, const st_path* p) {
 inline st_rng path_rng(__constant const st_scene* scene, const st_path* p, uint stream, uint draw) {
   st_rng r = rng_make(scene->seed, p->pixel, p->sample, p->channel, stream, draw);
   if (spectral_mode(scene)) r.lambda = p->lambda;
+  if (ST_HAS_VELOCITY) r.time = path_time(scene, p->pixel, p->sample);
   return r;
 }
 

@@ -165,9 +165,9 @@ inline st_collision collision_component(__constant const st_scene* scene, __glob
   return c;
 }
 
-/* sigma_a Le at p, summed over the emissive media that have a part of the collision's density. */
+/* sigma_a Le at p at time t, summed over the emissive media that have a part of the collision's density. */
 inline float4 absorbed_emission(__constant const st_scene* scene, __global const uint* grids, const st_collision* c,
-                                float3 p, uint* lookups, float4 lambda) {
+                                float3 p, float t, uint* lookups, float4 lambda) {
   float4 mua_Le = (float4)(0.0f);
   for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
     if (i >= scene->n_media || c->density[i] == 0.0f) continue;
@@ -175,7 +175,7 @@ inline float4 absorbed_emission(__constant const st_scene* scene, __global const
     if (!m->emissive) continue;
     float4 sigma_a, sigma_s;
     medium_unit_coeffs(m, grids, c->tint[i], lambda, &sigma_a, &sigma_s);
-    mua_Le += c->density[i] * sigma_a * medium_Le(m, grids, p, lookups, lambda);
+    mua_Le += c->density[i] * sigma_a * medium_Le(m, grids, p, t, lookups, lambda);
   }
   return mua_Le;
 }
@@ -239,7 +239,7 @@ inline int free_path_collision(__constant const st_scene* scene, __global const 
   float xi = rng_uniform(rng) * p_sum;
   if (xi < P.x) {
     if (ST_HAS_EMISSION) {
-      float4 mua_Le = absorbed_emission(scene, grids, &c, p, &st->emission_lookups, rng->lambda);
+      float4 mua_Le = absorbed_emission(scene, grids, &c, p, rng->time, &st->emission_lookups, rng->lambda);
       *L += *beta * mask * mua_Le * (p_sum / (c.mu_bar * P.x));
     }
     st->real += 1u;
@@ -247,7 +247,7 @@ inline int free_path_collision(__constant const st_scene* scene, __global const 
   }
   if (xi < P.x + P.y) {
     if (ST_HAS_EMISSION && weighted) { /* emission as a collision estimator at the real collision */
-      float4 mua_Le = absorbed_emission(scene, grids, &c, p, &st->emission_lookups, rng->lambda);
+      float4 mua_Le = absorbed_emission(scene, grids, &c, p, rng->time, &st->emission_lookups, rng->lambda);
       *L += *beta * mask * mua_Le * (p_sum / (c.mu_bar * P.y));
     }
     float4 sigma_s_k;
@@ -379,7 +379,7 @@ inline int mis_collision(__constant const st_scene* scene, __global const uint* 
     c.tint[i] = k.tint[i];
   }
   if (ST_HAS_EMISSION) { /* the collision estimator of emission, MIS-weighted over the techniques */
-    float4 mua_Le = absorbed_emission(scene, grids, &c, p, &st->emission_lookups, rng->lambda);
+    float4 mua_Le = absorbed_emission(scene, grids, &c, p, rng->time, &st->emission_lookups, rng->lambda);
     float pdf = masked_avg(*r_u * sigma_maj, lanes);
     if (pdf > 0.0f) *L += *beta * lanes * mua_Le / pdf;
   }

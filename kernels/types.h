@@ -223,7 +223,8 @@ enum st_feature {
   ST_FEATURE_PHASE_SET = 1 << 18,     /* some medium has a Draine blend phase (draine, rayleigh, hg2, mie) */
   ST_FEATURE_THIN_LENS = 1 << 21,     /* depth of field: the camera's lens radius is > 0 (raygen.cl camera_ray) */
   ST_FEATURE_TIME = 1 << 22,          /* each path has a time in the shutter that something reads: camera motion */
-  ST_FEATURES_ALL = ((1 << 16) - 1) | ST_FEATURE_PHASE_SET | ST_FEATURE_THIN_LENS | ST_FEATURE_TIME
+  ST_FEATURE_VELOCITY = 1 << 23,      /* some medium moves during the shutter (a velocity grid; medium.h); implies TIME */
+  ST_FEATURES_ALL = ((1 << 16) - 1) | ST_FEATURE_PHASE_SET | ST_FEATURE_THIN_LENS | ST_FEATURE_TIME | ST_FEATURE_VELOCITY
 };
 
 /* the wavefront's queues, counters and stage arguments */
@@ -277,6 +278,13 @@ typedef struct {
   st_int blackbody;
   float blackbody_log_norm;
   st_float4 phase;             /* Draine blend: (alpha of lobe 1, g of lobe 2, alpha of lobe 2, w: lobe 2's weight) */
+  /* motion blur (medium.h medium_lookup_index): x: word offset of the NanoVDB Vec3f velocity grid
+   * (ST_NO_GRID when the medium does not move); y, z: unused; w: 1 for a staggered (MAC) grid,
+   * whose component a sits half a voxel below the voxel centre along axis a */
+  st_uint velocity_grid[4];
+  /* rows of the map from a velocity value times a time (s) to an index-space displacement: the
+   * inverse of the file's index-to-world linear part times scale (times fps for per-frame grids) */
+  st_float4 velocity_to_index[3];
 } st_medium;
 
 /* Blackbody colours and spectra below this temperature (K) are those of this temperature (the
@@ -416,7 +424,7 @@ typedef struct {
   st_uint pad[3];
 } st_iteration;
 
-#define ST_SIZEOF_MEDIUM 272
+#define ST_SIZEOF_MEDIUM 336
 #define ST_SIZEOF_CAMERA 160
 #define ST_SIZEOF_LIGHT 112
 #define ST_SIZEOF_SCENE (ST_SIZEOF_CAMERA + ST_MAX_LIGHTS * ST_SIZEOF_LIGHT + ST_MAX_MEDIA * ST_SIZEOF_MEDIUM + 96)

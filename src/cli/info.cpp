@@ -43,6 +43,7 @@ json volume_json(const std::string& file, const std::vector<GridInfo>& grids) {
     json j = {{"name", g.name}, {"type", g.type}, {"class", g.cls}, {"empty", g.empty},
               {"active_voxels", g.active_voxels}, {"voxel_size", vec(g.voxel_size, 0)},
               {"density_use", g.density_use}};
+    if (!g.velocity_use.empty()) j["velocity_use"] = g.velocity_use;
     if (!g.empty) {
       j["index_bbox"] = {ivec(g.index_min), ivec(g.index_max)};
       j["world_bbox"] = {vec(g.world_min, 0), vec(g.world_max, 0)};
@@ -79,6 +80,7 @@ void print_volume(const std::string& file, const std::vector<GridInfo>& grids) {
                                                                    : std::string("n/a"));
     std::cout << fmt::format("      as NanoVDB     {}\n", bytes_str(g.nanovdb_bytes));
     std::cout << fmt::format("      as density     {}\n", g.density_use);
+    if (!g.velocity_use.empty()) std::cout << fmt::format("      as velocity    {}\n", g.velocity_use);
   }
 }
 

@@ -6,6 +6,7 @@
 // the scene file's folder. Enum values are the ones of kernels/types.h.
 #pragma once
 #include <array>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -80,6 +81,19 @@ struct ColorDesc {
   int mode = ST_COLOR_ALBEDO;  // st_color_mode
 };
 
+// Motion blur from a velocity grid (a vec3s grid of the medium's file, sharing the density grid's
+// transform; kernels/medium.h medium_lookup_index): the velocity in the file's world units per
+// second is the grid's value times scale, times fps when the grid stores displacement per frame
+// (fps > 0); voxels whose velocity is longer than outlier_threshold (world units per second, after
+// scale and fps) read as 0.
+struct VelocityDesc {
+  bool present = false;
+  std::string grid = "vel";
+  double scale = 1.0;
+  double fps = 0.0;  // 0: the grid holds world units per second
+  double outlier_threshold = std::numeric_limits<double>::infinity();
+};
+
 struct MediumDesc {
   std::string name;
   std::string json_path;  // "/media/0", for messages
@@ -93,6 +107,7 @@ struct MediumDesc {
   PhaseDesc phase;
   EmissionDesc emission;
   ColorDesc color;
+  VelocityDesc velocity;
   TransformDesc transform;
   std::array<Vec3, 2> bounds{Vec3{-1, -1, -1}, Vec3{1, 1, 1}};  // homogeneous
   double majorant_scale = 1.0;  // testing aid: < 1 under-estimates (still unbiased)

@@ -87,12 +87,12 @@ void Parser::local_light(const json& j, const std::string& path, bool spot, cons
 MediumDesc Parser::medium(const json& j, const std::string& path, size_t index) {
   expect_object(j, path);
   const Names all = {"name", "type", "file", "grid", "grid_index", "bounds", "density_scale", "sigma_s",
-                     "sigma_a", "phase", "emission", "color", "transform", "majorant_scale", "minorant_scale",
-                     "preset"};
+                     "sigma_a", "phase", "emission", "color", "velocity", "transform", "majorant_scale",
+                     "minorant_scale", "preset"};
   Names vdb, homogeneous;
   for (const char* k : all) {
     if (std::strcmp(k, "bounds") != 0) vdb.push_back(k);
-    if (!contains({"file", "grid", "grid_index", "transform", "color", "preset"}, k)) homogeneous.push_back(k);
+    if (!contains({"file", "grid", "grid_index", "transform", "color", "velocity", "preset"}, k)) homogeneous.push_back(k);
   }
   fields(j, path, all);
 
@@ -116,6 +116,7 @@ MediumDesc Parser::medium(const json& j, const std::string& path, size_t index) 
     m.grid_index = static_cast<int>(integer(j, path, "grid_index", m.grid_index, 0, std::numeric_limits<int>::max()));
     if (const json* t = find(j, "transform")) m.transform = transform(*t, path + "/transform");
     if (const json* c = find(j, "color")) m.color = color(*c, path + "/color");
+    if (const json* v = find(j, "velocity")) m.velocity = velocity(*v, path + "/velocity");
   } else if (type == "homogeneous") {
     fields(j, path, homogeneous, "a homogeneous medium", all);
     m.type = ST_MEDIUM_HOMOGENEOUS;
@@ -279,6 +280,19 @@ ColorDesc Parser::color(const json& j, const std::string& path) {
     fail(path + "/mode", "unknown colour mode " + in_quotes(mode) + " (expected one of: albedo, scattering)");
   }
   return c;
+}
+
+VelocityDesc Parser::velocity(const json& j, const std::string& path) {
+  expect_object(j, path);
+  fields(j, path, {"grid", "scale", "fps", "outlier_threshold"});
+  VelocityDesc v;
+  v.present = true;
+  v.grid = string(j, path, "grid", v.grid);
+  if (v.grid.empty()) fail(path + "/grid", "must name a vec3s velocity grid of the medium's file");
+  v.scale = number(j, path, "scale", v.scale, kAny);
+  v.fps = number(j, path, "fps", v.fps, kPositive);
+  v.outlier_threshold = number(j, path, "outlier_threshold", v.outlier_threshold, kPositive);
+  return v;
 }
 
 TransformDesc Parser::transform(const json& j, const std::string& path) {

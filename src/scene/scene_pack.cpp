@@ -42,6 +42,7 @@ uint32_t Packer::scene_features() const {
     if (m.phase_type == ST_PHASE_DRAINE_BLEND) f |= ST_FEATURE_PHASE_SET;
     if (m.type == ST_MEDIUM_VDB) f |= ST_FEATURE_VDB;
     if (m.maj_block > 0) f |= ST_FEATURE_COARSE_MAJORANT;
+    if (m.type == ST_MEDIUM_VDB && m.velocity_grid[0] != ST_NO_GRID) f |= ST_FEATURE_VELOCITY | ST_FEATURE_TIME;
   }
   for (int i = 0; i < st.n_lights; ++i) {
     const st_light& l = st.lights[i];
@@ -74,6 +75,7 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
             s.color == ST_FILM_COLOR_SPECTRAL};
   st.n_media = int(scene.media.size());
   st.n_lights = int(scene.lights.size());
+  if (s.shutter) pk.shutter_reach = std::max(std::abs((*s.shutter)[0]), std::abs((*s.shutter)[1]));
   for (int i = 0; i < st.n_media; ++i) pk.add_medium(i, scene.media[i]);
   for (int i = 0; i < st.n_lights; ++i) pk.add_light(i, scene.lights[i]);
   const int light_sampling = pk.resolve_light_sampling(s.light_sampling);

@@ -102,6 +102,7 @@ class Parser {
   EmissionDesc ramp(const json& j, const std::string& path, bool vdb, EmissionDesc e);
   EmissionDesc emission(const json& j, const std::string& path, bool vdb);
   ColorDesc color(const json& j, const std::string& path);
+  VelocityDesc velocity(const json& j, const std::string& path);
   TransformDesc transform(const json& j, const std::string& path);
 
   [[noreturn]] void fail(const std::string& path, const std::string& reason) const {
