@@ -47,13 +47,13 @@ namespace {
 // The command line's overrides of the scene (the flags CLI11 has already range-checked).
 RenderOptions render_options(const RenderArgs& a, bool quiet) {
   RenderOptions opt;
-  if (a.seed >= 0) opt.seed = a.seed;
+  opt.seed = a.seed;
   opt.quiet = quiet;
   opt.path_slots = a.path_slots;
-  opt.iteration_budget = a.budget;
-  opt.majorant_cell = a.majorant_cell;
-  opt.majorant_block = a.majorant_block;
-  opt.majorant_step_cost = a.majorant_step_cost;
+  opt.iteration_budget = a.budget.value_or(opt.iteration_budget);
+  opt.majorant_cell = a.majorant_cell.value_or(opt.majorant_cell);
+  opt.majorant_block = a.majorant_block.value_or(opt.majorant_block);
+  if (a.majorant_step_cost && *a.majorant_step_cost >= 0) opt.majorant_step_cost = a.majorant_step_cost;  // < 0: automatic
   opt.generic_kernels = a.generic_kernels;
   opt.batches_in_flight = a.batches_in_flight;
   opt.shadow_ring = a.shadow_ring;
@@ -85,15 +85,15 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
   }
   if (!a.guiding.empty()) opt.guiding = guiding_from_name(a.guiding);  // checked by CLI11
   if (a.spectral) opt.color = ST_FILM_COLOR_SPECTRAL;
-  if (a.march_spacing > 0) opt.march_spacing = a.march_spacing;
-  if (a.pilot_spacing > 0) opt.pilot_spacing = a.pilot_spacing;
+  opt.march_spacing = a.march_spacing;
+  opt.pilot_spacing = a.pilot_spacing;
   if (!a.absorption.empty()) {
     opt.absorption = absorption_from_name(a.absorption);
     if (*opt.absorption < 0)
       throw Error(fmt::format("--absorption {}: unknown absorption mode (one of: {})", a.absorption, absorption_names()));
   }
-  if (a.spp > 0) opt.spp = a.spp;
-  if (a.noise_target > 0) opt.noise_target = a.noise_target;
+  opt.spp = a.spp;
+  opt.noise_target = a.noise_target;
   if (!a.spp_range.empty()) {
     int64_t b = 0;
     check_spp_range(a.spp_range, &opt.sample_begin, &b);  // checked by CLI11 already
@@ -193,21 +193,21 @@ std::unique_ptr<RenderWatch> make_watch(const RenderArgs& a, const MpiArg& mpi, 
   if (set.noise_target > 0 && (!a.spp_range.empty() || !a.pixel_bounds.empty()))
     throw UsageError("--noise-target (render.noise_target) with --spp-range or --pixel-bounds: each shard or tile would "
                      "stop at its own noise, and the pieces would not merge; render the whole film");
-  if ((a.checkpoint > 0 || a.resume) && (several || set.guiding))
+  if ((a.checkpoint || a.resume) && (several || set.guiding))
     throw UsageError("--checkpoint and --resume work with one device and no --mpi or guiding");
-  if (set.noise_target <= 0 && a.checkpoint <= 0 && !a.resume && (a.preview.empty() || several)) return nullptr;
+  if (set.noise_target <= 0 && !a.checkpoint && !a.resume && (a.preview.empty() || several)) return nullptr;
   WatchConfig c;
   c.noise_target = set.noise_target;
   c.preview = a.preview;
   c.image = output;
-  c.checkpoint_seconds = a.checkpoint;
+  c.checkpoint_seconds = a.checkpoint.value_or(0);
   c.state_path = film_state_path(output);
   c.id = render_identity(set);
   c.exr = exr_options(a.half, a.compression, scene.film);
   c.meta["scene"] = scene.path;
   c.meta["spp_requested"] = set.spp;
   c.spp = set.spp;
-  if (a.checkpoint > 0 || a.resume) {
+  if (a.checkpoint || a.resume) {
     c.id.scene_hash = hash();
     c.state_key = film_state_key(c.id, set.window, set.sample_begin, set.spp);
   }
@@ -232,7 +232,7 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   check_half(a.half, scene, output, quiet);  // --half with a PNG: exit 2
   check_tracker_scheme(scene, opt, a.scheme, a.tracker);  // --scheme with a tracker that ignores it: exit 2
   const RenderSettings set = resolve_settings(scene, opt);
-  const double time_limit = a.time_limit > 0 ? a.time_limit : scene.render.time_limit;
+  const double time_limit = a.time_limit.value_or(scene.render.time_limit);
   loop_started_flag()->store(false);  // this frame's loop: until it starts, a signal ends the process at once
   if (time_limit > 0) {
     opt.deadline = t0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(time_limit));
@@ -281,7 +281,7 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
                              mpi.on ? fmt::format(", {} MPI ranks", mpi.size) : "");
   const double seconds_to_renderer = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   set_phase("renderer set-up");
-  MultiDeviceResult r = render_share(scene, opt, set, devices, a.chunk_spp, mpi);
+  MultiDeviceResult r = render_share(scene, opt, set, devices, a.chunk_spp.value_or(0), mpi);  // 0: by device count
   deadline_watch().disarm();  // the stage loop ran: what it finished is written whatever the time
   if (tty && !quiet) std::fprintf(stderr, "\n");
   const bool signalled = stop_flag()->load();
@@ -302,10 +302,10 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
 int cmd_render(const RenderArgs& a, MpiArg& mpi) {
   const auto t0 = command_start();
   // --time-limit bounds the scene loading too (a scene's render.time_limit is known once it is loaded)
-  if (a.time_limit > 0)
+  if (a.time_limit)
     deadline_watch().arm(t0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                  std::chrono::duration<double>(a.time_limit)),
-                         a.time_limit);
+                                  std::chrono::duration<double>(*a.time_limit)),
+                         *a.time_limit);
   set_phase("scene loading");
   SceneDesc scene = load_scene(a.scene);
   const std::string output = a.output.empty() ? scene.film.output : a.output;
@@ -333,7 +333,7 @@ int cmd_render(const RenderArgs& a, MpiArg& mpi) {
     RenderArgs fa = a;
     // the majorant hierarchy is compiled in for every frame (an empty frame has none), so that the
     // frames share one kernel build
-    if (a.majorant_block > 1) fa.feature_floor = ST_FEATURE_COARSE_MAJORANT;
+    if (a.majorant_block.value_or(RenderOptions().majorant_block) > 1) fa.feature_floor = ST_FEATURE_COARSE_MAJORANT;
     fa.frame = f;
     fa.preview = expand_frame(a.preview, f);
     fa.stats_json = expand_frame(a.stats_json, f);

@@ -66,6 +66,18 @@ std::string scene_hash(const SceneDesc& scene, const std::string& json_text);
 // it with rendering, on the rank that writes).
 RenderIdentity render_identity(const RenderSettings& settings);
 
+// The estimator choices a render records by name, in one list: EXR metadata spectrack:<key> (film_io.cpp
+// writes and reads them), the statistics JSON's <key> (api/render_stats.cpp) and merge's
+// comparison (check_one_render names `what`). `required`: every piece has it; the others may be
+// missing from pieces written before the option, which then hold RenderIdentity's default.
+struct RecordedChoice {
+  const char* key;
+  std::string RenderIdentity::*field;
+  const char* what;
+  bool required;
+};
+const std::vector<RecordedChoice>& recorded_choices();
+
 struct FilmPiece {
   std::string source;  // the file (or device, or rank) it came from, for messages
   RenderIdentity id;

@@ -35,13 +35,7 @@ Metadata piece_metadata(const FilmPiece& p) {
   // an int where it fits (every seed below 2^31), else the decimal text
   if (p.id.seed <= 2147483647) m["seed"] = int(p.id.seed);
   else m["seed"] = std::to_string(p.id.seed);
-  m["tracker"] = p.id.tracker;
-  m["scheme"] = p.id.scheme;
-  m["absorption"] = p.id.absorption;
-  m["light_sampling"] = p.id.light_sampling;
-  m["transmittance"] = p.id.transmittance;
-  m["lookup"] = p.id.lookup;
-  m["color"] = p.id.color;
+  for (const RecordedChoice& c : recorded_choices()) m[c.key] = p.id.*c.field;
   if (!p.id.shutter.empty()) m["shutter"] = p.id.shutter;
   if (!p.id.frame.empty()) m["frame"] = p.id.frame;
   m["version"] = p.id.version;
@@ -240,13 +234,8 @@ FilmPiece piece_from_header(const std::string& path, const RgbImage& img) {
   FilmPiece p;
   p.source = path;
   p.id.scene_hash = str("scene_hash");
-  p.id.tracker = str("tracker");
-  p.id.scheme = str("scheme");
-  if (img.meta.count("absorption")) p.id.absorption = str("absorption");
-  if (img.meta.count("light_sampling")) p.id.light_sampling = str("light_sampling");
-  if (img.meta.count("transmittance")) p.id.transmittance = str("transmittance");
-  if (img.meta.count("lookup")) p.id.lookup = str("lookup");
-  if (img.meta.count("color")) p.id.color = str("color");
+  for (const RecordedChoice& c : recorded_choices())
+    if (c.required || img.meta.count(c.key)) p.id.*c.field = str(c.key);
   if (img.meta.count("shutter")) p.id.shutter = str("shutter");
   if (img.meta.count("frame")) p.id.frame = str("frame");
   p.id.version = str("version");

@@ -282,7 +282,7 @@ RenderResult Renderer::Impl::run_stage_loop(int64_t sample_begin, int spp, std::
   BatchPlan plan = plan_batches(int(spp - before));
   // the default shadow ring falls back to one entry per (path, light) where two would not fit (the
   // image is the same; paths may wait for their shadow rays)
-  if (opt.shadow_ring == 0 && plan.shadow_ring > 1 && memory_need(plan).device > double(ds.dev.global_mem)) {
+  if (!opt.shadow_ring && plan.shadow_ring > 1 && memory_need(plan).device > double(ds.dev.global_mem)) {
     plan.shadow_ring = 1;
     plan.NL = uint64_t(ds.packed.st.n_lights);
   }

@@ -85,6 +85,7 @@ RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) 
   // cache is trained over the full film and every sample from 0, so a window or a sample range
   // would train another cache than the single render's: refused for now
   const int guiding = o.guiding.value_or(scene.render.guiding >= 0 ? scene.render.guiding : int(kGuidingAuto));
+  s.guiding_requested = guiding;
   s.guiding = guiding == kGuidingOn;
   if (s.guiding && (o.pixel_bounds || s.sample_begin != 0))
     throw UsageError("guiding does not work with --pixel-bounds or --spp-range yet (its cache is trained over the "

@@ -126,7 +126,8 @@ Mat4 user_transform(const TransformDesc& t) {
 // about 10% with the tighter control of finer levels (media with a control: not colour media) (the control's per-channel collision weights
 // replace the residual's history-aware probabilities), which the lookup-only model does not see.
 double auto_majorant_step_cost(int tracker, bool has_control) {
-  return (has_control && st_tracker_decomposes(tracker) && st_tracker_channels(tracker) == 1) ? 2.0 : 0.6;
+  return (has_control && st_tracker_decomposes(tracker) && st_tracker_channels(tracker) == 1) ? kMajorantStepCostControl
+                                                                                             : kMajorantStepCost;
 }
 
 void Packer::add_medium(int i, const MediumDesc& md) {
@@ -252,7 +253,7 @@ void Packer::add_majorants(st_medium& m, const MediumDesc& md, const GridData& g
     MajorantCostModel cost;
     cost.lookups_per_density = sigma_t * std::max(1.0, md.majorant_scale) * longest_voxel_edge(m);
     cost.decompose = decompose;
-    cost.step_cost = opt.majorant_step_cost >= 0 ? opt.majorant_step_cost : auto_majorant_step_cost(tracker, !color);
+    cost.step_cost = opt.majorant_step_cost ? *opt.majorant_step_cost : auto_majorant_step_cost(tracker, !color);
     MajorantHierarchy h = build_majorant_hierarchy(mg, B, cost);
     m.maj_block = B;
     m.maj_coarse_offset = uint32_t(maj_cells.size() / 2);

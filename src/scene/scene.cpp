@@ -23,6 +23,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "integrator/option_table.h"
 #include "scene/scene.h"
 #include "scene/scene_parser.h"
 #include "scene/radiance.h"
@@ -207,7 +208,8 @@ void Parser::film(const json& j, const std::string& path, FilmDesc& f) {
   if (static_cast<long long>(f.width) * f.height > (1ll << 28))
     fail(path, "width * height = " + std::to_string(static_cast<long long>(f.width) * f.height) +
                    " pixels is too many (at most 2^28)");
-  f.spp = static_cast<int>(integer(j, path, "spp", f.spp, 1, 1 << 24));
+  const OptionCheck& spp = option_row("spp").check;  // the range of --spp (integrator/option_table.def)
+  f.spp = static_cast<int>(integer(j, path, "spp", f.spp, int64_t(spp.lo), int64_t(spp.hi)));
   auto boolean = [&](const char* key) -> std::optional<bool> {
     const json* v = find(j, key);
     if (!v) return std::nullopt;
@@ -274,7 +276,8 @@ void Parser::render(const json& j, const std::string& path, RenderDesc& r) {
   named("color", "colour mode", film_color_from_name, film_color_names, &r.color);
   named("guiding", "guiding mode", guiding_from_name, guiding_names, &r.guiding);
   r.max_depth = static_cast<int>(integer(j, path, "max_depth", r.max_depth, -1, std::numeric_limits<int>::max()));
-  r.seed = static_cast<uint32_t>(integer(j, path, "seed", r.seed, 0, 0xffffffffll));
+  const OptionCheck& seed = option_row("seed").check;  // the range of --seed
+  r.seed = static_cast<uint32_t>(integer(j, path, "seed", r.seed, int64_t(seed.lo), int64_t(seed.hi)));
   if (find(j, "time_limit")) r.time_limit = number(j, path, "time_limit", 0.0, Range{0, 1e9, true, false});
   if (find(j, "noise_target")) r.noise_target = number(j, path, "noise_target", 0.0, Range{0, 1, true, false});
 }

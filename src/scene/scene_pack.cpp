@@ -66,8 +66,10 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
   if (options.iteration_budget < 1) throw Error("iteration budget must be at least 1");
   if (options.majorant_cell < 0) throw Error("majorant cell must be 0 (automatic) or at least 1 voxel");
   if (options.majorant_block < 0) throw Error("majorant block must be 0 (one level) or at least 1 cell");
-  if (!std::isfinite(options.majorant_step_cost))
-    throw Error("majorant step cost must be a finite number (< 0: automatic)");
+  if (options.majorant_step_cost && !(std::isfinite(*options.majorant_step_cost) && *options.majorant_step_cost >= 0))
+    throw Error(fmt::format("majorant step cost {} must be a finite number of density lookups, at least 0 (leave it "
+                            "out for the automatic one)",
+                            *options.majorant_step_cost));
   PackedScene out;
   st_scene& st = out.st;
   std::memset(&st, 0, sizeof(st));
