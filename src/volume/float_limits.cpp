@@ -204,7 +204,7 @@ void check_coordinates(const SceneDesc& scene, const st_scene& st, const std::ve
     throw Error(fmt::format("{}: /camera/position: ({:g}, {:g}, {:g}) is beyond 2^60{}", scene.path,
                             camera_position[0], camera_position[1], camera_position[2], why));
   for (const LightDesc& l : scene.lights)  // a local light's distance to every point it lights
-    if ((l.type == ST_LIGHT_POINT || l.type == ST_LIGHT_SPOT) && !(max_norm(l.position) <= kMaxCoordinate))
+    if (l.type >= ST_LIGHT_POINT && !(max_norm(l.position) <= kMaxCoordinate))
       throw Error(fmt::format("{}: {}/position: ({:g}, {:g}, {:g}) is beyond 2^60{}", scene.path, l.json_path,
                               l.position[0], l.position[1], l.position[2], why));
   for (size_t i = 0; i < scene.media.size() && i < boxes.size(); ++i) {
