@@ -111,9 +111,9 @@ TEST(Ground, SunAndPointLightGiveAlbedoOverPiTimesTheIrradiance) {
   json below = {{"type", "homogeneous"}, {"bounds", {{-2, -3, -2}, {2, -0.1, 2}}}, {"sigma_a", {0.1, 0.1, 0.1}},
                 {"sigma_s", {5.0, 5.0, 5.0}}};
   for (const char* tracker : {"spectral-decomposition", "delta-per-channel", "spectral-mis"}) {
-    json s = ground_scene({sun}, colored_ground(), 4);
+    json s = ground_scene(json::array({sun}), colored_ground(), 4);
     s["render"]["tracker"] = tracker;
-    s["media"] = {below};
+    s["media"] = json::array({below});
     RenderResult r = Renderer(scene_from_json(s, dir), quiet_options()).render();
     double expected[3];
     for (int c = 0; c < 3; ++c) expected[c] = kAlbedo[c] / M_PI * E[c] * cos_sun;
@@ -138,7 +138,7 @@ TEST(Ground, ShadowCatcherIsOneUnshadowedAndTheSlabTransmittanceBehindIt) {
   const std::string dir = temp_dir("ground_catcher");
   const double sigma_a[3] = {0.4, 1.0, 2.0}, d = 0.5;
   json s = ground_scene({{{"type", "directional"}, {"to_light", {0, 1, 0}}, {"irradiance", {1, 2, 3}}}},
-                        colored_ground("shadow_catcher"), 64);
+                        colored_ground("shadow_catcher"), 256);
   s["camera"] = {{"type", "orthographic"}, {"position", {0, 0.5, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"height", 1e-3}};
   s["media"] = {{{"type", "homogeneous"}, {"bounds", {{-1, 1, -1}, {1, 1 + d, 1}}},
                  {"sigma_a", {sigma_a[0], sigma_a[1], sigma_a[2]}}, {"sigma_s", {0, 0, 0}}}};
@@ -171,7 +171,7 @@ TEST(Ground, ShadowCatcherIsOneUnshadowedAndTheSlabTransmittanceBehindIt) {
 TEST(Ground, HoldoutIsTransparentBlackAndOccludes) {
   const std::string dir = temp_dir("ground_holdout");
   const double sigma_a[3] = {0.4, 1.0, 2.0}, d = 0.5;
-  json s = ground_scene({{{"type", "environment"}, {"radiance", {1, 1, 1}}}}, colored_ground("holdout"), 64);
+  json s = ground_scene({{{"type", "environment"}, {"radiance", {1, 1, 1}}}}, colored_ground("holdout"), 256);
   s["camera"] = {{"type", "orthographic"}, {"position", {0, 2, 0}}, {"look_at", {0, 0, 0}}, {"up", {0, 0, 1}}, {"height", 1e-3}};
   s["render"]["tracker"] = "spectral";
   s["media"] = {{{"type", "homogeneous"}, {"bounds", {{-1, 1, -1}, {1, 1 + d, 1}}},

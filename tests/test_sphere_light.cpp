@@ -106,7 +106,7 @@ TEST(SphereLight, ThroughAnAbsorbingSlabIsAttenuated) {
   const std::string dir = temp_dir("sphere_slab");
   const double d = 0.6;
   for (const char* tracker : {"spectral", "delta-per-channel"}) {
-    json s = scene_with(sphere_light(), ortho({kC[0], kC[1], -3}, {kC[0], kC[1], 0}), 64);
+    json s = scene_with(sphere_light(), ortho({kC[0], kC[1], -3}, {kC[0], kC[1], 0}), 256);
     s["render"]["tracker"] = tracker;
     s["media"] = {{{"type", "homogeneous"}, {"bounds", {{-2, -2, -2}, {2, 2, -2 + d}}},
                    {"sigma_a", {kSigmaA[0] * 4, kSigmaA[1] * 4, kSigmaA[2] * 4}}, {"sigma_s", {0, 0, 0}}}};
