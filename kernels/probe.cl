@@ -76,7 +76,7 @@ __kernel void k_probe_track(__constant const st_scene* scene, __global const uin
   float t = 0.0f;
   int medium = 0, ev;
   do {
-    ev = track_path(scene, grids, maj, o.xyz, normalize(d.xyz), &t, &beta, &r_u, hero, mask, &L, &medium, &rng,
+    ev = track_path(scene, grids, maj, o.xyz, normalize(d.xyz), &t, INFINITY, &beta, &r_u, hero, mask, &L, &medium, &rng,
                     scene->iteration_budget, &st);
   } while (ev == ST_EV_BUDGET);
   out[i] = (float4)(ev == ST_EV_ESCAPE ? INFINITY : t, (float)ev, (float)st.lookups, (float)st.dda_steps);
@@ -125,7 +125,7 @@ __kernel void k_probe_albedo(__constant const st_scene* scene, __global const ui
   float t = 0.0f, escaped = 0.0f;
   for (int events = 0; events < 1000000; ++events) {
     int medium = 0;
-    int ev = track_path(scene, grids, maj, o, d, &t, &beta, &r_u, hero, mask, &L, &medium, &rng, scene->iteration_budget, &st);
+    int ev = track_path(scene, grids, maj, o, d, &t, INFINITY, &beta, &r_u, hero, mask, &L, &medium, &rng, scene->iteration_budget, &st);
     if (ev == ST_EV_BUDGET) continue;
     if (ev == ST_EV_ESCAPE) { escaped = 1.0f; break; }
     if (ev == ST_EV_ABSORB) break;

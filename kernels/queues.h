@@ -83,10 +83,16 @@ inline uint shadow_entry(uint slot, uint NL, int n_lights, int bounce, int light
 
 /* Adds finished entry e, of bounce `bounce`, to its light's accumulator acc and empties it; the
  * first scattering event's shadow rays also go to the direct pass (types.h ST_AOVS) of the path's
- * result `r` (its first float4 in the batch result buffer). */
+ * result `r` (its first float4 in the batch result buffer). A shadow catcher's entry (ground.h)
+ * goes to the shadow layer only. */
 inline void shadow_fold(__constant const st_scene* scene, __global st_shadow* acc, __global st_shadow* e, int bounce,
                         __global float4* r) {
   const float4 c = e->weight * e->tr.T;
+  if (ST_HAS_GROUND && e->catcher) {
+    r[ST_RESULT_SHADOW] += c;
+    e->state = ST_SHADOW_EMPTY;
+    return;
+  }
   acc->Ls += c;
   if (ST_HAS_AOV && scene->result_layers > ST_RESULT_LAYERS_AOV && bounce == 0) r[ST_RESULT_DIRECT] += c;
   e->state = ST_SHADOW_EMPTY;

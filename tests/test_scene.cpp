@@ -539,7 +539,7 @@ TEST_F(SceneTest, DuplicateKeyIsAnError) {
 TEST_F(SceneTest, UnknownFieldAtRoot) {
   json j = example();
   j["lighs"] = json::array();
-  EXPECT_SCENE_ERROR(j, "/lighs", "unknown field (expected one of: format, camera, film, render, lights, media)");
+  EXPECT_SCENE_ERROR(j, "/lighs", "unknown field (expected one of: format, camera, film, render, lights, media, ground)");
 }
 
 TEST_F(SceneTest, UnknownFieldInSections) {

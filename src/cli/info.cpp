@@ -118,6 +118,7 @@ const char* light_type(int t) {
          : t == ST_LIGHT_ENV_MAP   ? "environment (map)"
          : t == ST_LIGHT_POINT     ? "point"
          : t == ST_LIGHT_SPOT      ? "spot"
+         : t == ST_LIGHT_SPHERE    ? "sphere"
                                    : "environment (uniform)";
 }
 
@@ -192,6 +193,9 @@ json scene_json(const SceneDesc& s, std::string* text) {
     if (l.type == ST_LIGHT_DIRECTIONAL) {
       j["to_light"] = vec(l.to_light), j["irradiance"] = vec(l.irradiance), j["angle_deg"] = l.angle_deg;
       what = fmt::format("to_light {}, irradiance {}, angle {:.3g} deg", v3(l.to_light), v3(l.irradiance), l.angle_deg);
+    } else if (l.type == ST_LIGHT_SPHERE) {
+      j["position"] = vec(l.position), j["radius"] = l.radius, j["radiance"] = vec(l.radiance);
+      what = fmt::format("position {}, radius {:g}, radiance {}", v3(l.position), l.radius, v3(l.radiance));
     } else if (l.type == ST_LIGHT_POINT || l.type == ST_LIGHT_SPOT) {
       j["position"] = vec(l.position), j["intensity"] = vec(l.intensity);
       what = fmt::format("position {}, intensity {} W/sr", v3(l.position), v3(l.intensity));
@@ -209,6 +213,10 @@ json scene_json(const SceneDesc& s, std::string* text) {
     }
     out["lights"].push_back(j);
     t += fmt::format("  light {}: {}\n", light_type(l.type), what);
+  }
+  if (s.ground.present) {
+    out["ground"] = {{"height", s.ground.height}, {"albedo", vec(s.ground.albedo)}, {"mode", ground_mode_name(s.ground.mode)}};
+    t += fmt::format("  ground: height {:g}, albedo {}, {}\n", s.ground.height, v3(s.ground.albedo), ground_mode_name(s.ground.mode));
   }
   const CameraDesc& c0 = s.camera;
   const CameraDesc c = frame_camera(c0, s.film.width, s.film.height, boxes, s.path + ": /camera");

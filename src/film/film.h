@@ -138,6 +138,7 @@ class PieceDecoder {
     int moment_of = -1;  // second moments: the beauty channel 0..2
     size_t env_col = 0;
     bool per_collision = false;  // albedo, depth: a mean over the collided samples (collision.fraction of them)
+    size_t ratio_of = 0;         // shadow: a ratio, the sum index of its denominator (unshadowed); 0: none
   };
   double n_;
   bool alpha_;

@@ -51,19 +51,21 @@ Metadata piece_metadata(const FilmPiece& p) {
 // (the mean of AR, AG, AB) and AR, AG, AB, environment.R/G/B, variance.R/G/B (the variance of the
 // pixel's mean: (S2 - S1^2 / n) / (n (n - 1)), 0 below 2 samples), emission.R/G/B, direct.R/G/B,
 // indirect.R/G/B (means), albedo.R/G/B and depth.Z (means over the samples whose camera ray
-// collided, 0 where none did) and collision.fraction (the fraction that collided, their weight in a merge).
+// collided, 0 where none did) and collision.fraction (the fraction that collided, their weight in a merge),
+// shadow.R/G/B (the shadowed over the unshadowed sum, 1 where that is 0) and unshadowed.R/G/B (its mean,
+// the ratio's weight in a merge).
 std::vector<std::string> piece_exr_channels(const FilmPiece& p, std::vector<float>* px) {
   const uint32_t aovs = p.id.aovs;
   const bool alpha = aovs & ST_AOV_BIT(ALPHA);
   const std::vector<std::string> sums = aov_sum_channels(aovs);
   auto at = [&](const std::string& name) { return size_t(std::find(sums.begin(), sums.end(), name) - sums.begin()); };
   // each channel's recipe, decided once (not per pixel), in the table's order (aov_exr_channels)
-  enum Kind { kBeauty, kAlphaMean, kMean, kVariance, kPerCollision, kCollisionFraction };
+  enum Kind { kBeauty, kAlphaMean, kMean, kVariance, kPerCollision, kCollisionFraction, kRatio };
   struct Channel {
     Kind kind;
     size_t col = 0;      // its sum's column in aov_sum (kVariance: the second moment's)
     int k = 0;           // kBeauty, kVariance: the colour channel
-    size_t env_col = 0;  // kVariance with alpha: the environment's column (the whole beauty)
+    size_t env_col = 0;  // kVariance with alpha: the environment's column (the whole beauty); kRatio: the denominator's
   };
   std::vector<std::string> names = {"R", "G", "B"};
   std::vector<Channel> recipe = {{kBeauty, 0, 0}, {kBeauty, 0, 1}, {kBeauty, 0, 2}};
@@ -77,6 +79,7 @@ std::vector<std::string> piece_exr_channels(const FilmPiece& p, std::vector<floa
         recipe.push_back({kVariance, at("moment2." + chans[c].substr(chans[c].size() - 1)), int(c),
                           alpha ? at("environment." + chans[c].substr(chans[c].size() - 1)) : 0});
       else if (k == ST_AOV_INDEX_ALBEDO || k == ST_AOV_INDEX_DEPTH) recipe.push_back({kPerCollision, at(chans[c])});
+      else if (k == ST_AOV_INDEX_SHADOW && c < 3) recipe.push_back({kRatio, at(chans[c]), 0, at(chans[c + 3])});
       else recipe.push_back({kMean, at(chans[c])});
     }
   }
@@ -112,6 +115,7 @@ std::vector<std::string> piece_exr_channels(const FilmPiece& p, std::vector<floa
         }
         case kPerCollision: o[c] = a[hits_col] != 0 ? float(a[ch.col] / a[hits_col]) : 0.0f; break;
         case kCollisionFraction: o[c] = float(a[ch.col] / n); break;
+        case kRatio: o[c] = a[ch.env_col] != 0 ? float(a[ch.col] / a[ch.env_col]) : 1.0f; break;
       }
     }
   }
@@ -270,9 +274,10 @@ PieceDecoder::PieceDecoder(const FilmPiece& p, const std::vector<std::string>& h
       src_[c].col = column("variance." + ch);
       if (alpha_) src_[c].env_col = column("environment." + ch);
     } else {
-      src_[c].col = column(name);  // AR, AG, AB, environment.*, the passes, albedo, depth, collision.fraction
+      src_[c].col = column(name);  // AR, AG, AB, environment.*, the passes, albedo, depth, shadow, collision.fraction
       for (int k : {ST_AOV_INDEX_ALBEDO, ST_AOV_INDEX_DEPTH})
         for (const std::string& a : aov_exr_channels(k)) src_[c].per_collision = src_[c].per_collision || name == a;
+      if (name.rfind("shadow.", 0) == 0) src_[c].ratio_of = c + 3;  // its unshadowed sum, decoded first
     }
   }
   hits_col_ = column(kCollisionChannel);
@@ -284,7 +289,7 @@ void PieceDecoder::decode(const float* rgb, const float* extra, size_t npix, dou
   for (size_t i = 0; i < npix; ++i) {
     const float* e = ne ? &extra[i * ne] : nullptr;
     for (int k = 0; k < 3; ++k) sum[i * 3 + k] = double(rgb[i * 3 + k]) * n;
-    for (size_t c = 0; c < na; ++c) {
+    for (size_t c = na; c-- > 0;) {  // backwards: a ratio's weight comes after it
       const Source& sc = src_[c];
       double v = double(e[sc.col]);
       if (sc.moment_of >= 0) {  // back from the variance of the mean (piece_exr_channels)
@@ -293,6 +298,8 @@ void PieceDecoder::decode(const float* rgb, const float* extra, size_t npix, dou
         v = v * n * (n - 1) + (n > 0 ? s1 * s1 / n : 0.0);
       } else if (sc.per_collision) {
         v *= double(e[hits_col_]) * n;
+      } else if (sc.ratio_of > 0) {  // the shadow layer: the ratio times its decoded denominator
+        v *= aov_sum[i * na + sc.ratio_of];
       } else {
         v *= n;
       }

@@ -254,6 +254,9 @@ void Renderer::Impl::read_film(const RenderBuffers& b, const BatchPlan& p, const
     if (settings.aovs & ST_AOV_BIT(ALBEDO))  // sums over the samples whose camera ray collided
       for (int k = 0; k < 3; ++k) res.aov_sum[i * na + a++] = layer(ST_RESULT_AUX, i, k);
     if (settings.aovs & ST_AOV_BIT(DEPTH)) res.aov_sum[i * na + a++] = layer(ST_RESULT_AUX, i, 3);
+    if (settings.aovs & ST_AOV_BIT(SHADOW))  // a shadow catcher's shadowed, then unshadowed estimates
+      for (int l : {ST_RESULT_SHADOW, ST_RESULT_UNSHADOWED})
+        for (int k = 0; k < 3; ++k) res.aov_sum[i * na + a++] = layer(l, i, k);
     if (settings.aovs & (ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH)))
       res.aov_sum[i * na + a++] = layer(ST_RESULT_ALPHA, i, 3);  // how many of them collided
   }

@@ -61,6 +61,7 @@ RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) 
   // holds what RGB leaves out
   s.aovs = o.aovs ? *o.aovs : (scene.film.aovs | (scene.film.alpha.value_or(false) ? uint32_t(ST_AOV_BIT(ALPHA)) : 0u));
   if (s.aovs >= (1u << ST_AOV_COUNT)) throw Error(fmt::format("film layer mask 0x{:x} names layers that do not exist", s.aovs));
+  if (scene.ground.present && scene.ground.mode == ST_GROUND_SHADOW_CATCHER) s.aovs |= ST_AOV_BIT(SHADOW);  // ground.h
   if (s.aovs & ST_AOV_BIT(ALPHA)) s.aovs |= ST_AOV_BIT(ENVIRONMENT);
   // a noise target is measured from the variance layer (integrator/noise.h)
   s.noise_target = o.noise_target.value_or(scene.render.noise_target);

@@ -31,10 +31,10 @@ void Packer::add_light(int i, const LightDesc& ld) {
   std::memset(&l, 0, sizeof(l));
   l.type = ld.type;
   auto mean = [](const Vec3& v) { return (v[0] + v[1] + v[2]) / 3.0; };
-  if (ld.type == ST_LIGHT_POINT || ld.type == ST_LIGHT_SPOT) {
+  if (ld.type >= ST_LIGHT_POINT) {
     pack_local_light(l, ld);
     light_power[i] = local_light_power(ld, media_boxes);
-    local_strength[i] = mean(ld.intensity);
+    local_strength[i] = mean(local_light_intensity(ld));
     return;
   }
   if (ld.type == ST_LIGHT_DIRECTIONAL) {

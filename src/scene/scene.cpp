@@ -66,7 +66,7 @@ SceneDesc Parser::scene(const json& root) {
   if (!format.is_string()) fail("/format", std::string("expected a string, got ") + format.type_name());
   if (format.get<std::string>() != kFormat)
     fail("/format", "unsupported format " + in_quotes(format.get<std::string>()) + " (expected " + in_quotes(kFormat) + ")");
-  fields(root, "", {"format", "camera", "film", "render", "lights", "media"});
+  fields(root, "", {"format", "camera", "film", "render", "lights", "media", "ground"});
 
   SceneDesc s;
   s.dir = dir_.string();
@@ -74,6 +74,7 @@ SceneDesc Parser::scene(const json& root) {
   if (const json* j = find(root, "film")) film(*j, "/film", s.film);
   else s.film.output = normalized(dir_ / s.film.output).string();
   if (const json* j = find(root, "render")) render(*j, "/render", s.render);
+  if (const json* j = find(root, "ground")) s.ground = ground(*j, "/ground");
 
   if (const json* lights = find(root, "lights")) {
     if (!lights->is_array()) fail("/lights", std::string("expected an array, got ") + lights->type_name());

@@ -124,7 +124,7 @@ inline double emission_gain(const MediumDesc& m) {
 struct LightDesc {
   std::string json_path;
   int type = ST_LIGHT_ENV_UNIFORM;
-  Vec3 radiance{1, 1, 1};  // environment (uniform)
+  Vec3 radiance{1, 1, 1};  // environment (uniform); sphere: its surface's radiance
   std::string map;         // environment map (absolute path), empty if uniform
   double scale = 1.0;      // environment map multiplier
   Vec3 to_light{0, 1, 0};  // directional, as given (not normalised)
@@ -136,6 +136,16 @@ struct LightDesc {
   Vec3 look_at{0, -1, 0};        // spot: the cone's axis points from position to look_at
   double cone_angle_deg = 30.0;  // spot: half angle of the cone, beyond which nothing is emitted
   double cone_delta_deg = 5.0;   // spot: width of the falloff (full intensity inside cone_angle - cone_delta)
+  double radius = 0.0;           // sphere: world units, > 0 (position: its centre)
+};
+
+// The ground (kernels/ground.h): the plane y = height, facing up, opaque; "albedo" its Lambertian
+// reflectance in [0, 1] per channel; "mode" one of ST_GROUND_MODES (diffuse, shadow_catcher, holdout).
+struct GroundDesc {
+  bool present = false;
+  double height = 0.0;     // world units
+  Vec3 albedo{0.5, 0.5, 0.5};
+  int mode = ST_GROUND_DIFFUSE;
 };
 
 struct CameraDesc {
@@ -201,6 +211,7 @@ struct SceneDesc {
   RenderDesc render;
   std::vector<LightDesc> lights;
   std::vector<MediumDesc> media;
+  GroundDesc ground;
 };
 
 // Parses and validates a scene file. Throws spectrack::Error.
@@ -238,6 +249,10 @@ const char* transmittance_name(int mode);
 int transmittance_from_name(const std::string& name);  // -1 when unknown
 std::string transmittance_names();
 std::vector<std::string> transmittance_name_list();
+// Names of the ground's modes (st_ground_mode): "diffuse", "shadow_catcher", "holdout".
+const char* ground_mode_name(int mode);
+int ground_mode_from_name(const std::string& name);  // -1 when unknown
+std::string ground_mode_names();
 // Names of the film colour modes (st_film_color): "rgb", "spectral".
 const char* film_color_name(int mode);
 int film_color_from_name(const std::string& name);  // -1 when unknown
@@ -254,8 +269,9 @@ int aov_from_name(const std::string& name);  // -1 when unknown
 std::string aov_names();
 std::vector<std::string> aov_name_list();
 // The one table of the film layers' EXR channels (docs/aov.md), what a render writes, merge reads and
-// read_image accepts: alpha "A", "AR", "AG", "AB"; depth "depth.Z"; the others "<name>.R", ".G",
-// ".B". The albedo and depth layers also write kCollisionChannel, their shared weight.
+// read_image accepts: alpha "A", "AR", "AG", "AB"; depth "depth.Z"; shadow "shadow.R", ".G", ".B" and
+// "unshadowed.R", ".G", ".B"; the others "<name>.R", ".G", ".B". The albedo and depth layers also
+// write kCollisionChannel, their shared weight.
 const std::vector<std::string>& aov_exr_channels(int index);
 inline constexpr const char* kCollisionChannel = "collision.fraction";
 // OpenEXR compressions (film.compression, --compression): none, rle, zips, zip, piz, pxr24, b44,

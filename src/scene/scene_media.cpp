@@ -29,12 +29,12 @@ namespace parsing {
 
 LightDesc Parser::light(const json& j, const std::string& path) {
   expect_object(j, path);
-  const Names all = {"type",      "radiance", "map",      "scale",          "to_light",      "irradiance",
-                     "angle_deg", "position", "intensity", "look_at", "cone_angle_deg", "cone_delta_deg"};
+  const Names all = {"type",      "radiance", "map",      "scale",          "to_light",       "irradiance",
+                     "angle_deg", "position", "intensity", "look_at", "cone_angle_deg", "cone_delta_deg", "radius"};
   fields(j, path, all);
   LightDesc l;
   l.json_path = path;
-  need(j, path, "type", "expected one of: environment, directional, point, spot");
+  need(j, path, "type", "expected one of: environment, directional, point, spot, sphere");
   std::string type = string(j, path, "type", "");
   if (type == "environment") {
     fields(j, path, {"type", "radiance", "map", "scale"}, "an environment light", all);
@@ -57,11 +57,33 @@ LightDesc Parser::light(const json& j, const std::string& path) {
     l.angle_deg = number(j, path, "angle_deg", l.angle_deg, Range{0, 180, false, true});
   } else if (type == "point" || type == "spot") {
     local_light(j, path, type == "spot", all, l);
+  } else if (type == "sphere") {  // an emitting sphere: centre, radius (world units), surface radiance
+    fields(j, path, {"type", "position", "radius", "radiance"}, "a sphere light", all);
+    l.type = ST_LIGHT_SPHERE;
+    l.position = vec3_at(need(j, path, "position"), path + "/position", kAny);
+    l.radius = number_at(need(j, path, "radius"), path + "/radius", Range{0, 1.15e18, true, false});
+    l.radiance = vec3(j, path, "radiance", l.radiance, kNonNegative);
   } else {
     fail(path + "/type",
-         "unknown light type " + in_quotes(type) + " (expected one of: environment, directional, point, spot)");
+         "unknown light type " + in_quotes(type) + " (expected one of: environment, directional, point, spot, sphere)");
   }
   return l;
+}
+
+// The ground (kernels/ground.h): height (world units, within 2^60 as every coordinate), albedo in
+// [0, 1] per channel, mode.
+GroundDesc Parser::ground(const json& j, const std::string& path) {
+  expect_object(j, path);
+  fields(j, path, {"height", "albedo", "mode"});
+  GroundDesc g;
+  g.present = true;
+  g.height = number(j, path, "height", g.height, Range{-1.15e18, 1.15e18, false, false});
+  g.albedo = vec3(j, path, "albedo", g.albedo, Range{0, 1, false, false});
+  const std::string mode = string(j, path, "mode", ground_mode_name(g.mode));
+  g.mode = ground_mode_from_name(mode);
+  if (g.mode < 0)
+    fail(path + "/mode", "unknown ground mode " + in_quotes(mode) + " (expected one of: " + ground_mode_names() + ")");
+  return g;
 }
 
 // A point or spot light (kernels/light.h): position and intensity (W/sr); a spot's axis towards

@@ -47,8 +47,9 @@ uint32_t Packer::scene_features() const {
   for (int i = 0; i < st.n_lights; ++i) {
     const st_light& l = st.lights[i];
     if (l.type == ST_LIGHT_ENV_MAP) f |= ST_FEATURE_ENV_MAP;
-    if (l.type == ST_LIGHT_POINT || l.type == ST_LIGHT_SPOT) {
-      f |= ST_FEATURE_LOCAL_LIGHT;  // delta in direction: no escaping ray sees one
+    if (l.type == ST_LIGHT_SPHERE) f |= ST_FEATURE_SPHERE_LIGHT;  // rays that reach one end there: no escape
+    if (l.type >= ST_LIGHT_POINT) {
+      f |= ST_FEATURE_LOCAL_LIGHT;  // delta in direction or hit at a finite distance: no escaping ray sees one
       continue;
     }
     if (l.type != ST_LIGHT_DIRECTIONAL || !l.is_delta) f |= ST_FEATURE_ESCAPE;
@@ -57,6 +58,7 @@ uint32_t Packer::scene_features() const {
   if (st.tracker == ST_TRACKER_SPECTRAL_MIS) f |= ST_FEATURE_SPECTRAL_MIS;
   if (st.lookup == ST_LOOKUP_STOCHASTIC && (f & ST_FEATURE_VDB)) f |= ST_FEATURE_STOCHASTIC_LOOKUP;
   if (st.result_layers > 1) f |= ST_FEATURE_AOV;
+  if (st.ground.present) f |= ST_FEATURE_GROUND;
   return f | camera_features;
 }
 
@@ -80,6 +82,13 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
   if (s.shutter) pk.shutter_reach = std::max(std::abs((*s.shutter)[0]), std::abs((*s.shutter)[1]));
   for (int i = 0; i < st.n_media; ++i) pk.add_medium(i, scene.media[i]);
   for (int i = 0; i < st.n_lights; ++i) pk.add_light(i, scene.lights[i]);
+  if (scene.ground.present) {  // kernels/ground.h
+    const Vec3& a = scene.ground.albedo;
+    st.ground.present = 1;
+    st.ground.height = float(scene.ground.height);
+    st.ground.mode = scene.ground.mode;
+    st.ground.albedo = st.ground.albedo_rgb = st_float4{float(a[0]), float(a[1]), float(a[2]), 0.0f};
+  }
   const int light_sampling = pk.resolve_light_sampling(s.light_sampling);
   pk.set_light_selection(light_sampling);
   pk.set_camera(s);
@@ -93,7 +102,8 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
   st.pilot_spacing = float(s.pilot_spacing);
   st.lookup = s.lookup;
   st.aovs = int(s.aovs);
-  st.result_layers = (s.aovs & (ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH)))  ? ST_RESULT_LAYERS_AUX
+  st.result_layers = (s.aovs & ST_AOV_BIT(SHADOW))                         ? ST_RESULT_LAYERS_SHADOW
+                     : (s.aovs & (ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH))) ? ST_RESULT_LAYERS_AUX
                      : (s.aovs & (ST_AOV_BIT(EMISSION) | ST_AOV_BIT(DIRECT) | ST_AOV_BIT(INDIRECT)))
                          ? ST_RESULT_LAYERS_PASSES
                          : (s.aovs & (ST_AOV_BIT(ALPHA) | ST_AOV_BIT(ENVIRONMENT))) ? ST_RESULT_LAYERS_AOV : 1;

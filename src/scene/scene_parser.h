@@ -96,6 +96,7 @@ class Parser {
   void film(const json& j, const std::string& path, FilmDesc& f);
   void render(const json& j, const std::string& path, RenderDesc& r);
   LightDesc light(const json& j, const std::string& path);
+  GroundDesc ground(const json& j, const std::string& path);
   void local_light(const json& j, const std::string& path, bool spot, const Names& all, LightDesc& l);
   MediumDesc medium(const json& j, const std::string& path, size_t index);
   PhaseDesc phase(const json& j, const std::string& path);
