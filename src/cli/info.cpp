@@ -204,6 +204,12 @@ json scene_json(const SceneDesc& s, std::string* text) {
         what += fmt::format(", look_at {}, cone {:.3g} deg, falloff {:.3g} deg", v3(l.look_at), l.cone_angle_deg,
                             l.cone_delta_deg);
       }
+    } else if (l.type == ST_LIGHT_ENV_MAP && l.sky) {
+      const SkyDesc& k = *l.sky;
+      j["sky"] = {{"sun_elevation_deg", k.sun_elevation_deg}, {"sun_azimuth_deg", k.sun_azimuth_deg},
+                  {"intensity", k.intensity}, {"resolution", k.resolution}};
+      what = fmt::format("sky, sun at elevation {:.3g} deg, azimuth {:.3g} deg, intensity {:.6g}, map {}x{}",
+                         k.sun_elevation_deg, k.sun_azimuth_deg, k.intensity, k.resolution, k.resolution / 2);
     } else if (l.type == ST_LIGHT_ENV_MAP) {
       j["map"] = l.map, j["scale"] = l.scale;
       what = fmt::format("map {}, scale {:.6g}", l.map, l.scale);

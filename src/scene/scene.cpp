@@ -26,6 +26,7 @@
 #include "integrator/option_table.h"
 #include "scene/scene.h"
 #include "scene/scene_parser.h"
+#include "scene/sky_light.h"
 #include "scene/radiance.h"
 #include "util/files.h"
 #include "scene/frames.h"
@@ -90,7 +91,12 @@ SceneDesc Parser::scene(const json& root) {
       if (!env_path.empty())
         fail(path, "only one environment light is allowed (the first is " + env_path + ")");
       env_path = path;
+      if (s.lights.back().sky)  // a sky's sun: a light of its own
+        if (std::optional<LightDesc> sun = sky_sun_light(s.lights.back())) s.lights.push_back(*sun);
     }
+    if (s.lights.size() > ST_MAX_LIGHTS)
+      fail("/lights", std::to_string(s.lights.size()) + " lights with the sky's sun, at most " +
+                          std::to_string(ST_MAX_LIGHTS) + " (ST_MAX_LIGHTS) are supported");
   }
 
   if (const json* media = find(root, "media")) {

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "color/blackbody.h"
+#include "color/sky.h"
 #include "kernels/types.h"
 #include "util/error.h"
 
@@ -121,6 +122,18 @@ inline double emission_gain(const MediumDesc& m) {
   return m.emission.scale / (m.emission.per_density ? m.sigma_a[0] : 1.0);
 }
 
+// A physical sky (color/sky.h, docs/scene-format.md "sky"): its environment map is made when the
+// scene is packed (scene/sky_light.h), its sun is a directional light of its own.
+struct SkyDesc {
+  double sun_elevation_deg = 15;  // above the horizon (the x-z plane), degrees
+  double sun_azimuth_deg = 0;     // from -z towards +x (the environment map's centre is 0), degrees
+  SkyAtmosphere atmosphere;
+  double intensity = 1;           // multiplies the sky and the sun
+  bool sun_disc = true;           // false: the sky alone
+  double sun_angle_deg = 0.545;   // the sun's apparent diameter, degrees (0: a delta light)
+  int resolution = 1024;          // the map's width (its height is half of it)
+};
+
 struct LightDesc {
   std::string json_path;
   int type = ST_LIGHT_ENV_UNIFORM;
@@ -137,6 +150,9 @@ struct LightDesc {
   double cone_angle_deg = 30.0;  // spot: half angle of the cone, beyond which nothing is emitted
   double cone_delta_deg = 5.0;   // spot: width of the falloff (full intensity inside cone_angle - cone_delta)
   double radius = 0.0;           // sphere: world units, > 0 (position: its centre)
+  // an environment map made from a sky model instead of a file (map empty, scale: the intensity);
+  // a sky's sun is a directional light that follows it, with the same json_path
+  std::optional<SkyDesc> sky;
 };
 
 // The ground (kernels/ground.h): the plane y = height, facing up, opaque; "albedo" its Lambertian

@@ -29,12 +29,14 @@ namespace parsing {
 
 LightDesc Parser::light(const json& j, const std::string& path) {
   expect_object(j, path);
-  const Names all = {"type",      "radiance", "map",      "scale",          "to_light",       "irradiance",
-                     "angle_deg", "position", "intensity", "look_at", "cone_angle_deg", "cone_delta_deg", "radius"};
+  const Names all = {"type",      "radiance", "map",      "scale",          "to_light",      "irradiance",
+                     "angle_deg", "position", "intensity", "look_at", "cone_angle_deg", "cone_delta_deg", "radius",
+                     "sun_elevation_deg", "sun_azimuth_deg", "altitude", "air_density", "dust_density",
+                     "ozone_density", "sun_disc", "sun_angle_deg", "resolution"};
   fields(j, path, all);
   LightDesc l;
   l.json_path = path;
-  need(j, path, "type", "expected one of: environment, directional, point, spot, sphere");
+  need(j, path, "type", "expected one of: environment, directional, point, spot, sphere, sky");
   std::string type = string(j, path, "type", "");
   if (type == "environment") {
     fields(j, path, {"type", "radiance", "map", "scale"}, "an environment light", all);
@@ -63,9 +65,11 @@ LightDesc Parser::light(const json& j, const std::string& path) {
     l.position = vec3_at(need(j, path, "position"), path + "/position", kAny);
     l.radius = number_at(need(j, path, "radius"), path + "/radius", Range{0, 1.15e18, true, false});
     l.radiance = vec3(j, path, "radiance", l.radiance, kNonNegative);
+  } else if (type == "sky") {
+    sky_light(j, path, all, l);
   } else {
     fail(path + "/type",
-         "unknown light type " + in_quotes(type) + " (expected one of: environment, directional, point, spot, sphere)");
+         "unknown light type " + in_quotes(type) + " (expected one of: environment, directional, point, spot, sphere, sky)");
   }
   return l;
 }
@@ -104,6 +108,34 @@ void Parser::local_light(const json& j, const std::string& path, bool spot, cons
   if (l.cone_delta_deg > l.cone_angle_deg)
     fail(path + "/cone_delta_deg", "value " + num(l.cone_delta_deg) + " is more than cone_angle_deg (" +
                                        num(l.cone_angle_deg) + ")");
+}
+
+// A physical sky (color/sky.h): the sun's place, the atmosphere's densities, the viewer's altitude,
+// an intensity for sky and sun, the sun's disc and the map's resolution. Its environment map is
+// made when the scene is packed; the sun follows it as a directional light (scene.cpp).
+void Parser::sky_light(const json& j, const std::string& path, const Names& all, LightDesc& l) {
+  fields(j, path,
+         {"type", "sun_elevation_deg", "sun_azimuth_deg", "altitude", "air_density", "dust_density", "ozone_density",
+          "intensity", "sun_disc", "sun_angle_deg", "resolution"},
+         "a sky", all);
+  l.type = ST_LIGHT_ENV_MAP;
+  SkyDesc k;
+  k.sun_elevation_deg = number(j, path, "sun_elevation_deg", k.sun_elevation_deg, Range{-90, 90, false, false});
+  k.sun_azimuth_deg = number(j, path, "sun_azimuth_deg", k.sun_azimuth_deg, Range{-360, 360, false, false});
+  k.atmosphere.altitude_m = number(j, path, "altitude", 0.0, Range{0, 59000, false, false});
+  k.atmosphere.air = number(j, path, "air_density", 1.0, Range{0, 10, false, false});
+  k.atmosphere.dust = number(j, path, "dust_density", 1.0, Range{0, 10, false, false});
+  k.atmosphere.ozone = number(j, path, "ozone_density", 1.0, Range{0, 10, false, false});
+  k.intensity = number(j, path, "intensity", k.intensity, Range{0, 1e12, false, false});
+  if (const json* v = find(j, "sun_disc")) {
+    if (!v->is_boolean()) fail(path + "/sun_disc", std::string("expected true or false, got ") + v->type_name());
+    k.sun_disc = v->get<bool>();
+  }
+  k.sun_angle_deg = number(j, path, "sun_angle_deg", k.sun_angle_deg, Range{0, 10, false, false});
+  k.resolution = static_cast<int>(integer(j, path, "resolution", k.resolution, 16, 8192));
+  if (k.resolution % 2) fail(path + "/resolution", "value " + std::to_string(k.resolution) + " is odd (the map is resolution x resolution / 2)");
+  l.scale = k.intensity;
+  l.sky = k;
 }
 
 MediumDesc Parser::medium(const json& j, const std::string& path, size_t index) {

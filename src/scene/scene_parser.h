@@ -98,6 +98,7 @@ class Parser {
   LightDesc light(const json& j, const std::string& path);
   GroundDesc ground(const json& j, const std::string& path);
   void local_light(const json& j, const std::string& path, bool spot, const Names& all, LightDesc& l);
+  void sky_light(const json& j, const std::string& path, const Names& all, LightDesc& l);
   MediumDesc medium(const json& j, const std::string& path, size_t index);
   PhaseDesc phase(const json& j, const std::string& path);
   EmissionDesc ramp(const json& j, const std::string& path, bool vdb, EmissionDesc e);
