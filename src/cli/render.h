@@ -35,6 +35,8 @@ struct RenderArgs {
   std::optional<long long> frame;  // the frame a sequence renders (EXR metadata spectrack:frame)
   double time_limit = 0;
   double noise_target = 0;  // 0: not given
+  bool adaptive = false;    // --adaptive
+  bool denoise = false;     // --denoise
   double checkpoint = 0;    // seconds between checkpoints; 0: none
   bool resume = false;
   bool generic_kernels = false;

@@ -140,6 +140,14 @@ void add_run_flags(CLI::App* render, RenderArgs& ra) {
                      "error over the mean, from the variance layer; docs/cli.md) is at or below this, or at --spp or "
                      "the time limit (overrides render.noise_target; adds the variance layer)")
       ->check(finite_range(1e-6, 1.0));
+  render->add_flag("--adaptive", ra.adaptive,
+                   "adaptive sampling to the noise target: each pixel gets the samples that bring its own relative "
+                   "error to --noise-target, at most --spp, without bias (the EXR gets a 'samples' layer; one device, "
+                   "the whole film; overrides render.adaptive)");
+  render->add_flag("--denoise", ra.denoise,
+                   "also write the beauty denoised by Intel Open Image Denoise as the EXR layer denoised.R/G/B "
+                   "(adds the albedo layer, its auxiliary input; needs `pip install pyoidn` or "
+                   "SPECTRACK_OIDN_LIBRARY, else exit 2)");
   render->add_option("--checkpoint", ra.checkpoint,
                      "every this many seconds, and when the render ends early, write the image and its film state "
                      "(OUTPUT.resume), which --resume continues from")
