@@ -3,7 +3,8 @@
 # (--adaptive, docs/adaptive.md) against uniform sampling (a plain --noise-target render, which
 # stops once the image's error is at or below the target), on the bench scenes with thin and dense
 # regions: smoke1 and the Disney cloud (data/scenes/disney_cloud.json), their films scaled by SCALE
-# (default 0.5: the per-pixel noise and the samples it takes do not depend on the film size). After
+# (default 0.5; the Disney cloud's by SCALE / 2, its paths being longer: the per-pixel noise and the
+# samples it takes do not depend on the film size). After
 # a warm-up render of each mode (kernels cached), the runs are interleaved A B A B over the seeds,
 # the order swapped every seed. Prints per run the stage-loop seconds, the error reached and the
 # samples (the mean over pixels for adaptive), then per scene the ratio of the mean seconds
@@ -17,10 +18,11 @@ out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 echo "adaptive vs uniform: $BIN, noise target $TARGET, spp cap $CAP, $SEEDS seeds, film scale $SCALE," \
      "$(date -u '+%F %H:%M') UTC on $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg), commit $(git rev-parse --short HEAD)"
-for s in bench/scenes/smoke1.json data/scenes/disney_cloud.json; do
+for entry in bench/scenes/smoke1.json:1 data/scenes/disney_cloud.json:0.5; do
+  s=${entry%%:*}; f=${entry##*:}
   n=$(basename "$s" .json)
   # a copy with the film scaled and the volume paths absolute (the copy lives in $out)
-  /usr/bin/python3 - "$s" "$out/$n.json" "$SCALE" <<'PY'
+  /usr/bin/python3 - "$s" "$out/$n.json" "$(/usr/bin/python3 -c "print($SCALE * $f)")" <<'PY'
 import json, os, sys
 src, dst, scale = sys.argv[1], sys.argv[2], float(sys.argv[3])
 j = json.load(open(src))

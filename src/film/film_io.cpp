@@ -4,6 +4,7 @@
 // (piece_exr_channels, PieceDecoder), so that a merge can stream a band of rows at a time
 // (film/merge_files.h) with the very operations of a whole-image read and write.
 #include "film/film.h"
+#include "image/extra_channels.h"
 #include "util/strings.h"
 
 #include <fmt/format.h>
@@ -93,9 +94,9 @@ std::vector<std::string> piece_exr_channels(const FilmPiece& p, std::vector<floa
   }
   const bool adaptive = !p.pixel_samples.empty(), denoised = !p.denoised.empty();
   const size_t first_extra = names.size();
-  if (adaptive) names.push_back("samples");
+  if (adaptive) names.push_back(kSamplesChannel);
   if (denoised)
-    for (const char* c : {"denoised.R", "denoised.G", "denoised.B"}) names.push_back(c);
+    for (const char* c : kDenoisedChannels) names.push_back(c);
   const size_t hits_col = collisions ? at(kCollisionChannel) : 0;
   const size_t a_col[3] = {at("AR"), at("AG"), at("AB")};
   const size_t na = sums.size(), nc = names.size(), npix = size_t(p.width) * p.height;
