@@ -22,17 +22,7 @@ for entry in bench/scenes/smoke1.json:1 data/scenes/disney_cloud.json:0.5; do
   s=${entry%%:*}; f=${entry##*:}
   n=$(basename "$s" .json)
   # a copy with the film scaled and the volume paths absolute (the copy lives in $out)
-  /usr/bin/python3 - "$s" "$out/$n.json" "$(/usr/bin/python3 -c "print($SCALE * $f)")" <<'PY'
-import json, os, sys
-src, dst, scale = sys.argv[1], sys.argv[2], float(sys.argv[3])
-j = json.load(open(src))
-for m in j["media"]:
-    m["file"] = os.path.abspath(os.path.join(os.path.dirname(src), m["file"]))
-j["film"]["width"] = max(8, round(j["film"]["width"] * scale))
-j["film"]["height"] = max(8, round(j["film"]["height"] * scale))
-j["film"]["output"] = "out.exr"
-json.dump(j, open(dst, "w"))
-PY
+  /usr/bin/python3 bench/scaled_scene.py "$s" "$out/$n.json" "$(/usr/bin/python3 -c "print($SCALE * $f)")"
   $BIN render "$out/$n.json" -q --spp 16 -o "$out/w.exr" >/dev/null
   $BIN render "$out/$n.json" -q --spp 32 --noise-target 0.5 --adaptive -o "$out/w.exr" >/dev/null
   for seed in $(seq "$SEEDS"); do
