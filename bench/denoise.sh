@@ -13,43 +13,30 @@ out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 echo "denoise: $BIN, Disney cloud, film scale $SCALE, reference $REF spp," \
      "$(date -u '+%F %H:%M') UTC on $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg), commit $(git rev-parse --short HEAD)"
-/usr/bin/python3 - data/scenes/disney_cloud.json "$out/cloud.json" "$SCALE" <<'PY'
-import json, os, sys
-src, dst, scale = sys.argv[1], sys.argv[2], float(sys.argv[3])
-j = json.load(open(src))
-for m in j["media"]:
-    m["file"] = os.path.abspath(os.path.join(os.path.dirname(src), m["file"]))
-j["film"]["width"] = max(8, round(j["film"]["width"] * scale))
-j["film"]["height"] = max(8, round(j["film"]["height"] * scale))
-j["film"]["output"] = "out.exr"
-json.dump(j, open(dst, "w"))
-PY
+/usr/bin/python3 bench/scaled_scene.py data/scenes/disney_cloud.json "$out/cloud.json" "$SCALE"
 r() { $BIN render "$out/cloud.json" -q --no-alpha "$@"; }
 r --spp "$REF" --seed 99 -o "$out/ref.exr" --stats-json "$out/ref.json"
 r --spp 16 --seed 1 --denoise -o "$out/d16.exr" --stats-json "$out/d16.json"
 r --spp 256 --seed 1 -o "$out/u256.exr" --stats-json "$out/u256.json"
-# PFM (little-endian floats) through oiiotool, read without numpy
-oiiotool "$out/ref.exr" --ch R,G,B -o "$out/ref.pfm"
-oiiotool "$out/d16.exr" --ch R,G,B -o "$out/n16.pfm"
-oiiotool "$out/d16.exr" --ch denoised.R,denoised.G,denoised.B -o "$out/d16.pfm"
-oiiotool "$out/u256.exr" --ch R,G,B -o "$out/u256.pfm"
+# relative MSE through oiiotool's arithmetic: the mean over pixels of (x - ref)^2 and of ref^2 per
+# channel (--printstats), summed over R, G, B
 /usr/bin/python3 - "$out" <<'PY'
-import json, struct, sys
+import json, re, subprocess, sys
 out = sys.argv[1]
-def pfm(path):
-    with open(path, "rb") as f:
-        assert f.readline().strip() == b"PF"
-        w, h = map(int, f.readline().split())
-        scale = float(f.readline())
-        n = w * h * 3
-        return struct.unpack(("<" if scale < 0 else ">") + f"{n}f", f.read(4 * n))
-ref = pfm(f"{out}/ref.pfm")
-den = sum(r * r for r in ref)
-def rel(name): return sum((a - r) ** 2 for a, r in zip(pfm(f"{out}/{name}.pfm"), ref)) / den
-sec = {k: json.load(open(f"{out}/{k}.json"))["seconds_render"] for k in ("d16", "u256", "ref")}
-e = {"16 spp": rel("n16"), "16 spp denoised": rel("d16"), "256 spp": rel("u256")}
+def sq_means(args):
+    text = subprocess.run(["oiiotool", *args, "--dup", "--mul", "--printstats"], capture_output=True, text=True,
+                          check=True).stdout
+    return sum(float(v) for v in re.search(r"Stats Avg:\s*([-0-9.e+ ]+)", text).group(1).split()[:3])
+ref = [f"{out}/ref.exr", "--ch", "R,G,B"]
+den = sq_means(ref)
+def rel(path, chans): return sq_means([path, "--ch", chans, *ref, "--sub"]) / den
+e = {"16 spp": rel(f"{out}/d16.exr", "R,G,B"),
+     "16 spp denoised": rel(f"{out}/d16.exr", "R=denoised.R,G=denoised.G,B=denoised.B"),
+     "256 spp": rel(f"{out}/u256.exr", "R,G,B")}
 for k, v in e.items(): print(f"{k:16s} relative MSE {v:.3e}")
-print(f"render seconds: 16 spp {sec['d16']:.1f} + denoiser {json.load(open(f'{out}/d16.json')).get('denoise_seconds', float('nan')):.2f}, 256 spp {sec['u256']:.1f}, reference {sec['ref']:.1f}")
+sec = {k: json.load(open(f"{out}/{k}.json")) for k in ("d16", "u256", "ref")}
+print(f"render seconds: 16 spp {sec['d16']['seconds_render']:.1f} + denoiser {sec['d16'].get('denoise_seconds', float('nan')):.2f},"
+      f" 256 spp {sec['u256']['seconds_render']:.1f}, reference {sec['ref']['seconds_render']:.1f}")
 print(f"denoised 16 spp / plain 256 spp relative MSE: {e['16 spp denoised'] / e['256 spp']:.3f}"
       f" ({'closer' if e['16 spp denoised'] < e['256 spp'] else 'farther'} to the reference)")
 PY
