@@ -84,7 +84,9 @@ TEST(CliDenoise, TheDenoisedLayerIsCloserToALongRenderThanTheNoisyBeauty) {
   const std::vector<float> plain = channels_of(dir + "/plain.exr", {"R", "G", "B"});
   const std::vector<float> ref = channels_of(dir + "/ref.exr", {"R", "G", "B"});
   ASSERT_EQ(denoised.size(), ref.size());
-  EXPECT_EQ(noisy, plain) << "R, G, B stay the render's";
+  ASSERT_EQ(noisy.size(), plain.size());
+  for (size_t i = 0; i < plain.size(); ++i)  // the albedo layer adds the environment back in another order
+    ASSERT_NEAR(noisy[i], plain[i], 1e-5 * std::max(1.0f, std::abs(plain[i]))) << "R, G, B stay the render's: value " << i;
   const double e_noisy = relative_mse(noisy, ref), e_denoised = relative_mse(denoised, ref);
   EXPECT_LT(e_denoised, 0.5 * e_noisy) << "denoised " << e_denoised << " noisy " << e_noisy;
   auto in = OIIO::ImageInput::open(dir + "/d.exr");
