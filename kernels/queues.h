@@ -52,6 +52,11 @@ inline void free_push(__global uint* queues, __global uint* counters, uint Q, ui
   queues[free_offset(Q) + base + i] = slot;
 }
 
+/* Adaptive sampling (ST_FEATURE_ADAPTIVE): after both parities of the queues, the list of the
+ * window pixels (row-major indices in the window) whose samples this render draws; a batch is
+ * whole samples of these pixels, in list order. */
+inline uint active_pixels_offset(uint Q, uint NL) { return 2u * ((uint)ST_Q_PATH_QUEUES * Q + Q * NL); }
+
 inline void counter_add(__global uint* counters, int c, uint v) {
   if (v) atomic_add(&counters[c], v);
 }

@@ -193,11 +193,14 @@ __kernel void k_raygen(ST_STAGE_ARGS) {
   uint nch = (uint)scene->n_channels_per_sample;
   uint npix = (uint)(scene->window_width * scene->window_height);
   const uint batch_paths = it.batch_paths;
+  /* adaptive sampling: a batch is whole samples of the listed pixels only */
+  if (ST_HAS_ADAPTIVE) npix = batch_paths / (it.samples_per_batch * nch);
   ulong b = g / batch_paths;
   uint in_batch = (uint)(g - b * batch_paths);
   uint ch = in_batch % nch;
   uint wpix = (in_batch / nch) % npix;
   uint s_local = in_batch / (nch * npix);
+  if (ST_HAS_ADAPTIVE) wpix = queues[active_pixels_offset(Q, NL) + wpix];
 
   st_path p;
   p.sample = it.sample_begin + (uint)b * it.samples_per_batch + s_local;

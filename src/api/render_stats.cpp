@@ -22,9 +22,10 @@ nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_tota
   j["spp_ranges"] = format_ranges(p.ranges);
   j["interrupted"] = p.interrupted;
   j["stop_reason"] = render_stop_reason(r);
-  for (const char* k : {"time_limit", "noise_target", "noise_error"})
+  for (const char* k : {"time_limit", "noise_target", "noise_error", "adaptive_floor", "adaptive_mean_spp", "denoise_seconds"})
     if (auto t = meta.find(k); t != meta.end()) j[k] = std::get<float>(t->second);
   if (auto t = meta.find("noise_pixels"); t != meta.end()) j["noise_pixels"] = std::get<int>(t->second);
+  if (auto t = meta.find("adaptive_rounds"); t != meta.end()) j["adaptive_rounds"] = std::get<int>(t->second);
   j["seed"] = r.seed;
   for (const RecordedChoice& c : recorded_choices()) j[c.key] = p.id.*c.field;  // as the EXR records them
   j["light_sampling_used"] = light_sampling_name(r.light_sampling_used);

@@ -30,6 +30,7 @@
 #include "cli/render_outputs.h"
 #include "integrator/render_watch.h"
 #include "cli/run_control.h"
+#include "image/denoise.h"
 #include "image/image.h"
 #include "film/film.h"
 #include "integrator/multi_device.h"
@@ -94,6 +95,7 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
   }
   opt.spp = a.spp;
   opt.noise_target = a.noise_target;
+  opt.adaptive = a.adaptive;
   if (!a.spp_range.empty()) {
     int64_t b = 0;
     check_spp_range(a.spp_range, &opt.sample_begin, &b);  // checked by CLI11 already
@@ -163,6 +165,9 @@ uint32_t film_layers(const RenderArgs& a, const SceneDesc& scene, const std::str
   const bool exr = ext == ".exr";
   if (a.alpha && a.no_alpha) throw Error("--alpha and --no-alpha: choose one");
   if (alpha_listed && a.no_alpha) throw Error(fmt::format("--aov {} lists alpha, which --no-alpha turns off", a.aov));
+  if (a.denoise && !exr)
+    throw UsageError(fmt::format("{}: --denoise writes the denoised beauty as an EXR layer: write an EXR", output));
+  if (a.denoise) aovs |= ST_AOV_BIT(ALBEDO);  // the denoiser's auxiliary input
   bool alpha = a.alpha || alpha_listed ? true : a.no_alpha ? false : scene.film.alpha.value_or(exr);
   if (!exr && (aovs || ((a.alpha || alpha_listed || scene.film.alpha.value_or(false)) && !a.no_alpha)))
     throw Error(fmt::format("{}: film layers ({}) need an EXR output; a PNG holds the beauty only (write an EXR and add "
@@ -193,6 +198,9 @@ std::unique_ptr<RenderWatch> make_watch(const RenderArgs& a, const MpiArg& mpi, 
   if (set.noise_target > 0 && (!a.spp_range.empty() || !a.pixel_bounds.empty()))
     throw UsageError("--noise-target (render.noise_target) with --spp-range or --pixel-bounds: each shard or tile would "
                      "stop at its own noise, and the pieces would not merge; render the whole film");
+  if ((a.checkpoint || a.resume) && set.adaptive)
+    throw UsageError("--checkpoint and --resume do not work with adaptive sampling (a film state holds one sample "
+                     "count for every pixel)");
   if ((a.checkpoint || a.resume) && (several || set.guiding))
     throw UsageError("--checkpoint and --resume work with one device and no --mpi or guiding");
   if (set.noise_target <= 0 && !a.checkpoint && !a.resume && (a.preview.empty() || several)) return nullptr;
@@ -240,6 +248,7 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
       throw TimeLimitError(time_limit_message(deadline_watch().context(), time_limit, phase_slot().load()));
     deadline_watch().arm(*opt.deadline, time_limit);  // set-up phases: ends the process at the deadline
   }
+  if (a.denoise && find_oidn_library().empty()) throw UsageError(denoise_unavailable());
   set_phase("output checks and device selection");
   check_distinct_paths({{"the image", output}, {"--preview", a.preview}, {"--stats-json", a.stats_json}},
                        scene_inputs(scene));
@@ -289,7 +298,7 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   if (r.piece.samples() > 0) r.piece.id.scene_hash = get_hash();
   if (a.frame) r.piece.id.frame = std::to_string(*a.frame);
   const RenderOutputs out{output, a.preview, a.stats_json, exr_options(a.half, a.compression, scene.film), a.quiet, a.mpi,
-                          set.noise_target};
+                          set.noise_target, a.denoise};
   const RenderTimes times{std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), seconds_to_renderer};
   return finish_render(out, scene, r, times, mpi.size, time_limit, signalled);
 }

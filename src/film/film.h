@@ -86,6 +86,12 @@ struct FilmPiece {
   std::vector<double> sum;          // width * height * 3: R, G, B (with alpha the transparent film's, renderer.h)
   std::vector<double> aov_sum;      // width * height * aov_sum_channels(id.aovs).size() (renderer.h)
   bool interrupted = false;
+  // Adaptive sampling (integrator/adaptive.h): the samples each pixel took (EXR channel "samples");
+  // the sums are then weighted estimates times samples(). Empty otherwise.
+  std::vector<float> pixel_samples;
+  // The denoised beauty (--denoise, image/denoise.h), 3 per pixel: EXR channels denoised.R/G/B; empty
+  // otherwise. Not a sum: a merge drops it.
+  std::vector<float> denoised;
   int64_t samples() const { return count_samples(ranges); }
   // Mean per pixel (0 where no sample).
   std::vector<float> mean() const;

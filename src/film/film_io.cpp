@@ -4,6 +4,7 @@
 // (piece_exr_channels, PieceDecoder), so that a merge can stream a band of rows at a time
 // (film/merge_files.h) with the very operations of a whole-image read and write.
 #include "film/film.h"
+#include "image/extra_channels.h"
 #include "util/strings.h"
 
 #include <fmt/format.h>
@@ -88,6 +89,11 @@ std::vector<std::string> piece_exr_channels(const FilmPiece& p, std::vector<floa
     names.push_back(kCollisionChannel);
     recipe.push_back({kCollisionFraction, at(kCollisionChannel)});
   }
+  const bool adaptive = !p.pixel_samples.empty(), denoised = !p.denoised.empty();
+  const size_t first_extra = names.size();
+  if (adaptive) names.push_back(kSamplesChannel);
+  if (denoised)
+    for (const char* c : kDenoisedChannels) names.push_back(c);
   const size_t hits_col = collisions ? at(kCollisionChannel) : 0;
   const size_t a_col[3] = {at("AR"), at("AG"), at("AB")};
   const size_t na = sums.size(), nc = names.size(), npix = size_t(p.width) * p.height;
@@ -97,7 +103,10 @@ std::vector<std::string> piece_exr_channels(const FilmPiece& p, std::vector<floa
   for (size_t i = 0; i < npix; ++i) {
     const double* a = na ? &p.aov_sum[i * na] : nullptr;
     float* o = &(*px)[i * nc];
-    for (size_t c = 0; c < nc; ++c) {
+    if (adaptive) o[first_extra] = p.pixel_samples[i];
+    if (denoised)
+      for (size_t c = 0; c < 3; ++c) o[first_extra + (adaptive ? 1 : 0) + c] = p.denoised[i * 3 + c];
+    for (size_t c = 0; c < recipe.size(); ++c) {
       const Channel& ch = recipe[c];
       switch (ch.kind) {
         case kBeauty: o[c] = float(p.sum[i * 3 + size_t(ch.k)] / n); break;
@@ -234,6 +243,10 @@ FilmPiece piece_from_header(const std::string& path, const RgbImage& img) {
     throw Error(fmt::format("{}: a {} image cannot be merged: only spectrack's EXR outputs hold the float pixels and "
                             "sample ranges a merge needs",
                             path, img.format));
+  if (img.meta.count("adaptive"))
+    throw UsageError(fmt::format("{}: an adaptive render cannot be merged: each pixel holds its own number of samples "
+                                 "(layer 'samples'), so no other piece adds to it (docs/adaptive.md)",
+                                 path));
   auto str = [&](const char* key) { return meta_text(path, img.meta, key); };
   FilmPiece p;
   p.source = path;

@@ -37,7 +37,7 @@ BatchPlan Renderer::Impl::plan_batches(int spp) const {
     throw Error(fmt::format("shadow ring {} is outside 1..{}", ring, ST_MAX_SHADOW_RING));
   p.shadow_ring = uint64_t(ring);
   p.NL = uint64_t(ds.packed.st.n_lights) * p.shadow_ring;
-  p.npix = settings.window.pixels();
+  p.npix = settings.adaptive ? uint64_t(active_pixels.size()) : settings.window.pixels();
   p.nch = uint64_t(settings.channels_per_sample);
   p.spp = uint64_t(spp);
   const int slots = opt.path_slots.value_or((ds.dev.type & CL_DEVICE_TYPE_GPU) ? kDefaultPathSlotsGpu : kDefaultPathSlotsCpu);
@@ -126,6 +126,8 @@ RenderBuffers Renderer::Impl::allocate(const BatchPlan& p) {
   const uint64_t per_parity = ST_Q_PATH_QUEUES * p.Q + p.Q * p.NL;
   std::vector<uint32_t> init_queue(2 * per_parity, 0u);
   for (uint64_t i = 0; i < p.Q; ++i) init_queue[i] = uint32_t(i);  // parity 0, FREE: every slot
+  // adaptive sampling: the pixel list follows the queues (queues.h active_pixels_offset)
+  if (settings.adaptive) init_queue.insert(init_queue.end(), active_pixels.begin(), active_pixels.end());
   b.queues = ds.buffer(CL_MEM_READ_WRITE, init_queue.size() * 4, init_queue.data(),
                        fmt::format("queues ({})", slot_cause(opt, p, true)).c_str());
   std::vector<uint32_t> counters(ST_C_COUNT, 0u);

@@ -37,6 +37,7 @@ void Renderer::Impl::setup() {
   if (opt.generic_kernels) packed.features = ST_FEATURES_ALL;
   packed.features |= opt.feature_floor & uint32_t(ST_FEATURES_ALL);
   if (settings.guiding) packed.features |= ST_FEATURE_GUIDING;
+  if (settings.adaptive) packed.features |= ST_FEATURE_ADAPTIVE;
   const int max_media = opt.generic_kernels ? ST_MAX_MEDIA : std::max(1, packed.st.n_media);
   std::vector<std::pair<std::string, std::string>> defines = {
       {"ST_KERNEL_MAX_MEDIA", std::to_string(max_media)}, {"ST_FEATURES", fmt::format("0x{:x}u", packed.features)}};
@@ -266,6 +267,10 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
   if (sample_begin < 0 || spp < 1 || uint64_t(sample_begin) + uint64_t(spp) > (uint64_t(1) << 32))
     throw Error(fmt::format("sample range {}:{} is not a non-empty range of sample indices 0 .. 2^32",
                             sample_begin, sample_begin + spp));
+  if (settings.adaptive && active_pixels.empty()) {  // a render of every pixel (Renderer::render)
+    active_pixels.resize(settings.window.pixels());
+    for (size_t i = 0; i < active_pixels.size(); ++i) active_pixels[i] = uint32_t(i);
+  }
   const double seconds_training = settings.guiding && !guide_trained ? train_guide() : 0.0;
   RenderResult res = run_stage_loop(sample_begin, spp, nullptr);
   res.seconds_render += seconds_training;  // efficiency counts the training
@@ -352,6 +357,14 @@ Renderer::~Renderer() = default;
 
 RenderResult Renderer::render() { return impl_->render(impl_->settings.sample_begin, impl_->settings.spp); }
 RenderResult Renderer::render(int64_t sample_begin, int spp) { return impl_->render(sample_begin, spp); }
+RenderResult Renderer::render_pixels(const std::vector<uint32_t>& window_pixels, int64_t sample_begin, int spp) {
+  if (!impl_->settings.adaptive) throw Error("internal: a render of a pixel list without adaptive sampling");
+  if (window_pixels.empty()) throw Error("internal: a render of no pixel");
+  for (uint32_t p : window_pixels)
+    if (p >= impl_->settings.window.pixels()) throw Error(fmt::format("internal: pixel {} outside the window", p));
+  impl_->active_pixels = window_pixels;
+  return impl_->render(sample_begin, spp);
+}
 const std::string& Renderer::device_name() const { return impl_->ds.dev.name; }
 uint32_t Renderer::features() const { return impl_->ds.packed.features; }
 const SceneDesc& Renderer::scene() const { return impl_->scene; }

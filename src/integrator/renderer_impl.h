@@ -97,6 +97,10 @@ struct Renderer::Impl {
   GuideInfo guide_info;
   bool guide_trained = false;
 
+  // adaptive sampling: the window pixels the next stage loop renders (kernels/queues.h
+  // active_pixels_offset); empty without adaptive sampling
+  std::vector<uint32_t> active_pixels;
+
   void setup();
   void warm_kernels();
   RenderResult render(int64_t sample_begin, int spp);

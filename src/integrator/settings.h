@@ -104,6 +104,8 @@ struct RenderOptions {
   // Relative error at which to stop (integrator/noise.h), else render.noise_target; 0: none. Adds the
   // variance layer, which the error is measured from.
   std::optional<double> noise_target;
+  // Adaptive sampling to the noise target (integrator/adaptive.h), else render.adaptive.
+  std::optional<bool> adaptive;
   // Looks at the film during the stage loop: stops it at a noise target, writes previews and
   // checkpoints, resumes from a checkpoint (integrator/film_watch.h); not owned.
   FilmWatch* watch = nullptr;
@@ -139,6 +141,7 @@ struct RenderSettings {
   std::optional<std::array<double, 2>> shutter;
   int time_strata = 1;
   double noise_target = 0;      // relative error at which the render stops (integrator/noise.h); 0: none
+  bool adaptive = false;        // adaptive sampling to the noise target (integrator/adaptive.h)
 };
 
 // What a result records of the settings it was rendered with: the estimator choices and the seed

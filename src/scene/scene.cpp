@@ -262,7 +262,7 @@ void Parser::render(const json& j, const std::string& path, RenderDesc& r) {
   expect_object(j, path);
   fields(j, path,
          {"tracker", "spectral_scheme", "absorption", "light_sampling", "transmittance", "lookup", "color", "max_depth", "seed",
-          "time_limit", "guiding", "noise_target"});
+          "time_limit", "guiding", "noise_target", "adaptive"});
   // a name from one of the enum tables of kernels/types.h (scene/names.cpp): its value, or the
   // field named with the valid names
   auto named = [&](const char* key, const char* what, int (*from_name)(const std::string&), std::string (*names)(),
@@ -287,6 +287,10 @@ void Parser::render(const json& j, const std::string& path, RenderDesc& r) {
   r.seed = static_cast<uint32_t>(integer(j, path, "seed", r.seed, int64_t(seed.lo), int64_t(seed.hi)));
   if (find(j, "time_limit")) r.time_limit = number(j, path, "time_limit", 0.0, Range{0, 1e9, true, false});
   if (find(j, "noise_target")) r.noise_target = number(j, path, "noise_target", 0.0, Range{0, 1, true, false});
+  if (const json* v = find(j, "adaptive")) {
+    if (!v->is_boolean()) fail(path + "/adaptive", std::string("expected true or false, got ") + v->type_name());
+    r.adaptive = v->get<bool>();
+  }
 }
 
 // nlohmann's messages start with "[json.exception.parse_error.101] "; keep what follows.

@@ -209,6 +209,7 @@ struct RenderDesc {
   uint32_t seed = 0;
   double time_limit = 0;  // seconds from the start of the command after which the render stops cleanly; 0: none
   double noise_target = 0;  // relative error of the image at which the render stops (integrator/noise.h); 0: none
+  bool adaptive = false;    // adaptive sampling to noise_target (integrator/adaptive.h)
   int guiding = -1;       // GuidingMode (render.guiding); -1: the default, auto
 };
 
