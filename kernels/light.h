@@ -90,7 +90,8 @@ inline float4 env_map_Le(__constant const st_light* l, __global const float* env
 inline float4 light_Le(__constant const st_light* l, __global const float* env, float3 d, float4 lambda) {
   if (l->type == ST_LIGHT_ENV_UNIFORM) return light_radiance(l, lambda);
   if (ST_HAS_ENV_MAP && l->type == ST_LIGHT_ENV_MAP) return env_map_Le(l, env, d, lambda);
-  if (l->is_delta || (ST_HAS_SPHERE_LIGHT && l->type == ST_LIGHT_SPHERE)) return (float4)(0.0f);
+  if (l->is_delta) return (float4)(0.0f);
+  if (ST_HAS_SPHERE_LIGHT && l->type == ST_LIGHT_SPHERE) return (float4)(0.0f);
   return dot(d, l->direction.xyz) >= l->cos_max ? light_radiance(l, lambda) : (float4)(0.0f);
 }
 
@@ -99,7 +100,8 @@ inline float4 light_Le(__constant const st_light* l, __global const float* env, 
 inline float light_pdf(__constant const st_light* l, __global const float* env, float3 d) {
   if (l->type == ST_LIGHT_ENV_UNIFORM) return ST_INV_4PI;
   if (ST_HAS_ENV_MAP && l->type == ST_LIGHT_ENV_MAP) return env_map_pdf(l, env, d);
-  if (l->is_delta || (ST_HAS_SPHERE_LIGHT && l->type == ST_LIGHT_SPHERE)) return 0.0f;
+  if (l->is_delta) return 0.0f;
+  if (ST_HAS_SPHERE_LIGHT && l->type == ST_LIGHT_SPHERE) return 0.0f;
   return dot(d, l->direction.xyz) >= l->cos_max ? l->pdf_cone : 0.0f;
 }
 

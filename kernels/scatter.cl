@@ -189,7 +189,8 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
   if (training) guide_training_scatter(guide, guide_records, ring, slot, &p, mask);
   __global const st_guide_region* region = 0;
   float alpha = 0.0f;
-  if (ST_HAS_GUIDING && !ground && guide->origin.w > 0.0f && p.depth < guide->guided_depth) {
+  /* not at a ground vertex (the medium index test, not `ground`, which is a constant without a ground) */
+  if (ST_HAS_GUIDING && guide->origin.w > 0.0f && p.depth < guide->guided_depth && p.medium != ST_MEDIUM_GROUND) {
     region = guide_regions(guide) + guide_region_index(guide, p.o.x, p.o.y, p.o.z);
     alpha = region->alpha;
   }
