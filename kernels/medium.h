@@ -12,9 +12,10 @@
  * grid v (st_medium.velocity_grid) is looked up at time t (the path's, st_rng.time) at x - v(x) t:
  * density, emission, temperature and colour at the point the flow carries to x by time t, with
  * v read once at x (no integration along the flow, so curved flows blur along straight lines).
- * The velocity's 3 lookups count as density lookups. The majorant grid of a moving medium grows
- * by the largest displacement (src/volume/majorant_grid.cpp build_majorant_grid's margin), so its
- * cells bound every point their lookups can reach during the shutter.
+ * The velocity's 3 lookups count as density lookups. Each majorant cell of a moving medium grows
+ * by the largest displacement of a lookup from inside it (src/scene/pack_velocity.cpp,
+ * build_majorant_grid's cell_reach), so it bounds every point its lookups can reach during the
+ * shutter.
  */
 #ifndef SPECTRACK_MEDIUM_H
 #define SPECTRACK_MEDIUM_H
@@ -132,23 +133,55 @@ inline float grid_stochastic(__global const uint* grids, uint offset, float3 pi,
   return pnanovdb_read_float(buf, pnanovdb_readaccessor_get_value_address(PNANOVDB_GRID_TYPE_FLOAT, buf, &acc, &ijk));
 }
 
-/* The trilinear value at index point q of a NanoVDB Vec3f grid, through the caller's accessor
- * (its cached nodes make the 8 corner reads cheap after the first walk). */
-inline float3 vec3_trilinear(pnanovdb_buf_t buf, pnanovdb_readaccessor_t* acc, float3 q) {
-  const float3 fl = floor(q), f = q - fl;
-  const int3 i0 = convert_int3(fl);
-  float3 v[8];
-  for (int k = 0; k < 8; ++k) {
-    pnanovdb_coord_t ijk;
+/* The addresses of the 8 corner values of a NanoVDB Vec3f grid's trilinear support at voxel i0
+ * (corner k at i0 + (k & 1, (k >> 1) & 1, k >> 2)), through the caller's accessor. When the 2x2x2
+ * block lies in one leaf (grid_trilinear's fast path) they sit at fixed offsets from the first: a
+ * Vec3f leaf stores its 512 values densely, 12 bytes each, voxel (x, y, z) & 7 at index
+ * x * 64 + y * 8 + z; otherwise each corner walks the accessor (its cached nodes make that cheap). */
+inline void vec3_corners(pnanovdb_buf_t buf, pnanovdb_readaccessor_t* acc, int3 i0, pnanovdb_address_t* a) {
+  pnanovdb_coord_t ijk;
+  ijk.x = i0.x;
+  ijk.y = i0.y;
+  ijk.z = i0.z;
+  pnanovdb_uint32_t level;
+  a[0] = pnanovdb_readaccessor_get_value_address_and_level(PNANOVDB_GRID_TYPE_VEC3F, buf, acc, &ijk, &level);
+  const int one_leaf = level == 0u && (i0.x & 7) != 7 && (i0.y & 7) != 7 && (i0.z & 7) != 7;
+  for (int k = 1; k < 8; ++k) {
+    if (one_leaf) {
+      const uint n = (uint)(k & 1) * 64u + (uint)((k >> 1) & 1) * 8u + (uint)((k >> 2) & 1);
+      a[k] = pnanovdb_address_offset(a[0], 12u * n);
+      continue;
+    }
     ijk.x = i0.x + (k & 1);
     ijk.y = i0.y + ((k >> 1) & 1);
     ijk.z = i0.z + ((k >> 2) & 1);
-    const pnanovdb_address_t a = pnanovdb_readaccessor_get_value_address(PNANOVDB_GRID_TYPE_VEC3F, buf, acc, &ijk);
-    v[k] = (float3)(pnanovdb_read_float(buf, a), pnanovdb_read_float(buf, pnanovdb_address_offset(a, 4u)),
-                    pnanovdb_read_float(buf, pnanovdb_address_offset(a, 8u)));
+    a[k] = pnanovdb_readaccessor_get_value_address(PNANOVDB_GRID_TYPE_VEC3F, buf, acc, &ijk);
   }
+}
+
+/* The trilinear value at index point q of a NanoVDB Vec3f grid, through the caller's accessor. */
+inline float3 vec3_trilinear(pnanovdb_buf_t buf, pnanovdb_readaccessor_t* acc, float3 q) {
+  const float3 fl = floor(q), f = q - fl;
+  pnanovdb_address_t a[8];
+  vec3_corners(buf, acc, convert_int3(fl), a);
+  float3 v[8];
+  for (int k = 0; k < 8; ++k)
+    v[k] = (float3)(pnanovdb_read_float(buf, a[k]), pnanovdb_read_float(buf, pnanovdb_address_offset(a[k], 4u)),
+                    pnanovdb_read_float(buf, pnanovdb_address_offset(a[k], 8u)));
   const float3 x00 = mix(v[0], v[1], f.x), x10 = mix(v[2], v[3], f.x);
   const float3 x01 = mix(v[4], v[5], f.x), x11 = mix(v[6], v[7], f.x);
+  return mix(mix(x00, x10, f.y), mix(x01, x11, f.y), f.z);
+}
+
+/* The trilinear value of component c (0, 1, 2) alone at index point q of a NanoVDB Vec3f grid. */
+inline float vec3_component_trilinear(pnanovdb_buf_t buf, pnanovdb_readaccessor_t* acc, float3 q, uint c) {
+  const float3 fl = floor(q), f = q - fl;
+  pnanovdb_address_t a[8];
+  vec3_corners(buf, acc, convert_int3(fl), a);
+  float v[8];
+  for (int k = 0; k < 8; ++k) v[k] = pnanovdb_read_float(buf, pnanovdb_address_offset(a[k], 4u * c));
+  const float x00 = mix(v[0], v[1], f.x), x10 = mix(v[2], v[3], f.x);
+  const float x01 = mix(v[4], v[5], f.x), x11 = mix(v[6], v[7], f.x);
   return mix(mix(x00, x10, f.y), mix(x01, x11, f.y), f.z);
 }
 
@@ -164,9 +197,9 @@ inline float3 medium_lookup_index(__constant const st_medium* m, __global const 
   pnanovdb_readaccessor_t acc = grid_accessor(grids, m->velocity_grid[0], &buf);
   float3 v;
   if (m->velocity_grid[3]) {
-    v.x = vec3_trilinear(buf, &acc, pi + (float3)(0.5f, 0.0f, 0.0f)).x;
-    v.y = vec3_trilinear(buf, &acc, pi + (float3)(0.0f, 0.5f, 0.0f)).y;
-    v.z = vec3_trilinear(buf, &acc, pi + (float3)(0.0f, 0.0f, 0.5f)).z;
+    v.x = vec3_component_trilinear(buf, &acc, pi + (float3)(0.5f, 0.0f, 0.0f), 0u);
+    v.y = vec3_component_trilinear(buf, &acc, pi + (float3)(0.0f, 0.5f, 0.0f), 1u);
+    v.z = vec3_component_trilinear(buf, &acc, pi + (float3)(0.0f, 0.0f, 0.5f), 2u);
   } else {
     v = vec3_trilinear(buf, &acc, pi);
   }

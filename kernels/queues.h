@@ -117,15 +117,16 @@ inline float4 path_wavelengths(__constant const st_scene* scene, const st_path* 
  * is open + u (close - open), st_camera.shutter): the pixel's N samples (shutter.z) are
  * stratified, sample s in stratum s mod N with a uniform offset inside it, and the strata are
  * rotated by a uniform per pixel (Cranley-Patterson), so every sample's u is uniform on its own and
- * a pixel's N samples cover the shutter evenly. Draws 0 and 1 of the stream ST_STREAM_TIME of
- * (pixel, sample) and of (pixel, 0) on channel 0: the time depends only on the seed, pixel and
- * sample, so the paths of a per-channel tracker's sample share it and shards merge exactly. */
+ * a pixel's N samples cover the shutter evenly. Both uniforms are hashes (rng.h hash_uniform) of
+ * the seed, the stream ST_STREAM_TIME, the pixel and the sample (the rotation: of the pixel
+ * alone), not Philox draws: every kernel that looks a moving medium up recomputes the time, and two
+ * Philox calls per path and kernel cost several percent of a blurred render. The time depends
+ * only on the seed, pixel and sample, so the paths of a per-channel tracker's sample share it and
+ * shards merge exactly. */
 inline float path_shutter_u(__constant const st_scene* scene, uint pixel, uint sample) {
   const uint N = (uint)scene->camera.shutter.z;
-  st_rng r = rng_make(scene->seed, pixel, sample, 0u, ST_STREAM_TIME, 0u);
-  const float xi = rng_uniform(&r);
-  st_rng r0 = rng_make(scene->seed, pixel, 0u, 0u, ST_STREAM_TIME, 1u);
-  const float rotation = rng_uniform(&r0);
+  const float xi = hash_uniform(scene->seed ^ ST_STREAM_TIME, pixel, sample);
+  const float rotation = hash_uniform(scene->seed ^ 0x68E31DA4u, pixel, ST_STREAM_TIME);
   const float u = ((float)(sample % N) + xi) / (float)N + rotation;
   return fmin(u - floor(u), 0x1.fffffep-1f);
 }

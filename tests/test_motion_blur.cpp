@@ -270,17 +270,28 @@ TEST(MotionBlur, FixedTimeLookupsShiftTheGridAndStaggeredGridsReadHalfAVoxelUp) 
 }
 
 // Density at random points and times of the shutter stays within [minorant, majorant] of the
-// cell the walk uses there (the hierarchy and the one-level grid), on Blender's smoke frame with a
-// swirling velocity (staggered and not); the twin without the margin must fail.
+// cell the walk uses there (the hierarchy and the one-level grid; trilinear and one-voxel
+// lookups), on Blender's smoke frame with a swirling velocity (staggered and not), whose speed
+// and so each cell's reach grow with the distance from its axis; the twin without the margin must
+// fail.
 TEST(MotionBlur, DilatedCellsBoundTheDensityOverTheShutter) {
   const std::string dir = temp_dir("blur_bounds");
   const std::string smoke = kShared + "/usd/smoke_000002.vdb";
-  for (const std::string& args : {std::string("--speed 40"), std::string("--speed 40 --staggered")})
-    for (int block : {8, 0}) {
-      SCOPED_TRACE(args + ", block " + std::to_string(block));
+  struct Case {
+    std::string args;
+    int block;
+    bool stochastic;  // one-voxel lookups: the cells bound whole voxels within the reach
+  };
+  for (const Case& k : {Case{"--speed 40", 8, false}, Case{"--speed 40", 0, false}, Case{"--speed 40 --staggered", 8, false},
+                        Case{"--speed 40 --staggered", 0, false}, Case{"--speed 40", 8, true}}) {
+    {
+      const std::string& args = k.args;
+      const int block = k.block;
+      SCOPED_TRACE(args + ", block " + std::to_string(block) + (k.stochastic ? ", stochastic" : ""));
       const std::string file = add_velocity(smoke, dir + "/smoke_vel.vdb", args);
       json s = box_scene(file, 1);
       s["camera"]["shutter"] = {-0.01, 0.02};
+      if (k.stochastic) s["render"]["lookup"] = "stochastic";
       RenderOptions o = quiet_options();
       o.majorant_block = block;
       Renderer r(scene_from_json(s, dir), o);
@@ -313,6 +324,64 @@ TEST(MotionBlur, DilatedCellsBoundTheDensityOverTheShutter) {
         if (d[i] > (m0[i][0] < 0 ? 0.0f : m0[i][0])) ++outside0;
       EXPECT_GT(outside0, 10) << "without the margin the moving density must leave its cells";
     }
+  }
+}
+
+// build_majorant_grid's per-cell reach on Blender's smoke frame, on the host: every cell bounds
+// the trilinear density (sample_index_trilinear) at random points of the cell displaced by up to
+// its own fractional reach along each axis (the points at the corners of that box included, where
+// the exact bound is attained), and the cells are tighter than those of the global margin
+// somewhere. The twin: cells built for 85% of the reach must miss some of those points.
+TEST(MotionBlur, PerCellReachBoundsTheTrilinearDensityExactly) {
+  const GridData g = load_float_grid(kShared + "/usd/smoke_000002.vdb", "density", -1, "smoke");
+  const int cell = 2;
+  const std::array<int, 3> margin{3, 3, 3};
+  // a reach that varies from cell to cell: 0 .. 2.6 voxels, fractional, by the cell's position
+  auto reach = [](const std::array<int, 3>& lo, const std::array<int, 3>&) {
+    std::array<double, 3> r{};
+    for (size_t a = 0; a < 3; ++a) r[a] = double((lo[a] * 7 + int(a) * 3) & 15) / 15.0 * 2.6;
+    return r;
+  };
+  auto scaled = [&](double f) {
+    return CellReach([&, f](const std::array<int, 3>& lo, const std::array<int, 3>& hi) {
+      std::array<double, 3> r = reach(lo, hi);
+      for (double& x : r) x *= f;
+      return r;
+    });
+  };
+  const MajorantGrid mg = build_majorant_grid(g, cell, margin, scaled(1.0));
+  const MajorantGrid global = build_majorant_grid(g, cell, margin);
+  const MajorantGrid short_reach = build_majorant_grid(g, cell, margin, scaled(0.85));
+  ASSERT_EQ(mg.dims, global.dims);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  int outside = 0, outside_short = 0, tighter = 0, checked = 0;
+  for (size_t idx = 0; idx < mg.dmax.size(); ++idx) {
+    tighter += mg.dmax[idx] < global.dmax[idx];
+    EXPECT_LE(mg.dmax[idx], global.dmax[idx]) << idx;
+    if (global.dmax[idx] <= 0) continue;
+    const std::array<int, 3> c{int(idx % size_t(mg.dims[0])), int((idx / size_t(mg.dims[0])) % size_t(mg.dims[1])),
+                               int(idx / (size_t(mg.dims[0]) * size_t(mg.dims[1])))};
+    std::array<int, 3> lo{}, hi{};
+    for (size_t a = 0; a < 3; ++a) lo[a] = mg.origin[a] + c[a] * cell, hi[a] = lo[a] + cell;
+    const std::array<double, 3> r = reach(lo, hi);
+    for (int n = 0; n < 12; ++n) {
+      std::array<double, 3> p{};
+      for (size_t a = 0; a < 3; ++a) {
+        // half of the points at a corner of the reachable box, the rest anywhere in it
+        const double u = n < 6 ? double((n >> a) & 1) : U(rng);
+        p[a] = lo[a] - r[a] + u * (hi[a] - lo[a] + 2 * r[a]);
+      }
+      const float d = sample_index_trilinear(g, p[0], p[1], p[2]);
+      ++checked;
+      outside += d > mg.dmax[idx] || d < mg.dmin[idx];
+      outside_short += d > short_reach.dmax[idx] || d < short_reach.dmin[idx];
+    }
+  }
+  EXPECT_GT(checked, 10000);
+  EXPECT_EQ(outside, 0);
+  EXPECT_GT(tighter, int(mg.dmax.size() / 20)) << "the per-cell reach must tighten cells";
+  EXPECT_GT(outside_short, 10) << "cells of a shorter reach must miss the density at the full reach";
 }
 
 // Blender's own velocity grid (smoke frame 1: staggered, no active values) loads as staggered

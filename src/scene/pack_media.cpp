@@ -205,9 +205,8 @@ void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::strin
   check_float_limits(md, m, &g, ctx_name);
   m.density_grid = upload_grid(ctx_name, g);
   const double color_max = md.color.present ? add_color_grid(m, md, g, ctx_name) : 0.0;  // sets sigma_t_maj, which the cost model uses
-  const std::array<double, 3> reach =
-      md.velocity.present ? add_velocity_grid(m, md, g, ctx_name) : std::array<double, 3>{0, 0, 0};
-  add_majorants(m, md, g, index_to_scene, reach);
+  const MotionReach motion = md.velocity.present ? add_velocity_grid(m, md, g, ctx_name) : MotionReach{};
+  add_majorants(m, md, g, index_to_scene, motion);
   if (spectral && md.color.present) {
     // spectral mode (kernels/medium.h): the bound of the colour's spectrum per unit of sigma_s, 1
     // for an albedo; 2 max C for a scattering factor (its unbounded spectrum's scale), rounded up
@@ -220,11 +219,12 @@ void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::strin
 }
 
 void Packer::add_majorants(st_medium& m, const MediumDesc& md, const GridData& g, const Mat4& index_to_scene,
-                           const std::array<double, 3>& reach) {
+                           const MotionReach& motion) {
   const auto t_build = std::chrono::steady_clock::now();
   const int cell = opt.majorant_cell > 0 ? opt.majorant_cell : auto_majorant_cell(g);
+  const std::array<double, 3>& reach = motion.reach;
   const std::array<int, 3> margin{int(std::ceil(reach[0])), int(std::ceil(reach[1])), int(std::ceil(reach[2]))};
-  MajorantGrid mg = build_majorant_grid(g, majorant_cell_for(m, g, md.majorant_scale, cell), margin);
+  MajorantGrid mg = build_majorant_grid(g, majorant_cell_for(m, g, md.majorant_scale, cell), margin, motion.cell_reach);
   m.maj_origin = f4(mg.origin[0], mg.origin[1], mg.origin[2], mg.cell);
   for (int a = 0; a < 3; ++a) m.maj_dims[a] = mg.dims[a];
   MajorantInfo info;

@@ -69,6 +69,14 @@ bool same_index_to_world(const GridData& a, const GridData& b);
 Vec3 normalize(Vec3 v);
 Vec3 cross(const Vec3& a, const Vec3& b);
 
+// How far a moving medium's lookups reach (motion blur, pack_velocity.cpp): reach[a] bounds the
+// index displacement along axis a over the whole grid (its box grows by that); cell_reach bounds
+// it per majorant cell (build_majorant_grid), empty for a still medium.
+struct MotionReach {
+  std::array<double, 3> reach{0, 0, 0};
+  CellReach cell_reach;
+};
+
 // Fills a PackedScene; member names follow st_scene's buffers.
 struct Packer {
   const SceneDesc& scene;
@@ -84,6 +92,7 @@ struct Packer {
   Vec3 camera_position = {};          // as placed (framing included), in double
   uint32_t camera_features = 0;       // st_feature bits of the lens and the shutter (pack_camera.cpp)
   double shutter_reach = 0;           // the largest |time| of the shutter (s; 0: none): motion blur's reach
+  bool stochastic_lookup = false;     // one-voxel lookups (st_lookup_mode): a moving cell's bounds in whole voxels
   // Each light's power up to the common factor pi r^2 of pbrt-v4's Light::Phi (r: the scene
   // radius): the mean over channels of the irradiance a directional light gives, or 4 pi times the
   // mean radiance of an environment over the sphere.
@@ -96,14 +105,13 @@ struct Packer {
 
   void add_medium(int i, const MediumDesc& md);
   void add_vdb_medium(st_medium& m, const MediumDesc& md, const std::string& ctx_name);
-  // the majorant grid (and hierarchy) of a VDB medium, its MajorantInfo and chord lookups; reach:
-  // the largest index displacement of its lookups along each axis (motion blur), which grows it
+  // the majorant grid (and hierarchy) of a VDB medium, its MajorantInfo and chord lookups; motion:
+  // the index displacement its lookups reach (motion blur), which grows its cells
   void add_majorants(st_medium& m, const MediumDesc& md, const GridData& g, const Mat4& index_to_scene,
-                     const std::array<double, 3>& reach);
-  // a moving medium's velocity grid (pack_velocity.cpp); returns the reach of its lookups (0 when
-  // it does not move during the shutter, and then uploads nothing)
-  std::array<double, 3> add_velocity_grid(st_medium& m, const MediumDesc& md, const GridData& density,
-                                          const std::string& ctx_name);
+                     const MotionReach& motion);
+  // a moving medium's velocity grid (pack_velocity.cpp); returns the reach of its lookups (none
+  // when it does not move during the shutter, and then uploads nothing)
+  MotionReach add_velocity_grid(st_medium& m, const MediumDesc& md, const GridData& density, const std::string& ctx_name);
   // a VDB medium's emission: blackbody bounds, temperature or emission grid
   void add_emission(st_medium& m, const MediumDesc& md, const GridData& g, const std::string& ctx_name);
   // returns the colour's largest value over its channels, its voxels and its background

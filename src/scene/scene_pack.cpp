@@ -80,6 +80,7 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
   st.n_media = int(scene.media.size());
   st.n_lights = int(scene.lights.size());
   if (s.shutter) pk.shutter_reach = std::max(std::abs((*s.shutter)[0]), std::abs((*s.shutter)[1]));
+  pk.stochastic_lookup = s.lookup == ST_LOOKUP_STOCHASTIC;
   for (int i = 0; i < st.n_media; ++i) pk.add_medium(i, scene.media[i]);
   for (int i = 0; i < st.n_lights; ++i) pk.add_light(i, scene.lights[i]);
   if (scene.ground.present) {  // kernels/ground.h

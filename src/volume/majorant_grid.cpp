@@ -85,6 +85,66 @@ std::vector<uint8_t> occupied_cells(const FloatGrid& g, const MajorantGrid& mg, 
   return marked;
 }
 
+// The largest and smallest value of the voxels lo .. hi (inclusive): each 8^3 leaf-aligned block
+// that meets the box contributes a leaf's voxels inside the box or the block's one constant value
+// (a tile or the background).
+template <typename Accessor>
+std::array<float, 2> voxel_bounds(Accessor& acc, const std::array<int, 3>& lo, const std::array<int, 3>& hi) {
+  float top = -std::numeric_limits<float>::infinity(), bottom = std::numeric_limits<float>::infinity();
+  for (int bz = lo[2] & ~7; bz <= hi[2]; bz += 8)
+    for (int by = lo[1] & ~7; by <= hi[1]; by += 8)
+      for (int bx = lo[0] & ~7; bx <= hi[0]; bx += 8) {
+        const nanovdb::Coord block(bx, by, bz);
+        const Leaf* leaf = acc.probeLeaf(block);
+        if (!leaf) {
+          const float v = acc.getValue(block);
+          top = std::max(top, v);
+          bottom = std::min(bottom, v);
+          continue;
+        }
+        for (int z = std::max(lo[2], bz); z <= std::min(hi[2], bz + 7); ++z)
+          for (int y = std::max(lo[1], by); y <= std::min(hi[1], by + 7); ++y)
+            for (int x = std::max(lo[0], bx); x <= std::min(hi[0], bx + 7); ++x) {
+              const float v = leaf->getValue(nanovdb::Coord(x, y, z));
+              top = std::max(top, v);
+              bottom = std::min(bottom, v);
+            }
+      }
+  return {top, bottom};
+}
+
+// The largest and smallest trilinear value over the box lo - r .. hi + r (index coordinates; lo, hi
+// voxel centres, r >= 0 per axis). The trilinear function is multilinear inside each voxel cube, so
+// its extremes over the box lie at the vertices of the box's cuts by the voxel planes: coordinates
+// lo - r, the voxels lo - k + 1 .. hi + k - 1 (k = ceil r) and hi + r along each axis. Their values
+// are the voxels lo - k .. hi + k with the outermost layer on each side blended towards its
+// neighbour, at lo - r = (lo - k) + w with w = k - r: (1 - w) v(lo - k) + w v(lo - k + 1), one axis
+// after the other (the blend is linear along each axis, so the order does not matter).
+template <typename Accessor>
+std::array<float, 2> reach_bounds(Accessor& acc, const std::array<int, 3>& lo, const std::array<int, 3>& hi,
+                                  const std::array<double, 3>& r) {
+  std::array<int, 3> k{}, n{};
+  for (size_t a = 0; a < 3; ++a) k[a] = int(std::ceil(r[a])), n[a] = hi[a] - lo[a] + 1 + 2 * k[a];
+  std::vector<double> v(size_t(n[0]) * size_t(n[1]) * size_t(n[2]));
+  size_t i = 0;
+  for (int z = 0; z < n[2]; ++z)
+    for (int y = 0; y < n[1]; ++y)
+      for (int x = 0; x < n[0]; ++x) v[i++] = acc.getValue(nanovdb::Coord(lo[0] - k[0] + x, lo[1] - k[1] + y, lo[2] - k[2] + z));
+  const std::array<size_t, 3> stride{1, size_t(n[0]), size_t(n[0]) * size_t(n[1])};
+  for (size_t a = 0; a < 3; ++a) {
+    const double w = double(k[a]) - r[a];
+    if (k[a] == 0 || w == 0) continue;
+    const size_t last = size_t(n[a] - 1) * stride[a];
+    for (size_t j = 0; j < v.size(); ++j) {
+      if ((j / stride[a]) % size_t(n[a]) != 0) continue;  // j: the first voxel of a line along a
+      v[j] += w * (v[j + stride[a]] - v[j]);
+      v[j + last] += w * (v[j + last - stride[a]] - v[j + last]);
+    }
+  }
+  const auto [bottom, top] = std::minmax_element(v.begin(), v.end());
+  return {float(*top), float(*bottom)};
+}
+
 }  // namespace
 
 // Each occupied cell (occupied_cells) walks the 8^3 leaf-aligned blocks that meet its support: a
@@ -92,7 +152,8 @@ std::vector<uint8_t> occupied_cells(const FloatGrid& g, const MajorantGrid& mg, 
 // its one constant value. The cost is thus about (1 + 1/cell)^3 reads per voxel of allocated
 // leaves plus a probe per 8^3 block of active tiles and one byte per cell of the box; the Disney
 // cloud (16x11x20 cells) takes a few ms, and a few stray voxels far apart cost a few cells each.
-MajorantGrid build_majorant_grid(const GridData& grid, int cell, const std::array<int, 3>& margin) {
+MajorantGrid build_majorant_grid(const GridData& grid, int cell, const std::array<int, 3>& margin,
+                                 const CellReach& cell_reach) {
   if (cell < 1) throw Error("build_majorant_grid: cell size must be >= 1, got " + std::to_string(cell));
   for (int m : margin)
     if (m < 0 || m > (1 << 24)) throw Error("build_majorant_grid: margin out of range: " + std::to_string(m));
@@ -135,37 +196,24 @@ MajorantGrid build_majorant_grid(const GridData& grid, int cell, const std::arra
     auto acc = g->getAccessor();
     for (size_t idx = r.begin(); idx != r.end(); ++idx) {
       if (!occupied[idx]) continue;  // (0, 0), as assigned
-      const int cx = int(idx % size_t(mg.dims[0]));
-      const int cy = int((idx / size_t(mg.dims[0])) % size_t(mg.dims[1]));
-      const int cz = int(idx / (size_t(mg.dims[0]) * size_t(mg.dims[1])));
-      const int x0 = mg.origin[0] + cx * cell - margin[0], y0 = mg.origin[1] + cy * cell - margin[1],
-                z0 = mg.origin[2] + cz * cell - margin[2];
-      float hi = -std::numeric_limits<float>::infinity(), lo = std::numeric_limits<float>::infinity();
-      const int x1 = x0 + cell + 2 * margin[0], y1 = y0 + cell + 2 * margin[1], z1 = z0 + cell + 2 * margin[2];
-      for (int bz = z0 & ~7; bz <= z1; bz += 8)
-        for (int by = y0 & ~7; by <= y1; by += 8)
-          for (int bx = x0 & ~7; bx <= x1; bx += 8) {
-            const nanovdb::Coord block(bx, by, bz);
-            const Leaf* leaf = acc.probeLeaf(block);
-            if (!leaf) {
-              const float v = acc.getValue(block);
-              hi = std::max(hi, v);
-              lo = std::min(lo, v);
-              continue;
-            }
-            for (int z = std::max(z0, bz); z <= std::min(z1, bz + 7); ++z)
-              for (int y = std::max(y0, by); y <= std::min(y1, by + 7); ++y)
-                for (int x = std::max(x0, bx); x <= std::min(x1, bx + 7); ++x) {
-                  const float v = leaf->getValue(nanovdb::Coord(x, y, z));
-                  hi = std::max(hi, v);
-                  lo = std::min(lo, v);
-                }
-          }
+      const std::array<int, 3> c{int(idx % size_t(mg.dims[0])), int((idx / size_t(mg.dims[0])) % size_t(mg.dims[1])),
+                                 int(idx / (size_t(mg.dims[0]) * size_t(mg.dims[1])))};
+      std::array<int, 3> lo{}, hi{};
+      for (size_t a = 0; a < 3; ++a) lo[a] = mg.origin[a] + c[a] * cell, hi[a] = lo[a] + cell;
+      std::array<float, 2> b;
+      if (cell_reach) {
+        std::array<double, 3> r = cell_reach(lo, hi);
+        for (size_t a = 0; a < 3; ++a) r[a] = std::clamp(r[a], 0.0, double(margin[a]));
+        b = reach_bounds(acc, lo, hi, r);
+      } else {
+        for (size_t a = 0; a < 3; ++a) lo[a] -= margin[a], hi[a] += margin[a];
+        b = voxel_bounds(acc, lo, hi);
+      }
       // Float rounding of the interpolation can exceed the corner values by a few ulps.
-      hi = hi * (1.0f + 1e-5f);
-      if (hi > 0.0f) hi += 1e-30f;
-      mg.dmax[idx] = hi;
-      mg.dmin[idx] = lo * (1.0f - 1e-5f);
+      float top = b[0] * (1.0f + 1e-5f);
+      if (top > 0.0f) top += 1e-30f;
+      mg.dmax[idx] = top;
+      mg.dmin[idx] = b[1] * (1.0f - 1e-5f);
     }
   });
   return mg;

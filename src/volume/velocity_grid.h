@@ -33,4 +33,10 @@ struct VelocityGrid {
 VelocityGrid load_velocity_grid(const std::string& file, const std::string& grid_name, double outlier_speed,
                                 const std::string& context);
 
+// The largest |component| of the stored values over the voxels lo .. hi (inclusive, index
+// coordinates), the values of tiles and the background met there included: each component of the
+// trilinear (or staggered) velocity at a point whose interpolation reads only voxels of the box
+// is a convex combination of them, so it stays within these bounds.
+std::array<double, 3> velocity_max_abs(const VelocityGrid& v, const std::array<int, 3>& lo, const std::array<int, 3>& hi);
+
 }  // namespace spectrack
