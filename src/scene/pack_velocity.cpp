@@ -75,17 +75,21 @@ MotionReach Packer::add_velocity_grid(st_medium& m, const MediumDesc& md, const 
     if (!std::isfinite(out.reach[size_t(a)]) || out.reach[size_t(a)] > 1e7)
       throw Error(fmt::format("{}/scale: the largest displacement over the shutter, {:.6g} voxels, is out of range", ctx,
                               out.reach[size_t(a)]));
-  // A lookup at x in a cell reads v at x (staggered: component a at x + 1/2 along a), which
-  // interpolates voxels of the cell's support grown by one voxel (x within float rounding of the
-  // cell included), so the largest |v_b| there bounds its displacement (docs/scene-format.md,
-  // "Motion blur", "Bounds").
+  // A lookup at x in a cell (voxels lo .. hi along each axis) reads v at x, which interpolates
+  // voxels lo .. hi (a staggered component a at x + 1/2 along a: up to hi + 1), so the largest
+  // |v_b| there bounds its displacement (docs/scene-format.md, "Motion blur"). A point that float
+  // rounding puts up to 1e-3 voxels outside its cell mixes in a neighbour's velocity with that
+  // weight, which moves it by at most 2e-3 of the global reach: added to every cell's reach.
   // A one-voxel (stochastic) lookup reads a voxel of the displaced point's trilinear support, not
   // the blend of its corners, so its cells bound the voxels within the reach rounded up.
-  out.cell_reach = [v, reach_of, whole = stochastic_lookup](const std::array<int, 3>& lo, const std::array<int, 3>& hi) {
-    std::array<double, 3> r =
-        reach_of(velocity_max_abs(*v, {lo[0] - 1, lo[1] - 1, lo[2] - 1}, {hi[0] + 1, hi[1] + 1, hi[2] + 1}));
-    if (whole)
-      for (double& x : r) x = std::ceil(x);
+  const int up = v->staggered ? 1 : 0;
+  out.cell_reach = [v, reach_of, up, global = out.reach, whole = stochastic_lookup](const std::array<int, 3>& lo,
+                                                                                   const std::array<int, 3>& hi) {
+    std::array<double, 3> r = reach_of(velocity_max_abs(*v, lo, {hi[0] + up, hi[1] + up, hi[2] + up}));
+    for (size_t a = 0; a < 3; ++a) {
+      r[a] += 2e-3 * global[a];
+      if (whole) r[a] = std::ceil(r[a]);
+    }
     return r;
   };
   m.velocity_grid[0] = upload_grid(ctx, v->grid);
