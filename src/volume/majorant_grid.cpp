@@ -18,6 +18,7 @@
 #include <nanovdb/NanoVDB.h>
 
 #include "volume/volume.h"
+#include "volume/volume_detail.h"
 
 namespace spectrack {
 
@@ -85,31 +86,14 @@ std::vector<uint8_t> occupied_cells(const FloatGrid& g, const MajorantGrid& mg, 
   return marked;
 }
 
-// The largest and smallest value of the voxels lo .. hi (inclusive): each 8^3 leaf-aligned block
-// that meets the box contributes a leaf's voxels inside the box or the block's one constant value
-// (a tile or the background).
+// The largest and smallest value of the voxels lo .. hi (inclusive).
 template <typename Accessor>
 std::array<float, 2> voxel_bounds(Accessor& acc, const std::array<int, 3>& lo, const std::array<int, 3>& hi) {
   float top = -std::numeric_limits<float>::infinity(), bottom = std::numeric_limits<float>::infinity();
-  for (int bz = lo[2] & ~7; bz <= hi[2]; bz += 8)
-    for (int by = lo[1] & ~7; by <= hi[1]; by += 8)
-      for (int bx = lo[0] & ~7; bx <= hi[0]; bx += 8) {
-        const nanovdb::Coord block(bx, by, bz);
-        const Leaf* leaf = acc.probeLeaf(block);
-        if (!leaf) {
-          const float v = acc.getValue(block);
-          top = std::max(top, v);
-          bottom = std::min(bottom, v);
-          continue;
-        }
-        for (int z = std::max(lo[2], bz); z <= std::min(hi[2], bz + 7); ++z)
-          for (int y = std::max(lo[1], by); y <= std::min(hi[1], by + 7); ++y)
-            for (int x = std::max(lo[0], bx); x <= std::min(hi[0], bx + 7); ++x) {
-              const float v = leaf->getValue(nanovdb::Coord(x, y, z));
-              top = std::max(top, v);
-              bottom = std::min(bottom, v);
-            }
-      }
+  volume_detail::for_each_box_value(acc, lo, hi, [&](float v) {
+    top = std::max(top, v);
+    bottom = std::min(bottom, v);
+  });
   return {top, bottom};
 }
 

@@ -119,11 +119,8 @@ VelocityGrid load_velocity_grid(const std::string& file, const std::string& grid
   return out;
 }
 
-// Every 8^3 leaf-aligned block that meets the box: a leaf's voxels inside the box, or the block's
-// one value (a tile's or the background), as build_majorant_grid reads the density.
 std::array<double, 3> velocity_max_abs(const VelocityGrid& v, const std::array<int, 3>& lo,
                                        const std::array<int, 3>& hi) {
-  using Leaf = nanovdb::NanoLeaf<nanovdb::Vec3f>;
   std::array<double, 3> m{0, 0, 0};
   const auto* g = v.grid.handle.grid<nanovdb::Vec3f>();
   if (!g) return v.max_abs;
@@ -131,19 +128,7 @@ std::array<double, 3> velocity_max_abs(const VelocityGrid& v, const std::array<i
     for (int c = 0; c < 3; ++c) m[size_t(c)] = std::max(m[size_t(c)], std::abs(double(x[c])));
   };
   auto acc = g->getAccessor();
-  for (int bz = lo[2] & ~7; bz <= hi[2]; bz += 8)
-    for (int by = lo[1] & ~7; by <= hi[1]; by += 8)
-      for (int bx = lo[0] & ~7; bx <= hi[0]; bx += 8) {
-        const nanovdb::Coord block(bx, by, bz);
-        const Leaf* leaf = acc.probeLeaf(block);
-        if (!leaf) {
-          account(acc.getValue(block));
-          continue;
-        }
-        for (int z = std::max(lo[2], bz); z <= std::min(hi[2], bz + 7); ++z)
-          for (int y = std::max(lo[1], by); y <= std::min(hi[1], by + 7); ++y)
-            for (int x = std::max(lo[0], bx); x <= std::min(hi[0], bx + 7); ++x) account(leaf->getValue(nanovdb::Coord(x, y, z)));
-      }
+  volume_detail::for_each_box_value(acc, lo, hi, account);
   return m;
 }
 
