@@ -87,9 +87,11 @@ std::vector<std::string> check_scene(const json& scene, const fs::path& path, co
   const Proc p = render_without_third_party(scene, path, dir);
   const json& m = scene["media"][tp[0]];
   const std::string file = fs::path(m["file"].get<std::string>()).filename().string();
-  const std::string source = m.value("file_source", std::string("(none)"));
+  std::vector<std::string> words = {"/media/" + std::to_string(tp[0]) + "/file", file, "no such file",
+                                    "third-party data, not in the repository"};
+  if (m.contains("file_source")) words.push_back(m["file_source"].get<std::string>());
   if (!(p.exited && p.code == 1)) out.push_back("expected exit 1: " + p.describe());
-  for (const std::string& w : {std::string("/media/") + std::to_string(tp[0]) + "/file", file, std::string("no such file"), source})
+  for (const std::string& w : words)
     if (p.out.find(w) == std::string::npos) out.push_back("the error does not say \"" + w + "\": " + p.describe());
   if (fs::exists(dir + "/out.exr")) out.push_back("an image was written: " + p.describe());
   return out;
@@ -144,7 +146,9 @@ TEST(ShippedScenes, SceneAdaptiveFieldIsHonoured) {
     else scene["render"].erase("adaptive");
     const std::string path = write_scene(dir, "adaptive.json", scene);
     const std::string out = dir + (adaptive ? "/a.exr" : "/u.exr");
-    const Proc p = run({"render", path, "-o", out, "--generic-kernels", "--quiet"});
+    RunOptions o;
+    o.timeout_s = 600;  // a cold kernel build on a loaded machine
+    const Proc p = run({"render", path, "-o", out, "--generic-kernels", "--quiet"}, o);
     ASSERT_TRUE(p.exited && p.code == 0) << p.describe();
     auto in = OIIO::ImageInput::open(out);
     ASSERT_TRUE(in) << out;
