@@ -95,7 +95,7 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
   }
   opt.spp = a.spp;
   opt.noise_target = a.noise_target;
-  opt.adaptive = a.adaptive;
+  if (a.adaptive) opt.adaptive = true;  // a flag: without it the scene's render.adaptive holds
   if (!a.spp_range.empty()) {
     int64_t b = 0;
     check_spp_range(a.spp_range, &opt.sample_begin, &b);  // checked by CLI11 already

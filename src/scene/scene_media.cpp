@@ -140,13 +140,14 @@ void Parser::sky_light(const json& j, const std::string& path, const Names& all,
 
 MediumDesc Parser::medium(const json& j, const std::string& path, size_t index) {
   expect_object(j, path);
-  const Names all = {"name", "type", "file", "grid", "grid_index", "bounds", "density_scale", "sigma_s",
+  const Names all = {"name", "type", "file", "file_source", "grid", "grid_index", "bounds", "density_scale", "sigma_s",
                      "sigma_a", "phase", "emission", "color", "velocity", "transform", "majorant_scale",
                      "minorant_scale", "preset"};
   Names vdb, homogeneous;
   for (const char* k : all) {
     if (std::strcmp(k, "bounds") != 0) vdb.push_back(k);
-    if (!contains({"file", "grid", "grid_index", "transform", "color", "velocity", "preset"}, k)) homogeneous.push_back(k);
+    if (!contains({"file", "file_source", "grid", "grid_index", "transform", "color", "velocity", "preset"}, k))
+      homogeneous.push_back(k);
   }
   fields(j, path, all);
 
@@ -160,6 +161,7 @@ MediumDesc Parser::medium(const json& j, const std::string& path, size_t index) 
     fields(j, path, vdb, "a vdb medium", all);
     m.type = ST_MEDIUM_VDB;
     need(j, path, "file", "the .vdb or .nvdb file");
+    string(j, path, "file_source", "");  // a string when present (quoted when the file is missing)
     m.file = file(j, path, "file", true);
     if (find(j, "preset")) {
       m.preset = string(j, path, "preset", "");
