@@ -235,6 +235,17 @@ inline json lumpy_sky_scene(const std::string& vdb) {
   return s;
 }
 
+// lumpy_sky_scene on a 24x16 film, the lumpy volume written into `dir` once: a small chromatic,
+// heterogeneous scene for renders to a noise target, uniform or adaptive.
+inline json small_noise_scene(const std::string& dir) {
+  const std::string vdb = dir + "/lumpy.vdb";
+  if (!fs::exists(vdb)) st_test::write_lumpy(vdb);
+  json s = lumpy_sky_scene(vdb);
+  s["film"]["width"] = 24;
+  s["film"]["height"] = 16;
+  return s;
+}
+
 // Every channel of every pixel of an image file as floats, pixel-major (empty, and a test
 // failure, when it cannot be read); `channels` gets the channel count.
 inline std::vector<float> image_pixels(const std::string& path, int* channels = nullptr) {
