@@ -72,7 +72,10 @@ double adaptive_round_weight(const AdaptivePixel& px, int64_t k, int64_t cap, do
   // the samples to come that bring rho (V + B^2 / T) down to the aim, at most what is left
   const double T = std::min(double(left), adaptive_samples_needed(px, rho, plan));
   if (T <= double(k)) return px.B;
-  return px.B * double(k) / T;
+  // the weight from rho made larger where it rests on few samples (adaptive.h kAdaptiveWeightMargin)
+  const double rho_w = rho * (1.0 + kAdaptiveWeightMargin / std::sqrt(double(px.n)));
+  const double T_w = std::min(double(left), adaptive_samples_needed(px, rho_w, plan));
+  return px.B * double(k) / std::max(T, T_w);
 }
 
 int64_t adaptive_round_length(const AdaptivePixel& px, int64_t k, int64_t cap, double rho, const AdaptivePlan& plan) {

@@ -16,7 +16,8 @@
 // (as noise.h measures the error), or the mean over the pixel's 3x3 neighbourhood where that is
 // larger; then a_r = B k_r / T, or B when T <= k_r (the last round, which then takes T samples
 // rounded up to a quarter of k_r: finishing pixels of a round are rendered in up to four groups of
-// lengths). The aim is kAdaptiveAim times the target. No pixel is given more than the samples
+// lengths; the weight of a round that is not the last is taken from a rho with a margin,
+// kAdaptiveWeightMargin). The aim is kAdaptiveAim times the target. No pixel is given more than the samples
 // the image's 95th-percentile pixel needs (adaptive_cap), since the image's error is that
 // pixel's. The pilot's weight k_0 / spp is fixed before any sample, so it can only be too small
 // (what it loses is at most its own samples). The floor is kNoiseFloor times the mean brightness
@@ -42,6 +43,13 @@ constexpr double kAdaptiveAim = 0.9;
 // A pixel's last round takes the samples it still needs, rounded up to a multiple of
 // 1 / kAdaptiveLastRoundSteps of the round (each length is one render of its pixels).
 constexpr int64_t kAdaptiveLastRoundSteps = 4;
+
+// A round that is not the pixel's last gets its weight B k / T from rho (1 + kAdaptiveWeightMargin
+// / sqrt(n)), not rho: a rho estimated too low from few samples would give the early rounds too
+// much weight, and a pixel whose fixed weights already hold more variance than its aim allows
+// (rho V >= aim^2) can no longer reach it, however many samples it takes; a weight too small
+// costs only part of its round's samples.
+constexpr double kAdaptiveWeightMargin = 4.0;
 
 struct AdaptivePlan {
   double target = 0;      // the relative error each pixel is brought to (noise.h's r_p)
