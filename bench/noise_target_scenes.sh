@@ -37,7 +37,7 @@ for s in bench/scenes/*.json data/scenes/cloud.json data/scenes/disney_cloud.jso
   r --spp "$CAP" --seed 1 --noise-target "$TARGET" -o "$out/$n.uniform.exr" --stats-json "$out/$n.uniform.json"
   r --spp "$CAP" --seed 2 --noise-target "$TARGET" --adaptive -o "$out/$n.adaptive.exr" --stats-json "$out/$n.adaptive.json"
   ref_spp=$(/usr/bin/python3 -c "import json; print($REF_MULT * json.load(open('$out/$n.uniform.json'))['spp'])")
-  r --spp "$ref_spp" --seed 99 -o "$out/$n.ref.exr" --stats-json "$out/$n.ref.json"
+  r --spp "$ref_spp" --seed 99 --aov variance -o "$out/$n.ref.exr" --stats-json "$out/$n.ref.json"
   /usr/bin/python3 - "$out" "$n" "$TARGET" <<'PY'
 import json, sys
 import numpy as np
