@@ -235,14 +235,14 @@ inline json lumpy_sky_scene(const std::string& vdb) {
   return s;
 }
 
-// lumpy_sky_scene on a 24x16 film, the lumpy volume written into `dir` once: a small chromatic,
-// heterogeneous scene for renders to a noise target, uniform or adaptive.
-inline json small_noise_scene(const std::string& dir) {
+// lumpy_sky_scene on a small film (24x16 unless given), the lumpy volume written into `dir` once:
+// a chromatic, heterogeneous scene for renders to a noise target, uniform or adaptive, denoised.
+inline json small_noise_scene(const std::string& dir, int width = 24, int height = 16) {
   const std::string vdb = dir + "/lumpy.vdb";
   if (!fs::exists(vdb)) st_test::write_lumpy(vdb);
   json s = lumpy_sky_scene(vdb);
-  s["film"]["width"] = 24;
-  s["film"]["height"] = 16;
+  s["film"]["width"] = width;
+  s["film"]["height"] = height;
   return s;
 }
 

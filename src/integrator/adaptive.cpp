@@ -80,12 +80,13 @@ double adaptive_round_weight(const AdaptivePixel& px, int64_t k, int64_t cap, do
 
 int64_t adaptive_round_length(const AdaptivePixel& px, int64_t k, int64_t cap, double rho, const AdaptivePlan& plan) {
   if (px.n == 0) return k;  // the pilot
-  const int64_t left = std::min(cap, plan.spp) - px.n;
-  if (k >= left) return std::max<int64_t>(1, left);
-  const double T = std::min(double(left), adaptive_samples_needed(px, rho, plan));
-  if (T > double(k)) return k;  // not the last round
-  // the last round: T rounded up to a multiple of a quarter of the round
+  // the last round: the samples still needed (at most those left below the cap) rounded up to a
+  // multiple of a quarter of the round, at least a quarter (a cap that fell below the pixel's
+  // samples leaves none, and the weight left still needs samples)
   const int64_t q = (k + kAdaptiveLastRoundSteps - 1) / kAdaptiveLastRoundSteps;
+  const int64_t left = std::min(cap, plan.spp) - px.n;
+  const double T = std::min(double(left), adaptive_samples_needed(px, rho, plan));
+  if (k < left && T > double(k)) return k;  // not the last round
   return std::min(k, std::max<int64_t>(q, (int64_t(std::ceil(T)) + q - 1) / q * q));
 }
 
