@@ -288,7 +288,7 @@ MultiDeviceResult render_adaptive_film(const SceneDesc& scene, const RenderOptio
   opt.device = device;
   opt.watch = nullptr;  // a round's film is not the render's: the watch sees the adaptive film
   opt.progress = nullptr;
-  Renderer renderer(scene, opt);
+  Renderer renderer(scene, settings, opt);
   AdaptivePlan plan;
   plan.target = settings.noise_target;
   plan.spp = settings.spp;

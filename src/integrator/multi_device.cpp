@@ -152,7 +152,7 @@ void MultiDeviceRun::work(size_t i) {
       in_chunk_[i] = f * double(chunk_len);
       report();
     };
-    Renderer r(scene_, opt);
+    Renderer r(scene_, settings_, opt);
     {
       std::lock_guard<std::mutex> lock(mu_);
       dev_[i].name = r.device_name();
@@ -207,10 +207,7 @@ MultiDeviceResult MultiDeviceRun::combine() const {
     out.seconds_render = std::max(out.seconds_render, r.seconds_render);
     out.kernels_from_cache = out.kernels_from_cache && r.kernels_from_cache;
     out.seconds_first_pass = out.seconds_first_pass > 0 ? std::min(out.seconds_first_pass, r.seconds_first_pass) : r.seconds_first_pass;
-    out.features = r.features;
-    out.light_sampling_used = r.light_sampling_used;
-    out.majorants = r.majorants;
-    out.guide = r.guide;
+    static_cast<RunChoices&>(out) = static_cast<const RunChoices&>(r);
   }
   out.record_settings(settings_);
   if (with_samples.empty())  // stopped before any sample finished
@@ -228,16 +225,13 @@ MultiDeviceResult MultiDeviceRun::combine() const {
 
 MultiDeviceResult device_result(const RenderResult& res) {
   MultiDeviceResult out;
+  static_cast<RunChoices&>(out) = static_cast<const RunChoices&>(res);
   out.stats = res.stats;
   out.seconds_setup = res.seconds_setup;
   out.seconds_build = res.seconds_build;
   out.seconds_render = res.seconds_render;
   out.kernels_from_cache = res.kernels_from_cache;
   out.seconds_first_pass = res.seconds_first_pass;
-  out.features = res.features;
-  out.light_sampling_used = res.light_sampling_used;
-  out.majorants = res.majorants;
-  out.guide = res.guide;
   out.time_limit_reached = res.time_limit_reached;
   out.noise_target_reached = res.noise_target_reached;
   return out;
