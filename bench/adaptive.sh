@@ -4,11 +4,11 @@
 # stops once the image's error is at or below the target), on the bench scenes with thin and dense
 # regions: smoke1 and the Disney cloud (data/scenes/disney_cloud.json), their films scaled by SCALE
 # (default 0.5; the Disney cloud's by SCALE / 2, its paths being longer: the per-pixel noise and the
-# samples it takes do not depend on the film size). After
-# a warm-up render of each mode (kernels cached), the runs are interleaved A B A B over the seeds,
-# the order swapped every seed. Prints per run the stage-loop seconds, the error reached and the
-# samples (the mean over pixels for adaptive), then per scene the ratio of the mean seconds
-# (uniform / adaptive) and the per-seed ratios.
+# samples it takes do not depend on the film size). After a warm-up render of each mode (kernels
+# cached), the runs are interleaved A B A B over the seeds, the order swapped every seed. Prints per run the stage-loop seconds, the process's CPU seconds
+# (user + system: on a shared machine less sensitive to the other processes than the wall time),
+# the error reached and the samples (the mean over pixels for adaptive), then per scene the ratios
+# of the mean seconds and of the mean CPU seconds (uniform / adaptive) and the per-seed ratios.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 TARGET=${1:-0.05}; SEEDS=${2:-3}; SCALE=${3:-0.5}
@@ -29,7 +29,8 @@ for entry in bench/scenes/smoke1.json:1 data/scenes/disney_cloud.json:0.5; do
     order="uniform adaptive"; [ $((seed % 2)) -eq 0 ] && order="adaptive uniform"
     for mode in $order; do
       flags=""; [ "$mode" = adaptive ] && flags="--adaptive"
-      $BIN render "$out/$n.json" -q --seed "$seed" --spp "$CAP" --noise-target "$TARGET" $flags \
+      /usr/bin/time -f "%U %S" -o "$out/$n.$mode.$seed.cpu" \
+        $BIN render "$out/$n.json" -q --seed "$seed" --spp "$CAP" --noise-target "$TARGET" $flags \
         -o "$out/$n.$mode.$seed.exr" --stats-json "$out/$n.$mode.$seed.json" >/dev/null
     done
   done
@@ -38,15 +39,18 @@ import json, sys
 import statistics as st
 out, n, seeds = sys.argv[1], sys.argv[2], int(sys.argv[3])
 sec = {"uniform": [], "adaptive": []}
+cpu = {"uniform": [], "adaptive": []}
 for seed in range(1, seeds + 1):
     for mode in ("uniform", "adaptive"):
         j = json.load(open(f"{out}/{n}.{mode}.{seed}.json"))
         sec[mode].append(j["seconds_render"])
+        cpu[mode].append(sum(map(float, open(f"{out}/{n}.{mode}.{seed}.cpu").read().split()[-2:])))
         spp = j["spp"] if mode == "uniform" else j.get("adaptive_mean_spp", float("nan"))
-        print(f"{n:14s} seed {seed} {mode:8s} {j['seconds_render']:8.2f} s  error {j.get('noise_error', float('nan')):.4f}"
-              f"  spp {spp:7.1f}  stop {j.get('stop_reason') or 'spp cap'}")
-ratios = [u / a for u, a in zip(sec["uniform"], sec["adaptive"])]
-print(f"{n:14s} uniform/adaptive time: {st.mean(sec['uniform']) / st.mean(sec['adaptive']):.2f}x"
-      f" (per seed: {', '.join(f'{r:.2f}' for r in ratios)})")
+        print(f"{n:14s} seed {seed} {mode:8s} {j['seconds_render']:8.2f} s  cpu {cpu[mode][-1]:7.2f} s"
+              f"  error {j.get('noise_error', float('nan')):.4f}  spp {spp:7.1f}  stop {j.get('stop_reason') or 'spp cap'}")
+for what, v in (("time", sec), ("cpu time", cpu)):
+    ratios = [u / a for u, a in zip(v["uniform"], v["adaptive"])]
+    print(f"{n:14s} uniform/adaptive {what}: {st.mean(v['uniform']) / st.mean(v['adaptive']):.2f}x"
+          f" (per seed: {', '.join(f'{r:.2f}' for r in ratios)})")
 PY
 done

@@ -36,8 +36,10 @@ PixelRun simulate_pixel(std::mt19937_64& rng, const AdaptivePlan& plan) {
   AdaptivePixel px;
   PixelRun out;
   while (!px.done()) {
-    const int64_t k = adaptive_round_samples(px.n, plan);
-    const double a = adaptive_round_weight(px, k, plan.spp, adaptive_relative_variance(px, 0.0), plan);
+    const double rho = adaptive_relative_variance(px, 0.0);
+    const int64_t round = adaptive_round_samples(px.n, plan);
+    const double a = adaptive_round_weight(px, round, plan.spp, rho, plan);
+    const int64_t k = adaptive_round_length(px, round, plan.spp, rho, plan);
     double s1 = 0, s2 = 0;
     for (int64_t i = 0; i < k; ++i) {
       const double y = rare(rng) ? 40.0 : 1.0;
@@ -60,9 +62,10 @@ TEST(AdaptiveWeights, AreUnbiasedWhereAveragingAPixelsOwnStoppedSamplesIsNot) {
   plan.spp = 1024;
   plan.pilot = 16;
   std::mt19937_64 rng(12345);
+  const int kPixels = 100000;  // enough that a 3% error is well beyond 4 SE
   std::vector<double> weighted, averaged;
   int64_t samples = 0, min_n = plan.spp, max_n = 0;
-  for (int t = 0; t < 40000; ++t) {
+  for (int t = 0; t < kPixels; ++t) {
     const PixelRun r = simulate_pixel(rng, plan);
     weighted.push_back(r.weighted);
     averaged.push_back(r.averaged);
@@ -71,20 +74,11 @@ TEST(AdaptiveWeights, AreUnbiasedWhereAveragingAPixelsOwnStoppedSamplesIsNot) {
     max_n = std::max(max_n, r.n);
   }
   EXPECT_LT(min_n, max_n) << "the rule gives pixels different sample counts";
-  EXPECT_LT(samples / 40000, plan.spp);
+  EXPECT_LT(samples / kPixels, plan.spp);
   const st_test::Stats w = st_test::mean_se(weighted), a = st_test::mean_se(averaged);
   EXPECT_LT(std::abs(w.mean - mu) / w.se, 4.0) << "weighted mean " << w.mean << " vs " << mu;
   EXPECT_GT(std::abs(1.03 * w.mean - mu) / w.se, 4.0) << "the twin: a 3% error must be seen";
   EXPECT_GT(std::abs(a.mean - mu) / a.se, 4.0) << "the twin: averaging the stopped samples is biased (" << a.mean << ")";
-}
-
-nlohmann::json adaptive_scene(const std::string& dir) {
-  const std::string vdb = dir + "/lumpy.vdb";
-  if (!fs::exists(vdb)) st_test::write_lumpy(vdb);
-  json s = lumpy_sky_scene(vdb);
-  s["film"]["width"] = 24;
-  s["film"]["height"] = 16;
-  return s;
 }
 
 AdaptiveResult render_adaptive_scene(const SceneDesc& scene, double target, int spp) {
@@ -100,7 +94,7 @@ AdaptiveResult render_adaptive_scene(const SceneDesc& scene, double target, int 
 
 TEST(AdaptiveRender, ReachesItsTargetWithFewerSamplesAndAgreesWithAUniformRender) {
   const std::string dir = test_dir();
-  const SceneDesc scene = st_test::scene_from_json(adaptive_scene(dir), dir);
+  const SceneDesc scene = st_test::scene_from_json(small_noise_scene(dir), dir);
   const AdaptiveResult a = render_adaptive_scene(scene, 0.04, 2048);
   const RenderResult& f = a.film;
   ASSERT_FALSE(f.interrupted);
@@ -132,7 +126,7 @@ std::string meta_text(const std::string& path, const std::string& key) {
 
 TEST(CliAdaptive, WritesTheSamplesLayerAndRefusesWhatCannotWork) {
   const std::string dir = test_dir();
-  const std::string scene = write_scene(dir, "scene.json", adaptive_scene(dir));
+  const std::string scene = write_scene(dir, "scene.json", small_noise_scene(dir));
   RunOptions ro;
   ro.timeout_s = 240;
   Proc p = run({"render", scene, "-o", dir + "/a.exr", "--noise-target", "0.06", "--spp", "512", "--adaptive",
@@ -163,7 +157,7 @@ TEST(CliAdaptive, WritesTheSamplesLayerAndRefusesWhatCannotWork) {
     EXPECT_EQ(p.code, 2) << p.describe();
   }
   // the scene field, type-checked with its path
-  json bad = adaptive_scene(dir);
+  json bad = small_noise_scene(dir);
   bad["render"]["adaptive"] = "yes";
   p = run({"render", write_scene(dir, "bad.json", bad), "-o", dir + "/b.exr", "--quiet"});
   EXPECT_EQ(p.code, 1) << p.describe();

@@ -18,14 +18,7 @@ namespace {
 
 using namespace st_cli;
 
-json denoise_scene(const std::string& dir) {
-  const std::string vdb = dir + "/lumpy.vdb";
-  if (!fs::exists(vdb)) st_test::write_lumpy(vdb);
-  json s = lumpy_sky_scene(vdb);
-  s["film"]["width"] = 48;
-  s["film"]["height"] = 32;
-  return s;
-}
+json denoise_scene(const std::string& dir) { return small_noise_scene(dir, 48, 32); }
 
 // The named channels of an EXR, pixel-major.
 std::vector<float> channels_of(const std::string& path, const std::vector<std::string>& names) {

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <limits>
+#include <map>
 #include <cmath>
 #include <numeric>
 
@@ -40,20 +41,25 @@ std::vector<double> adaptive_neighbourhood(const std::vector<AdaptivePixel>& px,
   for (size_t i = 0; i < px.size(); ++i) rho[i] = adaptive_relative_variance(px[i], floor);
   for (int y = 0; y < height; ++y)
     for (int x = 0; x < width; ++x) {
-      double r = 0;
+      double sum = 0;
+      int count = 0;
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
           const int u = x + dx, v = y + dy;
-          if (u >= 0 && v >= 0 && u < width && v < height) r = std::max(r, rho[size_t(v) * size_t(width) + size_t(u)]);
+          if (u >= 0 && v >= 0 && u < width && v < height) {
+            sum += rho[size_t(v) * size_t(width) + size_t(u)];
+            ++count;
+          }
         }
-      out[size_t(y) * size_t(width) + size_t(x)] = r;
+      const size_t i = size_t(y) * size_t(width) + size_t(x);
+      out[i] = std::max(rho[i], sum / double(count));
     }
   return out;
 }
 
 double adaptive_samples_needed(const AdaptivePixel& px, double rho, const AdaptivePlan& plan) {
   if (!(rho > 0.0)) return 0.0;  // nothing to average out (a background every sample sees alike)
-  const double e = plan.target;
+  const double e = plan.target * kAdaptiveAim;
   if (!(e * e > rho * px.V)) return std::numeric_limits<double>::infinity();
   return std::ceil(px.B * px.B * rho / (e * e - rho * px.V));
 }
@@ -66,7 +72,22 @@ double adaptive_round_weight(const AdaptivePixel& px, int64_t k, int64_t cap, do
   // the samples to come that bring rho (V + B^2 / T) down to the aim, at most what is left
   const double T = std::min(double(left), adaptive_samples_needed(px, rho, plan));
   if (T <= double(k)) return px.B;
-  return px.B * double(k) / T;
+  // the weight from rho made larger where it rests on few samples (adaptive.h kAdaptiveWeightMargin)
+  const double rho_w = rho * (1.0 + kAdaptiveWeightMargin / std::sqrt(double(px.n)));
+  const double T_w = std::min(double(left), adaptive_samples_needed(px, rho_w, plan));
+  return px.B * double(k) / std::max(T, T_w);
+}
+
+int64_t adaptive_round_length(const AdaptivePixel& px, int64_t k, int64_t cap, double rho, const AdaptivePlan& plan) {
+  if (px.n == 0) return k;  // the pilot
+  // the last round: the samples still needed (at most those left below the cap) rounded up to a
+  // multiple of a quarter of the round, at least a quarter (a cap that fell below the pixel's
+  // samples leaves none, and the weight left still needs samples)
+  const int64_t q = (k + kAdaptiveLastRoundSteps - 1) / kAdaptiveLastRoundSteps;
+  const int64_t left = std::min(cap, plan.spp) - px.n;
+  const double T = std::min(double(left), adaptive_samples_needed(px, rho, plan));
+  if (k < left && T > double(k)) return k;  // not the last round
+  return std::min(k, std::max<int64_t>(q, (int64_t(std::ceil(T)) + q - 1) / q * q));
 }
 
 int64_t adaptive_cap(const std::vector<AdaptivePixel>& px, const std::vector<double>& rho, const AdaptivePlan& plan) {
@@ -187,6 +208,27 @@ void add_round_info(RenderResult& f, const RenderResult& rr, bool first) {
   f.time_limit_reached = f.time_limit_reached || rr.time_limit_reached;
 }
 
+// A round's pixels by the samples they take in it, longest first.
+using RoundGroups = std::map<int64_t, std::vector<uint32_t>, std::greater<int64_t>>;
+
+// Renders one round, starting at sample n: each group is one render of its pixels, added with the
+// weights wt (per window pixel). Returns whether the render was stopped.
+bool render_round(Renderer& r, const RoundGroups& groups, const std::vector<double>& wt, int64_t n, WeightedFilm& film,
+                  AdaptiveResult& out) {
+  static const bool trace = std::getenv("SPECTRACK_TRACE_ADAPTIVE") != nullptr;
+  for (const auto& [len, pix] : groups) {
+    const RenderResult rr = r.render_pixels(pix, n, int(len));
+    if (trace)
+      fmt::print(stderr, "round {}: {} samples of {} pixels from sample {}: {:.3f} s, occupancy {:.2f}, {} iterations\n",
+                 out.rounds, len, pix.size(), n, rr.seconds_render, rr.stats.occupancy_mean, rr.stats.iterations);
+    add_round_info(out.film, rr, out.film.width == 0);
+    if (rr.spp_done > 0)
+      for (size_t j = 0; j < pix.size(); ++j) film.add(rr, j, pix[j], wt[pix[j]], rr.spp_done);
+    if (rr.interrupted) return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 AdaptiveResult render_adaptive(Renderer& r, const AdaptivePlan& plan,
@@ -201,24 +243,17 @@ AdaptiveResult render_adaptive(Renderer& r, const AdaptivePlan& plan,
   out.floor = plan.floor;
   int64_t n = 0;
   bool stopped = false;
-  std::vector<double> a;
   while (!active.empty() && n < plan.spp && !stopped) {
     const int64_t k = adaptive_round_samples(n, plan);
-    a.resize(active.size());
     const std::vector<double> rho = adaptive_neighbourhood(film.px, s.window.width, s.window.height, out.floor);
     const int64_t cap = n == 0 ? plan.spp : adaptive_cap(film.px, rho, plan);
-    for (size_t j = 0; j < active.size(); ++j)
-      a[j] = adaptive_round_weight(film.px[active[j]], k, cap, rho[active[j]], plan);
-    const RenderResult rr = r.render_pixels(active, n, int(k));
-    static const bool trace = std::getenv("SPECTRACK_TRACE_ADAPTIVE") != nullptr;
-    if (trace)
-      fmt::print(stderr, "round {}: {} samples of {} pixels (cap {}): {:.3f} s, occupancy {:.2f}\n", out.rounds, k, active.size(), cap,
-                 rr.seconds_render, rr.stats.occupancy_mean);
-    add_round_info(out.film, rr, out.rounds == 0);
-    const int64_t done = rr.spp_done;
-    stopped = rr.interrupted;
-    if (done > 0)
-      for (size_t j = 0; j < active.size(); ++j) film.add(rr, j, active[j], a[j], done);
+    RoundGroups groups;
+    std::vector<double> wt(film.px.size());
+    for (const uint32_t p : active) {
+      wt[p] = adaptive_round_weight(film.px[p], k, cap, rho[p], plan);
+      groups[adaptive_round_length(film.px[p], k, cap, rho[p], plan)].push_back(p);
+    }
+    stopped = render_round(r, groups, wt, n, film, out);
     if (n == 0 && plan.floor <= 0) out.floor = pilot_floor(film.px);
     n += k;
     ++out.rounds;
@@ -263,22 +298,13 @@ MultiDeviceResult render_adaptive_film(const SceneDesc& scene, const RenderOptio
     if (base.progress) base.progress(double(so_far.round_end) / double(plan.spp));
   });
   const RenderResult& f = a.film;
-  MultiDeviceResult out;
+  MultiDeviceResult out = device_result(f);
   out.piece = piece_from_result(f, render_identity(settings), "render");
   out.piece.pixel_samples = a.samples;
-  out.stats = f.stats;
   out.devices = {renderer.device_name()};
   out.samples_per_device = {int64_t(a.mean_samples * double(settings.window.pixels()) + 0.5)};
-  out.seconds_setup = f.seconds_setup;
-  out.seconds_build = f.seconds_build;
-  out.seconds_render = f.seconds_render;
-  out.kernels_from_cache = f.kernels_from_cache;
-  out.seconds_first_pass = f.seconds_first_pass;
-  static_cast<RunChoices&>(out) = f;
   out.record_settings(settings);
   out.spp_requested = settings.spp;
-  out.time_limit_reached = f.time_limit_reached;
-  out.noise_target_reached = f.noise_target_reached;
   out.piece.interrupted = f.interrupted;
   out.adaptive_rounds = a.rounds;
   out.adaptive_floor = a.floor;

@@ -13,8 +13,11 @@
 // which is sigma^2 / n when the weights are a_r = k_r / n (equal per sample); the rule aims
 // there: before round r, the samples T still needed are predicted from the rounds so far,
 // rho (V + B^2 / T) <= E^2 with rho = sigma^2 / max(m, floor)^2 the relative variance per sample
-// (as noise.h measures the error), taken as the largest over the pixel's 3x3 neighbourhood; then
-// a_r = B k_r / T, or B when T <= k_r (the last round). No pixel is given more than the samples
+// (as noise.h measures the error), or the mean over the pixel's 3x3 neighbourhood where that is
+// larger; then a_r = B k_r / T, or B when T <= k_r (the last round, which then takes T samples
+// rounded up to a quarter of k_r: finishing pixels of a round are rendered in up to four groups of
+// lengths; the weight of a round that is not the last is taken from a rho with a margin,
+// kAdaptiveWeightMargin). The aim is kAdaptiveAim times the target. No pixel is given more than the samples
 // the image's 95th-percentile pixel needs (adaptive_cap), since the image's error is that
 // pixel's. The pilot's weight k_0 / spp is fixed before any sample, so it can only be too small
 // (what it loses is at most its own samples). The floor is kNoiseFloor times the mean brightness
@@ -31,6 +34,22 @@
 #include "integrator/renderer.h"
 
 namespace spectrack {
+
+// Each pixel aims at kAdaptiveAim times the target: the image's error is the 95th percentile of
+// the pixels' errors as measured after the render, which drift from the prediction that stopped
+// them (the last round's samples change the sample variance), so pixels aimed exactly at the
+// target leave more than 5% of them above it.
+constexpr double kAdaptiveAim = 0.9;
+// A pixel's last round takes the samples it still needs, rounded up to a multiple of
+// 1 / kAdaptiveLastRoundSteps of the round (each length is one render of its pixels).
+constexpr int64_t kAdaptiveLastRoundSteps = 4;
+
+// A round that is not the pixel's last gets its weight B k / T from rho (1 + kAdaptiveWeightMargin
+// / sqrt(n)), not rho: a rho estimated too low from few samples would give the early rounds too
+// much weight, and a pixel whose fixed weights already hold more variance than its aim allows
+// (rho V >= aim^2) can no longer reach it, however many samples it takes; a weight too small
+// costs only part of its round's samples.
+constexpr double kAdaptiveWeightMargin = 4.0;
 
 struct AdaptivePlan {
   double target = 0;      // the relative error each pixel is brought to (noise.h's r_p)
@@ -53,10 +72,11 @@ struct AdaptivePixel {
 
 // The samples of the round that starts after n samples.
 int64_t adaptive_round_samples(int64_t n, const AdaptivePlan& plan);
-// A pixel's relative variance per sample, sigma^2 / max(m, floor)^2 (0 below 2 samples), and the
-// largest of it over each pixel's 3x3 neighbourhood: a pixel stops only when its neighbours would
-// (a rare bright path that its own pilot missed shows in a neighbour's), as Cycles' adaptive
-// sampling looks at neighbours. The window's pixels are row-major, width x height.
+// A pixel's relative variance per sample, sigma^2 / max(m, floor)^2 (0 below 2 samples), and per
+// pixel the larger of its own and the mean over its 3x3 neighbourhood: a pixel whose samples
+// missed a rare bright path that its neighbours drew does not stop (Cycles' adaptive sampling
+// looks at neighbours too), while one noisier than its neighbours keeps its own. The window's
+// pixels are row-major, width x height.
 double adaptive_relative_variance(const AdaptivePixel& px, double floor);
 std::vector<double> adaptive_neighbourhood(const std::vector<AdaptivePixel>& px, int width, int height, double floor);
 // The samples to come that bring rho (V + B^2 / T) to the aim (0: none needed, inf: out of reach).
@@ -64,6 +84,8 @@ double adaptive_samples_needed(const AdaptivePixel& px, double rho, const Adapti
 // The weight of the pixel's next round of k samples, from rounds so far only: B when it is the
 // last round (the pixel reaches its aim, or `cap` samples, with it), else B k / T (above).
 double adaptive_round_weight(const AdaptivePixel& px, int64_t k, int64_t cap, double rho, const AdaptivePlan& plan);
+// The samples the pixel takes in that round: k, or fewer in its last round.
+int64_t adaptive_round_length(const AdaptivePixel& px, int64_t k, int64_t cap, double rho, const AdaptivePlan& plan);
 // The samples the image's percentile pixel needs (noise.h kNoisePercentile over the counted pixels
 // of the rounds so far: the taken samples of finished pixels, taken plus needed of the others),
 // within [2 pilot, spp]: the image's error is that percentile's, so no pixel is given more.

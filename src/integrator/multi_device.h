@@ -37,6 +37,11 @@ struct MultiDeviceResult : RenderChoices, RunChoices {
   double adaptive_floor = 0;
 };
 
+// What one device's render says about its run, as a MultiDeviceResult of that device alone: the
+// timings, the kernel cache, what it ran with (RunChoices), the statistics and the stop flags (the
+// film, the device list and the settings are the caller's).
+MultiDeviceResult device_result(const RenderResult& res);
+
 // Renders samples [sample_begin, sample_begin + spp) of the settings' window (resolved from
 // `base`; base.device and base.progress are replaced per device, base.stop is honoured) on each
 // device of `devices`. chunk_spp <= 0 picks the chunk size (the whole range for one device).
