@@ -100,6 +100,10 @@ RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) 
   if (s.guiding && (o.pixel_bounds || s.sample_begin != 0))
     throw UsageError("guiding does not work with --pixel-bounds or --spp-range yet (its cache is trained over the "
                      "full film); use --guiding off for shards and tiles");
+  s.equiangular = o.equiangular.value_or(scene.render.equiangular >= 0 ? scene.render.equiangular : kDefaultEquiangular);
+  if (s.guiding && s.equiangular == kEquiangularOn)
+    throw UsageError("equi-angular sampling does not work with guiding yet (its MIS weights assume phase "
+                     "sampling); use --equiangular off or auto, or --guiding off");
   if (st_tracker_achromatic_only(s.tracker)) {
     for (auto& m : scene.media) {
       if (!achromatic(m.sigma_a) || !achromatic(m.sigma_s))

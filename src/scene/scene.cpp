@@ -262,7 +262,7 @@ void Parser::render(const json& j, const std::string& path, RenderDesc& r) {
   expect_object(j, path);
   fields(j, path,
          {"tracker", "spectral_scheme", "absorption", "light_sampling", "transmittance", "lookup", "color", "max_depth", "seed",
-          "time_limit", "guiding", "noise_target", "adaptive"});
+          "time_limit", "guiding", "noise_target", "adaptive", "equiangular"});
   // a name from one of the enum tables of kernels/types.h (scene/names.cpp): its value, or the
   // field named with the valid names
   auto named = [&](const char* key, const char* what, int (*from_name)(const std::string&), std::string (*names)(),
@@ -282,6 +282,7 @@ void Parser::render(const json& j, const std::string& path, RenderDesc& r) {
   named("lookup", "density lookup mode", lookup_from_name, lookup_names, &r.lookup);
   named("color", "colour mode", film_color_from_name, film_color_names, &r.color);
   named("guiding", "guiding mode", guiding_from_name, guiding_names, &r.guiding);
+  named("equiangular", "equi-angular mode", guiding_from_name, guiding_names, &r.equiangular);
   r.max_depth = static_cast<int>(integer(j, path, "max_depth", r.max_depth, -1, std::numeric_limits<int>::max()));
   const OptionCheck& seed = option_row("seed").check;  // the range of --seed
   r.seed = static_cast<uint32_t>(integer(j, path, "seed", r.seed, int64_t(seed.lo), int64_t(seed.hi)));
