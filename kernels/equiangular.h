@@ -109,36 +109,13 @@ inline float ea_flight_weight(__constant const st_scene* scene, __global const s
   return q_pea > 0.0f ? p_ff / (p_ff + q_pea) : 1.0f;
 }
 
-/* Starts the equi-angular entry of the path's segment p->depth (its ray p->o, p->d): stores the
- * segment (always: the tracker's weights read it) and, where the segment crosses a medium and may
- * still scatter (max_depth), draws the light and t from the entry's own stream and queues leg 1. */
-inline void ea_begin(__constant const st_scene* scene, __global st_shadow* shadows, __global uint* queues,
-                     __global uint* counters, uint Q, uint NL, uint cur, uint slot, st_path* p) {
-  const uint id = shadow_entry(slot, NL, shadow_lights(scene), p->depth, scene->n_lights);
-  __global st_shadow* e = &shadows[id];
-  float t0, t1;
-  ea_interval(scene, p->o.xyz, p->d.xyz, &t0, &t1);
-  e->seg_o = (float4)(p->o.xyz, t0);
-  e->seg_d = (float4)(p->d.xyz, t1);
-  if (!(t1 > t0) || (scene->max_depth >= 0 && p->depth >= scene->max_depth)) return;
-  const uint stream = ST_STREAM_EQUIANGULAR + (uint)p->depth;
-  st_rng rng = path_rng(scene, p, stream, 0u);
-  const int l = ea_pick(scene, rng_uniform(&rng));
-  st_ea_geom g;
-  const float u = rng_uniform(&rng);
-  if (l < 0 || !ea_geometry(scene->lights[l].position.xyz, e->seg_o, e->seg_d, &g)) return;
-  const float t = clamp(g.delta + g.D * tan(mix(g.theta_a, g.theta_b, u)), t0, t1);
-  const float q_pea = ea_density(scene, l, e->seg_o, e->seg_d, t);
-  const float4 mask = path_mask(scene, p);
-  const float4 weight = p->beta * mask / (q_pea + ea_flight_density(scene, t0, t));
-  if (!(q_pea > 0.0f) || !(masked_max(fabs(weight), mask) > 0.0f)) return;
-  shadow_begin(e, p->o.xyz, p->d.xyz, t, weight, mask, stream, slot);
-  e->rng_draw = rng_draw_index(&rng);
-  e->ea[0] = 1u;
-  e->ea[1] = (uint)l;
-  e->ea[2] = (uint)p->depth;
-  p->pending += 1;
-  queue_push(queues, counters, Q, NL, cur, ST_Q_SHADOW, id);
+/* The light sample at the equi-angular point x of an entry's stream (draws 2 and 3, so leg 2
+ * finds the same direction again): Le / pdf, the direction, its pdf and the shadow ray's end. */
+inline float4 ea_light_sample(__constant const st_scene* scene, __global const float* env, const st_path* p,
+                              uint stream, int l, float3 x, float3* wi, float* pdf_l, float* t_max) {
+  st_rng rng = path_rng(scene, p, stream, 2u);
+  const float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
+  return light_sample(&scene->lights[l], env, x, u1, u2, wi, pdf_l, t_max, rng.lambda);
 }
 
 /* The sum over the media at x of sigma_s f_phase(wo . wi), each medium's term times its MIS weight
@@ -162,23 +139,72 @@ inline float4 ea_scattering(__constant const st_scene* scene, __global const uin
   return sum;
 }
 
-/* Leg 1 of equi-angular entry sh is done (sh->tr.T: the transmittance from the segment's origin
- * to x): the weight takes it, the light sample at x and the scattering there, and the entry
- * becomes leg 2, the shadow ray from x to the light. Returns 1 when nothing is left to trace
- * (T = 0: nothing scatters at x, the light sends nothing, a surface blocks it). */
-inline int ea_second_leg(__constant const st_scene* scene, __global const uint* grids, __global const float* env,
-                         st_shadow* sh, float4 mask, st_rng* rng, uint* lookups) {
-  const float3 wo = sh->d.xyz, x = sh->o.xyz + sh->t_max * wo;
-  const int l = (int)sh->ea[1];
-  __constant const st_light* light = &scene->lights[l];
-  const float u1 = rng_uniform(rng), u2 = rng_uniform(rng);
+/* The equi-angular sample of segment p->depth towards light l at t: its contribution if both
+ * transmittances were 1, beta / (q p_ea + p_ff) Le / pdf sum(sigma_s f w) (0: nothing to trace). */
+inline float4 ea_unoccluded(__constant const st_scene* scene, __global const uint* grids, __global const float* env,
+                            const st_path* p, uint stream, int l, float t, float q_pea, float t0, st_rng* rng,
+                            uint* lookups) {
+  const float3 x = p->o.xyz + t * p->d.xyz;
   float3 wi;
   float pdf_l, t_max;
-  const float4 Le_over_pdf = light_sample(light, env, x, u1, u2, &wi, &pdf_l, &t_max, rng->lambda);
-  sh->weight *= sh->tr.T * Le_over_pdf *
-                ea_scattering(scene, grids, x, wo, wi, light->select_pmf * pdf_l, rng, lookups);
+  const float4 Le_over_pdf = ea_light_sample(scene, env, p, stream, l, x, &wi, &pdf_l, &t_max);
+  const float4 mask = path_mask(scene, p);
+  if (!(masked_max(fabs(Le_over_pdf), mask) > 0.0f) || surface_blocks(scene, x, wi, t_max, 0, l)) return (float4)(0.0f);
+  const float4 f = ea_scattering(scene, grids, x, p->d.xyz, wi, scene->lights[l].select_pmf * pdf_l, rng, lookups);
+  return p->beta * mask * Le_over_pdf * f / (q_pea + ea_flight_density(scene, t0, t));
+}
+
+/* Starts the equi-angular entry of the path's segment p->depth (its ray p->o, p->d): stores the
+ * segment (always: the tracker's weights read it) and, where the segment crosses a medium and may
+ * still scatter (max_depth), draws the light and t from the entry's own stream, evaluates the
+ * sample's unoccluded contribution (one density lookup per medium at x) and queues leg 1 unless it
+ * is 0 (outside a spot's cone, nothing scattering at x, a surface in the way). */
+inline void ea_begin(__constant const st_scene* scene, __global const uint* grids, __global const float* env,
+                     __global st_shadow* shadows, __global uint* queues, __global uint* counters, uint Q, uint NL,
+                     uint cur, uint slot, st_path* p) {
+  const uint id = shadow_entry(slot, NL, shadow_lights(scene), p->depth, scene->n_lights);
+  __global st_shadow* e = &shadows[id];
+  float t0, t1;
+  ea_interval(scene, p->o.xyz, p->d.xyz, &t0, &t1);
+  e->seg_o = (float4)(p->o.xyz, t0);
+  e->seg_d = (float4)(p->d.xyz, t1);
+  if (!(t1 > t0) || (scene->max_depth >= 0 && p->depth >= scene->max_depth)) return;
+  const uint stream = ST_STREAM_EQUIANGULAR + (uint)p->depth;
+  st_rng rng = path_rng(scene, p, stream, 0u);
+  const int l = ea_pick(scene, rng_uniform(&rng));
+  st_ea_geom g;
+  const float u = rng_uniform(&rng);
+  if (l < 0 || !ea_geometry(scene->lights[l].position.xyz, e->seg_o, e->seg_d, &g)) return;
+  const float t = clamp(g.delta + g.D * tan(mix(g.theta_a, g.theta_b, u)), t0, t1);
+  const float q_pea = ea_density(scene, l, e->seg_o, e->seg_d, t);
+  if (!(q_pea > 0.0f)) return;
+  rng = path_rng(scene, p, stream, 4u); /* draws 2 and 3: the light sample (ea_light_sample) */
+  const float4 mask = path_mask(scene, p);
+  uint lookups = 0u;
+  const float4 weight = ea_unoccluded(scene, grids, env, p, stream, l, t, q_pea, t0, &rng, &lookups);
+  counter_add(counters, ST_C_LOOKUPS_SHADOW, lookups);
+  if (!(masked_max(fabs(weight), mask) > 0.0f)) return;
+  shadow_begin(e, p->o.xyz, p->d.xyz, t, weight, mask, stream, slot);
+  e->rng_draw = rng_draw_index(&rng);
+  e->ea[0] = 1u;
+  e->ea[1] = (uint)l;
+  e->ea[2] = (uint)p->depth;
+  p->pending += 1;
+  queue_push(queues, counters, Q, NL, cur, ST_Q_SHADOW, id);
+}
+
+/* Leg 1 of equi-angular entry sh is done (sh->tr.T: the transmittance from the segment's origin
+ * to x): the weight takes it and the entry becomes leg 2, the shadow ray from x to the light along
+ * the light sample ea_begin evaluated. Returns 1 when nothing is left to trace (T = 0). */
+inline int ea_second_leg(__constant const st_scene* scene, __global const float* env, st_shadow* sh, const st_path* p,
+                         float4 mask) {
+  const float3 x = sh->o.xyz + sh->t_max * sh->d.xyz;
+  float3 wi;
+  float pdf_l, t_max;
+  ea_light_sample(scene, env, p, sh->stream, (int)sh->ea[1], x, &wi, &pdf_l, &t_max);
+  sh->weight *= sh->tr.T;
   sh->ea[0] = 2u;
-  if (!(masked_max(fabs(sh->weight), mask) > 0.0f) || surface_blocks(scene, x, wi, t_max, 0, l)) {
+  if (!(masked_max(fabs(sh->weight), mask) > 0.0f)) {
     sh->tr.T = (float4)(0.0f);
     return 1;
   }

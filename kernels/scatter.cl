@@ -193,8 +193,10 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     float p_dir = f;
     if (ST_HAS_GUIDING && alpha > 0.0f) p_dir = guide_mixture_pdf(alpha, vmf_mixture_pdf(&region->mix, wi), f);
     float w = pdf_l > 0.0f ? power_heuristic(light->select_pmf * pdf_l, p_dir) : 1.0f;
-    if (ea_on(scene) && !ground) /* MIS against the segment's equi-angular sample (equiangular.h) */
-      w *= ea_flight_weight(scene, &shadows[shadow_entry(slot, NL, shadow_lights(scene), p.depth, scene->n_lights)], l, p.o.xyz);
+    /* in a medium: MIS against the segment's equi-angular sample (equiangular.h) */
+    if (ea_on(scene) && p.medium != ST_MEDIUM_GROUND)
+      w *= ea_flight_weight(scene, &shadows[shadow_entry(slot, NL, shadow_lights(scene), p.depth, scene->n_lights)], l,
+                            p.o.xyz);
     float4 weight = p.beta * mask * Le_over_pdf * (f * w / pick_pmf);
     if (ground) weight *= albedo;
     if (!(masked_max(fabs(weight), mask) > 0.0f)) continue;
@@ -214,7 +216,7 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
   p.depth += 1;
   const int q = path_roulette(&p, mask, &rng);
   p.rng_draw = rng_draw_index(&rng);
-  if (ea_on(scene) && q == ST_Q_TRACK) ea_begin(scene, shadows, queues, counters, Q, NL, cur, slot, &p);
+  if (ea_on(scene) && q == ST_Q_TRACK) ea_begin(scene, grids, env, shadows, queues, counters, Q, NL, cur, slot, &p);
   paths[slot] = p;
   queue_push(queues, counters, Q, NL, cur, q, slot);
 }

@@ -31,7 +31,7 @@ __kernel void k_shadow(ST_STAGE_ARGS) {
   int done = transmittance_estimate(scene, grids, maj, sh.o.xyz, sh.d.xyz, sh.t_max, &t, &sh.tr, mask, importance, &rng,
                                     scene->iteration_budget, &st);
   if (done && ST_HAS_EQUIANGULAR && sh.ea[0] == 1u) { /* an equi-angular entry's leg 1 (equiangular.h) */
-    done = ea_second_leg(scene, grids, env, &sh, mask, &rng, &st.lookups);
+    done = ea_second_leg(scene, env, &sh, &p, mask);
     t = 0.0f;
   }
   sh.rng_draw = rng_draw_index(&rng);
