@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
-# bench/equiangular.sh [SPP] [SEEDS] (env SPECTRACK: the binary, default build/spectrack): equi-angular sampling towards local lights (--equiangular on)
-# against the tracker's collisions alone (off), docs/equiangular.md. Scenes written here (not
-# bench/scenes, which bench/bit_identity.sh renders with binaries that predate local lights):
+# bench/equiangular.sh [SPP] [SEEDS] [SCENES] (env SPECTRACK: the binary, default build/spectrack):
+# equi-angular sampling towards local lights (--equiangular on) against the tracker's collisions
+# alone (off), docs/equiangular.md. Scenes written here (not bench/scenes, which
+# bench/bit_identity.sh renders with binaries that predate local lights):
 #   searchlight: a spot through thin fog over a ground (the case the technique is for);
 #   lamp_thin / lamp_medium / lamp_dense: a point light inside a homogeneous fog box of optical
-#     depth ~0.1, ~1.2 and ~12 along its mean chord;
+#     depth ~0.1, ~1.3 and ~13 along its mean chord (inside a dense medium both estimators are
+#     heavy-tailed: paths that scatter next to the light);
+#   lamp_dense_outside: the dense box lit by the lamp from outside, above its front;
 #   cloud_lamp_thin / cloud_lamp: data/volumes/cloud.vdb (heterogeneous) at density scale 1 and 12
 #     with a point light beside it.
 # For each scene, one run of bench/pbrt_grid.py (a warm-up render per configuration, then the
@@ -14,6 +17,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 SPP=${1:-32}; SEEDS=${2:-4}; BIN=${SPECTRACK:-$PWD/build/spectrack}
+SCENES=${3:-"searchlight lamp_thin lamp_medium lamp_dense lamp_dense_outside cloud_lamp_thin cloud_lamp"}
 out=$(mktemp -d)
 /usr/bin/python3 - "$out" "$PWD" <<'PY'
 import copy, json, os, sys
@@ -35,6 +39,7 @@ scenes = {
     "lamp_thin": scene([lamp], [fog(0.05, 0.005)]),
     "lamp_medium": scene([lamp], [fog(0.5, 0.05)]),
     "lamp_dense": scene([lamp], [fog(5.0, 0.5)]),
+    "lamp_dense_outside": scene([dict(lamp, position=[0.3, 4.0, -2.5])], [fog(5.0, 0.5)]),
 }
 cloud = json.load(open(os.path.join(root, "data/scenes/cloud.json")))
 cloud["media"][0]["file"] = os.path.join(root, "data/volumes/cloud.vdb")
@@ -47,7 +52,7 @@ for name, scale in (("cloud_lamp_thin", 1.0), ("cloud_lamp", 12.0)):
 for name, s in scenes.items():
     json.dump(s, open(os.path.join(out, name + ".json"), "w"), indent=1)
 PY
-for s in searchlight lamp_thin lamp_medium lamp_dense cloud_lamp_thin cloud_lamp; do
+for s in $SCENES; do
   "$BIN" render "$out/$s.json" --spp 1 --equiangular auto --quiet -o "$out/$s.auto.exr" \
     --stats-json "$out/$s.auto.stats" >/dev/null
   /usr/bin/python3 -c "import json,sys;f=json.load(open(sys.argv[1]))['features'];print(sys.argv[2],'auto chooses', 'on' if f & (1 << 19) else 'off')" "$out/$s.auto.stats" "$s"
