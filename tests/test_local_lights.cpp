@@ -86,6 +86,22 @@ struct Case {
   bool gray, spectral;
 };
 
+// Every tracker (delta on a gray medium, which it needs), both absorption modes, both
+// transmittance estimators, rgb and spectral mode.
+const int R = ST_TRANSMITTANCE_RATIO, M = ST_TRANSMITTANCE_RAY_MARCHING, E = ST_ABSORPTION_EVENT,
+          W = ST_ABSORPTION_WEIGHT;
+const Case kEveryTracker[] = {{"delta-per-channel", E, R, false, false},   {"delta-per-channel", W, M, false, false},
+                              {"delta", E, R, true, false},                {"spectral", W, R, false, false},
+                              {"spectral", E, M, false, false},            {"decomposition", W, R, false, false},
+                              {"spectral-decomposition", W, R, false, false}, {"spectral-decomposition", E, M, false, false},
+                              {"spectral-mis", W, R, false, false},        {"spectral-mis", E, R, false, false},
+                              {"spectral-decomposition", W, R, true, true}, {"delta-per-channel", E, M, true, true}};
+
+std::string case_name(const Case& c) {
+  return std::string(c.tracker) + ", absorption " + absorption_name(c.absorption) + ", " +
+         transmittance_name(c.transmittance) + (c.gray ? ", gray" : "") + (c.spectral ? ", spectral" : "");
+}
+
 // Checks each channel of r against expected[c] (4 SE) and, with twin, that 1.03 x expected fails.
 void expect_integral(const RenderResult& r, const double expected[3], bool twin, const std::string& what) {
   EXPECT_EQ(r.stats.nonfinite_samples, 0u) << what;
@@ -97,29 +113,31 @@ void expect_integral(const RenderResult& r, const double expected[3], bool twin,
   }
 }
 
+// A case's scene (spectral mode: a gray light, the white illuminant's film colour being (1, 1, 1))
+// and its single-scattering integral per channel.
+json case_scene(const Case& c, int spp) {
+  json s = light_scene(point_light(), c.gray, spp);
+  if (c.spectral) s["lights"][0]["intensity"] = {3, 3, 3};
+  s["render"]["tracker"] = c.tracker;
+  if (c.spectral) s["render"]["color"] = "spectral";
+  return s;
+}
+
+void case_integral(const Case& c, double expected[3]) {
+  for (int ch = 0; ch < 3; ++ch)
+    expected[ch] = single_scattering(c.gray ? 0.2 : kSigmaA[ch], c.gray ? kGray : kSigmaS[ch], c.spectral ? 3 : kI[ch],
+                                     kPoint, [](const V3&) { return 1.0; });
+}
+
 // Single scattering from a point light: every tracker (delta on a gray medium, which it needs),
 // both absorption modes, both transmittance estimators, rgb and spectral mode.
 TEST(LocalLights, PointLightSingleScatteringMatchesTheIntegralInEveryTracker) {
   const std::string dir = temp_dir("point_single");
-  const int R = ST_TRANSMITTANCE_RATIO, M = ST_TRANSMITTANCE_RAY_MARCHING, E = ST_ABSORPTION_EVENT,
-            W = ST_ABSORPTION_WEIGHT;
-  const Case cases[] = {{"delta-per-channel", E, R, false, false},   {"delta-per-channel", W, M, false, false},
-                        {"delta", E, R, true, false},                {"spectral", W, R, false, false},
-                        {"spectral", E, M, false, false},            {"decomposition", W, R, false, false},
-                        {"spectral-decomposition", W, R, false, false}, {"spectral-decomposition", E, M, false, false},
-                        {"spectral-mis", W, R, false, false},        {"spectral-mis", E, R, false, false},
-                        {"spectral-decomposition", W, R, true, true}, {"delta-per-channel", E, M, true, true}};
-  for (const Case& c : cases) {
+  const Case* cases = kEveryTracker;
+  for (const Case& c : kEveryTracker) {
     const bool twin = &c == &cases[0] || &c == &cases[6];  // these also show that a 3% error is seen
-    const std::string what = std::string(c.tracker) + ", absorption " + absorption_name(c.absorption) + ", " +
-                             transmittance_name(c.transmittance) + (c.gray ? ", gray" : "") +
-                             (c.spectral ? ", spectral" : "");
-    // spectral mode: a gray light (the white illuminant's film colour is (1, 1, 1))
-    json s = light_scene(c.spectral ? json{{"type", "point"}, {"position", {kPoint[0], kPoint[1], kPoint[2]}}, {"intensity", {3, 3, 3}}}
-                                    : point_light(),
-                         c.gray, twin ? 4096 : 64);
-    s["render"]["tracker"] = c.tracker;
-    if (c.spectral) s["render"]["color"] = "spectral";
+    const std::string what = case_name(c);
+    json s = case_scene(c, twin ? 4096 : 64);
     RenderOptions o = quiet_options();
     o.absorption = c.absorption;
     o.transmittance = c.transmittance;
@@ -127,9 +145,7 @@ TEST(LocalLights, PointLightSingleScatteringMatchesTheIntegralInEveryTracker) {
     EXPECT_TRUE(r.features & ST_FEATURE_LOCAL_LIGHT) << what;
     EXPECT_FALSE(r.features & ST_FEATURE_ESCAPE) << "no escaping ray sees a point light";
     double expected[3];
-    for (int ch = 0; ch < 3; ++ch)
-      expected[ch] = single_scattering(c.gray ? 0.2 : kSigmaA[ch], c.gray ? kGray : kSigmaS[ch], c.spectral ? 3 : kI[ch],
-                                       kPoint, [](const V3&) { return 1.0; });
+    case_integral(c, expected);
     expect_integral(r, expected, twin, what);
   }
 }
@@ -317,26 +333,12 @@ TEST(LocalLights, BadFieldsAreRefusedByPath) {
 // seen) on the default tracker; on that tracker it lowers the variance at equal samples.
 TEST(Equiangular, OnAndOffMatchTheIntegralInEveryTracker) {
   const std::string dir = temp_dir("ea_single");
-  const int R = ST_TRANSMITTANCE_RATIO, M = ST_TRANSMITTANCE_RAY_MARCHING, E = ST_ABSORPTION_EVENT,
-            W = ST_ABSORPTION_WEIGHT;
-  const Case cases[] = {{"spectral-decomposition", W, R, false, false}, {"delta-per-channel", E, R, false, false},
-                        {"delta-per-channel", W, M, false, false},      {"delta", E, R, true, false},
-                        {"spectral", W, R, false, false},               {"spectral", E, M, false, false},
-                        {"decomposition", W, R, false, false},          {"spectral-decomposition", E, M, false, false},
-                        {"spectral-mis", W, R, false, false},           {"spectral-mis", E, R, false, false},
-                        {"spectral-decomposition", W, R, true, true},   {"delta-per-channel", E, M, true, true}};
-  for (const Case& c : cases) {
-    const bool twin = &c == &cases[0];
-    const std::string what = std::string(c.tracker) + ", absorption " + absorption_name(c.absorption) + ", " +
-                             transmittance_name(c.transmittance) + (c.gray ? ", gray" : "") + (c.spectral ? ", spectral" : "");
-    json s = light_scene(point_light(), c.gray, twin ? 1024 : 96);
-    if (c.spectral) s["lights"][0]["intensity"] = {3, 3, 3};  // gray: the white illuminant's film colour is 1
-    s["render"]["tracker"] = c.tracker;
-    if (c.spectral) s["render"]["color"] = "spectral";
+  for (const Case& c : kEveryTracker) {
+    const bool twin = &c == &kEveryTracker[6];  // spectral-decomposition, weight, ratio
+    const std::string what = case_name(c);
+    json s = case_scene(c, twin ? 1024 : 96);
     double expected[3];
-    for (int ch = 0; ch < 3; ++ch)
-      expected[ch] = single_scattering(c.gray ? 0.2 : kSigmaA[ch], c.gray ? kGray : kSigmaS[ch], c.spectral ? 3 : kI[ch],
-                                       kPoint, [](const V3&) { return 1.0; });
+    case_integral(c, expected);
     RenderResult res[2];
     for (int on = 0; on < 2; ++on) {
       RenderOptions o = quiet_options();
