@@ -374,12 +374,14 @@ TEST(Equiangular, SpotConeMatchesTheIntegral) {
   expect_integral(r, expected, true, "spot, equi-angular");
 }
 
-// A scene with every local light (point, spot, sphere), a ground and multiple scattering.
+// A scene with every local light (point, spot, sphere), a ground and multiple scattering; the
+// point light outside the box (a scatter event next to it has unbounded variance, which the
+// comparisons' standard errors could not hold).
 json all_local_lights(int spp) {
   json s = light_scene(point_light(), false, spp);
   s["render"].erase("max_depth");
   s["camera"] = {{"type", "perspective"}, {"position", {0.2, 0.3, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 40}};
-  s["lights"][0]["position"] = {0.5, 0.5, 0.1};
+  s["lights"][0]["position"] = {0.5, 1.5, 0.1};
   s["lights"].push_back({{"type", "spot"}, {"position", {-0.5, 0.8, -0.2}}, {"look_at", {0, -1, 0.3}},
                          {"intensity", {5, 4, 3}}, {"cone_angle_deg", 30}, {"cone_delta_deg", 8}});
   s["lights"].push_back({{"type", "sphere"}, {"position", {0.2, -0.4, 0.4}}, {"radius", 0.15}, {"radiance", {2, 3, 2}}});
@@ -392,7 +394,7 @@ json all_local_lights(int spp) {
 TEST(Equiangular, MultipleScatteringAgreesWithTheTrackerAlone) {
   const std::string dir = temp_dir("ea_multiple");
   for (const char* mode : {"rgb", "spectral", "delta-per-channel"}) {
-    json s = all_local_lights(256);
+    json s = all_local_lights(std::string(mode) == "rgb" ? 512 : 192);
     if (std::string(mode) == "spectral") s["render"]["color"] = "spectral";
     if (std::string(mode) == "delta-per-channel") s["render"]["tracker"] = mode;
     RenderOptions off = quiet_options(), on = quiet_options();
