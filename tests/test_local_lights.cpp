@@ -375,14 +375,14 @@ TEST(Equiangular, SpotConeMatchesTheIntegral) {
 }
 
 // A scene with every local light (point, spot, sphere), a ground and multiple scattering; the
-// point light outside the box (a scatter event next to it has unbounded variance, which the
+// point and spot lights outside the box (a scatter event next to it has unbounded variance, which the
 // comparisons' standard errors could not hold).
 json all_local_lights(int spp) {
   json s = light_scene(point_light(), false, spp);
   s["render"].erase("max_depth");
   s["camera"] = {{"type", "perspective"}, {"position", {0.2, 0.3, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 40}};
   s["lights"][0]["position"] = {0.5, 1.5, 0.1};
-  s["lights"].push_back({{"type", "spot"}, {"position", {-0.5, 0.8, -0.2}}, {"look_at", {0, -1, 0.3}},
+  s["lights"].push_back({{"type", "spot"}, {"position", {-0.5, 1.4, -0.2}}, {"look_at", {0, -1, 0.3}},
                          {"intensity", {5, 4, 3}}, {"cone_angle_deg", 30}, {"cone_delta_deg", 8}});
   s["lights"].push_back({{"type", "sphere"}, {"position", {0.2, -0.4, 0.4}}, {"radius", 0.15}, {"radiance", {2, 3, 2}}});
   s["ground"] = {{"height", -0.9}, {"albedo", {0.5, 0.5, 0.5}}};
