@@ -32,6 +32,11 @@
 #include "queues.h"
 
 inline int ea_on(__constant const st_scene* scene) { return ST_HAS_EQUIANGULAR && scene->equiangular.n_local > 0; }
+/* The equi-angular entry of segment s of the path in slot `slot` (its place in the shadow ring). */
+inline __global st_shadow* ea_entry(__constant const st_scene* scene, __global st_shadow* shadows, uint NL, uint slot,
+                                    int s) {
+  return &shadows[shadow_entry(slot, NL, shadow_lights(scene), s, scene->n_lights)];
+}
 inline int ea_light_is_target(__constant const st_light* l) { return l->type >= ST_LIGHT_POINT; }
 
 /* The target light of rank floor(u n_local) (-1: none). */
@@ -222,7 +227,7 @@ inline int ea_second_leg(__constant const st_scene* scene, __global const float*
 inline int ea_fold(__constant const st_scene* scene, __global st_shadow* shadows, __global float4* results, uint NL,
                    uint slot, const st_path* p, int s) {
   if (s < 0) return 0;
-  __global st_shadow* e = &shadows[shadow_entry(slot, NL, shadow_lights(scene), s, scene->n_lights)];
+  __global st_shadow* e = ea_entry(scene, shadows, NL, slot, s);
   if (e->state == ST_SHADOW_PENDING) return 1;
   if (e->state == ST_SHADOW_DONE)
     shadow_fold(scene, &shadows[slot * NL + (uint)scene->n_lights], e, (int)e->ea[2],

@@ -195,8 +195,7 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     float w = pdf_l > 0.0f ? power_heuristic(light->select_pmf * pdf_l, p_dir) : 1.0f;
     /* in a medium: MIS against the segment's equi-angular sample (equiangular.h) */
     if (ea_on(scene) && p.medium != ST_MEDIUM_GROUND)
-      w *= ea_flight_weight(scene, &shadows[shadow_entry(slot, NL, shadow_lights(scene), p.depth, scene->n_lights)], l,
-                            p.o.xyz);
+      w *= ea_flight_weight(scene, ea_entry(scene, shadows, NL, slot, p.depth), l, p.o.xyz);
     float4 weight = p.beta * mask * Le_over_pdf * (f * w / pick_pmf);
     if (ground) weight *= albedo;
     if (!(masked_max(fabs(weight), mask) > 0.0f)) continue;
