@@ -6,6 +6,7 @@
 #include "features.h"
 #include "spectrum.h"
 #include "queues.h"
+#include "equiangular.h"
 
 /* Spectral mode: the radiance layers a path wrote at its wavelengths (environment, emission and
  * direct passes) become linear sRGB through the film, as its beauty does. Alpha (1 - T) and the
@@ -42,11 +43,12 @@ __kernel void k_finish(ST_STAGE_ARGS) {
   const int training = ST_HAS_GUIDING && guide->inv_cell.w > 0.0f;
   __global st_guide_vertex* ring = training ? guide_ring(guide_records, (uint)guide->dims[3], Q, slot) : 0;
   const float4 mask = path_mask(scene, &p);
-  for (int k = shadow_ring(NL, scene->n_lights); k >= 1; --k) {
+  for (int k = shadow_ring(NL, shadow_lights(scene)); k >= 1; --k) {
     int bounce = p.depth - k;
+    if (ea_on(scene)) ea_fold(scene, shadows, results, NL, slot, &p, bounce + 1); /* the segment after it */
     if (bounce < 0) continue;
     for (int l = 0; l < scene->n_lights; ++l) {
-      __global st_shadow* e = &shadows[shadow_entry(slot, NL, scene->n_lights, bounce, l)];
+      __global st_shadow* e = &shadows[shadow_entry(slot, NL, shadow_lights(scene), bounce, l)];
       if (e->state != ST_SHADOW_DONE) continue;
       if (training) guide_credit(ring, 0, bounce - 1, p.depth, e->weight * e->tr.T, mask);
       shadow_fold(scene, &shadows[slot * NL + (uint)l], e, bounce, &results[p.result_index * (uint)scene->result_layers]);
@@ -58,7 +60,7 @@ __kernel void k_finish(ST_STAGE_ARGS) {
       guide_vertex_record(guide_records, guide, &ring[k % ST_GUIDE_RING], (uint4)(p.pixel, p.sample, p.channel, (uint)k));
   }
   float4 r = p.L;
-  for (uint l = 0; l < (uint)scene->n_lights; ++l) r += shadows[slot * NL + l].Ls;
+  for (uint l = 0; l < (uint)shadow_lights(scene); ++l) r += shadows[slot * NL + l].Ls;
   const uint L = (uint)scene->result_layers;
   __global float4* out = &results[p.result_index * L];
   if (spectral_mode(scene)) { /* the radiance at the path's four wavelengths becomes linear sRGB (w = 0) */

@@ -41,6 +41,26 @@ inline int medium_box_contains(__constant const st_medium* m, float3 pi) {
   return all(pi >= lo) && all(pi < hi);
 }
 
+/* Where the index-space ray (oi, di) (di without -0.0 components) enters and leaves medium m's
+ * box: *t_enter >= *t_exit when it misses. */
+inline void medium_box_interval(__constant const st_medium* m, float3 oi, float3 di, float* t_enter, float* t_exit) {
+  float3 lo = m->maj_origin.xyz;
+  float3 hi = lo + m->maj_origin.w * convert_float3((int3)(m->maj_dims[0], m->maj_dims[1], m->maj_dims[2]));
+  float3 inv = 1.0f / di;
+  float3 t0 = (lo - oi) * inv, t1 = (hi - oi) * inv;
+  float3 tmin = fmin(t0, t1), tmax = fmax(t0, t1);
+  /* axis-parallel rays: inside the slab -> (-inf, inf); outside -> empty (+inf, -inf). Set on the
+   * interval itself: an empty (t0, t1) = (+inf, -inf) would be swapped into the whole line by the
+   * fmin / fmax above, which made rays beside a box (orthographic cameras along an axis) walk it:
+   * null collisions only for tracking, but the decomposition trackers' control attenuated them. */
+  int3 par = di == 0.0f;
+  int3 in_slab = (oi >= lo) & (oi < hi);
+  tmin = select(tmin, select((float3)(INFINITY), (float3)(-INFINITY), in_slab), par);
+  tmax = select(tmax, select((float3)(-INFINITY), (float3)(INFINITY), in_slab), par);
+  *t_enter = fmax(fmax(tmin.x, tmin.y), tmin.z);
+  *t_exit = fmin(fmin(tmax.x, tmax.y), tmax.z);
+}
+
 /* Spectral mode (st_medium.spectral): the coefficients and emission are spectra, evaluated at the
  * path's wavelengths (kernels/spectrum.h); otherwise the rgb values themselves. */
 inline int medium_is_spectral(__constant const st_medium* m) { return ST_HAS_SPECTRAL && m->spectral; }

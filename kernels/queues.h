@@ -5,8 +5,8 @@
  * current buffer and pushes into the next buffers with atomic_inc on the next-size counters,
  * which the host reads once per iteration. Queues FREE..FINISH hold path slots (capacity Q);
  * FREE is the exception to the two buffers: one stack of free slots (free_push below).
- * SHADOW holds shadow-ray entry ids slot * NL + ring * n_lights + light (capacity Q * NL, NL =
- * n_lights * R, R the shadow ring of types.h). ST_STAGE_ARGS is the argument
+ * SHADOW holds shadow-ray entry ids slot * NL + ring * E + light (capacity Q * NL, NL = E * R, E
+ * the entries per bounce (shadow_lights), R the shadow ring of types.h). ST_STAGE_ARGS is the argument
  * list of every stage kernel, in the order of enum st_stage_arg (types.h), by which the host binds
  * them; `it` (st_iteration) holds the queue parity and sizes of the current iteration. */
 #ifndef SPECTRACK_QUEUES_H
@@ -18,6 +18,7 @@
 #include "sampling.h"
 #include "spectrum.h"
 #include "tracking.h"
+#include "transmittance.h"
 #include "guiding.h"
 
 #define ST_STAGE_ARGS                                                                              \
@@ -81,6 +82,11 @@ inline void flush_track_stats(__global uint* counters, const st_track_stats* st,
  * first), which leaves every entry of the slot empty for the next path (the host clears the
  * buffer once). So each accumulator has one writer and adds its terms in bounce order: the sums,
  * and the image, do not depend on the order in which shadow rays finish. */
+/* Entries per path slot and bounce: one per light, and with equi-angular sampling one more
+ * (equiangular.h), whose ring-0 entry's Ls is its accumulator as a light's is. */
+inline int shadow_lights(__constant const st_scene* scene) {
+  return scene->n_lights + (ST_HAS_EQUIANGULAR && scene->equiangular.n_local > 0 ? 1 : 0);
+}
 inline int shadow_ring(uint NL, int n_lights) { return n_lights > 0 ? (int)(NL / (uint)n_lights) : 1; }
 inline uint shadow_entry(uint slot, uint NL, int n_lights, int bounce, int light) {
   return slot * NL + (uint)(bounce % shadow_ring(NL, n_lights)) * (uint)n_lights + (uint)light;
@@ -101,6 +107,25 @@ inline void shadow_fold(__constant const st_scene* scene, __global st_shadow* ac
   acc->Ls += c;
   if (ST_HAS_AOV && scene->result_layers > ST_RESULT_LAYERS_AOV && bounce == 0) r[ST_RESULT_DIRECT] += c;
   e->state = ST_SHADOW_EMPTY;
+}
+
+/* A shadow entry's start: the ray from o along wi up to t_max (a local light's distance, else
+ * INFINITY), its weight, an empty transmittance estimate of the carried channels and its own
+ * random stream. */
+inline void shadow_begin(__global st_shadow* sh, float3 o, float3 wi, float t_max, float4 weight, float4 mask,
+                         uint stream, uint slot) {
+  sh->o = (float4)(o, 0.0f);
+  sh->d = (float4)(wi, 0.0f);
+  sh->t_max = t_max;
+  sh->weight = weight;
+  st_trans tr;
+  transmittance_begin(&tr, mask);
+  sh->tr = tr;
+  sh->rng_draw = 0u;
+  sh->stream = stream;
+  sh->slot = slot;
+  sh->state = ST_SHADOW_PENDING;
+  if (ST_HAS_GROUND) sh->catcher = 0u;
 }
 
 /* Spectral mode (st_film_color): the four wavelengths of sample (pixel, sample), shared by the

@@ -14,6 +14,7 @@
 #include "transmittance.h"
 #include "ground.h"
 #include "queues.h"
+#include "equiangular.h"
 #include "sampling.h"
 
 
@@ -227,8 +228,9 @@ __kernel void k_raygen(ST_STAGE_ARGS) {
   p.pending = 0;
   p.medium = 0;
   p.r_u = scene_lanes(scene);
+  if (ea_on(scene)) ea_begin(scene, grids, env, shadows, queues, counters, Q, NL, cur, slot, &p);
   paths[slot] = p;
   if (ST_HAS_AOV && scene->result_layers > 1) camera_layers_begin(scene, grids, maj, counters, results, &p);
-  for (uint l = 0; l < (uint)scene->n_lights; ++l) shadows[slot * NL + l].Ls = (float4)(0.0f);
+  for (uint l = 0; l < (uint)shadow_lights(scene); ++l) shadows[slot * NL + l].Ls = (float4)(0.0f);
   queue_push(queues, counters, Q, NL, cur, ST_Q_TRACK, slot);
 }

@@ -20,6 +20,7 @@
 #include "ground.h"
 #include "guiding.h"
 #include "queues.h"
+#include "equiangular.h"
 #include "raygen.cl"
 #include "track.cl"
 #include "shade.cl"

@@ -36,6 +36,7 @@
 #define ST_STREAM_WAVELENGTHS 0xfffffffdu /* spectral mode: a sample's wavelengths (queues.h path_wavelengths) */
 #define ST_STREAM_LENS 0xfffffffcu /* the thin lens: a camera ray's point on the lens disc (raygen.cl) */
 #define ST_STREAM_TIME 0xfffffffbu /* a sample's time in the shutter (queues.h path_shutter_u; hashed, not drawn) */
+#define ST_STREAM_EQUIANGULAR 0x80000000u /* + segment: a path segment's equi-angular sample (equiangular.h) */
 #define ST_RNG_NO_BLOCK 0xffffffffu /* ctr.w when no block is cached (never a block: k / 4 < 2^30) */
 
 typedef struct {

@@ -28,6 +28,7 @@
 #include "ground.h"
 #include "guiding.h"
 #include "queues.h"
+#include "equiangular.h"
 
 /* Folds the finished shadow entries of bounce depth - R (R: the shadow ring) into their lights'
  * accumulators, in a guide training pass crediting them to the ring's earlier vertices (ring not
@@ -35,9 +36,9 @@
 inline int shadows_busy(__constant const st_scene* scene, __global st_shadow* shadows, __global float4* results,
                         uint NL, uint slot, const st_path* p, __global st_guide_vertex* ring) {
   int busy = 0;
-  const int bounce = p->depth - shadow_ring(NL, scene->n_lights);
+  const int bounce = p->depth - shadow_ring(NL, shadow_lights(scene));
   for (int l = 0; l < scene->n_lights; ++l) {
-    __global st_shadow* e = &shadows[shadow_entry(slot, NL, scene->n_lights, p->depth, l)];
+    __global st_shadow* e = &shadows[shadow_entry(slot, NL, shadow_lights(scene), p->depth, l)];
     if (e->state == ST_SHADOW_PENDING) {
       busy = 1;
     } else if (e->state == ST_SHADOW_DONE) { /* the entry of bounce depth - R (R: the shadow ring) */
@@ -45,6 +46,8 @@ inline int shadows_busy(__constant const st_scene* scene, __global st_shadow* sh
       shadow_fold(scene, &shadows[slot * NL + (uint)l], e, bounce, &results[p->result_index * (uint)scene->result_layers]);
     }
   }
+  /* equi-angular sampling: the entry whose place the next segment's takes (equiangular.h) */
+  if (ea_on(scene)) busy |= ea_fold(scene, shadows, results, NL, slot, p, bounce + 1);
   return busy;
 }
 
@@ -70,25 +73,6 @@ inline int lights_to_sample(__constant const st_scene* scene, __constant const s
   return first;
 }
 
-/* A shadow entry's start: the ray from o along wi up to t_max (a local light's distance, else
- * INFINITY), its weight, an empty transmittance estimate of the carried channels and its own
- * random stream. */
-inline void shadow_begin(__global st_shadow* sh, float3 o, float3 wi, float t_max, float4 weight, float4 mask,
-                         uint stream, uint slot) {
-  sh->o = (float4)(o, 0.0f);
-  sh->d = (float4)(wi, 0.0f);
-  sh->t_max = t_max;
-  sh->weight = weight;
-  st_trans tr;
-  transmittance_begin(&tr, mask);
-  sh->tr = tr;
-  sh->rng_draw = 0u;
-  sh->stream = stream;
-  sh->slot = slot;
-  sh->state = ST_SHADOW_PENDING;
-  if (ST_HAS_GROUND) sh->catcher = 0u;
-}
-
 /* A camera ray at a shadow catcher (ground.h): with the shadow layer, one light sample per light,
  * its unshadowed estimate E = f Le / pdf (no beta, MIS or albedo) added to ST_RESULT_UNSHADOWED now
  * and a shadow ray that adds E T to ST_RESULT_SHADOW (queues.h shadow_fold); then the path ends. */
@@ -108,7 +92,7 @@ inline void shadow_catcher_event(__constant const st_scene* scene, __global cons
       if (!(masked_max(fabs(E), mask) > 0.0f)) continue;
       r[ST_RESULT_UNSHADOWED] += E;
       if (surface_blocks(scene, p->o.xyz, wi, t_max, 1, l)) continue; /* a sphere light's shadow: T = 0 */
-      uint id = shadow_entry(slot, NL, scene->n_lights, 0, l);
+      uint id = shadow_entry(slot, NL, shadow_lights(scene), 0, l);
       shadow_begin(&shadows[id], p->o.xyz, wi, t_max, E, mask, 1u + (uint)l, slot);
       shadows[id].catcher = 1u;
       p->pending += 1;
@@ -209,11 +193,14 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     float p_dir = f;
     if (ST_HAS_GUIDING && alpha > 0.0f) p_dir = guide_mixture_pdf(alpha, vmf_mixture_pdf(&region->mix, wi), f);
     float w = pdf_l > 0.0f ? power_heuristic(light->select_pmf * pdf_l, p_dir) : 1.0f;
+    /* in a medium: MIS against the segment's equi-angular sample (equiangular.h) */
+    if (ea_on(scene) && p.medium != ST_MEDIUM_GROUND)
+      w *= ea_flight_weight(scene, ea_entry(scene, shadows, NL, slot, p.depth), l, p.o.xyz);
     float4 weight = p.beta * mask * Le_over_pdf * (f * w / pick_pmf);
     if (ground) weight *= albedo;
     if (!(masked_max(fabs(weight), mask) > 0.0f)) continue;
     if (surface_blocks(scene, p.o.xyz, wi, t_max, ground, l)) continue;
-    uint id = shadow_entry(slot, NL, scene->n_lights, p.depth, l);
+    uint id = shadow_entry(slot, NL, shadow_lights(scene), p.depth, l);
     __global st_shadow* sh = &shadows[id];
     shadow_begin(sh, p.o.xyz, wi, t_max, weight, mask, 1u + (uint)p.depth * ST_MAX_LIGHTS + (uint)l, slot);
     p.pending += 1;
@@ -228,6 +215,7 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
   p.depth += 1;
   const int q = path_roulette(&p, mask, &rng);
   p.rng_draw = rng_draw_index(&rng);
+  if (ea_on(scene) && q == ST_Q_TRACK) ea_begin(scene, grids, env, shadows, queues, counters, Q, NL, cur, slot, &p);
   paths[slot] = p;
   queue_push(queues, counters, Q, NL, cur, q, slot);
 }

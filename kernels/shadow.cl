@@ -10,6 +10,7 @@
 #include "transmittance.h"
 #include "guiding.h"
 #include "queues.h"
+#include "equiangular.h"
 
 __kernel void k_shadow(ST_STAGE_ARGS) {
   const uint cur = it.cur, n = it.n_queue[ST_Q_SHADOW];
@@ -29,6 +30,10 @@ __kernel void k_shadow(ST_STAGE_ARGS) {
   const float4 importance = w_max > 0.0f ? w / w_max : mask;
   int done = transmittance_estimate(scene, grids, maj, sh.o.xyz, sh.d.xyz, sh.t_max, &t, &sh.tr, mask, importance, &rng,
                                     scene->iteration_budget, &st);
+  if (done && ST_HAS_EQUIANGULAR && sh.ea[0] == 1u) { /* an equi-angular entry's leg 1 (equiangular.h) */
+    done = ea_second_leg(scene, env, &sh, &p, mask);
+    t = 0.0f;
+  }
   sh.rng_draw = rng_draw_index(&rng);
   if (done) {
     sh.state = ST_SHADOW_DONE;

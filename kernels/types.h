@@ -236,11 +236,12 @@ enum st_feature {
   ST_FEATURE_GROUND = 1 << 16,        /* an infinite ground plane (ground.h): walks end at it, a surface vertex */
   ST_FEATURE_SPHERE_LIGHT = 1 << 17,  /* emitting spheres: rays end at them (ground.h), cone sampling (light.h) */
   ST_FEATURE_PHASE_SET = 1 << 18,     /* some medium has a Draine blend phase (draine, rayleigh, hg2, mie) */
+  ST_FEATURE_EQUIANGULAR = 1 << 19,   /* equi-angular samples towards local lights, MIS with free flights (equiangular.h) */
   ST_FEATURE_THIN_LENS = 1 << 21,     /* depth of field: the camera's lens radius is > 0 (raygen.cl camera_ray) */
   ST_FEATURE_TIME = 1 << 22,          /* each path has a time in the shutter that something reads: camera motion */
   ST_FEATURE_VELOCITY = 1 << 23,      /* some medium moves during the shutter (a velocity grid; medium.h); implies TIME */
   ST_FEATURE_ADAPTIVE = 1 << 27,      /* adaptive sampling: raygen starts paths of a list of pixels (queues.h active_pixels) */
-  ST_FEATURES_ALL = ((1 << 16) - 1) | ST_FEATURE_GROUND | ST_FEATURE_SPHERE_LIGHT | ST_FEATURE_PHASE_SET | ST_FEATURE_THIN_LENS | ST_FEATURE_TIME | ST_FEATURE_VELOCITY
+  ST_FEATURES_ALL = ((1 << 16) - 1) | ST_FEATURE_GROUND | ST_FEATURE_SPHERE_LIGHT | ST_FEATURE_PHASE_SET | ST_FEATURE_EQUIANGULAR | ST_FEATURE_THIN_LENS | ST_FEATURE_TIME | ST_FEATURE_VELOCITY
 };
 
 /* the wavefront's queues, counters and stage arguments */
@@ -380,6 +381,11 @@ typedef struct {
     st_int present;             /* 0: no ground */
     st_int spectral;            /* albedo holds the coefficients */
   } ground;
+  struct {                      /* equi-angular sampling (equiangular.h; features.h ST_HAS_EQUIANGULAR) */
+    st_int n_local;             /* local lights it samples towards (point, spot, sphere), each with 1 / n_local; 0: off */
+    float sigma_t;              /* the gray extinction (1/length) of the free-flight density its MIS weights assume */
+    st_int pad[2];
+  } equiangular;
 } st_scene;
 
 /* Path state, one slot per path in flight. */
@@ -437,6 +443,12 @@ typedef struct {
   st_uint state;      /* st_shadow_state */
   float t_max; st_uint catcher, pad[2]; /* t_max: where the ray ends (a local light's distance; else INFINITY);
                                          * catcher: 1 when it is the shadow catcher's (ground.h) */
+  /* equi-angular entries (equiangular.h; the entry after the lights'): the path's segment, its
+   * origin and t0 (w), its unit direction and t1 (w), which the tracker's MIS weights read too;
+   * ea: x the leg (0: not an equi-angular sample, 1: along the segment, 2: to the light), y the
+   * light, z the segment (the depth of the scatter events on it), w unused */
+  st_float4 seg_o, seg_d;
+  st_uint ea[4];
 } st_shadow;
 
 /* What changes from one iteration of the stage loop to the next (one by-value kernel argument). */
@@ -454,10 +466,10 @@ typedef struct {
 #define ST_SIZEOF_MEDIUM 336
 #define ST_SIZEOF_CAMERA 160
 #define ST_SIZEOF_LIGHT 112
-#define ST_SIZEOF_SCENE (ST_SIZEOF_CAMERA + ST_MAX_LIGHTS * ST_SIZEOF_LIGHT + ST_MAX_MEDIA * ST_SIZEOF_MEDIUM + 96 + 48)
+#define ST_SIZEOF_SCENE (ST_SIZEOF_CAMERA + ST_MAX_LIGHTS * ST_SIZEOF_LIGHT + ST_MAX_MEDIA * ST_SIZEOF_MEDIUM + 96 + 48 + 16)
 #define ST_SIZEOF_PATH 128
 #define ST_SIZEOF_TRANS 128
-#define ST_SIZEOF_SHADOW 224
+#define ST_SIZEOF_SHADOW 272
 #define ST_SIZEOF_ITERATION 64
 
 #ifdef __OPENCL_VERSION__

@@ -119,16 +119,20 @@ TEST(SphereLight, ThroughAnAbsorbingSlabIsAttenuated) {
 
 // Single scattering (max_depth 1) from the sphere inside a homogeneous box: light sampling in the
 // cone and phase sampling, combined by MIS, against the integral; several trackers, transmittance
-// estimators and light-sampling modes (with a second light, so one-light sampling chooses).
+// estimators and light-sampling modes (with a second light, so one-light sampling chooses), and
+// with equi-angular sampling towards the sphere's centre (kernels/equiangular.h; its twin too).
 TEST(SphereLight, SingleScatteringMatchesTheIntegral) {
   const std::string dir = temp_dir("sphere_single");
   struct Case {
-    int tracker, transmittance, light_sampling;
-  } cases[] = {{ST_TRACKER_SPECTRAL_DECOMPOSITION, ST_TRANSMITTANCE_RATIO, ST_LIGHT_SAMPLING_ALL},
-               {ST_TRACKER_DELTA_PER_CHANNEL, ST_TRANSMITTANCE_RAY_MARCHING, ST_LIGHT_SAMPLING_POWER},
-               {ST_TRACKER_SPECTRAL_MIS, ST_TRANSMITTANCE_RATIO, ST_LIGHT_SAMPLING_CONTRIBUTION}};
+    int tracker, transmittance, light_sampling, equiangular;
+  } cases[] = {{ST_TRACKER_SPECTRAL_DECOMPOSITION, ST_TRANSMITTANCE_RATIO, ST_LIGHT_SAMPLING_ALL, kEquiangularOff},
+               {ST_TRACKER_DELTA_PER_CHANNEL, ST_TRANSMITTANCE_RAY_MARCHING, ST_LIGHT_SAMPLING_POWER, kEquiangularOff},
+               {ST_TRACKER_SPECTRAL_MIS, ST_TRANSMITTANCE_RATIO, ST_LIGHT_SAMPLING_CONTRIBUTION, kEquiangularOff},
+               {ST_TRACKER_SPECTRAL_DECOMPOSITION, ST_TRANSMITTANCE_RATIO, ST_LIGHT_SAMPLING_ALL, kEquiangularOn},
+               {ST_TRACKER_DELTA_PER_CHANNEL, ST_TRANSMITTANCE_RAY_MARCHING, ST_LIGHT_SAMPLING_POWER, kEquiangularOn}};
   for (const Case& c : cases) {
-    json s = scene_with(sphere_light(), ortho({0, 0, -3}, {0, 0, 0}), &c == &cases[0] ? 2048 : 512);
+    const bool twin = &c == &cases[0] || &c == &cases[3];
+    json s = scene_with(sphere_light(), ortho({0, 0, -3}, {0, 0, 0}), twin ? 2048 : 512);
     s["render"]["max_depth"] = 1;
     s["media"] = {{{"type", "homogeneous"}, {"bounds", {{-1, -1, -1}, {1, 1, 1}}},
                    {"sigma_a", {kSigmaA[0], kSigmaA[1], kSigmaA[2]}}, {"sigma_s", {kSigmaS[0], kSigmaS[1], kSigmaS[2]}}}};
@@ -138,10 +142,12 @@ TEST(SphereLight, SingleScatteringMatchesTheIntegral) {
     o.tracker = c.tracker;
     o.transmittance = c.transmittance;
     o.light_sampling = c.light_sampling;
+    o.equiangular = c.equiangular;
     RenderResult r = Renderer(scene_from_json(s, dir), o).render();
+    EXPECT_EQ(bool(r.features & ST_FEATURE_EQUIANGULAR), c.equiangular == kEquiangularOn);
     double expected[3];
     for (int ch = 0; ch < 3; ++ch) expected[ch] = single_scattering(kSigmaA[ch], kSigmaS[ch], kL[ch]);
-    expect_values(r, expected, &c == &cases[0], tracker_name(c.tracker), 1e-4);
+    expect_values(r, expected, twin, std::string(tracker_name(c.tracker)) + (c.equiangular ? ", equi-angular" : ""), 1e-4);
   }
 }
 

@@ -85,6 +85,7 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
       throw Error(fmt::format("--lookup {}: unknown density lookup mode (one of: {})", a.lookup, lookup_names()));
   }
   if (!a.guiding.empty()) opt.guiding = guiding_from_name(a.guiding);  // checked by CLI11
+  if (!a.equiangular.empty()) opt.equiangular = guiding_from_name(a.equiangular);  // checked by CLI11
   if (a.spectral) opt.color = ST_FILM_COLOR_SPECTRAL;
   opt.march_spacing = a.march_spacing;
   opt.pilot_spacing = a.pilot_spacing;

@@ -36,7 +36,7 @@ BatchPlan Renderer::Impl::plan_batches(int spp) const {
   if (ring < 1 || ring > ST_MAX_SHADOW_RING)
     throw Error(fmt::format("shadow ring {} is outside 1..{}", ring, ST_MAX_SHADOW_RING));
   p.shadow_ring = uint64_t(ring);
-  p.NL = uint64_t(ds.packed.st.n_lights) * p.shadow_ring;
+  p.NL = shadow_lights(ds.packed.st) * p.shadow_ring;
   p.npix = settings.adaptive ? uint64_t(active_pixels.size()) : settings.window.pixels();
   p.nch = uint64_t(settings.channels_per_sample);
   p.spp = uint64_t(spp);

@@ -292,7 +292,7 @@ RenderResult Renderer::Impl::run_stage_loop(int64_t sample_begin, int spp, std::
   // image is the same; paths may wait for their shadow rays)
   if (!opt.shadow_ring && plan.shadow_ring > 1 && memory_need(plan).device > double(ds.dev.global_mem)) {
     plan.shadow_ring = 1;
-    plan.NL = uint64_t(ds.packed.st.n_lights);
+    plan.NL = shadow_lights(ds.packed.st);
   }
   check_memory(plan);  // refuse what cannot fit before allocating anything
   res.path_slots = plan.Q;

@@ -35,6 +35,12 @@ constexpr Stage kStages[] = {{"k_raygen", ST_Q_FREE},     {"k_track", ST_Q_TRACK
 static_assert(sizeof(kStages) / sizeof(kStages[0]) == ST_Q_COUNT, "one stage per queue");
 
 // How one render's paths are cut into batches of whole samples per pixel.
+// Shadow-ray entries per path slot and bounce: one per light, one more for equi-angular sampling
+// (kernels/queues.h shadow_lights).
+inline uint64_t shadow_lights(const st_scene& st) {
+  return uint64_t(st.n_lights) + (st.equiangular.n_local > 0 ? 1u : 0u);
+}
+
 struct BatchPlan {
   uint64_t Q = 0;            // path slots
   uint64_t shadow_ring = 1;  // shadow-ray entries per (path slot, light), types.h

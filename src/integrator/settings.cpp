@@ -42,6 +42,17 @@ void resolve_noise_target(const SceneDesc& scene, const RenderOptions& o, Render
                      "render.noise_target): it gives each pixel the samples that bring it to that target");
 }
 
+// Equi-angular sampling asked for (the scene packer resolves auto): the option, else the scene,
+// else kDefaultEquiangular; refused with guiding, whose scattered directions its MIS weights ignore.
+EquiangularMode resolve_equiangular(const SceneDesc& scene, const RenderOptions& o, bool guiding) {
+  const EquiangularMode e = o.equiangular ? checked_enum<EquiangularMode>(*o.equiangular, kEquiangularAuto + 1, "equi-angular mode")
+                                          : scene.render.equiangular.value_or(kDefaultEquiangular);
+  if (guiding && e == kEquiangularOn)
+    throw UsageError("equi-angular sampling does not work with guiding yet (its MIS weights assume phase "
+                     "sampling); use --equiangular off or auto, or --guiding off");
+  return e;
+}
+
 }  // namespace
 
 RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) {
@@ -100,6 +111,7 @@ RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) 
   if (s.guiding && (o.pixel_bounds || s.sample_begin != 0))
     throw UsageError("guiding does not work with --pixel-bounds or --spp-range yet (its cache is trained over the "
                      "full film); use --guiding off for shards and tiles");
+  s.equiangular = resolve_equiangular(scene, o, s.guiding);
   if (st_tracker_achromatic_only(s.tracker)) {
     for (auto& m : scene.media) {
       if (!achromatic(m.sigma_a) || !achromatic(m.sigma_s))

@@ -37,6 +37,12 @@ constexpr st_light_sampling kDefaultLightSampling = ST_LIGHT_SAMPLING_AUTO;
 // "all" below. bench/RESULTS.md "Light sampling by contribution": the bench scenes' values and
 // where one shadow ray per event starts to pay.
 constexpr double kAutoContributionLookups = 2.0;
+// Equi-angular sampling (docs/equiangular.md) when neither the command line nor the scene chooses,
+// and the rule of its "auto": on while the media's mean majorant optical depth along the mean chord
+// of their boxes (summed over media) is below kAutoEquiangularDepth (bench/RESULTS.md,
+// "Equi-angular sampling": where it pays and where it does not).
+constexpr EquiangularMode kDefaultEquiangular = kEquiangularOff;
+constexpr double kAutoEquiangularDepth = 1.0;
 // Transmittance estimator of shadow rays when neither the command line nor the scene chooses, and
 // the ray-marching spacings (majorant optical depth between samples; bench/RESULTS.md,
 // "Ray-marching transmittance").
@@ -75,6 +81,7 @@ struct RenderOptions {
   std::optional<int> color;             // st_film_color, else render.color (--spectral)
   std::optional<uint32_t> aovs;         // film layers, ST_AOV_BIT bits; else film.aovs (+ alpha if film.alpha)
   std::optional<int> guiding;           // GuidingMode (scene.h), else render.guiding, else auto
+  std::optional<int> equiangular;       // EquiangularMode (scene.h), else render.equiangular, else kDefaultEquiangular
   std::optional<std::array<double, 2>> shutter;  // [open, close] seconds (--shutter), else camera.shutter
   // Testing: called with the guide cache after every training pass's fit, before its upload (a
   // deliberately wrong cache must still give an unbiased image).
@@ -138,6 +145,7 @@ struct RenderSettings {
   int channels_per_sample = 1;  // paths per (pixel, sample): the per-channel trackers' lanes (st_paths_per_sample)
   GuidingMode guiding_requested = kGuidingAuto;  // as asked for (scene.h: off, on, auto)
   bool guiding = false;         // volume path guiding on: guiding_requested resolved (auto: off for now)
+  EquiangularMode equiangular = kDefaultEquiangular;  // as asked for (the scene packer resolves auto)
   // The shutter [open, close] in seconds (none: every path at time 0); the paths' times are
   // stratified over film.spp samples (the scene's, so every shard of a render has the same times)
   std::optional<std::array<double, 2>> shutter;

@@ -74,6 +74,18 @@ int Packer::resolve_light_sampling(int requested) const {
                                                                        : ST_LIGHT_SAMPLING_ALL;
 }
 
+// Equi-angular sampling (kernels/equiangular.h) towards every point, spot and sphere light, each
+// chosen with 1 / n_local; "auto" turns it on while the media are thin (settings.h
+// kAutoEquiangularDepth). Its MIS weights take the media's mean gray majorant extinction as the
+// free-flight density's rate.
+void Packer::set_equiangular(int requested) {
+  int n_local = 0;
+  for (int i = 0; i < st.n_lights; ++i) n_local += st.lights[i].type >= ST_LIGHT_POINT ? 1 : 0;
+  const bool on = requested == kEquiangularOn || (requested == kEquiangularAuto && chord_depth < kAutoEquiangularDepth);
+  st.equiangular.n_local = on && st.n_media > 0 ? n_local : 0;
+  st.equiangular.sigma_t = float(mean_sigma_maj);
+}
+
 // The probabilities with which next-event estimation picks each light (st_light::select_pmf):
 // 1 for every light with light sampling "all" (one shadow ray each) or "contribution" (chosen per
 // event: its MIS weights are all's, types.h) or a single light; 1 / n with "uniform"; with

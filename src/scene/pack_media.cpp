@@ -187,6 +187,8 @@ void Packer::add_medium(int i, const MediumDesc& md) {
     // bounding scales)
     chord_lookups += residual_majorant(1.0, 1.0, md.majorant_scale, md.minorant_scale, st_tracker_decomposes(tracker)) *
                      max_sigma_t(m) * mean_chord({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+    mean_sigma_maj += max_sigma_t(m);
+    chord_depth += max_sigma_t(m) * mean_chord({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
     return;
   }
 
@@ -246,6 +248,11 @@ void Packer::add_majorants(st_medium& m, const MediumDesc& md, const GridData& g
                         std::sqrt(w.m[0][a] * w.m[0][a] + w.m[1][a] * w.m[1][a] + w.m[2][a] * w.m[2][a]);
     info.chord_lookups = mg.dmax.empty() ? 0.0 : sum / double(mg.dmax.size()) * sigma_t * mean_chord(side);
     chord_lookups += info.chord_lookups;
+    double dmax_sum = 0;
+    for (float d : mg.dmax) dmax_sum += double(d);
+    const double mean_dmax = mg.dmax.empty() ? 0.0 : dmax_sum / double(mg.dmax.size());
+    mean_sigma_maj += mean_dmax * sigma_t;
+    chord_depth += mean_dmax * sigma_t * mean_chord(side);
   }
   const int B = opt.majorant_block;
   if (B > 1) {

@@ -102,6 +102,9 @@ struct Packer {
   // density lookups of a shadow ray crossing every medium along its box's mean chord (the sum of
   // MajorantInfo::chord_lookups, homogeneous media included): light sampling "auto"
   double chord_lookups = 0;
+  // equi-angular sampling (kernels/equiangular.h): the media's mean gray majorant extinction summed
+  // over media (1/length), and its optical depth along the mean chord of each medium's box, summed
+  double mean_sigma_maj = 0, chord_depth = 0;
 
   void add_medium(int i, const MediumDesc& md);
   void add_vdb_medium(st_medium& m, const MediumDesc& md, const std::string& ctx_name);
@@ -124,6 +127,8 @@ struct Packer {
   double add_env_cdf(st_light& l);
   void set_light_selection(int light_sampling);
   int resolve_light_sampling(int requested) const;
+  // st_scene::equiangular from the EquiangularMode asked for (auto: on in thin media)
+  void set_equiangular(int requested);
   // the camera (framed), its thin lens and its shutter and motion (the settings' shutter)
   void set_camera(const RenderSettings& s);
   uint32_t scene_features() const;

@@ -202,6 +202,9 @@ enum GuidingMode { kGuidingOff = 0, kGuidingOn = 1, kGuidingAuto = 2 };
 inline int guiding_from_name(const std::string& n) { return n == "off" ? 0 : n == "on" ? 1 : n == "auto" ? 2 : -1; }
 inline std::string guiding_names() { return "off, on, auto"; }
 inline const char* guiding_name(int mode) { return mode == 0 ? "off" : mode == 1 ? "on" : "auto"; }
+// Equi-angular sampling towards local lights (docs/equiangular.md): off, on, or auto (on where the
+// media are thin: settings.h kAutoEquiangularDepth); the names and values are guiding's.
+enum EquiangularMode { kEquiangularOff = kGuidingOff, kEquiangularOn = kGuidingOn, kEquiangularAuto = kGuidingAuto };
 
 // The scene's `render` section. A field the file does not give is empty (std::nullopt) where the
 // renderer's default depends on something else (the tracker's absorption) or lives in the
@@ -221,6 +224,7 @@ struct RenderDesc {
   double noise_target = 0;  // relative error of the image at which the render stops (integrator/noise.h); 0: none
   bool adaptive = false;    // adaptive sampling to noise_target (integrator/adaptive.h)
   std::optional<GuidingMode> guiding;  // none: auto
+  std::optional<EquiangularMode> equiangular;  // none: kDefaultEquiangular (settings.h)
 };
 
 struct SceneDesc {

@@ -59,6 +59,7 @@ uint32_t Packer::scene_features() const {
   if (st.lookup == ST_LOOKUP_STOCHASTIC && (f & ST_FEATURE_VDB)) f |= ST_FEATURE_STOCHASTIC_LOOKUP;
   if (st.result_layers > 1) f |= ST_FEATURE_AOV;
   if (st.ground.present) f |= ST_FEATURE_GROUND;
+  if (st.equiangular.n_local > 0) f |= ST_FEATURE_EQUIANGULAR | ST_FEATURE_LOCAL_LIGHT;
   return f | camera_features;
 }
 
@@ -90,6 +91,7 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
     st.ground.mode = scene.ground.mode;
     st.ground.albedo = st.ground.albedo_rgb = st_float4{float(a[0]), float(a[1]), float(a[2]), 0.0f};
   }
+  pk.set_equiangular(s.guiding ? kEquiangularOff : s.equiangular);
   const int light_sampling = pk.resolve_light_sampling(s.light_sampling);
   pk.set_light_selection(light_sampling);
   pk.set_camera(s);
