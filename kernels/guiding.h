@@ -157,16 +157,19 @@ typedef struct {
   st_float4 origin;   /* xyz: the grid's world-space corner; w: 1 when guided sampling is on */
   st_float4 inv_cell; /* xyz: cells per world unit along each axis; w: 1 when records are collected */
   st_int dims[4];     /* xyz: cells per axis; w: record capacity of the record buffer */
-  st_int guided_depth; /* scatter events of depth below this are guided, and record in training */
-  st_int pad[3];
+  st_int guided_depth; /* scatter events of depth below this are guided, and their records fit the mixtures */
+  st_int split_max;    /* guided roulette and splitting: the most paths one path splits into (0: off) */
+  float rr_below;      /* guided roulette below this ratio of expected contribution to the pixel's estimate */
+  float rr_floor;      /* the least survival probability of guided roulette */
 } st_guide_header;
 
 typedef struct {
   st_vmf_mixture mix; /* the incident radiance's directional distribution */
   float alpha;        /* selection probability of the guide (0: phase sampling only) */
   float records;      /* records of the region in the last training pass */
-  float radiance;     /* their mean weight: the mean of f_phase L / p_mix per unit throughput */
-  float pad;
+  float radiance;     /* guided roulette: the mean over its vertices of every depth of the radiance their
+                       * scattered directions brought back per unit throughput (records: how many) */
+  float weight;       /* the mean weight of the records the mixture was fitted to (f_phase L / p_mix) */
 } st_guide_region;
 
 /* One radiance record: a scatter vertex of a training path, the direction it scattered in and
@@ -177,11 +180,22 @@ typedef struct {
   st_uint key[4]; /* pixel, sample, channel, depth: the record's place in a canonical order */
 } st_guide_record;
 
-/* Per path slot in a training pass, what guiding keeps besides st_path (in the record buffer,
- * after the records): the radiance already credited to the path's vertices. */
+/* Record kinds besides the fit's (key.w the vertex depth): a vertex's radiance record (key.w its
+ * depth with ST_GUIDE_RECORD_RADIANCE set; dir.x its st_guide_vertex.total, dir.y its throughput's
+ * lane mean) and the path's end (key.w ST_GUIDE_RECORD_END, region -1, dir.x the path's radiance):
+ * the host joins them by (pixel, sample, channel) into the radiance that reached the vertex per
+ * unit throughput over the whole rest of the path, (end - total) / beta (guide_cache.cpp). */
+#define ST_GUIDE_RECORD_RADIANCE 0x80000000u
+#define ST_GUIDE_RECORD_END 0xffffffffu
+
+/* Per path slot, what guiding keeps besides st_path (in the record buffer, after the records): in
+ * a training pass the radiance already credited to the path's vertices; with splitting the camera
+ * sample's family of split paths (one child waits at a time: guided roulette and splitting below). */
 typedef struct {
   st_float4 L_seen; /* training: the path's st_path.L when last credited to its vertices */
-  st_float4 pad;
+  st_uint split[4]; /* splitting: the path's split id (its random key; 0: the camera path), the
+                     * children still waiting, the children started so far, 1 while a child resumes */
+  st_path saved;    /* splitting: the waiting children's state at their parent's scatter event */
 } st_guide_slot;
 
 /* The last ST_GUIDE_RING scatter vertices of a path in a training pass (vertex k at ring[k mod
@@ -191,16 +205,18 @@ typedef struct {
  * radiance its scattered direction brought back. */
 #define ST_GUIDE_RING 8
 typedef struct {
-  st_float4 pos;  /* xyz: the scatter position; w: the sum of (contribution / beta) credited so far */
-  st_float4 dir;  /* xyz: the scattered direction; w: f_phase at it */
-  st_float4 beta; /* the throughput that arrived at the vertex (before its scatter weight) */
+  st_float4 pos;   /* xyz: the scatter position; w: the sum of (contribution / beta) credited so far */
+  st_float4 dir;   /* xyz: the scattered direction; w: f_phase at it */
+  st_float4 beta;  /* the throughput that arrived at the vertex (before its scatter weight) */
+  st_float4 total; /* x: the path's radiance (lane mean) when the vertex entered, plus the later folds of the
+                    * shadow rays of its own and earlier bounces (none of its scattered direction's) */
 } st_guide_vertex;
 
 #define ST_SIZEOF_GUIDE_HEADER 64
 #define ST_SIZEOF_GUIDE_REGION 176
 #define ST_SIZEOF_GUIDE_RECORD 48
-#define ST_SIZEOF_GUIDE_SLOT 32
-#define ST_SIZEOF_GUIDE_VERTEX 48
+#define ST_SIZEOF_GUIDE_SLOT 160
+#define ST_SIZEOF_GUIDE_VERTEX 64
 #ifdef __OPENCL_VERSION__
 typedef char st_check_guide_slot[(sizeof(st_guide_slot) == ST_SIZEOF_GUIDE_SLOT) ? 1 : -1];
 typedef char st_check_guide_vertex[(sizeof(st_guide_vertex) == ST_SIZEOF_GUIDE_VERTEX) ? 1 : -1];
@@ -313,35 +329,44 @@ inline float guide_ratio(float4 c, float4 beta, float4 mask) {
 }
 
 /* Credits the contribution c to the ring's vertices of depths first .. last (those below 0 or out
- * of the ring are skipped). */
+ * of the ring are skipped); the ring's later vertices (depths last + 1 .. depth - 1) add it to
+ * what their record's radiance leaves out (st_guide_vertex.total). */
 inline void guide_credit(__global st_guide_vertex* ring, int first, int last, int depth, float4 c, float4 mask) {
   if (!(masked_max(fabs(c), mask) > 0.0f)) return;
-  for (int k = max(max(first, 0), depth - ST_GUIDE_RING); k <= last; ++k) {
+  for (int k = max(max(first, 0), depth - ST_GUIDE_RING); k < depth; ++k) {
     __global st_guide_vertex* v = &ring[k % ST_GUIDE_RING];
-    v->pos.w += guide_ratio(c, v->beta, mask);
+    if (k <= last) v->pos.w += guide_ratio(c, v->beta, mask);
+    else v->total.x += masked_avg(c, mask);
   }
 }
 
 /* Vertex `depth` of a training path enters the ring: its position, scattered direction wi with the
- * phase function's value f there, and the throughput beta_in that arrived at it. */
-inline void guide_ring_enter(__global st_guide_vertex* ring, int depth, float3 x, float3 wi, float f, float4 beta_in) {
+ * phase function's value f there, the throughput beta_in that arrived at it, and the path's
+ * radiance so far (lane mean) `total`. */
+inline void guide_ring_enter(__global st_guide_vertex* ring, int depth, float3 x, float3 wi, float f, float4 beta_in,
+                             float total) {
   __global st_guide_vertex* v = &ring[depth % ST_GUIDE_RING];
   v->pos = (float4)(x, 0.0f);
   v->dir = (float4)(wi, f);
   v->beta = beta_in;
+  v->total = (float4)(total, 0.0f, 0.0f, 0.0f);
 }
+
 
 /* The record of ring vertex k of a path: what its scattered direction brought back per unit
  * throughput arriving at it, f_phase L / p_mix (its credited sum): the fit's density then follows
  * the product of the phase function and the incident radiance, averaged over the region's
  * vertices (at the first scatter event their propagation directions are close: the camera's). */
 inline void guide_vertex_record(__global uint* rec, __global const st_guide_header* h, __global st_guide_vertex* v,
-                                uint4 key) {
-  if ((int)key.w >= h->guided_depth) return; /* only the guided scatter events record */
+                                uint4 key, float4 mask) {
+  const int region = guide_region_index(h, v->pos.x, v->pos.y, v->pos.z);
   float w = v->pos.w;
-  if (w > 0.0f && isfinite(w))
-    guide_record_push(rec, (uint)h->dims[3], v->pos.xyz, guide_region_index(h, v->pos.x, v->pos.y, v->pos.z), v->dir.xyz,
-                      w, key);
+  if ((int)key.w < h->guided_depth && w > 0.0f && isfinite(w)) /* only the guided scatter events fit */
+    guide_record_push(rec, (uint)h->dims[3], v->pos.xyz, region, v->dir.xyz, w, key);
+  const float b = masked_avg(fabs(v->beta), mask);
+  if (b > 0.0f && isfinite(v->total.x))
+    guide_record_push(rec, (uint)h->dims[3], v->pos.xyz, region, (float3)(v->total.x, b, 0.0f), 0.0f,
+                      (uint4)(key.xyz, key.w | ST_GUIDE_RECORD_RADIANCE));
 }
 /* A scatter event of a training path: credits what the path gathered since its last scatter
  * event (emission) to its vertices, records the vertex that leaves the ring; the slot's state
@@ -354,7 +379,107 @@ inline void guide_training_scatter(__global const st_guide_header* h, __global u
   gs->L_seen = p->L;
   if (p->depth >= ST_GUIDE_RING) /* vertex depth - RING leaves the ring */
     guide_vertex_record(rec, h, &ring[p->depth % ST_GUIDE_RING],
-                        (uint4)(p->pixel, p->sample, p->channel, (uint)(p->depth - ST_GUIDE_RING)));
+                        (uint4)(p->pixel, p->sample, p->channel, (uint)(p->depth - ST_GUIDE_RING)), mask);
+}
+
+/* The radiance a path has gathered so far, its lanes' mean: its L and its lights' accumulators
+ * (the folded shadow rays). */
+inline float guide_path_total(__global const st_shadow* shadows, uint NL, int n_lights, uint slot, const st_path* p,
+                              float4 mask) {
+  float4 r = p->L;
+  for (int l = 0; l < n_lights; ++l) r += shadows[slot * NL + (uint)l].Ls;
+  return masked_avg(r, mask);
+}
+
+/* A finished training path (its shadow rays folded): credits what it gathered since its last
+ * scatter event, records the vertices left in its ring and appends its end record. */
+inline void guide_training_finish(__global const st_guide_header* h, __global uint* rec, __global st_guide_vertex* ring,
+                                  uint slot, const st_path* p, float4 mask, float total) {
+  if (p->depth <= 0) return;
+  guide_credit(ring, 0, p->depth - 1, p->depth, p->L - guide_slot(rec, (uint)h->dims[3], slot)->L_seen, mask);
+  for (int k = max(0, p->depth - ST_GUIDE_RING); k < p->depth; ++k)
+    guide_vertex_record(rec, h, &ring[k % ST_GUIDE_RING], (uint4)(p->pixel, p->sample, p->channel, (uint)k), mask);
+  guide_record_push(rec, (uint)h->dims[3], (float3)(0.0f), -1, (float3)(total, 0.0f, 0.0f), 0.0f,
+                    (uint4)(p->pixel, p->sample, p->channel, ST_GUIDE_RECORD_END));
+}
+
+/* ---- guided Russian roulette and splitting (Vorba and Krivanek 2016, docs/guiding.md) ----
+ * After the regions the cache buffer holds the training passes' estimate of every film pixel (the
+ * mean over its samples and RGB channels). At a scatter event whose direction is not drawn yet,
+ * the ratio q of the path's expected contribution from there on (its throughput's lane mean times
+ * the region's mean radiance per unit throughput) to its pixel's estimate decides: below
+ * rr_below the path survives with probability max(q, rr_floor), its throughput divided by it;
+ * from 1.5 on it splits into n = min(round(q), split_max) paths of throughput beta / n. Both keep
+ * the expectation, for any cache. Splitting is depth first inside the path's slot: the parent goes
+ * on as the first path and the n - 1 others wait in the slot's st_guide_slot; when a path of the
+ * family finishes, the next waiting child restarts there (its parent's next-event estimation is
+ * not repeated), with random streams of its own (its split id in the key). The family's radiance
+ * carries over from path to path and the sample is written once, by its last path, so the image
+ * does not depend on the schedule, the device or the shard. While a child waits, the family does
+ * not split again (roulette still applies); a family starts at most ST_GUIDE_FAMILY_MAX children. */
+#define ST_GUIDE_FAMILY_MAX 64u
+
+inline __global const float* guide_pixel_estimates(__global const st_guide_header* h) {
+  return (__global const float*)(guide_regions(h) + h->dims[0] * h->dims[1] * h->dims[2]);
+}
+
+/* The slot's guide state where guided roulette and splitting are on (the render, not training). */
+inline __global st_guide_slot* guide_split_slot(__global const st_guide_header* h, __global uint* rec, uint slot) {
+  return ST_HAS_GUIDING && h->split_max > 0 ? guide_slot(rec, (uint)h->dims[3], slot) : 0;
+}
+
+/* The random key of the path in `slot`: its split id times an odd constant (a bijection of the
+ * 32-bit ids) folded into the key's second word; id 0, the camera path, keeps the plain key. */
+inline void guide_rng_key(st_rng* r, __global const st_guide_header* h, __global uint* rec, uint slot) {
+  __global st_guide_slot* gs = guide_split_slot(h, rec, slot);
+  if (gs) r->key.y ^= gs->split[0] * 0x9E3779B9u;
+}
+
+/* A new camera path in the slot: no family yet. */
+inline void guide_split_begin(__global const st_guide_header* h, __global uint* rec, uint slot) {
+  __global st_guide_slot* gs = guide_split_slot(h, rec, slot);
+  if (gs)
+    for (int k = 0; k < 4; ++k) gs->split[k] = 0u;
+}
+
+/* Guided roulette and splitting at the scatter event of *p (above): returns 0 when the path ends,
+ * n >= 2 when it splits (beta divided by n, n - 1 children saved in the slot), 1 when it goes on,
+ * and -1 where the region or the pixel has no estimate (the throughput's roulette applies). */
+inline int guide_rrs(__global const st_guide_header* h, __global st_guide_slot* gs, st_path* p, float4 mask, st_rng* rng) {
+  __global const st_guide_region* r = guide_regions(h) + guide_region_index(h, p->o.x, p->o.y, p->o.z);
+  const float estimate = guide_pixel_estimates(h)[p->pixel];
+  if (!(r->records > 0.0f) || !(estimate > 0.0f) || !(r->radiance >= 0.0f)) return -1;
+  const float q = masked_avg(fabs(p->beta), mask) * r->radiance / estimate;
+  if (q < h->rr_below) {
+    const float survive = fmax(q, h->rr_floor);
+    if (rng_uniform(rng) >= survive) return 0;
+    p->beta /= survive;
+    return 1;
+  }
+  const int n = min((int)fmin(q + 0.5f, 1e6f), h->split_max);
+  if (n < 2 || gs->split[1] > 0u || gs->split[2] + (uint)n > ST_GUIDE_FAMILY_MAX) return 1;
+  p->beta /= (float)n;
+  gs->saved = *p;
+  gs->split[1] = (uint)(n - 1);
+  return n;
+}
+
+/* A finished path of a family with a waiting child: the child takes the slot (its saved state, the
+ * family's radiance L so far, a new split id and stream) and resumes its parent's scatter event.
+ * Returns 1 when a child restarted (the sample is not written yet). */
+inline int guide_next_child(__global const st_guide_header* h, __global uint* rec, uint slot, st_path* p) {
+  __global st_guide_slot* gs = guide_split_slot(h, rec, slot);
+  if (!gs || gs->split[1] == 0u) return 0;
+  const float4 L = p->L;
+  *p = gs->saved;
+  p->L = L;
+  p->pending = 0;
+  p->rng_draw = 0u;
+  gs->split[1] -= 1u;
+  gs->split[2] += 1u;
+  gs->split[0] = gs->split[2];
+  gs->split[3] = 1u;
+  return 1;
 }
 #endif
 

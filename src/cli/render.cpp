@@ -84,6 +84,7 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
       throw Error(fmt::format("--lookup {}: unknown density lookup mode (one of: {})", a.lookup, lookup_names()));
   }
   if (!a.guiding.empty()) opt.guiding = guiding_from_name(a.guiding);  // checked by CLI11
+  if (!a.guide_splitting.empty()) opt.guide_splitting = a.guide_splitting == "on";
   if (a.spectral) opt.color = ST_FILM_COLOR_SPECTRAL;
   if (a.march_spacing > 0) opt.march_spacing = a.march_spacing;
   if (a.pilot_spacing > 0) opt.pilot_spacing = a.pilot_spacing;

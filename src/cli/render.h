@@ -18,7 +18,7 @@ namespace spectrack {
 
 struct RenderArgs {
   std::string scene, output, stats_json, preview, device, tracker, scheme, absorption, light_sampling, transmittance,
-      lookup, spp_range, pixel_bounds, frames, aov, compression, guiding, shutter;
+      lookup, spp_range, pixel_bounds, frames, aov, compression, guiding, guide_splitting, shutter;
   bool alpha = false, no_alpha = false, half = false, spectral = false;
   double march_spacing = 0, pilot_spacing = 0;  // 0: not given
   int spp = -1;

@@ -83,6 +83,11 @@ void add_estimator_flags(CLI::App* render, RenderArgs& ra) {
                      "volume path guiding (overrides render.guiding): on (training passes learn a radiance cache, "
                      "scattered directions follow it), off, or auto (default; off until measurements say where it pays)")
       ->check(one_of("guiding", {"off", "on", "auto"}));
+  render->add_option("--guide-splitting", ra.guide_splitting,
+                     "with guiding on: guided Russian roulette and splitting of paths by their expected contribution "
+                     "against the pixel's estimate from the training passes (on, the default; off: the throughput's "
+                     "roulette alone)")
+      ->check(one_of("guide-splitting", {"off", "on"}));
   render->add_flag("--spectral", ra.spectral,
                    "spectral mode (overrides render.color): each path carries three wavelengths, colours become smooth "
                    "spectra (Jakob and Hanika 2019), the film turns them into linear sRGB (docs/spectral.md)");

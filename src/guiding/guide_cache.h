@@ -33,6 +33,16 @@ constexpr int kGuideTrainingPasses = 3;
 // The training passes' random streams: the render's seed xor this.
 constexpr uint32_t kGuideTrainingSeed = 0x6a09e667u;
 
+// Guided roulette and splitting in the render (kernels/guiding.h guide_rrs): the most paths one
+// path splits into, the ratio of expected contribution to the pixel's estimate below which roulette
+// applies, and the least survival probability.
+constexpr int kGuideSplitMax = 8;
+constexpr float kGuideRouletteBelow = 0.25f;
+constexpr float kGuideSurvivalFloor = 0.25f;
+// The least pixel estimate, as a fraction of the film's mean: a dark pixel's estimate is noisy, and
+// its paths' expected contributions must not look huge against it (they would all split).
+constexpr double kGuidePixelFloor = 0.05;
+
 // Scatter events that are guided: those of depth below this (the first only). Guiding deeper events
 // measured worse on the bench scenes (bench/results/guiding_*.txt): in dense media one direction
 // moves the path by a mean free path, which changes little of what it brings back, while the weights
@@ -41,29 +51,41 @@ constexpr int kGuideDepth = 1;
 static_assert(kGuideDepth >= 1 && kGuideDepth <= ST_GUIDE_RING, "records of guided vertices come from the ring");
 
 // Bytes of the record buffer for Q path slots: the count, and in training passes the records of
-// one iteration (a slot records at most one vertex per scatter event and kGuideDepth when it
-// finishes), the slots' guide state and the vertex rings (kernels/guiding.h).
-inline uint64_t guide_record_capacity(uint64_t Q) { return Q * uint64_t(kGuideDepth + 1); }
-inline size_t guide_record_buffer_bytes(uint64_t Q, bool training) {
+// one iteration (a slot records the fit's and the radiance record of the vertex that leaves its
+// ring at a scatter event; when it finishes, those of its ring and its end record), the slots'
+// guide state and the vertex rings (kernels/guiding.h); with splitting in the render, the count
+// and the slots' state.
+inline uint64_t guide_record_capacity(uint64_t Q) { return Q * uint64_t(ST_GUIDE_RING + kGuideDepth + 1); }
+inline size_t guide_record_buffer_bytes(uint64_t Q, bool training, bool splitting = false) {
   return 16 + (training ? guide_record_capacity(Q) * sizeof(st_guide_record) +
                               Q * (sizeof(st_guide_slot) + ST_GUIDE_RING * sizeof(st_guide_vertex))
-                        : 0);
+                        : splitting ? Q * sizeof(st_guide_slot) : 0);
 }
 
 struct GuideCache {
   st_guide_header header{};
   std::vector<st_guide_region> regions;
-  size_t bytes() const { return sizeof(st_guide_header) + regions.size() * sizeof(st_guide_region); }
-  // The device buffer's contents: the header, then the regions.
+  std::vector<float> pixel_estimate;  // per film pixel: the training passes' mean over samples and RGB
+  size_t bytes() const {
+    return sizeof(st_guide_header) + regions.size() * sizeof(st_guide_region) + pixel_estimate.size() * sizeof(float);
+  }
+  // The device buffer's contents: the header, the regions, then the pixel estimates.
   std::vector<unsigned char> serialize() const;
 };
 
-// An empty cache (every alpha 0, guided sampling and training off) over the media of `st`.
+// An empty cache (every alpha 0, guided sampling, training and splitting off, pixel estimates 0)
+// over the media and the film of `st`.
 GuideCache make_guide_cache(const st_scene& st, int cells_longest_axis = kGuideGridCells);
 
-// Refits every region from `records` (any order; sorted here): the records of every scatter event
-// whose direction was guided (depth below kGuideDepth); regions with fewer than
-// kGuideMinRecords records get alpha 0 and the uniform mixture. Returns the regions that guide.
+// The pixel estimates from the training passes' sums of pixel means times spp over `samples`
+// samples: each pixel's mean, raised to kGuidePixelFloor times the film's mean.
+void set_pixel_estimates(GuideCache& cache, const std::vector<double>& sums, double samples);
+
+// Refits every region from `records` (any order; sorted here): its mixture from the records of the
+// scatter events whose direction was guided (depth below kGuideDepth), its radiance (guided
+// roulette's estimate) from the records of every depth; regions with fewer than kGuideMinRecords
+// records of either kind get alpha 0 and the uniform mixture, or no radiance estimate (records 0).
+// Returns the regions that guide.
 int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records);
 
 }  // namespace spectrack

@@ -263,8 +263,10 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
   if (sample_begin < 0 || spp < 1 || uint64_t(sample_begin) + uint64_t(spp) > (uint64_t(1) << 32))
     throw Error(fmt::format("sample range {}:{} is not a non-empty range of sample indices 0 .. 2^32",
                             sample_begin, sample_begin + spp));
-  const double seconds_training = settings.guiding && !guide_trained ? train_guide() : 0.0;
-  RenderResult res = run_stage_loop(sample_begin, spp, nullptr);
+  const double seconds_training = settings.guiding && !guide_trained ? train_guide(spp) : 0.0;
+  // the training passes' samples are part of the image: the render adds the rest
+  RenderResult res = run_stage_loop(sample_begin, spp - guide_samples.spp_done, nullptr);
+  add_guide_samples(res);
   res.seconds_render += seconds_training;  // efficiency counts the training
   res.guide = guide_info;
   return res;
@@ -293,7 +295,8 @@ RenderResult Renderer::Impl::run_stage_loop(int64_t sample_begin, int spp, std::
   if (settings.guiding) {  // training: records on, vertex rings, one iteration's records
     const uint64_t capacity = records ? guide_record_capacity(plan.Q) : 0;
     const uint32_t head[4] = {0, 0, 0, 0};
-    b_records = ds.buffer(CL_MEM_READ_WRITE, guide_record_buffer_bytes(plan.Q, records != nullptr), nullptr, "guide records");
+    b_records = ds.buffer(CL_MEM_READ_WRITE, guide_record_buffer_bytes(plan.Q, records != nullptr, guide.header.split_max > 0),
+                          nullptr, "guide records");
     ST_CL_CHECK(ds.queue.enqueueWriteBuffer(b_records, CL_TRUE, 0, sizeof(head), head), "clear the guide record count");
     guide.header.dims[3] = int(capacity);
     guide.header.inv_cell.w = records ? 1.0f : 0.0f;

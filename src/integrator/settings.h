@@ -67,6 +67,7 @@ struct RenderOptions {
   // deliberately wrong cache must still give an unbiased image).
   std::function<void(GuideCache&)> guide_cache_hook;
   int guide_grid_cells = 0;             // guide regions along the media box's longest axis; 0: kGuideGridCells
+  bool guide_splitting = true;          // with guiding: guided roulette and splitting in the render (guide_cache.h)
   std::string device;                   // "P:D", name substring, or "" (SPECTRACK_DEVICE, then default)
   int path_slots = 0;                   // paths in flight; 0 = by device type
   int iteration_budget = 256;           // tentative collisions + DDA steps per item and launch
