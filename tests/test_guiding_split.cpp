@@ -20,27 +20,21 @@ using nlohmann::json;
 
 namespace {
 
+// The furnaces of test_render.cpp: a lumpy HG medium under a uniform sky, white (no absorption)
+// or emissive (emission equal to the sky, so the radiance is the sky's everywhere).
 json furnace(const std::string& dir, bool emissive) {
   write_lumpy(dir + "/lumpy.vdb");
-  json s = {{"format", "spectrack-scene/1"},
-            {"camera", {{"type", "perspective"}, {"position", {0.2, 0.1, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 30}}},
-            {"film", {{"width", 12}, {"height", 12}, {"spp", 48}}},
-            {"render", {{"seed", 3}, {"light_sampling", "all"}}},
-            {"lights", json::array()},
-            {"media", json::array()}};
-  json m = {{"type", "vdb"}, {"file", "lumpy.vdb"}, {"density_scale", 4.0}, {"phase", {{"type", "hg"}, {"g", 0.4}}}};
-  if (emissive) {
-    m["sigma_a"] = {1.0, 2.0, 4.0};
-    m["sigma_s"] = {3.0, 1.0, 0.5};
-    m["emission"] = {{"radiance", {0.3, 0.6, 0.9}}};
-    s["lights"].push_back({{"type", "environment"}, {"radiance", {0.3, 0.6, 0.9}}});
-  } else {
-    m["sigma_a"] = {0, 0, 0};
-    m["sigma_s"] = {1.0, 3.0, 9.0};
-    s["lights"].push_back({{"type", "environment"}, {"radiance", {1, 1, 1}}});
-  }
-  s["media"].push_back(m);
-  return s;
+  const json sky = emissive ? json{0.3, 0.6, 0.9} : json{1, 1, 1};
+  json medium = {{"type", "vdb"}, {"file", "lumpy.vdb"}, {"density_scale", 4.0}, {"phase", {{"type", "hg"}, {"g", 0.4}}},
+                 {"sigma_a", emissive ? json{1.0, 2.0, 4.0} : json{0, 0, 0}},
+                 {"sigma_s", emissive ? json{3.0, 1.0, 0.5} : json{1.0, 3.0, 9.0}}};
+  if (emissive) medium["emission"] = {{"radiance", sky}};
+  return {{"format", "spectrack-scene/1"},
+          {"camera", {{"type", "perspective"}, {"position", {0.2, 0.1, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 30}}},
+          {"film", {{"width", 12}, {"height", 12}, {"spp", 48}}},
+          {"render", {{"seed", 3}, {"light_sampling", "all"}}},
+          {"lights", {{{"type", "environment"}, {"radiance", sky}}}},
+          {"media", {medium}}};
 }
 
 // Every region gets a radiance estimate, alternately 20 times and 1/20 of `level` (about the
