@@ -19,6 +19,10 @@ inline void spectral_layers_to_rgb(__global float4* out, uint L, float4 lambda, 
     out[ST_RESULT_EMISSION] = film_rgb(out[ST_RESULT_EMISSION], lambda, pdf, 4);
     out[ST_RESULT_DIRECT] = film_rgb(out[ST_RESULT_DIRECT], lambda, pdf, 4);
   }
+  if (ST_HAS_GROUND && L > ST_RESULT_UNSHADOWED) { /* the shadow catcher's irradiance estimates */
+    out[ST_RESULT_SHADOW] = film_rgb(out[ST_RESULT_SHADOW], lambda, pdf, 4);
+    out[ST_RESULT_UNSHADOWED] = film_rgb(out[ST_RESULT_UNSHADOWED], lambda, pdf, 4);
+  }
 }
 
 __kernel void k_finish(ST_STAGE_ARGS) {

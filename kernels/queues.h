@@ -52,6 +52,11 @@ inline void free_push(__global uint* queues, __global uint* counters, uint Q, ui
   queues[free_offset(Q) + base + i] = slot;
 }
 
+/* Adaptive sampling (ST_FEATURE_ADAPTIVE): after both parities of the queues, the list of the
+ * window pixels (row-major indices in the window) whose samples this render draws; a batch is
+ * whole samples of these pixels, in list order. */
+inline uint active_pixels_offset(uint Q, uint NL) { return 2u * ((uint)ST_Q_PATH_QUEUES * Q + Q * NL); }
+
 inline void counter_add(__global uint* counters, int c, uint v) {
   if (v) atomic_add(&counters[c], v);
 }
@@ -83,10 +88,16 @@ inline uint shadow_entry(uint slot, uint NL, int n_lights, int bounce, int light
 
 /* Adds finished entry e, of bounce `bounce`, to its light's accumulator acc and empties it; the
  * first scattering event's shadow rays also go to the direct pass (types.h ST_AOVS) of the path's
- * result `r` (its first float4 in the batch result buffer). */
+ * result `r` (its first float4 in the batch result buffer). A shadow catcher's entry (ground.h)
+ * goes to the shadow layer only. */
 inline void shadow_fold(__constant const st_scene* scene, __global st_shadow* acc, __global st_shadow* e, int bounce,
                         __global float4* r) {
   const float4 c = e->weight * e->tr.T;
+  if (ST_HAS_GROUND && e->catcher) {
+    r[ST_RESULT_SHADOW] += c;
+    e->state = ST_SHADOW_EMPTY;
+    return;
+  }
   acc->Ls += c;
   if (ST_HAS_AOV && scene->result_layers > ST_RESULT_LAYERS_AOV && bounce == 0) r[ST_RESULT_DIRECT] += c;
   e->state = ST_SHADOW_EMPTY;
@@ -119,6 +130,13 @@ inline float path_shutter_u(__constant const st_scene* scene, uint pixel, uint s
   return fmin(u - floor(u), 0x1.fffffep-1f);
 }
 
+/* The time of sample (pixel, sample) in seconds: open + u (close - open) (0 without a shutter). */
+inline float path_time(__constant const st_scene* scene, uint pixel, uint sample) {
+  __constant const st_camera* cam = &scene->camera;
+  if (!(cam->shutter.z > 0.0f)) return 0.0f;
+  return mix(cam->shutter.x, cam->shutter.y, path_shutter_u(scene, pixel, sample));
+}
+
 /* The lanes a path carries: its own lane for a per-channel tracker, else every lane of the scene. */
 inline float4 path_mask(__constant const st_scene* scene, const st_path* p) {
   return scene->n_channels_per_sample > 1 ? one_hot((int)p->channel) : scene_lanes(scene);
@@ -128,6 +146,7 @@ inline float4 path_mask(__constant const st_scene* scene, const st_path* p) {
 inline st_rng path_rng(__constant const st_scene* scene, const st_path* p, uint stream, uint draw) {
   st_rng r = rng_make(scene->seed, p->pixel, p->sample, p->channel, stream, draw);
   if (spectral_mode(scene)) r.lambda = p->lambda;
+  if (ST_HAS_VELOCITY) r.time = path_time(scene, p->pixel, p->sample);
   return r;
 }
 

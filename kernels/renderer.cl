@@ -17,6 +17,7 @@
 #include "tracking.h"
 #include "transmittance.h"
 #include "light.h"
+#include "ground.h"
 #include "guiding.h"
 #include "queues.h"
 #include "raygen.cl"

@@ -46,6 +46,9 @@ typedef struct {
   /* spectral mode: the path's wavelengths (x, y, z; queues.h path_rng), which every function that
    * draws for the path also needs to evaluate its spectra; 0 in rgb mode. Not part of the stream. */
   float4 lambda;
+  /* motion blur: the path's time in seconds (queues.h path_rng; 0 without a moving medium), at
+   * which every medium lookup of the path is made (medium.h). Not part of the stream. */
+  float time;
 } st_rng;
 
 /* The 64-bit product of two 32-bit words, high and low halves. Written as one widening multiply:
@@ -78,6 +81,7 @@ inline st_rng rng_make(uint seed, uint pixel, uint sample, uint channel, uint st
   r.key = (uint2)(seed, 0x5EC7AC4Bu);
   r.draw = draw;
   r.lambda = (float4)(0.0f);
+  r.time = 0.0f;
   return r;
 }
 

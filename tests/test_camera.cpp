@@ -16,8 +16,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <string>
 
+#include "scene/scene_pack.h"
 #include "test_util.h"
 
 using namespace spectrack;
@@ -271,6 +273,32 @@ TEST(Shutter, BadLensAndShutterFieldsAreRefusedByName) {
               s["camera"]["position_close"] = {0, 0, -3};
             }).find("/camera/position_close: camera motion needs"),
             std::string::npos);
+  // times the kernels cannot hold as floats
+  EXPECT_NE(err([](json& s) { s["camera"]["shutter"] = {0, 1e300}; }).find("/camera/shutter/1: value 1e+300 is out of range"),
+            std::string::npos);
+  EXPECT_NE(err([](json& s) { s["camera"]["shutter"] = {-3e38, 3e38}; }).find("/camera/shutter: its length"),
+            std::string::npos);
+  json wide = edge_scene("perspective", 4);
+  wide["camera"]["shutter"] = {-1e6, 1e6};
+  EXPECT_NO_THROW(scene_from_json(wide, dir));
+  // ray origins beyond the coordinate bound: the lens's rim, the camera at shutter close
+  auto pack_err = [&](const std::function<void(json&)>& edit) {
+    json s = edge_scene("perspective", 4);
+    edit(s);
+    SceneDesc d = scene_from_json(s, dir);
+    return error_of([&] { pack_scene(d, resolve_settings(d, quiet_options()), PackOptions{}); });
+  };
+  EXPECT_NE(pack_err([](json& s) { s["camera"]["aperture_radius"] = 1e30; }).find("/camera/aperture_radius: 1e+30 puts the lens beyond 2^60"),
+            std::string::npos);
+  EXPECT_NE(pack_err([](json& s) {
+              s["camera"]["shutter"] = {0, 1};
+              s["camera"]["position_close"] = {0, 0, -1e30};
+            }).find("/camera/position_close: (0, 0, -1e+30) is beyond 2^60"),
+            std::string::npos);
+  json lens = edge_scene("perspective", 4);
+  lens["camera"]["aperture_radius"] = 0.5;
+  SceneDesc lens_desc = scene_from_json(lens, dir);
+  EXPECT_NO_THROW(pack_scene(lens_desc, resolve_settings(lens_desc, quiet_options()), PackOptions{}));
   RenderOptions o = quiet_options();
   o.shutter = std::array<double, 2>{1.0, 0.0};
   EXPECT_NE(error_of([&] { render(edge_scene("perspective", 4), dir, o); }).find("shutter 1:0"), std::string::npos);

@@ -64,6 +64,8 @@ TEST_F(CliValues, ShutterValuesAreReadStrictly) {
   expect_usage({"--shutter", "0.02:0"}, {"--shutter", "CLOSE is before OPEN"});
   expect_usage({"--shutter", "0:nan"}, {"--shutter", "'nan' is not a finite number"});
   expect_usage({"--shutter", "0:1e999"}, {"--shutter", "not a finite number"});
+  expect_usage({"--shutter", "0:1e300"}, {"--shutter", "'1e300' is not a finite number (as a float)"});
+  expect_usage({"--shutter", "-3e38:3e38"}, {"--shutter", "CLOSE - OPEN is not finite"});
   expect_usage({"--shutter", "0"}, {"--shutter", "OPEN:CLOSE"});
   expect_usage({"--shutter", ":1"}, {"--shutter", "'' is not a finite number"});
   Proc ok = render({"--shutter", "-0.01:0.01"});

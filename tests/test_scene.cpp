@@ -539,7 +539,7 @@ TEST_F(SceneTest, DuplicateKeyIsAnError) {
 TEST_F(SceneTest, UnknownFieldAtRoot) {
   json j = example();
   j["lighs"] = json::array();
-  EXPECT_SCENE_ERROR(j, "/lighs", "unknown field (expected one of: format, camera, film, render, lights, media)");
+  EXPECT_SCENE_ERROR(j, "/lighs", "unknown field (expected one of: format, camera, film, render, lights, media, ground)");
 }
 
 TEST_F(SceneTest, UnknownFieldInSections) {
@@ -551,7 +551,7 @@ TEST_F(SceneTest, UnknownFieldInSections) {
   EXPECT_SCENE_ERROR(j, "/film/samples", "unknown field");
   j = example();
   j["render"]["scheme"] = "max";
-  EXPECT_SCENE_ERROR(j, "/render/scheme", "unknown field (expected one of: tracker, spectral_scheme, absorption, light_sampling, transmittance, lookup, color, max_depth, seed, time_limit, guiding, noise_target)");
+  EXPECT_SCENE_ERROR(j, "/render/scheme", "unknown field (expected one of: tracker, spectral_scheme, absorption, light_sampling, transmittance, lookup, color, max_depth, seed, time_limit, guiding, noise_target, adaptive)");
 }
 
 TEST_F(SceneTest, UnknownFieldInArrays) {

@@ -73,7 +73,8 @@ const std::string& film_table_source() {
 // Inlines files and their includes, each once, into `out`.
 class IncludeResolver {
  public:
-  explicit IncludeResolver(std::ostringstream& out) : out_(out) {}
+  IncludeResolver(std::ostringstream& out, const std::map<std::string, std::string>& files)
+      : out_(out), files_(files) {}
 
   void inline_file(const std::string& name, const std::string& includer) {
     if (!seen_.insert(name).second) return;
@@ -81,7 +82,7 @@ class IncludeResolver {
       out_ << "#line 1 \"<film_table.h: src/color/spectrum.cpp>\"\n" << film_table_source();
       return;
     }
-    const auto& files = embedded_kernel_sources();
+    const auto& files = files_;
     const bool pnanovdb = name == kPNanoVDB;
     auto it = files.find(pnanovdb ? "PNanoVDB.h" : name);
     if (it == files.end())
@@ -98,7 +99,10 @@ class IncludeResolver {
 
  private:
   void copy_resolving(const std::string& name, const std::string& shown, const std::string& text) {
-    static const std::regex include_line(R"re(^\s*#\s*include\s*"([^"]+)"\s*$)re");
+    // A quoted include, optionally followed by a one-line comment of either kind.
+    static const std::regex include_line(
+        R"re(^\s*#\s*include\s*"([^"]+)"\s*(//.*|/\*([^*]|\*+[^*/])*\*+/\s*)?$)re");
+    static const std::regex quoted_include(R"re(^\s*#\s*include\s*")re");
     std::istringstream in(text);
     std::string line;
     int number = 0;
@@ -106,6 +110,10 @@ class IncludeResolver {
     while (std::getline(in, line)) {
       ++number;
       if (!std::regex_match(line, m, include_line)) {
+        if (std::regex_search(line, quoted_include))  // never handed to the device compiler
+          throw Error(fmt::format("internal: {}:{}: an #include \"...\" the kernel assembler cannot "
+                                  "read (one file name, then at most a one-line comment): {}",
+                                  shown, number, line));
         out_ << line << "\n";
         continue;
       }
@@ -120,16 +128,22 @@ class IncludeResolver {
   }
 
   std::ostringstream& out_;
+  const std::map<std::string, std::string>& files_;
   std::set<std::string> seen_;
 };
 
 }  // namespace
 
-std::string kernel_files_source(const std::vector<std::string>& roots) {
+std::string kernel_files_source(const std::vector<std::string>& roots,
+                                const std::map<std::string, std::string>& files) {
   std::ostringstream out;
-  IncludeResolver resolver(out);
+  IncludeResolver resolver(out, files);
   for (const std::string& name : roots) resolver.inline_file(name, "");
   return out.str();
+}
+
+std::string kernel_files_source(const std::vector<std::string>& roots) {
+  return kernel_files_source(roots, embedded_kernel_sources());
 }
 
 std::string assemble_kernel_source(const std::vector<std::pair<std::string, std::string>>& defines,

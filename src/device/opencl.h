@@ -9,6 +9,7 @@
 #pragma once
 #include <CL/opencl.hpp>
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -61,6 +62,9 @@ std::string assemble_kernel_source(const std::vector<std::pair<std::string, std:
 // The named kernels/ files with what they include, each file once, with #line markers; no
 // defines and no pragma (the test programs that compile one header with their own kernel).
 std::string kernel_files_source(const std::vector<std::string>& roots);
+// The same over a given file set (name -> text) instead of the embedded kernels/ files.
+std::string kernel_files_source(const std::vector<std::string>& roots,
+                                const std::map<std::string, std::string>& files);
 
 // Directory of the kernel binary cache ("" when disabled).
 std::string kernel_cache_dir();

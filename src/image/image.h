@@ -56,7 +56,7 @@ struct RgbImage {
   std::vector<float> extra;
   Metadata meta;
 };
-// What an image is read for; the checks and conversions differ (image.cpp, README "Scenes").
+// What an image is read for; the checks and conversions differ (image.cpp, docs/limits.md).
 enum class ImageUse {
   kEnvironmentMap,  // 1 channel (gray, replicated), gray + alpha, or R, G, B (+ more, ignored);
                     // sRGB / gamma-encoded files are decoded to linear; the whole display window

@@ -2,6 +2,7 @@
 // progress sums and the first error; everything else (renderer, piece, stats) is per device
 // (MultiDeviceRun::PerDevice).
 #include "integrator/multi_device.h"
+#include "integrator/adaptive.h"
 
 #include <fmt/format.h>
 
@@ -242,6 +243,11 @@ MultiDeviceResult render_multi_device(const SceneDesc& scene, const RenderOption
   if (settings.guiding && n_dev > 1)
     throw UsageError("guiding renders on one device for now (each device would train its own cache); use --guiding "
                      "off with several devices");
+  if (settings.adaptive) {
+    if (n_dev > 1 || sample_begin != 0 || spp != settings.spp)
+      throw UsageError("adaptive sampling renders on one device, over the whole sample range");
+    return render_adaptive_film(scene, base, settings, devices[0]);
+  }
   if (chunk_spp <= 0) chunk_spp = n_dev == 1 ? spp : std::max(1, (spp + int(4 * n_dev) - 1) / int(4 * n_dev));
   MultiDeviceRun run(scene, base, settings, devices, sample_begin, spp, chunk_spp);
   run.run();

@@ -36,6 +36,9 @@ struct MultiDeviceResult : RenderChoices {
   int spp_requested = 0;
   bool time_limit_reached = false;  // some device stopped at RenderOptions::deadline
   bool noise_target_reached = false;  // the watch stopped the render at its noise target (not interrupted)
+  // adaptive sampling (integrator/adaptive.h; piece.pixel_samples): its rounds and brightness floor
+  int adaptive_rounds = 0;
+  double adaptive_floor = 0;
 };
 
 // Renders samples [sample_begin, sample_begin + spp) of the settings' window (resolved from

@@ -37,6 +37,7 @@ void Renderer::Impl::setup() {
   if (opt.generic_kernels) packed.features = ST_FEATURES_ALL;
   packed.features |= opt.feature_floor & uint32_t(ST_FEATURES_ALL);
   if (settings.guiding) packed.features |= ST_FEATURE_GUIDING;
+  if (settings.adaptive) packed.features |= ST_FEATURE_ADAPTIVE;
   const int max_media = opt.generic_kernels ? ST_MAX_MEDIA : std::max(1, packed.st.n_media);
   std::vector<std::pair<std::string, std::string>> defines = {
       {"ST_KERNEL_MAX_MEDIA", std::to_string(max_media)}, {"ST_FEATURES", fmt::format("0x{:x}u", packed.features)}};
@@ -254,6 +255,9 @@ void Renderer::Impl::read_film(const RenderBuffers& b, const BatchPlan& p, const
     if (settings.aovs & ST_AOV_BIT(ALBEDO))  // sums over the samples whose camera ray collided
       for (int k = 0; k < 3; ++k) res.aov_sum[i * na + a++] = layer(ST_RESULT_AUX, i, k);
     if (settings.aovs & ST_AOV_BIT(DEPTH)) res.aov_sum[i * na + a++] = layer(ST_RESULT_AUX, i, 3);
+    if (settings.aovs & ST_AOV_BIT(SHADOW))  // a shadow catcher's shadowed, then unshadowed estimates
+      for (int l : {ST_RESULT_SHADOW, ST_RESULT_UNSHADOWED})
+        for (int k = 0; k < 3; ++k) res.aov_sum[i * na + a++] = layer(l, i, k);
     if (settings.aovs & (ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH)))
       res.aov_sum[i * na + a++] = layer(ST_RESULT_ALPHA, i, 3);  // how many of them collided
   }
@@ -263,6 +267,10 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
   if (sample_begin < 0 || spp < 1 || uint64_t(sample_begin) + uint64_t(spp) > (uint64_t(1) << 32))
     throw Error(fmt::format("sample range {}:{} is not a non-empty range of sample indices 0 .. 2^32",
                             sample_begin, sample_begin + spp));
+  if (settings.adaptive && active_pixels.empty()) {  // a render of every pixel (Renderer::render)
+    active_pixels.resize(settings.window.pixels());
+    for (size_t i = 0; i < active_pixels.size(); ++i) active_pixels[i] = uint32_t(i);
+  }
   const double seconds_training = settings.guiding && !guide_trained ? train_guide(spp) : 0.0;
   // the training passes' samples are part of the image: the render adds the rest
   RenderResult res = run_stage_loop(sample_begin, spp - guide_samples.spp_done, nullptr);
@@ -284,7 +292,7 @@ RenderResult Renderer::Impl::run_stage_loop(int64_t sample_begin, int spp, std::
   BatchPlan plan = plan_batches(int(spp - before));
   // the default shadow ring falls back to one entry per (path, light) where two would not fit (the
   // image is the same; paths may wait for their shadow rays)
-  if (opt.shadow_ring == 0 && plan.shadow_ring > 1 && memory_need(plan).device > double(ds.dev.global_mem)) {
+  if (!opt.shadow_ring && plan.shadow_ring > 1 && memory_need(plan).device > double(ds.dev.global_mem)) {
     plan.shadow_ring = 1;
     plan.NL = uint64_t(ds.packed.st.n_lights);
   }
@@ -352,6 +360,14 @@ Renderer::~Renderer() = default;
 
 RenderResult Renderer::render() { return impl_->render(impl_->settings.sample_begin, impl_->settings.spp); }
 RenderResult Renderer::render(int64_t sample_begin, int spp) { return impl_->render(sample_begin, spp); }
+RenderResult Renderer::render_pixels(const std::vector<uint32_t>& window_pixels, int64_t sample_begin, int spp) {
+  if (!impl_->settings.adaptive) throw Error("internal: a render of a pixel list without adaptive sampling");
+  if (window_pixels.empty()) throw Error("internal: a render of no pixel");
+  for (uint32_t p : window_pixels)
+    if (p >= impl_->settings.window.pixels()) throw Error(fmt::format("internal: pixel {} outside the window", p));
+  impl_->active_pixels = window_pixels;
+  return impl_->render(sample_begin, spp);
+}
 const std::string& Renderer::device_name() const { return impl_->ds.dev.name; }
 uint32_t Renderer::features() const { return impl_->ds.packed.features; }
 const SceneDesc& Renderer::scene() const { return impl_->scene; }

@@ -115,6 +115,10 @@ class Renderer {
   // Renders samples [sample_begin, sample_begin + spp) of every window pixel (a shard of the full
   // sequence, e.g. one chunk of a multi-device render).
   RenderResult render(int64_t sample_begin, int spp);
+  // Adaptive sampling (settings().adaptive): renders samples [sample_begin, sample_begin + spp) of
+  // the listed window pixels only (row-major indices in the window); the result's sums (and
+  // rgb, aov_sum) hold those pixels in list order.
+  RenderResult render_pixels(const std::vector<uint32_t>& window_pixels, int64_t sample_begin, int spp);
 
   const std::string& device_name() const;
   uint32_t features() const;  // the kernels' st_feature mask

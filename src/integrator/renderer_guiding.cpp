@@ -68,7 +68,11 @@ void Renderer::Impl::add_guide_samples(RenderResult& res) {
 
 // The training passes: 1, 2, 4, ... samples per pixel (samples 0, 1-2, 3-6, ... of a seed of their
 // own), each guided by the cache the previous one fitted; records are fitted once per pass.
+// With adaptive sampling the passes run in the first round (the pilot), over every pixel in film
+// order, so their film adds to that round's as in a plain render.
 double Renderer::Impl::train_guide(int spp) {
+  if (settings.adaptive && active_pixels.size() != size_t(settings.window.pixels()))
+    throw Error("internal: guide training in an adaptive round that does not cover every pixel");
   auto t0 = Clock::now();
   const uint32_t seed = ds.packed.st.seed;
   ds.packed.st.seed = seed ^ kGuideTrainingSeed;
@@ -95,7 +99,7 @@ double Renderer::Impl::train_guide(int spp) {
   }
   guide.header.inv_cell.w = 0.0f;  // no records in the render
   set_pixel_estimates(guide, pixel_sum, double(std::max<int64_t>(begin, 1)));
-  if (opt.guide_splitting) {
+  if (settings.guide_splitting) {
     guide.header.split_max = kGuideSplitMax;
     guide.header.rr_below = kGuideRouletteBelow;
     guide.header.rr_floor = kGuideSurvivalFloor;

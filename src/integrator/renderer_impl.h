@@ -98,6 +98,10 @@ struct Renderer::Impl {
   bool guide_trained = false;
   RenderResult guide_samples;  // the training passes' film sums, added to the first render's image
 
+  // adaptive sampling: the window pixels the next stage loop renders (kernels/queues.h
+  // active_pixels_offset); empty without adaptive sampling
+  std::vector<uint32_t> active_pixels;
+
   void setup();
   void warm_kernels();
   RenderResult render(int64_t sample_begin, int spp);
@@ -113,7 +117,7 @@ struct Renderer::Impl {
   // Paths per batch (rounded up to whole samples): 2Q with two batches in flight, so one batch
   // fills the slots while the other finishes; Q with the ring, so the first pass is done sooner.
   uint64_t batch_target_paths(uint64_t Q) const {
-    return (opt.batches_in_flight > 0 && opt.batches_in_flight <= 2) ? 2 * Q : Q;
+    return opt.batches_in_flight.value_or(ST_MAX_BATCHES_IN_FLIGHT) <= 2 ? 2 * Q : Q;
   }
   // Batches that may be issued beyond the accumulated ones: the first batch alone (its longest
   // paths finish sooner without later batches sharing the device, so the first pass, a preview,

@@ -22,6 +22,19 @@ FilmWindow resolve_window(const SceneDesc& scene, const RenderOptions& o) {
   return FilmWindow{x0, y0, x1 - x0, y1 - y0};
 }
 
+// The noise target and adaptive sampling; a noise target is measured from the variance layer
+// (integrator/noise.h), which it adds.
+void resolve_noise_target(const SceneDesc& scene, const RenderOptions& o, RenderSettings& s) {
+  s.noise_target = o.noise_target.value_or(scene.render.noise_target);
+  if (!(s.noise_target >= 0 && s.noise_target <= 1))
+    throw Error(fmt::format("noise target {} is not a relative error in (0, 1] (0: none)", s.noise_target));
+  if (s.noise_target > 0) s.aovs |= ST_AOV_BIT(VARIANCE);
+  s.adaptive = o.adaptive.value_or(scene.render.adaptive);
+  if (s.adaptive && s.noise_target <= 0)
+    throw UsageError("adaptive sampling (--adaptive, render.adaptive) needs a noise target (--noise-target, "
+                     "render.noise_target): it gives each pixel the samples that bring it to that target");
+}
+
 }  // namespace
 
 RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) {
@@ -61,12 +74,9 @@ RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) 
   // holds what RGB leaves out
   s.aovs = o.aovs ? *o.aovs : (scene.film.aovs | (scene.film.alpha.value_or(false) ? uint32_t(ST_AOV_BIT(ALPHA)) : 0u));
   if (s.aovs >= (1u << ST_AOV_COUNT)) throw Error(fmt::format("film layer mask 0x{:x} names layers that do not exist", s.aovs));
+  if (scene.ground.present && scene.ground.mode == ST_GROUND_SHADOW_CATCHER) s.aovs |= ST_AOV_BIT(SHADOW);  // ground.h
   if (s.aovs & ST_AOV_BIT(ALPHA)) s.aovs |= ST_AOV_BIT(ENVIRONMENT);
-  // a noise target is measured from the variance layer (integrator/noise.h)
-  s.noise_target = o.noise_target.value_or(scene.render.noise_target);
-  if (!(s.noise_target >= 0 && s.noise_target <= 1))
-    throw Error(fmt::format("noise target {} is not a relative error in (0, 1] (0: none)", s.noise_target));
-  if (s.noise_target > 0) s.aovs |= ST_AOV_BIT(VARIANCE);
+  resolve_noise_target(scene, o, s);
   s.seed = o.seed ? uint32_t(*o.seed) : scene.render.seed;
   s.spp = o.spp.value_or(scene.film.spp);
   s.shutter = o.shutter ? o.shutter : scene.camera.shutter;
@@ -85,7 +95,9 @@ RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) 
   // cache is trained over the full film and every sample from 0, so a window or a sample range
   // would train another cache than the single render's: refused for now
   const int guiding = o.guiding.value_or(scene.render.guiding >= 0 ? scene.render.guiding : int(kGuidingAuto));
+  s.guiding_requested = guiding;
   s.guiding = guiding == kGuidingOn;
+  s.guide_splitting = s.guiding && o.guide_splitting;
   if (s.guiding && (o.pixel_bounds || s.sample_begin != 0))
     throw UsageError("guiding does not work with --pixel-bounds or --spp-range yet (its cache is trained over the "
                      "full film); use --guiding off for shards and tiles");

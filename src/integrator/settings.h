@@ -6,6 +6,9 @@
 // the film, and returns plain RenderSettings (tracker, scheme, seed, samples, pixel window,
 // channels per sample). Every consumer (Renderer, the render identity of a film piece, the
 // multi-device and MPI drivers, the CLI) takes the resolved settings; nothing else re-derives them.
+// An `auto` choice is recorded twice, as requested and as used: light_sampling and
+// light_sampling_used (RenderResult, resolved by the scene packer), guiding_requested and
+// guiding (resolved here; the statistics' guiding and guiding_used).
 #pragma once
 #include <array>
 #include <atomic>
@@ -44,6 +47,15 @@ constexpr double kDefaultPilotSpacing = 2.0;
 constexpr int kDefaultLookup = ST_LOOKUP_TRILINEAR;
 // Shadow-ray entries per (path, light) (types.h; bench/RESULTS.md, "No waiting paths").
 constexpr int kDefaultShadowRing = 2;
+// Tentative collisions + DDA steps per item and kernel launch (unfinished items are re-queued).
+constexpr int kDefaultIterationBudget = 256;
+// Paths in flight by device type (batch_plan.cpp).
+constexpr int kDefaultPathSlotsCpu = 1 << 16, kDefaultPathSlotsGpu = 1 << 20;
+// Fine cells per block edge of the adaptive majorant hierarchy (docs/majorant-hierarchy.md).
+constexpr int kDefaultMajorantBlock = 8;
+// The hierarchy's automatic step cost in density lookups per DDA step (auto_majorant_step_cost,
+// scene/pack_media.cpp), and that of spectral trackers that decompose media with a control.
+constexpr double kMajorantStepCost = 0.6, kMajorantStepCostControl = 2.0;
 
 struct RenderOptions {
   std::optional<int> spp;               // samples per pixel (else film.spp)
@@ -69,14 +81,14 @@ struct RenderOptions {
   int guide_grid_cells = 0;             // guide regions along the media box's longest axis; 0: kGuideGridCells
   bool guide_splitting = true;          // with guiding: guided roulette and splitting in the render (guide_cache.h)
   std::string device;                   // "P:D", name substring, or "" (SPECTRACK_DEVICE, then default)
-  int path_slots = 0;                   // paths in flight; 0 = by device type
-  int iteration_budget = 256;           // tentative collisions + DDA steps per item and launch
+  std::optional<int> path_slots;        // paths in flight; else by device type (kDefaultPathSlotsCpu/Gpu)
+  int iteration_budget = kDefaultIterationBudget;  // tentative collisions + DDA steps per item and launch
   int majorant_cell = 0;                // voxels per fine majorant-cell edge; 0: automatic (2, coarser for huge grids)
-  int majorant_block = 8;               // fine cells per block edge of the adaptive majorant hierarchy; 0 or 1 = one level
-  double majorant_step_cost = -1;       // the hierarchy's cost model: one DDA step, in density lookups; < 0: automatic
+  int majorant_block = kDefaultMajorantBlock;  // fine cells per block edge of the majorant hierarchy; 0 or 1: one level
+  std::optional<double> majorant_step_cost;  // the hierarchy's cost model: one DDA step, in density lookups; else automatic
   bool generic_kernels = false;         // the generic kernel (every feature) instead of one specialised to the scene
-  int batches_in_flight = 0;            // batch result buffers in the ring (0: ST_MAX_BATCHES_IN_FLIGHT; 2: the old scheme)
-  int shadow_ring = 0;                  // shadow-ray entries per (path, light), 1..ST_MAX_SHADOW_RING (types.h); 0: kDefaultShadowRing
+  std::optional<int> batches_in_flight;  // batch result buffers in the ring (else ST_MAX_BATCHES_IN_FLIGHT)
+  std::optional<int> shadow_ring;       // shadow-ray entries per (path, light), 1..ST_MAX_SHADOW_RING (types.h); else kDefaultShadowRing
   // st_feature bits compiled in whatever the scene needs (a kernel with more features renders the
   // same image): a frame sequence asks for the bits that depend on a frame's grid data, so every
   // frame uses the one kernel build
@@ -93,6 +105,8 @@ struct RenderOptions {
   // Relative error at which to stop (integrator/noise.h), else render.noise_target; 0: none. Adds the
   // variance layer, which the error is measured from.
   std::optional<double> noise_target;
+  // Adaptive sampling to the noise target (integrator/adaptive.h), else render.adaptive.
+  std::optional<bool> adaptive;
   // Looks at the film during the stage loop: stops it at a noise target, writes previews and
   // checkpoints, resumes from a checkpoint (integrator/film_watch.h); not owned.
   FilmWatch* watch = nullptr;
@@ -121,12 +135,15 @@ struct RenderSettings {
   FilmWindow window;            // the pixels rendered
   int full_width = 0, full_height = 0;  // the film
   int channels_per_sample = 1;  // paths per (pixel, sample): the per-channel trackers' lanes (st_paths_per_sample)
-  bool guiding = false;         // volume path guiding on (auto resolved: off for now)
+  int guiding_requested = kGuidingAuto;  // GuidingMode asked for (scene.h: off, on, auto)
+  bool guiding = false;         // volume path guiding on: guiding_requested resolved (auto: off for now)
+  bool guide_splitting = false;  // with guiding: guided roulette and splitting (RenderOptions::guide_splitting)
   // The shutter [open, close] in seconds (none: every path at time 0); the paths' times are
   // stratified over film.spp samples (the scene's, so every shard of a render has the same times)
   std::optional<std::array<double, 2>> shutter;
   int time_strata = 1;
   double noise_target = 0;      // relative error at which the render stops (integrator/noise.h); 0: none
+  bool adaptive = false;        // adaptive sampling to the noise target (integrator/adaptive.h)
 };
 
 // What a result records of the settings it was rendered with: the estimator choices and the seed
@@ -140,8 +157,10 @@ struct RenderChoices {
   int color = 0;                // st_film_color
   uint32_t aovs = 0;            // film layers (ST_AOV_BIT bits)
   uint32_t seed = 0;
+  int guiding_requested = kGuidingAuto;  // GuidingMode asked for (whether guiding ran: GuideInfo::used)
 
   void record_settings(const RenderSettings& s) {
+    guiding_requested = s.guiding_requested;
     aovs = s.aovs;
     tracker = s.tracker;
     scheme = s.scheme;

@@ -64,6 +64,8 @@ Mat4 user_transform(const TransformDesc& t);
 // about 10% with the tighter control of finer levels (media with a control: not colour media) (the control's per-channel collision weights
 // replace the residual's history-aware probabilities), which the lookup-only model does not see.
 double auto_majorant_step_cost(int tracker, bool has_control);
+// Whether two grids share one index-to-world map (to 1e-6 relative).
+bool same_index_to_world(const GridData& a, const GridData& b);
 Vec3 normalize(Vec3 v);
 Vec3 cross(const Vec3& a, const Vec3& b);
 
@@ -81,6 +83,7 @@ struct Packer {
   std::vector<Box3> media_boxes = {};  // world boxes, for the camera's framing
   Vec3 camera_position = {};          // as placed (framing included), in double
   uint32_t camera_features = 0;       // st_feature bits of the lens and the shutter (pack_camera.cpp)
+  double shutter_reach = 0;           // the largest |time| of the shutter (s; 0: none): motion blur's reach
   // Each light's power up to the common factor pi r^2 of pbrt-v4's Light::Phi (r: the scene
   // radius): the mean over channels of the irradiance a directional light gives, or 4 pi times the
   // mean radiance of an environment over the sphere.
@@ -93,8 +96,14 @@ struct Packer {
 
   void add_medium(int i, const MediumDesc& md);
   void add_vdb_medium(st_medium& m, const MediumDesc& md, const std::string& ctx_name);
-  // the majorant grid (and hierarchy) of a VDB medium, its MajorantInfo and chord lookups
-  void add_majorants(st_medium& m, const MediumDesc& md, const GridData& g, const Mat4& index_to_scene);
+  // the majorant grid (and hierarchy) of a VDB medium, its MajorantInfo and chord lookups; reach:
+  // the largest index displacement of its lookups along each axis (motion blur), which grows it
+  void add_majorants(st_medium& m, const MediumDesc& md, const GridData& g, const Mat4& index_to_scene,
+                     const std::array<double, 3>& reach);
+  // a moving medium's velocity grid (pack_velocity.cpp); returns the reach of its lookups (0 when
+  // it does not move during the shutter, and then uploads nothing)
+  std::array<double, 3> add_velocity_grid(st_medium& m, const MediumDesc& md, const GridData& density,
+                                          const std::string& ctx_name);
   // a VDB medium's emission: blackbody bounds, temperature or emission grid
   void add_emission(st_medium& m, const MediumDesc& md, const GridData& g, const std::string& ctx_name);
   // returns the colour's largest value over its channels, its voxels and its background

@@ -68,6 +68,8 @@ struct Range {
   }
 };
 inline const Range kAny{-kInf, kInf, true, true};
+// A value the kernels hold as a float (a shutter time): finite as a float.
+inline const Range kFloat{-3.4028234663852886e38, 3.4028234663852886e38, false, false};
 inline const Range kNonNegative{0, kInf, false, true};
 inline const Range kPositive{0, kInf, true, true};
 
@@ -94,12 +96,15 @@ class Parser {
   void film(const json& j, const std::string& path, FilmDesc& f);
   void render(const json& j, const std::string& path, RenderDesc& r);
   LightDesc light(const json& j, const std::string& path);
+  GroundDesc ground(const json& j, const std::string& path);
   void local_light(const json& j, const std::string& path, bool spot, const Names& all, LightDesc& l);
+  void sky_light(const json& j, const std::string& path, const Names& all, LightDesc& l);
   MediumDesc medium(const json& j, const std::string& path, size_t index);
   PhaseDesc phase(const json& j, const std::string& path);
   EmissionDesc ramp(const json& j, const std::string& path, bool vdb, EmissionDesc e);
   EmissionDesc emission(const json& j, const std::string& path, bool vdb);
   ColorDesc color(const json& j, const std::string& path);
+  VelocityDesc velocity(const json& j, const std::string& path);
   TransformDesc transform(const json& j, const std::string& path);
 
   [[noreturn]] void fail(const std::string& path, const std::string& reason) const {

@@ -203,8 +203,18 @@ void check_coordinates(const SceneDesc& scene, const st_scene& st, const std::ve
   if (!(cam <= kMaxCoordinate))
     throw Error(fmt::format("{}: /camera/position: ({:g}, {:g}, {:g}) is beyond 2^60{}", scene.path,
                             camera_position[0], camera_position[1], camera_position[2], why));
+  // the lens's points and the camera's place at shutter close are ray origins too
+  const CameraDesc& c = scene.camera;
+  if (!(cam + c.aperture_radius <= kMaxCoordinate))
+    throw Error(fmt::format("{}: /camera/aperture_radius: {:g} puts the lens beyond 2^60{}", scene.path,
+                            c.aperture_radius, why));
+  if (c.position_close && !(max_norm(*c.position_close) <= kMaxCoordinate))
+    throw Error(fmt::format("{}: /camera/position_close: ({:g}, {:g}, {:g}) is beyond 2^60{}", scene.path,
+                            (*c.position_close)[0], (*c.position_close)[1], (*c.position_close)[2], why));
+  if (c.focus_distance > kMaxCoordinate)
+    throw Error(fmt::format("{}: /camera/focus_distance: {:g} is beyond 2^60{}", scene.path, c.focus_distance, why));
   for (const LightDesc& l : scene.lights)  // a local light's distance to every point it lights
-    if ((l.type == ST_LIGHT_POINT || l.type == ST_LIGHT_SPOT) && !(max_norm(l.position) <= kMaxCoordinate))
+    if (l.type >= ST_LIGHT_POINT && !(max_norm(l.position) <= kMaxCoordinate))
       throw Error(fmt::format("{}: {}/position: ({:g}, {:g}, {:g}) is beyond 2^60{}", scene.path, l.json_path,
                               l.position[0], l.position[1], l.position[2], why));
   for (size_t i = 0; i < scene.media.size() && i < boxes.size(); ++i) {

@@ -3,7 +3,7 @@
 // optical depths per voxel beyond what float tracking resolves are refused with an Error that
 // names the field (and the voxel).
 //
-// The limits (README, "Scenes"):
+// The limits (docs/limits.md, "Coordinates and the float range of the kernels"):
 //  - sigma_a, sigma_s times density_scale must be finite floats (<= FLT_MAX, about 3.4e38).
 //  - the largest extinction mu = max over channels of (sigma_a + sigma_s) * density_scale *
 //    (largest density) * max(1, majorant_scale, minorant_scale) must be at most 2^60 (about

@@ -41,10 +41,13 @@ int64_t floor_div(int64_t a, int64_t b) { return a >= 0 ? a / b : -((-a + b - 1)
 // Marks the cells whose trilinear support meets the voxel box lo .. hi (inclusive). Cell c's
 // support on an axis is origin + c*cell .. origin + (c+1)*cell, so it meets lo .. hi when
 // c >= ceil((lo - origin) / cell) - 1 and c <= floor((hi - origin) / cell).
-void mark_box(const MajorantGrid& mg, const nanovdb::Coord& lo, int width, std::vector<uint8_t>& marked) {
+// With a margin of m voxels (build_majorant_grid) the support grows by m on both sides, and so
+// does the voxel box it must meet.
+void mark_box(const MajorantGrid& mg, const nanovdb::Coord& lo, int width, const std::array<int, 3>& margin,
+              std::vector<uint8_t>& marked) {
   int64_t c0[3], c1[3];
   for (int a = 0; a < 3; ++a) {
-    const int64_t l = int64_t(lo[a]) - mg.origin[a], h = l + width - 1;
+    const int64_t l = int64_t(lo[a]) - mg.origin[a] - margin[size_t(a)], h = int64_t(lo[a]) - mg.origin[a] + width - 1 + margin[size_t(a)];
     c0[a] = std::max<int64_t>(0, -floor_div(-l, mg.cell) - 1);
     c1[a] = std::min<int64_t>(mg.dims[a] - 1, floor_div(h, mg.cell));
     if (c0[a] > c1[a]) return;
@@ -58,24 +61,24 @@ void mark_box(const MajorantGrid& mg, const nanovdb::Coord& lo, int width, std::
 // The cells whose support holds a leaf or an active tile of the tree. Every other cell reads
 // only inactive tiles and the background, which are 0 (the loader zeroes inactive values), so
 // its bounds are (0, 0) without a lookup: the build costs what the tree holds, not its bbox.
-std::vector<uint8_t> occupied_cells(const FloatGrid& g, const MajorantGrid& mg) {
+std::vector<uint8_t> occupied_cells(const FloatGrid& g, const MajorantGrid& mg, const std::array<int, 3>& margin) {
   std::vector<uint8_t> marked(mg.dmax.size(), 0);
   const auto& root = g.tree().root();
   for (uint32_t i = 0; i < root.tileCount(); ++i) {
     const auto* t = root.data()->tile(i);
     if (!t->isChild()) {
-      if (t->isActive()) mark_box(mg, t->origin(), nanovdb::NanoUpper<float>::DIM, marked);
+      if (t->isActive()) mark_box(mg, t->origin(), nanovdb::NanoUpper<float>::DIM, margin, marked);
       continue;
     }
     const auto* u = root.data()->getChild(t);
     for (uint32_t n = 0; n < nanovdb::NanoUpper<float>::SIZE; ++n) {
       if (!u->data()->isChild(n)) {
-        if (u->data()->isActive(n)) mark_box(mg, u->offsetToGlobalCoord(n), nanovdb::NanoLower<float>::DIM, marked);
+        if (u->data()->isActive(n)) mark_box(mg, u->offsetToGlobalCoord(n), nanovdb::NanoLower<float>::DIM, margin, marked);
         continue;
       }
       const auto* l = u->data()->getChild(n);
       for (uint32_t m = 0; m < nanovdb::NanoLower<float>::SIZE; ++m) {
-        if (l->data()->isChild(m) || l->data()->isActive(m)) mark_box(mg, l->offsetToGlobalCoord(m), Leaf::DIM, marked);
+        if (l->data()->isChild(m) || l->data()->isActive(m)) mark_box(mg, l->offsetToGlobalCoord(m), Leaf::DIM, margin, marked);
       }
     }
   }
@@ -89,8 +92,10 @@ std::vector<uint8_t> occupied_cells(const FloatGrid& g, const MajorantGrid& mg) 
 // its one constant value. The cost is thus about (1 + 1/cell)^3 reads per voxel of allocated
 // leaves plus a probe per 8^3 block of active tiles and one byte per cell of the box; the Disney
 // cloud (16x11x20 cells) takes a few ms, and a few stray voxels far apart cost a few cells each.
-MajorantGrid build_majorant_grid(const GridData& grid, int cell) {
+MajorantGrid build_majorant_grid(const GridData& grid, int cell, const std::array<int, 3>& margin) {
   if (cell < 1) throw Error("build_majorant_grid: cell size must be >= 1, got " + std::to_string(cell));
+  for (int m : margin)
+    if (m < 0 || m > (1 << 24)) throw Error("build_majorant_grid: margin out of range: " + std::to_string(m));
   MajorantGrid mg;
   mg.cell = cell;
   const FloatGrid* g = grid.handle.grid<float>();
@@ -102,8 +107,8 @@ MajorantGrid build_majorant_grid(const GridData& grid, int cell) {
     return mg;
   }
   for (int a = 0; a < 3; ++a) {
-    mg.origin[a] = grid.index_min[a] - 1;
-    const int64_t span = int64_t(grid.index_max[a]) - grid.index_min[a] + 2;
+    mg.origin[a] = grid.index_min[a] - 1 - margin[size_t(a)];
+    const int64_t span = int64_t(grid.index_max[a]) - grid.index_min[a] + 2 + 2 * int64_t(margin[size_t(a)]);
     mg.dims[a] = int(std::max<int64_t>(1, (span + cell - 1) / cell));
   }
   const double cells = double(mg.dims[0]) * mg.dims[1] * mg.dims[2];
@@ -125,7 +130,7 @@ MajorantGrid build_majorant_grid(const GridData& grid, int cell) {
   const size_t n = size_t(cells);
   mg.dmax.assign(n, 0.0f);
   mg.dmin.assign(n, 0.0f);
-  const std::vector<uint8_t> occupied = occupied_cells(*g, mg);
+  const std::vector<uint8_t> occupied = occupied_cells(*g, mg, margin);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const tbb::blocked_range<size_t>& r) {
     auto acc = g->getAccessor();
     for (size_t idx = r.begin(); idx != r.end(); ++idx) {
@@ -133,9 +138,10 @@ MajorantGrid build_majorant_grid(const GridData& grid, int cell) {
       const int cx = int(idx % size_t(mg.dims[0]));
       const int cy = int((idx / size_t(mg.dims[0])) % size_t(mg.dims[1]));
       const int cz = int(idx / (size_t(mg.dims[0]) * size_t(mg.dims[1])));
-      const int x0 = mg.origin[0] + cx * cell, y0 = mg.origin[1] + cy * cell, z0 = mg.origin[2] + cz * cell;
+      const int x0 = mg.origin[0] + cx * cell - margin[0], y0 = mg.origin[1] + cy * cell - margin[1],
+                z0 = mg.origin[2] + cz * cell - margin[2];
       float hi = -std::numeric_limits<float>::infinity(), lo = std::numeric_limits<float>::infinity();
-      const int x1 = x0 + cell, y1 = y0 + cell, z1 = z0 + cell;
+      const int x1 = x0 + cell + 2 * margin[0], y1 = y0 + cell + 2 * margin[1], z1 = z0 + cell + 2 * margin[2];
       for (int bz = z0 & ~7; bz <= z1; bz += 8)
         for (int by = y0 & ~7; by <= y1; by += 8)
           for (int bx = x0 & ~7; bx <= x1; bx += 8) {

@@ -61,8 +61,11 @@ struct MajorantGrid {
 
 // Builds the majorant grid of `grid` with `cell` voxels per cell edge. dmax is inflated by a
 // relative 1e-5 (float rounding of the interpolation), dmin deflated likewise. An empty grid
-// gives a single cell with dmax = dmin = 0.
-MajorantGrid build_majorant_grid(const GridData& grid, int cell = 8);
+// gives a single cell with dmax = dmin = 0. margin: a moving medium's lookups reach up to
+// margin[a] voxels away along axis a (motion blur, kernels/medium.h medium_lookup_index): the
+// box grows by margin[a] voxels on both faces and each cell's support by margin[a] voxels on both
+// sides, so the cell bounds the density at every point its lookups can reach (0: the plain grid).
+MajorantGrid build_majorant_grid(const GridData& grid, int cell = 8, const std::array<int, 3>& margin = {0, 0, 0});
 // The largest majorant cell edge (voxels): --majorant-cell and the automatic choice stay within it.
 // A grid that needs more than 2^27 cells even at this edge is refused by build_majorant_grid.
 constexpr int kMaxMajorantCellEdge = 1024;
