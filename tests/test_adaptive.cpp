@@ -102,6 +102,16 @@ AdaptiveResult render_adaptive_scene(const SceneDesc& scene, double target, int 
   return render_adaptive(r, plan);
 }
 
+// `f` agrees with a uniform 1024-spp render of another seed within 4 SE; a 3% error does not.
+void expect_agrees_with_uniform_render(const SceneDesc& scene, const RenderResult& f) {
+  RenderOptions o = st_test::quiet_options(1024);
+  o.seed = 977;
+  Renderer ref(scene, o);
+  const RenderResult reference = ref.render();
+  EXPECT_LT(st_test::max_z(f, reference), 4.0);
+  EXPECT_GT(st_test::max_z(f, reference, 1.03), 4.0) << "the twin: a 3% error must be seen";
+}
+
 TEST(AdaptiveRender, ReachesItsTargetWithFewerSamplesAndAgreesWithAUniformRender) {
   const std::string dir = test_dir();
   const SceneDesc scene = st_test::scene_from_json(adaptive_scene(dir), dir);
@@ -117,12 +127,7 @@ TEST(AdaptiveRender, ReachesItsTargetWithFewerSamplesAndAgreesWithAUniformRender
   float lo = 1e30f, hi = 0;
   for (float n : a.samples) lo = std::min(lo, n), hi = std::max(hi, n);
   EXPECT_LT(lo, hi) << "every pixel took the same samples";
-  RenderOptions lo_opt = st_test::quiet_options(1024);
-  lo_opt.seed = 977;
-  Renderer ref(scene, lo_opt);
-  const RenderResult reference = ref.render();
-  EXPECT_LT(st_test::max_z(f, reference), 4.0);
-  EXPECT_GT(st_test::max_z(f, reference, 1.03), 4.0) << "the twin: a 3% error must be seen";
+  expect_agrees_with_uniform_render(scene, f);
   // the rounds are samples keyed by (pixel, sample) and decisions of the host: the same bits again
   const AdaptiveResult again = render_adaptive_scene(scene, 0.04, 2048);
   ASSERT_EQ(again.film.sum.size(), f.sum.size());
@@ -140,12 +145,7 @@ TEST(AdaptiveRender, WithGuidingTrainsInThePilotAndAgreesWithAUniformRender) {
   EXPECT_TRUE(f.guide.used);
   EXPECT_EQ(f.guide.training_passes, 3);
   EXPECT_GT(a.rounds, 1);
-  RenderOptions ref_opt = st_test::quiet_options(1024);
-  ref_opt.seed = 977;
-  Renderer ref(scene, ref_opt);
-  const RenderResult reference = ref.render();
-  EXPECT_LT(st_test::max_z(f, reference), 4.0);
-  EXPECT_GT(st_test::max_z(f, reference, 1.03), 4.0) << "the twin: a 3% error must be seen";
+  expect_agrees_with_uniform_render(scene, f);
 }
 
 std::string meta_text(const std::string& path, const std::string& key) {

@@ -114,9 +114,15 @@ TEST(GuidingRender, DeterministicAndGenericKernelsAgree) {
   EXPECT_EQ(a.guide.training_passes, kGuideTrainingPasses);
   EXPECT_EQ(a.spp_done, 8) << "the training passes' 7 samples are part of the image";
   EXPECT_GT(a.guide.records, 0u);
-  EXPECT_EQ(a.guide.bytes, sizeof(st_guide_header) + size_t(a.guide.regions) * sizeof(st_guide_region) + 16 * 16 * 4)
-      << "the header, the regions and one pixel estimate per film pixel";
-  EXPECT_LE(a.guide.regions, kGuideGridCells * kGuideGridCells * kGuideGridCells);
+  // the header, the regions, the kd-trees' nodes (one per cell and two per region refinement
+  // added) and one pixel estimate per film pixel; a 2-cell grid along the longest axis: 1-8 cells
+  const size_t fixed = sizeof(st_guide_header) + size_t(a.guide.regions) * sizeof(st_guide_region) + 16 * 16 * 4;
+  ASSERT_GT(a.guide.bytes, fixed);
+  const int64_t cells = 2 * int64_t(a.guide.regions) - int64_t((a.guide.bytes - fixed) / sizeof(st_guide_node));
+  EXPECT_EQ((a.guide.bytes - fixed) % sizeof(st_guide_node), 0u);
+  EXPECT_GE(cells, 1);
+  EXPECT_LE(cells, 8);
+  EXPECT_LE(size_t(a.guide.regions), kGuideMaxRegions);
   EXPECT_GT(a.guide.seconds_training, 0.0);
   EXPECT_GE(a.seconds_render, a.guide.seconds_training) << "training is part of seconds_render";
 }

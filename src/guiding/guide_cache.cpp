@@ -1,4 +1,5 @@
-// guide_cache.cpp: the grid of regions over the media and the per-region fits (guide_cache.h).
+// guide_cache.cpp: the grid of cells over the media and the per-region fits (guide_cache.h); the
+// cells' kd-trees are guide_tree.cpp.
 #include "guiding/guide_cache.h"
 
 #include <algorithm>
@@ -42,13 +43,26 @@ void medium_world_box(const st_medium& m, double lo[3], double hi[3]) {
 
 }  // namespace
 
+size_t GuideCache::capacity_bytes() const {
+  // every region refinement adds is one region and two nodes
+  const size_t more = kGuideMaxRegions - std::min(regions.size(), kGuideMaxRegions);
+  return bytes() + more * (sizeof(st_guide_region) + 2 * sizeof(st_guide_node));
+}
+
 std::vector<unsigned char> GuideCache::serialize() const {
   std::vector<unsigned char> out(bytes());
-  std::memcpy(out.data(), &header, sizeof(header));
-  const size_t region_bytes = regions.size() * sizeof(st_guide_region);
-  if (!regions.empty()) std::memcpy(out.data() + sizeof(header), regions.data(), region_bytes);
-  if (!pixel_estimate.empty())
-    std::memcpy(out.data() + sizeof(header) + region_bytes, pixel_estimate.data(), pixel_estimate.size() * sizeof(float));
+  st_guide_header h = header;
+  h.regions = int(regions.size());
+  h.nodes = int(nodes.size());
+  std::memcpy(out.data(), &h, sizeof(h));
+  size_t at = sizeof(h);
+  auto put = [&](const void* data, size_t n) {
+    if (n) std::memcpy(out.data() + at, data, n);
+    at += n;
+  };
+  put(regions.data(), regions.size() * sizeof(st_guide_region));
+  put(nodes.data(), nodes.size() * sizeof(st_guide_node));
+  put(pixel_estimate.data(), pixel_estimate.size() * sizeof(float));
   return out;
 }
 
@@ -75,7 +89,10 @@ GuideCache make_guide_cache(const st_scene& st, int cells_longest_axis) {
   c.header.origin = st_float4{origin[0], origin[1], origin[2], 0.0f};
   c.header.inv_cell = st_float4{inv_cell[0], inv_cell[1], inv_cell[2], 0.0f};
   c.header.guided_depth = kGuideDepth;
-  c.regions.assign(size_t(c.header.dims[0]) * c.header.dims[1] * c.header.dims[2], st_guide_region{});
+  const size_t cells = size_t(c.header.dims[0]) * c.header.dims[1] * c.header.dims[2];
+  c.regions.assign(cells, st_guide_region{});
+  for (size_t i = 0; i < cells; ++i) c.nodes.push_back(st_guide_node{0.0f, ST_GUIDE_LEAF | uint32_t(i)});  // leaf i: region i
+  c.node_depth.assign(cells, 0);
   c.pixel_estimate.assign(size_t(std::max(st.camera.width, 0)) * size_t(std::max(st.camera.height, 0)), 0.0f);
   return c;
 }
@@ -151,6 +168,10 @@ int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records) {
     return std::make_tuple(region_of(a), a.key[0], a.key[1], a.key[2], a.key[3]) <
            std::make_tuple(region_of(b), b.key[0], b.key[1], b.key[2], b.key[3]);
   };
+  for (st_guide_record& r : records) {  // the region under the current trees (END records: -1)
+    const int32_t region = r.key[3] == ST_GUIDE_RECORD_END ? -1 : guide_region_of(cache, r.pos.x, r.pos.y, r.pos.z);
+    std::memcpy(&r.pos.w, &region, 4);
+  }
   std::sort(records.begin(), records.end(), order);
   std::map<PathKey, float> ends;  // every path's radiance (lane mean), from its end record
   for (const st_guide_record& r : records)

@@ -1,10 +1,13 @@
 // guide_cache.h: the host side of the guide cache (kernels/guiding.h): its regions over the media,
 // and the fit of every region's mixture from the radiance records of a training pass.
 //
-// Design: the regions are the cells of one uniform grid over the union of the media's world boxes
-// (the longest axis cut into kGuideGridCells cells, the others into as many cells of about the same
-// edge). A grid is the simplest structure that the scatter kernel reaches with one index and whose
-// memory is known before training: cells x 176 bytes. The fit sorts the records by (region, key),
+// Design: the regions start as the cells of one uniform grid over the union of the media's world
+// boxes (the longest axis cut into kGuideGridCells cells, the others into as many cells of about
+// the same edge); every cell is the root of a kd-tree whose leaves are the regions, refined after
+// each training pass where the pass's records crowd (refine_guide_regions, guide_tree.cpp), so the
+// regions follow where the paths scatter: a dense medium's lit shell and its dark core end up in
+// different regions. The memory is bounded by kGuideMaxRegions. The fit bins the records by
+// position into the current regions and sorts them by (region, key),
 // so its input does not depend on the order in which the device appended them, and fits each
 // region with enough records by fit_vmf_mixture (a pure function of its input): the cache after a
 // training pass depends only on the records' contents, which depend only on the scene, the
@@ -32,6 +35,11 @@ constexpr float kGuideAlpha = 0.5f;
 constexpr int kGuideTrainingPasses = 3;
 // The training passes' random streams: the render's seed xor this.
 constexpr uint32_t kGuideTrainingSeed = 0x6a09e667u;
+// Region refinement: a region that holds more than this many radiance records of a training pass
+// splits (its halves hold at least half as many each: the split is at their median), and the cache
+// holds at most kGuideMaxRegions regions (176 bytes each, and two kd-tree nodes of 8 bytes).
+constexpr size_t kGuideSplitRecords = 512;
+constexpr size_t kGuideMaxRegions = size_t(1) << 16;
 
 // Guided roulette and splitting in the render (kernels/guiding.h guide_rrs): the most paths one
 // path splits into, the ratio of expected contribution to the pixel's estimate below which roulette
@@ -65,11 +73,17 @@ inline size_t guide_record_buffer_bytes(uint64_t Q, bool training, bool splittin
 struct GuideCache {
   st_guide_header header{};
   std::vector<st_guide_region> regions;
+  std::vector<st_guide_node> nodes;   // the cells' kd-trees (kernels/guiding.h): the cells first
+  std::vector<int> node_depth;        // each node's depth below its cell (host only)
   std::vector<float> pixel_estimate;  // per film pixel: the training passes' mean over samples and RGB
   size_t bytes() const {
-    return sizeof(st_guide_header) + regions.size() * sizeof(st_guide_region) + pixel_estimate.size() * sizeof(float);
+    return sizeof(st_guide_header) + regions.size() * sizeof(st_guide_region) + nodes.size() * sizeof(st_guide_node) +
+           pixel_estimate.size() * sizeof(float);
   }
-  // The device buffer's contents: the header, the regions, then the pixel estimates.
+  // The device buffer's bytes for this cache grown to kGuideMaxRegions regions.
+  size_t capacity_bytes() const;
+  // The device buffer's contents: the header (its region and node counts set), the regions, the
+  // nodes, then the pixel estimates.
   std::vector<unsigned char> serialize() const;
 };
 
@@ -81,7 +95,18 @@ GuideCache make_guide_cache(const st_scene& st, int cells_longest_axis = kGuideG
 // samples: each pixel's mean, raised to kGuidePixelFloor times the film's mean.
 void set_pixel_estimates(GuideCache& cache, const std::vector<double>& sums, double samples);
 
-// Refits every region from `records` (any order; sorted here): its mixture from the records of the
+// The region that holds world position (x, y, z) (the device's guide_region_index).
+int guide_region_of(const GuideCache& cache, float x, float y, float z);
+
+// Splits the regions that hold more than `split_above` radiance records of a training pass
+// (`records`, any order): each at the median of its records' positions along the axis where they
+// spread most, its halves again while they hold more, the most crowded region first (ties: the
+// lower node index), until the cache holds `max_regions` regions or no region has more. Depends on
+// the set of records only. Returns the regions added.
+size_t refine_guide_regions(GuideCache& cache, const std::vector<st_guide_record>& records,
+                            size_t split_above = kGuideSplitRecords, size_t max_regions = kGuideMaxRegions);
+
+// Refits every region from `records` (any order; binned by position and sorted here): its mixture from the records of the
 // scatter events whose direction was guided (depth below kGuideDepth), its radiance (guided
 // roulette's estimate) from the records of every depth; regions with fewer than kGuideMinRecords
 // records of either kind get alpha 0 and the uniform mixture, or no radiance estimate (records 0).

@@ -46,7 +46,8 @@ void Renderer::Impl::setup() {
   // guiding off: a header of zeros (nothing guides, nothing records); the kernels compiled without
   // ST_FEATURE_GUIDING never read it
   if (settings.guiding) guide = make_guide_cache(ds.packed.st, opt.guide_grid_cells > 0 ? opt.guide_grid_cells : kGuideGridCells);
-  const std::vector<unsigned char> g = guide.serialize();
+  std::vector<unsigned char> g = guide.serialize();
+  if (settings.guiding) g.resize(guide.capacity_bytes(), 0);  // room for the regions refinement adds
   b_guide = ds.buffer(CL_MEM_READ_ONLY, g.size(), g.data(), "guide cache");
   const uint32_t no_records[4] = {0, 0, 0, 0};
   b_records = ds.buffer(CL_MEM_READ_WRITE, sizeof(no_records), no_records, "guide records");

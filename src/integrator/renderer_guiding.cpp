@@ -1,6 +1,7 @@
 // renderer_guiding.cpp: the guide's training passes (docs/guiding.md): a few passes over the full
-// film with random streams of their own, whose images are dropped and whose radiance records are
-// drained after every iteration and fitted on the host into the guide cache, then uploaded.
+// film with random streams of their own, whose images are kept for the render and whose radiance
+// records are drained after every iteration; after each pass the host refines the cache's regions
+// where the records crowd and fits them, then uploads the cache.
 #include "integrator/renderer_impl.h"
 
 #include <fmt/format.h>
@@ -90,6 +91,7 @@ double Renderer::Impl::train_guide(int spp) {
     begin += 1 << k;
     add_pixel_estimates(pixel_sum, pass, 1 << k);
     keep_samples(guide_samples, pass);
+    refine_guide_regions(guide, records);  // where the pass's records crowd (guide_tree.cpp)
     guide_info.regions_guided = fit_guide_cache(guide, records);
     if (opt.guide_cache_hook) opt.guide_cache_hook(guide);
     guide.header.origin.w = 1.0f;  // the next passes and the render sample the guide
