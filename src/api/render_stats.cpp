@@ -29,6 +29,11 @@ nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_tota
   j["seed"] = r.seed;
   for (const RecordedChoice& c : recorded_choices()) j[c.key] = p.id.*c.field;  // as the EXR records them
   j["light_sampling_used"] = light_sampling_name(r.light_sampling_used);
+  // the run's automatic choices as used (renderer.h RunChoices; the first device's)
+  j["path_slots"] = r.path_slots;
+  j["shadow_ring"] = r.shadow_ring;
+  j["batches_in_flight"] = r.batches_in_flight;
+  j["iteration_budget"] = r.iteration_budget;
   j["film_layers"] = nlohmann::json::array();
   for (int k = 0; k < ST_AOV_COUNT; ++k)
     if (r.aovs & (1u << k)) j["film_layers"].push_back(aov_name(k));
@@ -63,7 +68,7 @@ nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_tota
   for (const MajorantInfo& m : r.majorants)
     maj.push_back({{"cell", m.cell}, {"block", m.block}, {"levels", m.levels}, {"blocks_per_level", m.blocks_per_level}, {"fine_cells", m.fine_cells},
                    {"blocks_empty", m.blocks_empty}, {"blocks_whole", m.blocks_whole},
-                   {"blocks_refined", m.blocks_refined}, {"bytes", m.bytes}, {"seconds_build", m.seconds_build},
+                   {"blocks_refined", m.blocks_refined}, {"bytes", m.bytes}, {"step_cost", m.step_cost}, {"seconds_build", m.seconds_build},
                    {"chord_lookups", m.chord_lookups}});
   j["majorant_grids"] = maj;
   j["dda_steps_per_nonempty_cell"] = r.stats.dda_nonempty > 0 ? double(r.stats.dda_steps) / double(r.stats.dda_nonempty) : 0.0;

@@ -253,7 +253,7 @@ MultiDeviceResult render_adaptive_film(const SceneDesc& scene, const RenderOptio
   opt.device = device;
   opt.watch = nullptr;  // a round's film is not the render's: the watch sees the adaptive film
   opt.progress = nullptr;
-  Renderer renderer(scene, opt);
+  Renderer renderer(scene, settings, opt);
   AdaptivePlan plan;
   plan.target = settings.noise_target;
   plan.spp = settings.spp;
@@ -274,10 +274,7 @@ MultiDeviceResult render_adaptive_film(const SceneDesc& scene, const RenderOptio
   out.seconds_render = f.seconds_render;
   out.kernels_from_cache = f.kernels_from_cache;
   out.seconds_first_pass = f.seconds_first_pass;
-  out.features = f.features;
-  out.light_sampling_used = f.light_sampling_used;
-  out.majorants = f.majorants;
-  out.guide = f.guide;
+  static_cast<RunChoices&>(out) = f;
   out.record_settings(settings);
   out.spp_requested = settings.spp;
   out.time_limit_reached = f.time_limit_reached;

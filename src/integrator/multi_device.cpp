@@ -74,10 +74,7 @@ class MultiDeviceRun {
     int64_t samples = 0;
     double setup = 0, build = 0, first_pass = -1.0, render = 0;  // render: its stage loops
     bool from_cache = true, time_limit_reached = false, noise_target_reached = false;
-    uint32_t features = 0;
-    int light_sampling_used = 0;
-    std::vector<MajorantInfo> majorants;
-    GuideInfo guide;
+    RunChoices run;  // what it ran with (its first chunk's)
   };
   bool stopped() const {
     return failed_.load() || (base_.stop && base_.stop->load()) ||
@@ -129,10 +126,7 @@ void MultiDeviceRun::add_chunk(size_t i, int64_t begin, const RenderResult& res)
     d.build = res.seconds_build;
     d.from_cache = res.kernels_from_cache;
     d.first_pass = res.seconds_first_pass;
-    d.features = res.features;
-    d.light_sampling_used = res.light_sampling_used;
-    d.majorants = res.majorants;
-    d.guide = res.guide;
+    d.run = res;
   }
   d.render += res.seconds_render;
   for (size_t k = 0; k < res.sum.size(); ++k) p.sum[k] += res.sum[k];
@@ -160,7 +154,7 @@ void MultiDeviceRun::work(size_t i) {
       in_chunk_[i] = f * double(chunk_len);
       report();
     };
-    Renderer r(scene_, opt);
+    Renderer r(scene_, settings_, opt);
     {
       std::lock_guard<std::mutex> lock(mu_);
       dev_[i].name = r.device_name();
@@ -214,10 +208,7 @@ MultiDeviceResult MultiDeviceRun::combine() const {
     out.kernels_from_cache = out.kernels_from_cache && d.from_cache;
     if (d.first_pass >= 0) {
       out.seconds_first_pass = out.seconds_first_pass > 0 ? std::min(out.seconds_first_pass, d.first_pass) : d.first_pass;
-      out.features = d.features;
-      out.light_sampling_used = d.light_sampling_used;
-      out.majorants = d.majorants;
-      out.guide = d.guide;
+      static_cast<RunChoices&>(out) = d.run;
     }
   }
   out.record_settings(settings_);

@@ -1,5 +1,5 @@
 // renderer.cpp: the wavefront stage loop on one device (see renderer.h for the design).
-// Set-up: resolve the settings (integrator/settings.h), pack the scene (scene/scene_pack.h), choose
+// Set-up: take the resolved settings (integrator/settings.h), pack the scene (scene/scene_pack.h), choose
 // the device and upload (device/device_scene.h), build the kernels (cached) for the scene's
 // st_feature mask (--generic-kernels: every feature and ST_MAX_MEDIA media). A render is then a
 // few named steps: plan the batches, check the memory, allocate, bind the stage arguments, run the
@@ -30,7 +30,6 @@ namespace spectrack {
 
 void Renderer::Impl::setup() {
   auto t0 = Clock::now();
-  settings = resolve_settings(scene, opt);
   set_phase("scene packing (volumes, environment maps and their CDFs, majorant grids)");
   PackedScene packed = pack_scene(scene, settings, {opt.majorant_cell, opt.majorant_block, opt.iteration_budget, opt.majorant_step_cost});
   // the feature mask is in the source, hence in the kernel-cache key
@@ -192,7 +191,8 @@ RenderResult Renderer::Impl::result_header(int64_t sample_begin, int spp) const 
   res.seconds_build = seconds_build;
   res.kernels_from_cache = from_cache;
   res.features = ds.packed.features;
-  res.light_sampling_used = ds.packed.st.light_sampling;
+  res.light_sampling_used = st_light_sampling(ds.packed.st.light_sampling);
+  res.iteration_budget = opt.iteration_budget;
   res.majorants = ds.packed.majorants;
   return res;
 }
@@ -298,6 +298,9 @@ RenderResult Renderer::Impl::run_stage_loop(int64_t sample_begin, int spp, std::
     plan.NL = uint64_t(ds.packed.st.n_lights);
   }
   check_memory(plan);  // refuse what cannot fit before allocating anything
+  res.path_slots = plan.Q;
+  res.shadow_ring = plan.shadow_ring;
+  res.batches_in_flight = plan.ring;
   set_phase("film allocation");
   set_ring_size(plan.ring);
   RenderBuffers buf = allocate(plan);
@@ -352,9 +355,13 @@ RenderResult Renderer::Impl::run_stage_loop(int64_t sample_begin, int spp, std::
   return res;
 }
 
-Renderer::Renderer(const SceneDesc& scene, const RenderOptions& options) : impl_(new Impl) {
+Renderer::Renderer(const SceneDesc& scene, const RenderOptions& options)
+    : Renderer(scene, resolve_settings(scene, options), options) {}
+Renderer::Renderer(const SceneDesc& scene, const RenderSettings& settings, const RenderOptions& options)
+    : impl_(new Impl) {
   impl_->scene = scene;
   impl_->opt = options;
+  impl_->settings = settings;
   impl_->setup();
 }
 Renderer::~Renderer() = default;

@@ -1,10 +1,11 @@
 // settings.h: what a render is asked for and what it resolves to.
 //
 // Design (pbrt-v4's PBRTOptions pattern): RenderOptions holds the caller's overrides of the scene
-// (command line, tests, benchmarks), each one std::optional so "not given" is not a sentinel
-// value; resolve_settings() combines them with the scene once, checks them against the scene and
-// the film, and returns plain RenderSettings (tracker, scheme, seed, samples, pixel window,
-// channels per sample). Every consumer (Renderer, the render identity of a film piece, the
+// (command line, tests, benchmarks, Python), each one std::optional so "not given" is not a
+// sentinel value; its estimator choices are numbers of the enum tables of kernels/types.h, as
+// those callers give them. resolve_settings() combines them with the scene once, checks them
+// against the scene and the film, and returns typed RenderSettings (enums for every choice;
+// tracker, scheme, seed, samples, pixel window, channels per sample). Every consumer (Renderer, the render identity of a film piece, the
 // multi-device and MPI drivers, the CLI) takes the resolved settings; nothing else re-derives them.
 // An `auto` choice is recorded twice, as requested and as used: light_sampling and
 // light_sampling_used (RenderResult, resolved by the scene packer), guiding_requested and
@@ -29,7 +30,7 @@ class FilmWatch;   // integrator/film_watch.h
 
 // Light sampling of next-event estimation when neither the command line nor the scene chooses
 // (bench/RESULTS.md, "One light per scatter event" and "Light sampling by contribution").
-constexpr int kDefaultLightSampling = ST_LIGHT_SAMPLING_AUTO;
+constexpr st_light_sampling kDefaultLightSampling = ST_LIGHT_SAMPLING_AUTO;
 // Light sampling "auto" (types.h) picks "contribution" when the scene's media make a shadow ray
 // crossing them take at least this many density lookups (the residual majorant's optical depth
 // along the mean chord of each medium's box, summed over media: MajorantInfo::chord_lookups), and
@@ -39,12 +40,12 @@ constexpr double kAutoContributionLookups = 2.0;
 // Transmittance estimator of shadow rays when neither the command line nor the scene chooses, and
 // the ray-marching spacings (majorant optical depth between samples; bench/RESULTS.md,
 // "Ray-marching transmittance").
-constexpr int kDefaultTransmittance = ST_TRANSMITTANCE_RATIO;
+constexpr st_transmittance_mode kDefaultTransmittance = ST_TRANSMITTANCE_RATIO;
 constexpr double kDefaultMarchSpacing = 1.0;
 constexpr double kDefaultPilotSpacing = 2.0;
 // Density lookups when neither the command line nor the scene chooses (bench/RESULTS.md,
 // "Stochastic one-voxel lookups": on PoCL the variance it adds outweighs the time it saves).
-constexpr int kDefaultLookup = ST_LOOKUP_TRILINEAR;
+constexpr st_lookup_mode kDefaultLookup = ST_LOOKUP_TRILINEAR;
 // Shadow-ray entries per (path, light) (types.h; bench/RESULTS.md, "No waiting paths").
 constexpr int kDefaultShadowRing = 2;
 // Tentative collisions + DDA steps per item and kernel launch (unfinished items are re-queued).
@@ -121,13 +122,14 @@ struct FilmWindow {
 };
 
 struct RenderSettings {
-  int tracker = 0, scheme = 0;  // st_tracker, st_scheme
-  int absorption = 0;           // st_absorption
-  int light_sampling = 0;       // st_light_sampling
-  int transmittance = 0;        // st_transmittance_mode
+  st_tracker tracker{};
+  st_scheme scheme{};
+  st_absorption absorption{};
+  st_light_sampling light_sampling{};  // as requested (auto: resolved by the scene packer, RenderResult)
+  st_transmittance_mode transmittance{};
   double march_spacing = kDefaultMarchSpacing, pilot_spacing = kDefaultPilotSpacing;  // ray marching
-  int lookup = 0;               // st_lookup_mode
-  int color = 0;                // st_film_color
+  st_lookup_mode lookup{};
+  st_film_color color{};
   uint32_t aovs = 0;            // film layers (ST_AOV_BIT bits; alpha implies environment)
   uint32_t seed = 0;
   int spp = 0;                  // samples per pixel to render
@@ -135,7 +137,7 @@ struct RenderSettings {
   FilmWindow window;            // the pixels rendered
   int full_width = 0, full_height = 0;  // the film
   int channels_per_sample = 1;  // paths per (pixel, sample): the per-channel trackers' lanes (st_paths_per_sample)
-  int guiding_requested = kGuidingAuto;  // GuidingMode asked for (scene.h: off, on, auto)
+  GuidingMode guiding_requested = kGuidingAuto;  // as asked for (scene.h: off, on, auto)
   bool guiding = false;         // volume path guiding on: guiding_requested resolved (auto: off for now)
   bool guide_splitting = false;  // with guiding: guided roulette and splitting (RenderOptions::guide_splitting)
   // The shutter [open, close] in seconds (none: every path at time 0); the paths' times are
@@ -149,15 +151,16 @@ struct RenderSettings {
 // What a result records of the settings it was rendered with: the estimator choices and the seed
 // (RenderResult, MultiDeviceResult; film identities and stats are made from these).
 struct RenderChoices {
-  int tracker = 0, scheme = 0;  // st_tracker, st_scheme
-  int absorption = 0;           // st_absorption
-  int light_sampling = 0;       // st_light_sampling
-  int transmittance = 0;        // st_transmittance_mode
-  int lookup = 0;               // st_lookup_mode
-  int color = 0;                // st_film_color
+  st_tracker tracker{};
+  st_scheme scheme{};
+  st_absorption absorption{};
+  st_light_sampling light_sampling{};  // as requested (RenderResult::light_sampling_used: as run)
+  st_transmittance_mode transmittance{};
+  st_lookup_mode lookup{};
+  st_film_color color{};
   uint32_t aovs = 0;            // film layers (ST_AOV_BIT bits)
   uint32_t seed = 0;
-  int guiding_requested = kGuidingAuto;  // GuidingMode asked for (whether guiding ran: GuideInfo::used)
+  GuidingMode guiding_requested = kGuidingAuto;  // as asked for (whether guiding ran: GuideInfo::used)
 
   void record_settings(const RenderSettings& s) {
     guiding_requested = s.guiding_requested;
@@ -187,6 +190,7 @@ struct MajorantInfo {
   std::vector<int> levels;               // group edges (fine cells) of the hierarchy, finest first
   std::vector<size_t> blocks_per_level;  // blocks walked at each level
   size_t bytes = 0;             // device memory of the structure
+  double step_cost = 0;         // the cost model's DDA step in density lookups, as used (--majorant-step-cost or automatic)
   double seconds_build = 0;
   // density lookups of a ratio-tracking shadow ray along the mean chord of the medium's box (4 V /
   // S, Cauchy): the mean residual majorant over the fine cells times that length (light sampling

@@ -261,6 +261,7 @@ void Packer::add_majorants(st_medium& m, const MediumDesc& md, const GridData& g
     m.maj_offset = uint32_t(maj_cells.size() / 2);
     maj_cells.insert(maj_cells.end(), h.pool.begin(), h.pool.end());
     info.block = B;
+    info.step_cost = cost.step_cost;
     info.blocks_empty = h.blocks_empty;
     info.blocks_whole = h.blocks_whole;
     info.blocks_refined = h.blocks_refined;

@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <iomanip>
 #include <limits>
+#include <type_traits>
 #include <map>
 #include <set>
 #include <sstream>
@@ -266,12 +267,17 @@ void Parser::render(const json& j, const std::string& path, RenderDesc& r) {
   // a name from one of the enum tables of kernels/types.h (scene/names.cpp): its value, or the
   // field named with the valid names
   auto named = [&](const char* key, const char* what, int (*from_name)(const std::string&), std::string (*names)(),
-                   int* out) {
+                   auto* out) {
     if (!find(j, key)) return false;
     std::string t = string(j, path, key, "");
-    *out = from_name(t);
-    if (*out < 0)
+    const int v = from_name(t);
+    if (v < 0)
       fail(path + "/" + key, std::string("unknown ") + what + " " + in_quotes(t) + " (expected one of: " + names() + ")");
+    using Out = std::remove_pointer_t<decltype(out)>;
+    if constexpr (std::is_enum_v<Out>)
+      *out = Out(v);
+    else
+      *out = typename Out::value_type(v);
     return true;
   };
   named("tracker", "tracker", tracker_from_name, tracker_names, &r.tracker);
@@ -282,7 +288,11 @@ void Parser::render(const json& j, const std::string& path, RenderDesc& r) {
   named("lookup", "density lookup mode", lookup_from_name, lookup_names, &r.lookup);
   named("color", "colour mode", film_color_from_name, film_color_names, &r.color);
   named("guiding", "guiding mode", guiding_from_name, guiding_names, &r.guiding);
-  r.max_depth = static_cast<int>(integer(j, path, "max_depth", r.max_depth, -1, std::numeric_limits<int>::max()));
+  // -1: unlimited, as the kernels read it (types.h st_scene.max_depth)
+  if (find(j, "max_depth")) {
+    const int d = static_cast<int>(integer(j, path, "max_depth", -1, -1, std::numeric_limits<int>::max()));
+    r.max_depth = d >= 0 ? std::optional<int>(d) : std::nullopt;
+  }
   const OptionCheck& seed = option_row("seed").check;  // the range of --seed
   r.seed = static_cast<uint32_t>(integer(j, path, "seed", r.seed, int64_t(seed.lo), int64_t(seed.hi)));
   if (find(j, "time_limit")) r.time_limit = number(j, path, "time_limit", 0.0, Range{0, 1e9, true, false});

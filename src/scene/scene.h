@@ -196,29 +196,32 @@ struct FilmDesc {
   std::string compression = "zip"; // film.compression: an EXR compression (exr_compressions())
 };
 
-struct RenderDesc {
-  int tracker = ST_TRACKER_SPECTRAL_DECOMPOSITION;
-  int scheme = ST_SCHEME_HISTORY_AVERAGE;
-  bool scheme_set = false;  // the file gave spectral_scheme (a tracker that ignores it gets a warning)
-  int absorption = -1;      // st_absorption; -1: the tracker's default (ST_TRACKERS)
-  int light_sampling = -1;  // st_light_sampling; -1: the default (kDefaultLightSampling, settings.h)
-  int transmittance = -1;   // st_transmittance_mode; -1: the default (kDefaultTransmittance, settings.h)
-  int lookup = -1;          // st_lookup_mode; -1: the default (kDefaultLookup, settings.h)
-  int color = ST_FILM_COLOR_RGB;  // st_film_color: what a path's lanes carry (render.color)
-  int max_depth = -1;
-  uint32_t seed = 0;
-  double time_limit = 0;  // seconds from the start of the command after which the render stops cleanly; 0: none
-  double noise_target = 0;  // relative error of the image at which the render stops (integrator/noise.h); 0: none
-  bool adaptive = false;    // adaptive sampling to noise_target (integrator/adaptive.h)
-  int guiding = -1;       // GuidingMode (render.guiding); -1: the default, auto
-};
-
 // Volume path guiding (docs/guiding.md): off, on, or auto (the renderer decides per scene; it
 // resolves to off until measurements say where guiding pays).
 enum GuidingMode { kGuidingOff = 0, kGuidingOn = 1, kGuidingAuto = 2 };
 inline int guiding_from_name(const std::string& n) { return n == "off" ? 0 : n == "on" ? 1 : n == "auto" ? 2 : -1; }
 inline std::string guiding_names() { return "off, on, auto"; }
 inline const char* guiding_name(int mode) { return mode == 0 ? "off" : mode == 1 ? "on" : "auto"; }
+
+// The scene's `render` section. A field the file does not give is empty (std::nullopt) where the
+// renderer's default depends on something else (the tracker's absorption) or lives in the
+// settings (integrator/settings.h, kDefault...): resolve_settings() fills it.
+struct RenderDesc {
+  st_tracker tracker = ST_TRACKER_SPECTRAL_DECOMPOSITION;
+  st_scheme scheme = ST_SCHEME_HISTORY_AVERAGE;
+  bool scheme_set = false;  // the file gave spectral_scheme (a tracker that ignores it gets a warning)
+  std::optional<st_absorption> absorption;            // none: the tracker's default (ST_TRACKERS)
+  std::optional<st_light_sampling> light_sampling;    // none: kDefaultLightSampling (settings.h)
+  std::optional<st_transmittance_mode> transmittance;  // none: kDefaultTransmittance (settings.h)
+  std::optional<st_lookup_mode> lookup;               // none: kDefaultLookup (settings.h)
+  st_film_color color = ST_FILM_COLOR_RGB;  // what a path's lanes carry (render.color)
+  std::optional<int> max_depth;  // real scattering events a path may have; none: unlimited (the file's -1)
+  uint32_t seed = 0;
+  double time_limit = 0;  // seconds from the start of the command after which the render stops cleanly; 0: none
+  double noise_target = 0;  // relative error of the image at which the render stops (integrator/noise.h); 0: none
+  bool adaptive = false;    // adaptive sampling to noise_target (integrator/adaptive.h)
+  std::optional<GuidingMode> guiding;  // none: auto
+};
 
 struct SceneDesc {
   std::string path;  // the scene file as given

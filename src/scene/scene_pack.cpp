@@ -107,7 +107,7 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
                      : (s.aovs & (ST_AOV_BIT(EMISSION) | ST_AOV_BIT(DIRECT) | ST_AOV_BIT(INDIRECT)))
                          ? ST_RESULT_LAYERS_PASSES
                          : (s.aovs & (ST_AOV_BIT(ALPHA) | ST_AOV_BIT(ENVIRONMENT))) ? ST_RESULT_LAYERS_AOV : 1;
-  st.max_depth = scene.render.max_depth;
+  st.max_depth = scene.render.max_depth.value_or(-1);  // -1: unlimited
   st.seed = s.seed;
   st.n_channels_per_sample = s.channels_per_sample;
   st.iteration_budget = options.iteration_budget;

@@ -62,7 +62,7 @@ void check_scene(const spectrack::SceneDesc& s) {
   check(fs::path(s.film.output).is_absolute(), "film output not resolved to an absolute path");
   check(s.render.tracker >= 0 && s.render.tracker < ST_TRACKER_COUNT, "render tracker");
   check(s.render.scheme >= 0 && s.render.scheme < ST_SCHEME_COUNT, "render scheme");
-  check(s.render.max_depth >= -1, "render max_depth < -1");
+  check(!s.render.max_depth || *s.render.max_depth >= 0, "render max_depth < 0");
   check(s.lights.size() <= ST_MAX_LIGHTS, "more than ST_MAX_LIGHTS lights");
   int environments = 0;
   for (const LightDesc& l : s.lights) {
