@@ -54,10 +54,15 @@ __kernel void k_finish(ST_STAGE_ARGS) {
       shadow_fold(scene, &shadows[slot * NL + (uint)l], e, bounce, &results[p.result_index * (uint)scene->result_layers]);
     }
   }
-  if (training && p.depth > 0) {
-    guide_credit(ring, 0, p.depth - 1, p.depth, p.L - guide_slot(guide_records, (uint)guide->dims[3], slot)->L_seen, mask);
-    for (int k = max(0, p.depth - ST_GUIDE_RING); k < p.depth; ++k)
-      guide_vertex_record(guide_records, guide, &ring[k % ST_GUIDE_RING], (uint4)(p.pixel, p.sample, p.channel, (uint)k));
+  if (training)
+    guide_training_finish(guide, guide_records, ring, slot, &p, mask,
+                          guide_path_total(shadows, NL, shadow_lights(scene), slot, &p, mask));
+  /* splitting: a waiting child of the family takes the slot; the last path writes the sample */
+  if (ST_HAS_GUIDING && guide_next_child(guide, guide_records, slot, &p)) {
+    atomic_inc(&counters[ST_C_SPLIT_PATHS]);
+    paths[slot] = p;
+    queue_push(queues, counters, Q, NL, cur, ST_Q_SCATTER, slot);
+    return;
   }
   float4 r = p.L;
   for (uint l = 0; l < (uint)shadow_lights(scene); ++l) r += shadows[slot * NL + l].Ls;

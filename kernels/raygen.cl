@@ -232,5 +232,6 @@ __kernel void k_raygen(ST_STAGE_ARGS) {
   paths[slot] = p;
   if (ST_HAS_AOV && scene->result_layers > 1) camera_layers_begin(scene, grids, maj, counters, results, &p);
   for (uint l = 0; l < (uint)shadow_lights(scene); ++l) shadows[slot * NL + l].Ls = (float4)(0.0f);
+  if (ST_HAS_GUIDING) guide_split_begin(guide, guide_records, slot);
   queue_push(queues, counters, Q, NL, cur, ST_Q_TRACK, slot);
 }

@@ -104,6 +104,45 @@ inline void shadow_catcher_event(__constant const st_scene* scene, __global cons
   queue_push(queues, counters, Q, NL, cur, ST_Q_FINISH, slot);
 }
 
+/* Next-event estimation at the scatter event of *p: one shadow ray per sampled light, weighted by the
+ * power heuristic against the density of the scattered direction's sampler (the one-sample mixture
+ * where the region guides, alpha > 0; else the phase function, or the ground's cosine lobe). */
+inline void scatter_nee(__constant const st_scene* scene, __global const float* env, __global st_shadow* shadows,
+                        __global uint* queues, __global uint* counters, uint Q, uint NL, uint cur, uint slot,
+                        st_path* p, st_rng* rng, int ground, float4 albedo, __global const st_guide_region* region,
+                        float alpha) {
+  __constant const st_medium* m = &scene->media[ground ? 0 : p->medium];
+  const float3 wo = p->d.xyz;
+  const float4 mask = path_mask(scene, p);
+  int l_end;
+  float pick_pmf; /* the probability of a one-light choice */
+  const int l_begin = lights_to_sample(scene, m, ground, wo, p->o.xyz, rng, &l_end, &pick_pmf);
+  for (int l = l_begin; l < l_end; ++l) {
+    __constant const st_light* light = &scene->lights[l];
+    float u1 = rng_uniform(rng), u2 = rng_uniform(rng);
+    float3 wi;
+    float pdf_l, t_max;
+    float4 Le_over_pdf = light_sample(light, env, p->o.xyz, u1, u2, &wi, &pdf_l, &t_max, rng->lambda);
+    float f = ground ? ground_cos_over_pi(wi) : phase_eval(m->phase_type, m->g, m->phase, dot(wo, wi));
+    /* the direction's density under the sampler of the scattered ray: the one-sample mixture
+     * with guiding (the same p_mix that k_escape reads from d.w), else the phase function */
+    float p_dir = f;
+    if (ST_HAS_GUIDING && alpha > 0.0f) p_dir = guide_mixture_pdf(alpha, vmf_mixture_pdf(&region->mix, wi), f);
+    float w = pdf_l > 0.0f ? power_heuristic(light->select_pmf * pdf_l, p_dir) : 1.0f;
+    /* in a medium: MIS against the segment's equi-angular sample (equiangular.h) */
+    if (ea_on(scene) && p->medium != ST_MEDIUM_GROUND)
+      w *= ea_flight_weight(scene, ea_entry(scene, shadows, NL, slot, p->depth), l, p->o.xyz);
+    float4 weight = p->beta * mask * Le_over_pdf * (f * w / pick_pmf);
+    if (ground) weight *= albedo;
+    if (!(masked_max(fabs(weight), mask) > 0.0f)) continue;
+    if (surface_blocks(scene, p->o.xyz, wi, t_max, ground, l)) continue;
+    uint id = shadow_entry(slot, NL, shadow_lights(scene), p->depth, l);
+    shadow_begin(&shadows[id], p->o.xyz, wi, t_max, weight, mask, 1u + (uint)p->depth * ST_MAX_LIGHTS + (uint)l, slot);
+    p->pending += 1;
+    queue_push(queues, counters, Q, NL, cur, ST_Q_SHADOW, id);
+  }
+}
+
 /* The scattered direction at the path's vertex, its pdf and f: cosine sampling at the ground (beta
  * takes the albedo), the one-sample mixture of phase function and guide (alpha > 0: beta takes
  * f_phase / p_mix, unbiased for any guide), else exact phase sampling (f / pdf = 1, beta unchanged). */
@@ -151,19 +190,24 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
     paths[slot] = p;
     return;
   }
-  if (scene->max_depth >= 0 && p.depth >= scene->max_depth) {
+  /* splitting (guiding.h): a waiting child resumes its parent's event at the choice of direction */
+  __global st_guide_slot* gs = guide_split_slot(guide, guide_records, slot);
+  const int child = gs && gs->split[3];
+  if (!child && scene->max_depth >= 0 && p.depth >= scene->max_depth) {
     queue_push(queues, counters, Q, NL, cur, ST_Q_FINISH, slot);
     return;
   }
   const int training = ST_HAS_GUIDING && guide->inv_cell.w > 0.0f;
   __global st_guide_vertex* ring = training ? guide_ring(guide_records, (uint)guide->dims[3], Q, slot) : 0;
-  if (shadows_busy(scene, shadows, results, NL, slot, &p, ring)) {
+  if (!child && shadows_busy(scene, shadows, results, NL, slot, &p, ring)) {
     atomic_inc(&counters[ST_C_WAITS]);
     queue_push(queues, counters, Q, NL, cur, ST_Q_SCATTER, slot);
     return;
   }
-  atomic_inc(&counters[ST_C_SCATTER_EVENTS]);
+  if (child) gs->split[3] = 0u;
+  else atomic_inc(&counters[ST_C_SCATTER_EVENTS]);
   st_rng rng = path_rng(scene, &p, 0u, p.rng_draw);
+  if (ST_HAS_GUIDING) guide_rng_key(&rng, guide, guide_records, slot);
   __constant const st_medium* m = &scene->media[ground ? 0 : p.medium];
   const float4 albedo = ground ? ground_albedo(scene, rng.lambda) : (float4)(1.0f);
   float3 wo = p.d.xyz;
@@ -174,46 +218,31 @@ __kernel void k_scatter(ST_STAGE_ARGS) {
   __global const st_guide_region* region = 0;
   float alpha = 0.0f;
   /* not at a ground vertex (the medium index test, not `ground`, which is a constant without a ground) */
-  if (ST_HAS_GUIDING && guide->origin.w > 0.0f && p.depth < guide->guided_depth && p.medium != ST_MEDIUM_GROUND) {
+  const int in_medium = p.medium != ST_MEDIUM_GROUND;
+  if (ST_HAS_GUIDING && guide->origin.w > 0.0f && p.depth < guide->guided_depth && in_medium) {
     region = guide_regions(guide) + guide_region_index(guide, p.o.x, p.o.y, p.o.z);
     alpha = region->alpha;
   }
-  int l_end;
-  float pick_pmf; /* the probability of a one-light choice */
-  const int l_begin = lights_to_sample(scene, m, ground, wo, p.o.xyz, &rng, &l_end, &pick_pmf);
-  for (int l = l_begin; l < l_end; ++l) {
-    __constant const st_light* light = &scene->lights[l];
-    float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
-    float3 wi;
-    float pdf_l, t_max;
-    float4 Le_over_pdf = light_sample(light, env, p.o.xyz, u1, u2, &wi, &pdf_l, &t_max, rng.lambda);
-    float f = ground ? ground_cos_over_pi(wi) : phase_eval(m->phase_type, m->g, m->phase, dot(wo, wi));
-    /* the direction's density under the sampler of the scattered ray: the one-sample mixture
-     * with guiding (the same p_mix that k_escape reads from d.w), else the phase function */
-    float p_dir = f;
-    if (ST_HAS_GUIDING && alpha > 0.0f) p_dir = guide_mixture_pdf(alpha, vmf_mixture_pdf(&region->mix, wi), f);
-    float w = pdf_l > 0.0f ? power_heuristic(light->select_pmf * pdf_l, p_dir) : 1.0f;
-    /* in a medium: MIS against the segment's equi-angular sample (equiangular.h) */
-    if (ea_on(scene) && p.medium != ST_MEDIUM_GROUND)
-      w *= ea_flight_weight(scene, ea_entry(scene, shadows, NL, slot, p.depth), l, p.o.xyz);
-    float4 weight = p.beta * mask * Le_over_pdf * (f * w / pick_pmf);
-    if (ground) weight *= albedo;
-    if (!(masked_max(fabs(weight), mask) > 0.0f)) continue;
-    if (surface_blocks(scene, p.o.xyz, wi, t_max, ground, l)) continue;
-    uint id = shadow_entry(slot, NL, shadow_lights(scene), p.depth, l);
-    __global st_shadow* sh = &shadows[id];
-    shadow_begin(sh, p.o.xyz, wi, t_max, weight, mask, 1u + (uint)p.depth * ST_MAX_LIGHTS + (uint)l, slot);
-    p.pending += 1;
-    queue_push(queues, counters, Q, NL, cur, ST_Q_SHADOW, id);
+  if (!child) scatter_nee(scene, env, shadows, queues, counters, Q, NL, cur, slot, &p, &rng, ground, albedo, region, alpha);
+  /* guided roulette and splitting before the direction is drawn (-1: no estimate here; media only) */
+  const int split = gs && !child && in_medium ? guide_rrs(guide, gs, &p, mask, &rng) : -1;
+  if (split == 0) { /* the path ends after this event's next-event estimation (its bounce: depth + 1 folds it) */
+    p.depth += 1;
+    p.rng_draw = rng_draw_index(&rng);
+    paths[slot] = p;
+    queue_push(queues, counters, Q, NL, cur, ST_Q_FINISH, slot);
+    return;
   }
   float pdf, f;
   const float4 beta_in = p.beta;
   const float3 wi = scatter_direction(m, region, alpha, ground, albedo, wo, &p, &rng, &pdf, &f);
-  if (training) guide_ring_enter(ring, p.depth, p.o.xyz, wi, f, beta_in);
+  if (training)
+    guide_ring_enter(ring, p.depth, p.o.xyz, wi, f, beta_in, guide_path_total(shadows, NL, shadow_lights(scene), slot, &p, mask));
   p.d = (float4)(wi, pdf);
   p.o.w = 0.0f;
   p.depth += 1;
-  const int q = path_roulette(&p, mask, &rng);
+  /* the throughput's roulette where guided roulette did not decide (a child was decided at its parent) */
+  const int q = split < 0 && !child ? path_roulette(&p, mask, &rng) : ST_Q_TRACK;
   p.rng_draw = rng_draw_index(&rng);
   if (ea_on(scene) && q == ST_Q_TRACK) ea_begin(scene, grids, env, shadows, queues, counters, Q, NL, cur, slot, &p);
   paths[slot] = p;

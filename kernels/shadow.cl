@@ -20,6 +20,7 @@ __kernel void k_shadow(ST_STAGE_ARGS) {
   st_shadow sh = shadows[id];
   st_path p = paths[sh.slot];
   st_rng rng = path_rng(scene, &p, sh.stream, sh.rng_draw);
+  if (ST_HAS_GUIDING) guide_rng_key(&rng, guide, guide_records, sh.slot); /* a split path's streams */
   st_track_stats st;
   track_stats_clear(&st);
   float t = sh.o.w;

@@ -36,7 +36,8 @@ enum st_queue {
   X(DDA_NONEMPTY, dda_nonempty, "dda_steps_nonempty")              \
   X(REQUEUES, requeues, "requeues")                                \
   X(WAITS, waits, "waiting_requeues")                              \
-  X(NONFINITE, nonfinite_samples, "nonfinite_samples")
+  X(NONFINITE, nonfinite_samples, "nonfinite_samples")             \
+  X(SPLIT_PATHS, split_paths, "guide_split_paths")
 #define ST_X_COUNTER_ENUM(E, field, key) ST_C_##E,
 /* The counter buffer: queue sizes, finished paths per batch ring slot, the sums, the maximum. */
 enum st_counter {

@@ -36,6 +36,7 @@ __kernel void k_track(ST_STAGE_ARGS) {
   uint slot = queue_item(queues, Q, NL, cur, ST_Q_TRACK, gid);
   st_path p = paths[slot];
   st_rng rng = path_rng(scene, &p, 0u, p.rng_draw);
+  if (ST_HAS_GUIDING) guide_rng_key(&rng, guide, guide_records, slot); /* a split path's streams */
   st_track_stats st;
   track_stats_clear(&st);
   float t = p.o.w;

@@ -81,15 +81,29 @@ TEST(AdaptiveWeights, AreUnbiasedWhereAveragingAPixelsOwnStoppedSamplesIsNot) {
   EXPECT_GT(std::abs(a.mean - mu) / a.se, 4.0) << "the twin: averaging the stopped samples is biased (" << a.mean << ")";
 }
 
-AdaptiveResult render_adaptive_scene(const SceneDesc& scene, double target, int spp) {
+AdaptiveResult render_adaptive_scene(const SceneDesc& scene, double target, int spp, bool guiding = false) {
   RenderOptions o = st_test::quiet_options(spp);
   o.noise_target = target;
   o.adaptive = true;
+  if (guiding) {
+    o.guiding = kGuidingOn;
+    o.guide_grid_cells = 2;  // a small film trains few records: few, well-filled regions
+  }
   Renderer r(scene, o);
   AdaptivePlan plan;
   plan.target = target;
   plan.spp = spp;
   return render_adaptive(r, plan);
+}
+
+// `f` agrees with a uniform 1024-spp render of another seed within 4 SE; a 3% error does not.
+void expect_agrees_with_uniform_render(const SceneDesc& scene, const RenderResult& f) {
+  RenderOptions o = st_test::quiet_options(1024);
+  o.seed = 977;
+  Renderer ref(scene, o);
+  const RenderResult reference = ref.render();
+  EXPECT_LT(st_test::max_z(f, reference), 4.0);
+  EXPECT_GT(st_test::max_z(f, reference, 1.03), 4.0) << "the twin: a 3% error must be seen";
 }
 
 TEST(AdaptiveRender, ReachesItsTargetWithFewerSamplesAndAgreesWithAUniformRender) {
@@ -107,16 +121,25 @@ TEST(AdaptiveRender, ReachesItsTargetWithFewerSamplesAndAgreesWithAUniformRender
   float lo = 1e30f, hi = 0;
   for (float n : a.samples) lo = std::min(lo, n), hi = std::max(hi, n);
   EXPECT_LT(lo, hi) << "every pixel took the same samples";
-  RenderOptions lo_opt = st_test::quiet_options(1024);
-  lo_opt.seed = 977;
-  Renderer ref(scene, lo_opt);
-  const RenderResult reference = ref.render();
-  EXPECT_LT(st_test::max_z(f, reference), 4.0);
-  EXPECT_GT(st_test::max_z(f, reference, 1.03), 4.0) << "the twin: a 3% error must be seen";
+  expect_agrees_with_uniform_render(scene, f);
   // the rounds are samples keyed by (pixel, sample) and decisions of the host: the same bits again
   const AdaptiveResult again = render_adaptive_scene(scene, 0.04, 2048);
   ASSERT_EQ(again.film.sum.size(), f.sum.size());
   for (size_t i = 0; i < f.sum.size(); ++i) ASSERT_EQ(again.film.sum[i], f.sum[i]) << "value " << i;
+}
+
+// With guiding, the training passes run in the pilot round and their samples are part of it: the
+// adaptive estimate still agrees with a uniform unguided render (and a 3% error does not).
+TEST(AdaptiveRender, WithGuidingTrainsInThePilotAndAgreesWithAUniformRender) {
+  const std::string dir = test_dir();
+  const SceneDesc scene = st_test::scene_from_json(small_noise_scene(dir), dir);
+  const AdaptiveResult a = render_adaptive_scene(scene, 0.05, 1024, true);
+  const RenderResult& f = a.film;
+  ASSERT_FALSE(f.interrupted);
+  EXPECT_TRUE(f.guide.used);
+  EXPECT_EQ(f.guide.training_passes, 3);
+  EXPECT_GT(a.rounds, 1);
+  expect_agrees_with_uniform_render(scene, f);
 }
 
 std::string meta_text(const std::string& path, const std::string& key) {

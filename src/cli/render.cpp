@@ -86,6 +86,7 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
   }
   if (!a.guiding.empty()) opt.guiding = guiding_from_name(a.guiding);  // checked by CLI11
   if (!a.equiangular.empty()) opt.equiangular = guiding_from_name(a.equiangular);  // checked by CLI11
+  if (!a.guide_splitting.empty()) opt.guide_splitting = a.guide_splitting == "on";
   if (a.spectral) opt.color = ST_FILM_COLOR_SPECTRAL;
   opt.march_spacing = a.march_spacing;
   opt.pilot_spacing = a.pilot_spacing;

@@ -133,6 +133,7 @@ RenderIdentity render_identity(const RenderSettings& s) {
   id.transmittance = transmittance_name(s.transmittance);
   id.lookup = lookup_name(s.lookup);
   id.color = film_color_name(s.color);
+  id.guide_splitting = s.guide_splitting ? "on" : "off";
   id.aovs = s.aovs;
   if (s.shutter) id.shutter = fmt::format("{}:{}/{}", (*s.shutter)[0], (*s.shutter)[1], s.time_strata);
   id.version = SPECTRACK_VERSION;
@@ -148,6 +149,7 @@ const std::vector<RecordedChoice>& recorded_choices() {
       {"transmittance", &RenderIdentity::transmittance, "the transmittance estimator", false},
       {"lookup", &RenderIdentity::lookup, "the density lookup mode", false},
       {"color", &RenderIdentity::color, "the colour mode", false},
+      {"guide_splitting", &RenderIdentity::guide_splitting, "guided roulette and splitting", false},
   };
   return list;
 }

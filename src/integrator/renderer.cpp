@@ -45,7 +45,8 @@ void Renderer::Impl::setup() {
   // guiding off: a header of zeros (nothing guides, nothing records); the kernels compiled without
   // ST_FEATURE_GUIDING never read it
   if (settings.guiding) guide = make_guide_cache(ds.packed.st, opt.guide_grid_cells > 0 ? opt.guide_grid_cells : kGuideGridCells);
-  const std::vector<unsigned char> g = guide.serialize();
+  std::vector<unsigned char> g = guide.serialize();
+  if (settings.guiding) g.resize(guide.capacity_bytes(), 0);  // room for the regions refinement adds
   b_guide = ds.buffer(CL_MEM_READ_ONLY, g.size(), g.data(), "guide cache");
   const uint32_t no_records[4] = {0, 0, 0, 0};
   b_records = ds.buffer(CL_MEM_READ_WRITE, sizeof(no_records), no_records, "guide records");
@@ -271,8 +272,10 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
     active_pixels.resize(settings.window.pixels());
     for (size_t i = 0; i < active_pixels.size(); ++i) active_pixels[i] = uint32_t(i);
   }
-  const double seconds_training = settings.guiding && !guide_trained ? train_guide() : 0.0;
-  RenderResult res = run_stage_loop(sample_begin, spp, nullptr);
+  const double seconds_training = settings.guiding && !guide_trained ? train_guide(spp) : 0.0;
+  // the training passes' samples are part of the image: the render adds the rest
+  RenderResult res = run_stage_loop(sample_begin, spp - guide_samples.spp_done, nullptr);
+  add_guide_samples(res);
   res.seconds_render += seconds_training;  // efficiency counts the training
   res.guide = guide_info;
   return res;
@@ -304,7 +307,8 @@ RenderResult Renderer::Impl::run_stage_loop(int64_t sample_begin, int spp, std::
   if (settings.guiding) {  // training: records on, vertex rings, one iteration's records
     const uint64_t capacity = records ? guide_record_capacity(plan.Q) : 0;
     const uint32_t head[4] = {0, 0, 0, 0};
-    b_records = ds.buffer(CL_MEM_READ_WRITE, guide_record_buffer_bytes(plan.Q, records != nullptr), nullptr, "guide records");
+    b_records = ds.buffer(CL_MEM_READ_WRITE, guide_record_buffer_bytes(plan.Q, records != nullptr, guide.header.split_max > 0),
+                          nullptr, "guide records");
     ST_CL_CHECK(ds.queue.enqueueWriteBuffer(b_records, CL_TRUE, 0, sizeof(head), head), "clear the guide record count");
     guide.header.dims[3] = int(capacity);
     guide.header.inv_cell.w = records ? 1.0f : 0.0f;

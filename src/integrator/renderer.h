@@ -55,7 +55,7 @@ struct RenderStats {
 struct GuideInfo {
   bool used = false;
   size_t bytes = 0;           // device memory of the cache
-  int regions = 0, regions_guided = 0;  // grid cells, and those whose fit guides (alpha > 0)
+  int regions = 0, regions_guided = 0;  // regions (the cells' kd-tree leaves), and those whose fit guides (alpha > 0)
   int training_passes = 0;
   uint64_t records = 0;       // radiance records of the last training pass
   double seconds_training = 0;  // part of seconds_render

@@ -102,6 +102,7 @@ struct Renderer::Impl {
   cl::Buffer b_guide, b_records;
   GuideInfo guide_info;
   bool guide_trained = false;
+  RenderResult guide_samples;  // the training passes' film sums, added to the first render's image
 
   // adaptive sampling: the window pixels the next stage loop renders (kernels/queues.h
   // active_pixels_offset); empty without adaptive sampling
@@ -115,7 +116,9 @@ struct Renderer::Impl {
   RenderResult run_stage_loop(int64_t sample_begin, int spp, std::vector<st_guide_record>* records);
   void upload_guide();
   void drain_records(std::vector<st_guide_record>& out);
-  double train_guide();  // returns its seconds
+  // The training passes, leaving at least one of `spp` samples to the render; returns its seconds.
+  double train_guide(int spp);
+  void add_guide_samples(RenderResult& res);
 
   // Paths per batch (rounded up to whole samples): 2Q with two batches in flight, so one batch
   // fills the slots while the other finishes; Q with the ring, so the first pass is done sooner.

@@ -108,6 +108,7 @@ RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) 
   s.guiding_requested = o.guiding ? checked_enum<GuidingMode>(*o.guiding, kGuidingAuto + 1, "guiding mode")
                                   : scene.render.guiding.value_or(kGuidingAuto);
   s.guiding = s.guiding_requested == kGuidingOn;
+  s.guide_splitting = s.guiding && o.guide_splitting;
   if (s.guiding && (o.pixel_bounds || s.sample_begin != 0))
     throw UsageError("guiding does not work with --pixel-bounds or --spp-range yet (its cache is trained over the "
                      "full film); use --guiding off for shards and tiles");

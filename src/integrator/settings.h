@@ -87,6 +87,7 @@ struct RenderOptions {
   // deliberately wrong cache must still give an unbiased image).
   std::function<void(GuideCache&)> guide_cache_hook;
   int guide_grid_cells = 0;             // guide regions along the media box's longest axis; 0: kGuideGridCells
+  bool guide_splitting = true;          // with guiding: guided roulette and splitting in the render (guide_cache.h)
   std::string device;                   // "P:D", name substring, or "" (SPECTRACK_DEVICE, then default)
   std::optional<int> path_slots;        // paths in flight; else by device type (kDefaultPathSlotsCpu/Gpu)
   int iteration_budget = kDefaultIterationBudget;  // tentative collisions + DDA steps per item and launch
@@ -146,6 +147,7 @@ struct RenderSettings {
   GuidingMode guiding_requested = kGuidingAuto;  // as asked for (scene.h: off, on, auto)
   bool guiding = false;         // volume path guiding on: guiding_requested resolved (auto: off for now)
   EquiangularMode equiangular = kDefaultEquiangular;  // as asked for (the scene packer resolves auto)
+  bool guide_splitting = false;  // with guiding: guided roulette and splitting (RenderOptions::guide_splitting)
   // The shutter [open, close] in seconds (none: every path at time 0); the paths' times are
   // stratified over film.spp samples (the scene's, so every shard of a render has the same times)
   std::optional<std::array<double, 2>> shutter;
