@@ -103,7 +103,7 @@ std::string scene_hash(const SceneDesc& scene, const std::string& json_text) {
     }
     if (j.contains("render") && j["render"].is_object())
       for (const char* k : {"seed", "tracker", "spectral_scheme", "absorption", "light_sampling", "transmittance", "lookup", "color",
-                            "noise_target"})
+                            "noise_target", "equiangular"})
         j["render"].erase(k);
     // file names stand for their contents, hashed below: a scene whose assets moved is the same scene
     for (const char* list : {"media", "lights"})
@@ -134,6 +134,7 @@ RenderIdentity render_identity(const RenderSettings& s) {
   id.lookup = lookup_name(s.lookup);
   id.color = film_color_name(s.color);
   id.guide_splitting = s.guide_splitting ? "on" : "off";
+  id.equiangular = guiding_name(s.equiangular);
   id.aovs = s.aovs;
   if (s.shutter) id.shutter = fmt::format("{}:{}/{}", (*s.shutter)[0], (*s.shutter)[1], s.time_strata);
   id.version = SPECTRACK_VERSION;
@@ -150,6 +151,7 @@ const std::vector<RecordedChoice>& recorded_choices() {
       {"lookup", &RenderIdentity::lookup, "the density lookup mode", false},
       {"color", &RenderIdentity::color, "the colour mode", false},
       {"guide_splitting", &RenderIdentity::guide_splitting, "guided roulette and splitting", false},
+      {"equiangular", &RenderIdentity::equiangular, "equi-angular sampling", false},
   };
   return list;
 }

@@ -46,6 +46,7 @@ struct RenderIdentity {
   std::string lookup = "trilinear";  // st_lookup_mode name (pieces written before the option: trilinear)
   std::string color = "rgb";         // st_film_color name (pieces written before spectral mode: rgb)
   std::string guide_splitting = "off";  // guided roulette and splitting: on or off (off without guiding, and in pieces written before it)
+  std::string equiangular = "off";  // equi-angular sampling as requested: off, on or auto (pieces written before it: off)
   uint32_t aovs = 0;  // the film layers (ST_AOV_BIT bits; pieces written before them: none)
   // the shutter, "open:close" in seconds, and the samples the paths' times are stratified over
   // ("0:0.02/64"); empty: no shutter (pieces written before it: none)
