@@ -150,17 +150,29 @@ TEST(LocalLights, PointLightSingleScatteringMatchesTheIntegralInEveryTracker) {
   }
 }
 
+// The spot of the cone tests: at pos, aimed at `at`, cone A degrees with a D-degree falloff; its
+// unit axis.
+struct ConeSpot {
+  V3 pos = {0.6, 0, 0}, at = {0, 0, 0.4}, axis{};
+  double A = 25, D = 10;
+  json light;
+  ConeSpot() {
+    light = {{"type", "spot"}, {"position", {pos[0], pos[1], pos[2]}}, {"look_at", {at[0], at[1], at[2]}},
+             {"intensity", {kI[0], kI[1], kI[2]}}, {"cone_angle_deg", A}, {"cone_delta_deg", D}};
+    axis = {at[0] - pos[0], at[1] - pos[1], at[2] - pos[2]};
+    const double len = std::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
+    for (double& a : axis) a /= len;
+  }
+};
+
 // A spot light whose cone the camera ray crosses (outside, falloff, full, falloff, outside):
 // the integral with pbrt-v4's smoothstep falloff; a spot pointing away lights nothing at all.
 TEST(LocalLights, SpotLightConeAndFalloffMatchTheIntegral) {
   const std::string dir = temp_dir("spot_single");
-  const V3 pos = {0.6, 0, 0}, at = {0, 0, 0.4};
-  const double A = 25, D = 10;
-  json spot = {{"type", "spot"}, {"position", {pos[0], pos[1], pos[2]}}, {"look_at", {at[0], at[1], at[2]}},
-               {"intensity", {kI[0], kI[1], kI[2]}}, {"cone_angle_deg", A}, {"cone_delta_deg", D}};
-  V3 axis = {at[0] - pos[0], at[1] - pos[1], at[2] - pos[2]};
-  const double len = std::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
-  for (double& a : axis) a /= len;
+  const ConeSpot cs;
+  const V3 pos = cs.pos, axis = cs.axis;
+  const double A = cs.A, D = cs.D;
+  const json spot = cs.light;
   for (const char* tracker : {"spectral-decomposition", "delta-per-channel"}) {
     json s = light_scene(spot, false, std::string(tracker) == "spectral-decomposition" ? 4096 : 512);
     s["render"]["tracker"] = tracker;
@@ -358,13 +370,10 @@ TEST(Equiangular, OnAndOffMatchTheIntegralInEveryTracker) {
 // A searchlight: the spot's cone and falloff with equi-angular sampling, and the hard cone seen.
 TEST(Equiangular, SpotConeMatchesTheIntegral) {
   const std::string dir = temp_dir("ea_spot");
-  const V3 pos = {0.6, 0, 0}, at = {0, 0, 0.4};
-  const double A = 25, D = 10;
-  json spot = {{"type", "spot"}, {"position", {pos[0], pos[1], pos[2]}}, {"look_at", {at[0], at[1], at[2]}},
-               {"intensity", {kI[0], kI[1], kI[2]}}, {"cone_angle_deg", A}, {"cone_delta_deg", D}};
-  V3 axis = {at[0] - pos[0], at[1] - pos[1], at[2] - pos[2]};
-  const double len = std::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
-  for (double& a : axis) a /= len;
+  const ConeSpot cs;
+  const V3 pos = cs.pos, axis = cs.axis;
+  const double A = cs.A, D = cs.D;
+  const json spot = cs.light;
   RenderOptions o = quiet_options();
   o.equiangular = kEquiangularOn;
   RenderResult r = Renderer(scene_from_json(light_scene(spot, false, 1024), dir), o).render();
