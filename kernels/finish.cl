@@ -7,6 +7,7 @@
 #include "spectrum.h"
 #include "queues.h"
 #include "wavefront.h"
+#include "equiangular.h"
 
 /* Spectral mode: the radiance layers a path wrote at its wavelengths (environment, emission and
  * direct passes) become linear sRGB through the film, as its beauty does. Alpha (1 - T) and the
@@ -19,6 +20,10 @@ inline void spectral_layers_to_rgb(__global float4* out, uint L, float4 lambda, 
   if (L > ST_RESULT_LAYERS_AOV) {
     out[ST_RESULT_EMISSION] = film_rgb(out[ST_RESULT_EMISSION], lambda, pdf, 4);
     out[ST_RESULT_DIRECT] = film_rgb(out[ST_RESULT_DIRECT], lambda, pdf, 4);
+  }
+  if (ST_HAS_GROUND && L > ST_RESULT_UNSHADOWED) { /* the shadow catcher's irradiance estimates */
+    out[ST_RESULT_SHADOW] = film_rgb(out[ST_RESULT_SHADOW], lambda, pdf, 4);
+    out[ST_RESULT_UNSHADOWED] = film_rgb(out[ST_RESULT_UNSHADOWED], lambda, pdf, 4);
   }
 }
 
@@ -37,23 +42,29 @@ ST_STAGE_FUNCTION(finish) {
   const int training = ST_HAS_GUIDING && guide->inv_cell.w > 0.0f;
   __global st_guide_vertex* ring = training ? guide_ring(guide_records, (uint)guide->dims[3], Q, slot) : 0;
   const float4 mask = path_mask(scene, &p);
-  for (int k = shadow_ring(NL, scene->n_lights); k >= 1; --k) {
+  for (int k = shadow_ring(NL, shadow_lights(scene)); k >= 1; --k) {
     int bounce = p.depth - k;
+    if (ea_on(scene)) ea_fold(scene, shadows, results, NL, slot, &p, bounce + 1); /* the segment after it */
     if (bounce < 0) continue;
     for (int l = 0; l < scene->n_lights; ++l) {
-      __global st_shadow* e = &shadows[shadow_entry(slot, NL, scene->n_lights, bounce, l)];
+      __global st_shadow* e = &shadows[shadow_entry(slot, NL, shadow_lights(scene), bounce, l)];
       if (e->state != ST_SHADOW_DONE) continue;
       if (training) guide_credit(ring, 0, bounce - 1, p.depth, e->weight * e->tr.T, mask);
       shadow_fold(scene, &shadows[slot * NL + (uint)l], e, bounce, &results[p.result_index * (uint)scene->result_layers]);
     }
   }
-  if (training && p.depth > 0) {
-    guide_credit(ring, 0, p.depth - 1, p.depth, p.L - guide_slot(guide_records, (uint)guide->dims[3], slot)->L_seen, mask);
-    for (int k = max(0, p.depth - ST_GUIDE_RING); k < p.depth; ++k)
-      guide_vertex_record(guide_records, guide, &ring[k % ST_GUIDE_RING], (uint4)(p.pixel, p.sample, p.channel, (uint)k));
+  if (training)
+    guide_training_finish(guide, guide_records, ring, slot, &p, mask,
+                          guide_path_total(shadows, NL, shadow_lights(scene), slot, &p, mask));
+  /* splitting: a waiting child of the family takes the slot; the last path writes the sample */
+  if (ST_HAS_GUIDING && guide_next_child(guide, guide_records, slot, &p)) {
+    atomic_inc(&counters[ST_C_SPLIT_PATHS]);
+    paths[slot] = p;
+    queue_push(queues, counters, Q, NL, cur, ST_Q_SCATTER, slot);
+    return;
   }
   float4 r = p.L;
-  for (uint l = 0; l < (uint)scene->n_lights; ++l) r += shadows[slot * NL + l].Ls;
+  for (uint l = 0; l < (uint)shadow_lights(scene); ++l) r += shadows[slot * NL + l].Ls;
   const uint L = (uint)scene->result_layers;
   __global float4* out = &results[p.result_index * L];
   if (spectral_mode(scene)) { /* the radiance at the path's four wavelengths becomes linear sRGB (w = 0) */

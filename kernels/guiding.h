@@ -10,7 +10,8 @@
  * have weight 0), so a region's cache entry has one size and every loop one trip count. The
  * renderer's program includes this file after light.h; its kernels use it only where the feature
  * mask has ST_FEATURE_GUIDING (features.h), so with guiding off images are unchanged. The
- * device-only part at the end needs phase.h before it.
+ * device-only part at the end needs phase.h before it, and includes guide_paths.h (records,
+ * roulette and splitting along a path).
  *
  * A lobe of unit mean direction mu and concentration kappa has the density
  *     f(w) = kappa / (2 pi (1 - exp(-2 kappa))) * exp(-kappa (1 - mu.w)),
@@ -148,40 +149,72 @@ inline st_vec3 vmf_mixture_sample(ST_GUIDE_GLOBAL const st_vmf_mixture* m, float
   return vmf_sample(vmf_lobe_mean(m->lobe[k]), m->lobe[k].w, u1, u2);
 }
 
-/* ---- the guide cache: regions of a uniform grid over the media, and radiance records ----
- * The cache is one buffer: an st_guide_header, then one st_guide_region per grid cell (x fastest).
- * A scatter position maps to the cell that holds it, clamped to the grid (any region is a valid
- * guide: the estimator is unbiased for every cache). Records are appended by training passes to a
- * second buffer: one uint count (padded to 16 bytes), then st_guide_record entries. */
+/* ---- the guide cache: regions refined from a uniform grid over the media, and radiance records ----
+ * The cache is one buffer: an st_guide_header, its regions (st_guide_region), the nodes of its
+ * kd-trees (st_guide_node), then the pixel estimates (guided roulette below). Every cell of a
+ * uniform grid over the media (x fastest) is the root of a kd-tree whose leaves are the regions:
+ * the host splits a leaf that holds too many of a training pass's records (guide_cache.h). A
+ * scatter position maps to the cell that holds it, clamped to the grid, then down its tree (any
+ * region is a valid guide: the estimator is unbiased for every cache). Records are appended by
+ * training passes to a second buffer: one uint count (padded to 16 bytes), then st_guide_record
+ * entries. */
 typedef struct {
   st_float4 origin;   /* xyz: the grid's world-space corner; w: 1 when guided sampling is on */
   st_float4 inv_cell; /* xyz: cells per world unit along each axis; w: 1 when records are collected */
   st_int dims[4];     /* xyz: cells per axis; w: record capacity of the record buffer */
-  st_int guided_depth; /* scatter events of depth below this are guided, and record in training */
-  st_int pad[3];
+  st_int guided_depth; /* scatter events of depth below this are guided, and their records fit the mixtures */
+  st_int split_max;    /* guided roulette and splitting: the most paths one path splits into (0: off) */
+  float rr_below;      /* guided roulette below this ratio of expected contribution to the pixel's estimate */
+  float rr_floor;      /* the least survival probability of guided roulette */
+  st_int regions;      /* st_guide_region entries after the header (the kd-trees' leaves) */
+  st_int nodes;        /* st_guide_node entries after the regions (the first dims.x * dims.y * dims.z: the cells) */
+  st_int depth;        /* the deepest leaf's depth below its cell */
+  st_int pad;
 } st_guide_header;
+
+/* A node of a cell's kd-tree: a leaf (ST_GUIDE_LEAF set in `next`) holds its region's index in the
+ * other bits; an inner node splits at `split` along axis next & 3, its children are nodes
+ * (next >> 2) (coordinates below the split) and (next >> 2) + 1. */
+typedef struct {
+  float split;
+  st_uint next;
+} st_guide_node;
+#define ST_GUIDE_LEAF 0x80000000u
+#define ST_GUIDE_MAX_DEPTH 32
 
 typedef struct {
   st_vmf_mixture mix; /* the incident radiance's directional distribution */
   float alpha;        /* selection probability of the guide (0: phase sampling only) */
   float records;      /* records of the region in the last training pass */
-  float radiance;     /* their mean weight: the mean of f_phase L / p_mix per unit throughput */
-  float pad;
+  float radiance;     /* guided roulette: the mean over its vertices of every depth of the radiance their
+                       * scattered directions brought back per unit throughput (records: how many) */
+  float weight;       /* the mean weight of the records the mixture was fitted to (f_phase L / p_mix) */
 } st_guide_region;
 
 /* One radiance record: a scatter vertex of a training path, the direction it scattered in and
  * what that direction brought back (st_guide_vertex). */
 typedef struct {
-  st_float4 pos;  /* xyz: the scatter position; w: the region index (its bits) */
+  st_float4 pos;  /* xyz: the scatter position; w: the region index (its bits; the host bins by xyz) */
   st_float4 dir;  /* xyz: the scattered direction; w: the weight, f_phase L / p_mix (a lane mean per unit throughput) */
   st_uint key[4]; /* pixel, sample, channel, depth: the record's place in a canonical order */
 } st_guide_record;
 
-/* Per path slot in a training pass, what guiding keeps besides st_path (in the record buffer,
- * after the records): the radiance already credited to the path's vertices. */
+/* Record kinds besides the fit's (key.w the vertex depth): a vertex's radiance record (key.w its
+ * depth with ST_GUIDE_RECORD_RADIANCE set; dir.x its st_guide_vertex.total, dir.y its throughput's
+ * lane mean) and the path's end (key.w ST_GUIDE_RECORD_END, region -1, dir.x the path's radiance):
+ * the host joins them by (pixel, sample, channel) into the radiance that reached the vertex per
+ * unit throughput over the whole rest of the path, (end - total) / beta (guide_cache.cpp). */
+#define ST_GUIDE_RECORD_RADIANCE 0x80000000u
+#define ST_GUIDE_RECORD_END 0xffffffffu
+
+/* Per path slot, what guiding keeps besides st_path (in the record buffer, after the records): in
+ * a training pass the radiance already credited to the path's vertices; with splitting the camera
+ * sample's family of split paths (one child waits at a time: guided roulette and splitting below). */
 typedef struct {
   st_float4 L_seen; /* training: the path's st_path.L when last credited to its vertices */
-  st_float4 pad;
+  st_uint split[4]; /* splitting: the path's split id (its random key; 0: the camera path), the
+                     * children still waiting, the children started so far, 1 while a child resumes */
+  st_path saved;    /* splitting: the waiting children's state at their parent's scatter event */
 } st_guide_slot;
 
 /* The last ST_GUIDE_RING scatter vertices of a path in a training pass (vertex k at ring[k mod
@@ -191,16 +224,19 @@ typedef struct {
  * radiance its scattered direction brought back. */
 #define ST_GUIDE_RING 8
 typedef struct {
-  st_float4 pos;  /* xyz: the scatter position; w: the sum of (contribution / beta) credited so far */
-  st_float4 dir;  /* xyz: the scattered direction; w: f_phase at it */
-  st_float4 beta; /* the throughput that arrived at the vertex (before its scatter weight) */
+  st_float4 pos;   /* xyz: the scatter position; w: the sum of (contribution / beta) credited so far */
+  st_float4 dir;   /* xyz: the scattered direction; w: f_phase at it */
+  st_float4 beta;  /* the throughput that arrived at the vertex (before its scatter weight) */
+  st_float4 total; /* x: the path's radiance (lane mean) when the vertex entered, plus the later folds of the
+                    * shadow rays of its own and earlier bounces (none of its scattered direction's) */
 } st_guide_vertex;
 
-#define ST_SIZEOF_GUIDE_HEADER 64
+#define ST_SIZEOF_GUIDE_HEADER 80
+#define ST_SIZEOF_GUIDE_NODE 8
 #define ST_SIZEOF_GUIDE_REGION 176
 #define ST_SIZEOF_GUIDE_RECORD 48
-#define ST_SIZEOF_GUIDE_SLOT 32
-#define ST_SIZEOF_GUIDE_VERTEX 48
+#define ST_SIZEOF_GUIDE_SLOT 160
+#define ST_SIZEOF_GUIDE_VERTEX 64
 #ifdef __OPENCL_VERSION__
 typedef char st_check_guide_slot[(sizeof(st_guide_slot) == ST_SIZEOF_GUIDE_SLOT) ? 1 : -1];
 typedef char st_check_guide_vertex[(sizeof(st_guide_vertex) == ST_SIZEOF_GUIDE_VERTEX) ? 1 : -1];
@@ -212,14 +248,16 @@ static_assert(sizeof(st_guide_vertex) == ST_SIZEOF_GUIDE_VERTEX, "st_guide_verte
 typedef char st_check_guide_header[(sizeof(st_guide_header) == ST_SIZEOF_GUIDE_HEADER) ? 1 : -1];
 typedef char st_check_guide_region[(sizeof(st_guide_region) == ST_SIZEOF_GUIDE_REGION) ? 1 : -1];
 typedef char st_check_guide_record[(sizeof(st_guide_record) == ST_SIZEOF_GUIDE_RECORD) ? 1 : -1];
+typedef char st_check_guide_node[(sizeof(st_guide_node) == ST_SIZEOF_GUIDE_NODE) ? 1 : -1];
 #else
 static_assert(sizeof(st_guide_header) == ST_SIZEOF_GUIDE_HEADER, "st_guide_header layout");
 static_assert(sizeof(st_guide_region) == ST_SIZEOF_GUIDE_REGION, "st_guide_region layout");
 static_assert(sizeof(st_guide_record) == ST_SIZEOF_GUIDE_RECORD, "st_guide_record layout");
+static_assert(sizeof(st_guide_node) == ST_SIZEOF_GUIDE_NODE, "st_guide_node layout");
 #endif
 
-/* The region (grid cell) of world position (x, y, z), clamped to the grid. */
-inline int guide_region_index(ST_GUIDE_GLOBAL const st_guide_header* h, float x, float y, float z) {
+/* The grid cell of world position (x, y, z), clamped to the grid: the root node of its kd-tree. */
+inline int guide_cell_index(ST_GUIDE_GLOBAL const st_guide_header* h, float x, float y, float z) {
   float c[3] = {(x - h->origin.x) * h->inv_cell.x, (y - h->origin.y) * h->inv_cell.y, (z - h->origin.z) * h->inv_cell.z};
   int i[3];
   for (int a = 0; a < 3; ++a) {
@@ -227,6 +265,17 @@ inline int guide_region_index(ST_GUIDE_GLOBAL const st_guide_header* h, float x,
     i[a] = (int)f;
   }
   return (i[2] * h->dims[1] + i[1]) * h->dims[0] + i[0];
+}
+
+/* The leaf node below node `root` that holds (x, y, z) (trees are at most ST_GUIDE_MAX_DEPTH deep). */
+inline st_uint guide_tree_leaf(ST_GUIDE_GLOBAL const st_guide_node* nodes, st_uint root, float x, float y, float z) {
+  st_uint i = root;
+  for (int d = 0; d < ST_GUIDE_MAX_DEPTH && !(nodes[i].next & ST_GUIDE_LEAF); ++d) {
+    const st_uint a = nodes[i].next & 3u;
+    const float c = a == 0u ? x : a == 1u ? y : z;
+    i = (nodes[i].next >> 2) + (c < nodes[i].split ? 0u : 1u);
+  }
+  return i;
 }
 
 /* ---- the one-sample mixture of the phase function and the guide ----
@@ -271,91 +320,22 @@ inline float3 guided_phase_sample(__global const st_vmf_mixture* m, float alpha,
   return wi;
 }
 
-/* The regions follow the header in the cache buffer. */
+/* The regions follow the header in the cache buffer, the kd-trees' nodes the regions. */
 inline __global const st_guide_region* guide_regions(__global const st_guide_header* h) {
   return (__global const st_guide_region*)(h + 1);
 }
-
-/* Appends one record (the count is the buffer's first uint; the records start 16 bytes in). The
- * host drains the buffer after every iteration, and its capacity is the shadow queue's, so no
- * record is lost. */
-inline void guide_record_push(__global uint* rec, uint capacity, float3 pos, int region, float3 dir, float weight,
-                              uint4 key) {
-  uint i = atomic_inc(&rec[0]);
-  if (i >= capacity) return;
-  __global st_guide_record* r = (__global st_guide_record*)(rec + 4) + i;
-  r->pos = (float4)(pos, as_float(region));
-  r->dir = (float4)(dir, weight);
-  r->key[0] = key.x;
-  r->key[1] = key.y;
-  r->key[2] = key.z;
-  r->key[3] = key.w;
+inline __global const st_guide_node* guide_nodes(__global const st_guide_header* h) {
+  return (__global const st_guide_node*)(guide_regions(h) + h->regions);
 }
 
-/* The record buffer of a training pass: a uint count (16 bytes), `capacity` records, one
- * st_guide_slot per path slot (Q of them), then ST_GUIDE_RING vertices per path slot. Outside
- * training it holds the count only, and no kernel reads further. */
-inline __global st_guide_slot* guide_slot(__global uint* rec, uint capacity, uint slot) {
-  return (__global st_guide_slot*)(rec + 4 + capacity * (ST_SIZEOF_GUIDE_RECORD / 4)) + slot;
-}
-inline __global st_guide_vertex* guide_ring(__global uint* rec, uint capacity, uint Q, uint slot) {
-  return (__global st_guide_vertex*)guide_slot(rec, capacity, Q) + slot * ST_GUIDE_RING;
+/* The region of world position (x, y, z): its cell, then down the cell's kd-tree to a leaf. */
+inline int guide_region_index(__global const st_guide_header* h, float x, float y, float z) {
+  __global const st_guide_node* nodes = guide_nodes(h);
+  const st_uint leaf = guide_tree_leaf(nodes, (st_uint)guide_cell_index(h, x, y, z), x, y, z);
+  return (int)(nodes[leaf].next & ~ST_GUIDE_LEAF);
 }
 
-/* The mean over the path's lanes of c / beta (lanes whose beta is 0 left out): what a contribution
- * c of the path says about the radiance at a vertex that beta arrived at. */
-inline float guide_ratio(float4 c, float4 beta, float4 mask) {
-  float cc[4] = {c.x, c.y, c.z, c.w}, bb[4] = {beta.x, beta.y, beta.z, beta.w}, mm[4] = {mask.x, mask.y, mask.z, mask.w};
-  float sum = 0.0f, n = 0.0f;
-  for (int i = 0; i < 4; ++i)
-    if (mm[i] > 0.0f && bb[i] != 0.0f) sum += cc[i] / bb[i], n += 1.0f;
-  return n > 0.0f ? sum / n : 0.0f;
-}
-
-/* Credits the contribution c to the ring's vertices of depths first .. last (those below 0 or out
- * of the ring are skipped). */
-inline void guide_credit(__global st_guide_vertex* ring, int first, int last, int depth, float4 c, float4 mask) {
-  if (!(masked_max(fabs(c), mask) > 0.0f)) return;
-  for (int k = max(max(first, 0), depth - ST_GUIDE_RING); k <= last; ++k) {
-    __global st_guide_vertex* v = &ring[k % ST_GUIDE_RING];
-    v->pos.w += guide_ratio(c, v->beta, mask);
-  }
-}
-
-/* Vertex `depth` of a training path enters the ring: its position, scattered direction wi with the
- * phase function's value f there, and the throughput beta_in that arrived at it. */
-inline void guide_ring_enter(__global st_guide_vertex* ring, int depth, float3 x, float3 wi, float f, float4 beta_in) {
-  __global st_guide_vertex* v = &ring[depth % ST_GUIDE_RING];
-  v->pos = (float4)(x, 0.0f);
-  v->dir = (float4)(wi, f);
-  v->beta = beta_in;
-}
-
-/* The record of ring vertex k of a path: what its scattered direction brought back per unit
- * throughput arriving at it, f_phase L / p_mix (its credited sum): the fit's density then follows
- * the product of the phase function and the incident radiance, averaged over the region's
- * vertices (at the first scatter event their propagation directions are close: the camera's). */
-inline void guide_vertex_record(__global uint* rec, __global const st_guide_header* h, __global st_guide_vertex* v,
-                                uint4 key) {
-  if ((int)key.w >= h->guided_depth) return; /* only the guided scatter events record */
-  float w = v->pos.w;
-  if (w > 0.0f && isfinite(w))
-    guide_record_push(rec, (uint)h->dims[3], v->pos.xyz, guide_region_index(h, v->pos.x, v->pos.y, v->pos.z), v->dir.xyz,
-                      w, key);
-}
-/* A scatter event of a training path: credits what the path gathered since its last scatter
- * event (emission) to its vertices, records the vertex that leaves the ring; the slot's state
- * starts at the path's first scatter event. */
-inline void guide_training_scatter(__global const st_guide_header* h, __global uint* rec, __global st_guide_vertex* ring,
-                                   uint slot, const st_path* p, float4 mask) {
-  __global st_guide_slot* gs = guide_slot(rec, (uint)h->dims[3], slot);
-  if (p->depth == 0) gs->L_seen = p->L;
-  guide_credit(ring, 0, p->depth - 1, p->depth, p->L - gs->L_seen, mask);
-  gs->L_seen = p->L;
-  if (p->depth >= ST_GUIDE_RING) /* vertex depth - RING leaves the ring */
-    guide_vertex_record(rec, h, &ring[p->depth % ST_GUIDE_RING],
-                        (uint4)(p->pixel, p->sample, p->channel, (uint)(p->depth - ST_GUIDE_RING)));
-}
+#include "guide_paths.h"
 #endif
 
 #endif /* SPECTRACK_GUIDING_H */

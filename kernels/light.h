@@ -4,7 +4,11 @@
  * docs/estimators.md, 'Spectral MIS'). Point and spot lights (features.h ST_HAS_LOCAL_LIGHT) are
  * delta in direction: a shadow ray of length r towards the position, radiant intensity I / r^2, no
  * MIS (phase sampling never hits them); a spot's I falls from full inside cone_angle - cone_delta
- * to 0 at cone_angle by a smoothstep in cos theta (pbrt-v4's SpotLight).
+ * to 0 at cone_angle by a smoothstep in cos theta (pbrt-v4's SpotLight). A sphere light
+ * (features.h ST_HAS_SPHERE_LIGHT) has an area: its surface's radiance, seen by rays that reach it
+ * (track.cl ends them there, ground.h surface_distance) and sampled uniformly in the cone it subtends
+ * (pbrt-v4's sphere sampling outside the sphere), so MIS with phase sampling applies; its shadow
+ * rays end at its surface.
  * Lat-long convention: v = acos(d.y) / pi (row 0 looks up, +y), u = 0.5 + atan2(d.x, -d.z) / (2 pi)
  * (the image centre looks along -z). The map is sampled in proportion to max(rgb) * sin(theta). */
 #ifndef SPECTRACK_LIGHT_H
@@ -81,19 +85,23 @@ inline float4 env_map_Le(__constant const st_light* l, __global const float* env
   return l->radiance * env_texel(l, env, env_dir_to_uv(d));
 }
 
-/* Radiance arriving along direction d (pointing away from the scene) from light l. */
+/* Radiance arriving along direction d (pointing away from the scene) from light l at infinity (0 for
+ * local lights). */
 inline float4 light_Le(__constant const st_light* l, __global const float* env, float3 d, float4 lambda) {
   if (l->type == ST_LIGHT_ENV_UNIFORM) return light_radiance(l, lambda);
   if (ST_HAS_ENV_MAP && l->type == ST_LIGHT_ENV_MAP) return env_map_Le(l, env, d, lambda);
   if (l->is_delta) return (float4)(0.0f);
+  if (ST_HAS_SPHERE_LIGHT && l->type == ST_LIGHT_SPHERE) return (float4)(0.0f);
   return dot(d, l->direction.xyz) >= l->cos_max ? light_radiance(l, lambda) : (float4)(0.0f);
 }
 
-/* pdf (solid angle) with which light_sample picks d; 0 for delta lights. */
+/* pdf (solid angle) with which light_sample picks d, for lights at infinity; 0 for delta lights (a
+ * sphere's: sphere_light_pdf). */
 inline float light_pdf(__constant const st_light* l, __global const float* env, float3 d) {
   if (l->type == ST_LIGHT_ENV_UNIFORM) return ST_INV_4PI;
   if (ST_HAS_ENV_MAP && l->type == ST_LIGHT_ENV_MAP) return env_map_pdf(l, env, d);
   if (l->is_delta) return 0.0f;
+  if (ST_HAS_SPHERE_LIGHT && l->type == ST_LIGHT_SPHERE) return 0.0f;
   return dot(d, l->direction.xyz) >= l->cos_max ? l->pdf_cone : 0.0f;
 }
 
@@ -127,12 +135,58 @@ inline float4 local_light_sample(__constant const st_light* l, float3 x, float3*
   return light_radiance(l, lambda) * (local_light_falloff(l, -*wi) / r2);
 }
 
+/* Distance along the ray (o, d) (d unit) to sphere light l's surface: INFINITY when it misses, 0
+ * when o is inside the sphere (the ray ends there, dark). */
+inline float sphere_distance(__constant const st_light* l, float3 o, float3 d) {
+  const float3 v = l->position.xyz - o;
+  const float r2 = l->position.w * l->position.w, b = dot(v, d);
+  if (dot(v, v) < r2) return 0.0f;
+  const float3 perp = v - b * d; /* the ray's closest approach to the centre */
+  const float disc = r2 - dot(perp, perp);
+  return b > 0.0f && disc >= 0.0f ? b - sqrt(disc) : INFINITY;
+}
+
+/* 1 - cos of the half angle of the cone sphere light l subtends at x (the cone's solid angle over
+ * 2 pi; without cancellation for small spheres), 0 from inside it. */
+inline float sphere_cone_omc(__constant const st_light* l, float3 x) {
+  const float3 v = l->position.xyz - x;
+  const float D2 = dot(v, v), r2 = l->position.w * l->position.w;
+  if (!(D2 > r2)) return 0.0f;
+  const float s2 = r2 / D2;
+  return s2 / (1.0f + sqrt(1.0f - s2));
+}
+
+/* The solid-angle pdf of sphere_light_sample at x (every direction of the cone alike). */
+inline float sphere_light_pdf(__constant const st_light* l, float3 x) {
+  const float omc = sphere_cone_omc(l, x);
+  return omc > 0.0f ? 1.0f / (2.0f * ST_PI * omc) : 0.0f;
+}
+
+/* A direction uniform in the cone sphere light l subtends at x: Le / pdf, the pdf, and where the
+ * shadow ray meets the surface (a direction that rounding lets graze past it: its closest approach). */
+inline float4 sphere_light_sample(__constant const st_light* l, float3 x, float u1, float u2, float3* wi, float* pdf,
+                                  float* t_max, float4 lambda) {
+  const float omc = sphere_cone_omc(l, x);
+  *wi = (float3)(0.0f, 1.0f, 0.0f);
+  *pdf = 0.0f;
+  *t_max = 0.0f;
+  if (!(omc > 0.0f)) return (float4)(0.0f);
+  const float3 v = l->position.xyz - x;
+  const float one_minus_cos = u1 * omc;
+  *wi = direction_around(normalize(v), 1.0f - one_minus_cos, sqrt(fmax(0.0f, one_minus_cos * (2.0f - one_minus_cos))), u2);
+  *pdf = 1.0f / (2.0f * ST_PI * omc);
+  const float t = sphere_distance(l, x, *wi);
+  *t_max = isinf(t) ? dot(v, *wi) : t;
+  return light_radiance(l, lambda) / *pdf;
+}
+
 /* Samples a direction towards light l from the scatter position x. Returns Le / pdf (or the
  * irradiance for a delta light) and writes the direction, its pdf (0 for delta) and where the
  * shadow ray ends (*t_max: a local light's distance, INFINITY for lights at infinity). */
 inline float4 light_sample(__constant const st_light* l, __global const float* env, float3 x, float u1, float u2,
                            float3* wi, float* pdf, float* t_max, float4 lambda) {
   *t_max = INFINITY;
+  if (ST_HAS_SPHERE_LIGHT && l->type == ST_LIGHT_SPHERE) return sphere_light_sample(l, x, u1, u2, wi, pdf, t_max, lambda);
   if (ST_HAS_LOCAL_LIGHT && l->type >= ST_LIGHT_POINT) {
     *pdf = 0.0f;
     return local_light_sample(l, x, wi, t_max, lambda);

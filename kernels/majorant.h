@@ -175,21 +175,7 @@ inline void dda_init(__constant const st_medium* m, __global const float2* maj, 
   s->o = medium_to_index(m, o);
   s->d = medium_dir_to_index(m, d);
   s->d = select(s->d, (float3)(0.0f), s->d == 0.0f); /* -0.0 -> +0.0 */
-  float3 lo = m->maj_origin.xyz;
-  float3 hi = lo + m->maj_origin.w * convert_float3((int3)(m->maj_dims[0], m->maj_dims[1], m->maj_dims[2]));
-  float3 inv = 1.0f / s->d;
-  float3 t0 = (lo - s->o) * inv, t1 = (hi - s->o) * inv;
-  float3 tmin = fmin(t0, t1), tmax = fmax(t0, t1);
-  /* axis-parallel rays: inside the slab -> (-inf, inf); outside -> empty (+inf, -inf). Set on the
-   * interval itself: an empty (t0, t1) = (+inf, -inf) would be swapped into the whole line by the
-   * fmin / fmax above, which made rays beside a box (orthographic cameras along an axis) walk it:
-   * null collisions only for tracking, but the decomposition trackers' control attenuated them. */
-  int3 par = s->d == 0.0f;
-  int3 in_slab = (s->o >= lo) & (s->o < hi);
-  tmin = select(tmin, select((float3)(INFINITY), (float3)(-INFINITY), in_slab), par);
-  tmax = select(tmax, select((float3)(-INFINITY), (float3)(INFINITY), in_slab), par);
-  s->t_enter = fmax(fmax(tmin.x, tmin.y), tmin.z);
-  s->t_exit = fmin(fmin(tmax.x, tmax.y), tmax.z);
+  medium_box_interval(m, s->o, s->d, &s->t_enter, &s->t_exit);
   s->dmax = 0.0f;
   s->dmin = 0.0f;
   s->pool_base = 0u;

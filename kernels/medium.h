@@ -7,6 +7,15 @@
  * (values at integer coordinates; trilinear between floor(p) and floor(p)+1, inactive voxels
  * read 0). A homogeneous medium's world_to_index maps its bounds onto [0,1]^3, its majorant
  * grid has one cell, and its density is 1 inside. Every medium's extent is its majorant-grid box.
+ *
+ * Motion blur (Eulerian, first order, as Arnold's and Cycles' forks): a VDB medium with a velocity
+ * grid v (st_medium.velocity_grid) is looked up at time t (the path's, st_rng.time) at x - v(x) t:
+ * density, emission, temperature and colour at the point the flow carries to x by time t, with
+ * v read once at x (no integration along the flow, so curved flows blur along straight lines).
+ * The velocity's 3 lookups count as density lookups. Each majorant cell of a moving medium grows
+ * by the largest displacement of a lookup from inside it (src/scene/pack_velocity.cpp,
+ * build_majorant_grid's cell_reach), so it bounds every point its lookups can reach during the
+ * shutter.
  */
 #ifndef SPECTRACK_MEDIUM_H
 #define SPECTRACK_MEDIUM_H
@@ -30,6 +39,26 @@ inline int medium_box_contains(__constant const st_medium* m, float3 pi) {
   float3 lo = m->maj_origin.xyz;
   float3 hi = lo + m->maj_origin.w * convert_float3((int3)(m->maj_dims[0], m->maj_dims[1], m->maj_dims[2]));
   return all(pi >= lo) && all(pi < hi);
+}
+
+/* Where the index-space ray (oi, di) (di without -0.0 components) enters and leaves medium m's
+ * box: *t_enter >= *t_exit when it misses. */
+inline void medium_box_interval(__constant const st_medium* m, float3 oi, float3 di, float* t_enter, float* t_exit) {
+  float3 lo = m->maj_origin.xyz;
+  float3 hi = lo + m->maj_origin.w * convert_float3((int3)(m->maj_dims[0], m->maj_dims[1], m->maj_dims[2]));
+  float3 inv = 1.0f / di;
+  float3 t0 = (lo - oi) * inv, t1 = (hi - oi) * inv;
+  float3 tmin = fmin(t0, t1), tmax = fmax(t0, t1);
+  /* axis-parallel rays: inside the slab -> (-inf, inf); outside -> empty (+inf, -inf). Set on the
+   * interval itself: an empty (t0, t1) = (+inf, -inf) would be swapped into the whole line by the
+   * fmin / fmax above, which made rays beside a box (orthographic cameras along an axis) walk it:
+   * null collisions only for tracking, but the decomposition trackers' control attenuated them. */
+  int3 par = di == 0.0f;
+  int3 in_slab = (oi >= lo) & (oi < hi);
+  tmin = select(tmin, select((float3)(INFINITY), (float3)(-INFINITY), in_slab), par);
+  tmax = select(tmax, select((float3)(-INFINITY), (float3)(INFINITY), in_slab), par);
+  *t_enter = fmax(fmax(tmin.x, tmin.y), tmin.z);
+  *t_exit = fmin(fmin(tmax.x, tmax.y), tmax.z);
 }
 
 /* Spectral mode (st_medium.spectral): the coefficients and emission are spectra, evaluated at the
@@ -124,19 +153,96 @@ inline float grid_stochastic(__global const uint* grids, uint offset, float3 pi,
   return pnanovdb_read_float(buf, pnanovdb_readaccessor_get_value_address(PNANOVDB_GRID_TYPE_FLOAT, buf, &acc, &ijk));
 }
 
+/* The addresses of the 8 corner values of a NanoVDB Vec3f grid's trilinear support at voxel i0
+ * (corner k at i0 + (k & 1, (k >> 1) & 1, k >> 2)), through the caller's accessor. When the 2x2x2
+ * block lies in one leaf (grid_trilinear's fast path) they sit at fixed offsets from the first: a
+ * Vec3f leaf stores its 512 values densely, 12 bytes each, voxel (x, y, z) & 7 at index
+ * x * 64 + y * 8 + z; otherwise each corner walks the accessor (its cached nodes make that cheap). */
+inline void vec3_corners(pnanovdb_buf_t buf, pnanovdb_readaccessor_t* acc, int3 i0, pnanovdb_address_t* a) {
+  pnanovdb_coord_t ijk;
+  ijk.x = i0.x;
+  ijk.y = i0.y;
+  ijk.z = i0.z;
+  pnanovdb_uint32_t level;
+  a[0] = pnanovdb_readaccessor_get_value_address_and_level(PNANOVDB_GRID_TYPE_VEC3F, buf, acc, &ijk, &level);
+  const int one_leaf = level == 0u && (i0.x & 7) != 7 && (i0.y & 7) != 7 && (i0.z & 7) != 7;
+  for (int k = 1; k < 8; ++k) {
+    if (one_leaf) {
+      const uint n = (uint)(k & 1) * 64u + (uint)((k >> 1) & 1) * 8u + (uint)((k >> 2) & 1);
+      a[k] = pnanovdb_address_offset(a[0], 12u * n);
+      continue;
+    }
+    ijk.x = i0.x + (k & 1);
+    ijk.y = i0.y + ((k >> 1) & 1);
+    ijk.z = i0.z + ((k >> 2) & 1);
+    a[k] = pnanovdb_readaccessor_get_value_address(PNANOVDB_GRID_TYPE_VEC3F, buf, acc, &ijk);
+  }
+}
+
+/* The trilinear value at index point q of a NanoVDB Vec3f grid, through the caller's accessor. */
+inline float3 vec3_trilinear(pnanovdb_buf_t buf, pnanovdb_readaccessor_t* acc, float3 q) {
+  const float3 fl = floor(q), f = q - fl;
+  pnanovdb_address_t a[8];
+  vec3_corners(buf, acc, convert_int3(fl), a);
+  float3 v[8];
+  for (int k = 0; k < 8; ++k)
+    v[k] = (float3)(pnanovdb_read_float(buf, a[k]), pnanovdb_read_float(buf, pnanovdb_address_offset(a[k], 4u)),
+                    pnanovdb_read_float(buf, pnanovdb_address_offset(a[k], 8u)));
+  const float3 x00 = mix(v[0], v[1], f.x), x10 = mix(v[2], v[3], f.x);
+  const float3 x01 = mix(v[4], v[5], f.x), x11 = mix(v[6], v[7], f.x);
+  return mix(mix(x00, x10, f.y), mix(x01, x11, f.y), f.z);
+}
+
+/* The trilinear value of component c (0, 1, 2) alone at index point q of a NanoVDB Vec3f grid. */
+inline float vec3_component_trilinear(pnanovdb_buf_t buf, pnanovdb_readaccessor_t* acc, float3 q, uint c) {
+  const float3 fl = floor(q), f = q - fl;
+  pnanovdb_address_t a[8];
+  vec3_corners(buf, acc, convert_int3(fl), a);
+  float v[8];
+  for (int k = 0; k < 8; ++k) v[k] = pnanovdb_read_float(buf, pnanovdb_address_offset(a[k], 4u * c));
+  const float x00 = mix(v[0], v[1], f.x), x10 = mix(v[2], v[3], f.x);
+  const float x01 = mix(v[4], v[5], f.x), x11 = mix(v[6], v[7], f.x);
+  return mix(mix(x00, x10, f.y), mix(x01, x11, f.y), f.z);
+}
+
+/* The index point whose values medium m shows at world-index point pi at time t (seconds):
+ * pi - velocity_to_index v(pi) t, with v the velocity grid's (a NanoVDB Vec3f grid) trilinear value
+ * at pi, or for a staggered grid each component a at pi + 1/2 along axis a (OpenVDB's
+ * StaggeredBoxSampler), all through one accessor (one tree walk); pi itself for a medium that
+ * does not move. Counts as 3 lookups. */
+inline float3 medium_lookup_index(__constant const st_medium* m, __global const uint* grids, float3 pi, float t,
+                                  uint* lookups) {
+  if (!ST_HAS_VELOCITY || m->velocity_grid[0] == ST_NO_GRID) return pi;
+  pnanovdb_buf_t buf;
+  pnanovdb_readaccessor_t acc = grid_accessor(grids, m->velocity_grid[0], &buf);
+  float3 v;
+  if (m->velocity_grid[3]) {
+    v.x = vec3_component_trilinear(buf, &acc, pi + (float3)(0.5f, 0.0f, 0.0f), 0u);
+    v.y = vec3_component_trilinear(buf, &acc, pi + (float3)(0.0f, 0.5f, 0.0f), 1u);
+    v.z = vec3_component_trilinear(buf, &acc, pi + (float3)(0.0f, 0.0f, 0.5f), 2u);
+  } else {
+    v = vec3_trilinear(buf, &acc, pi);
+  }
+  const float4 vt = (float4)(v * t, 0.0f);
+  *lookups += 3u;
+  return pi - (float3)(dot(m->velocity_to_index[0], vt), dot(m->velocity_to_index[1], vt),
+                       dot(m->velocity_to_index[2], vt));
+}
+
 inline int lookup_is_stochastic(__constant const st_scene* scene) {
   return ST_HAS_STOCHASTIC_LOOKUP && scene->lookup == ST_LOOKUP_STOCHASTIC;
 }
 
-/* Density of medium m at world point p (0 outside its box). Counts one lookup for VDB media.
- * rng: the caller's stream, drawn once per VDB lookup when lookups are stochastic (scene->lookup),
- * never otherwise. */
+/* Density of medium m at world point p at time t (0 outside its box). Counts one lookup for VDB
+ * media (and a moving medium's velocity lookups). rng: the caller's stream, drawn once per VDB
+ * lookup when lookups are stochastic (scene->lookup), never otherwise. */
 inline float medium_density(__constant const st_scene* scene, __constant const st_medium* m, __global const uint* grids,
-                            float3 p, uint* lookups, st_rng* rng) {
+                            float3 p, float t, uint* lookups, st_rng* rng) {
   float3 pi = medium_to_index(m, p);
   if (!medium_box_contains(m, pi)) return 0.0f;
   if (!ST_HAS_VDB) return 1.0f; /* homogeneous media only */
   if (m->type == ST_MEDIUM_HOMOGENEOUS) return 1.0f;
+  pi = medium_lookup_index(m, grids, pi, t, lookups);
   *lookups += 1u;
   if (lookup_is_stochastic(scene)) return grid_stochastic(grids, m->density_grid, pi, rng_uniform(rng));
   return grid_trilinear(grids, m->density_grid, pi);
@@ -171,12 +277,13 @@ inline float4 blackbody_rgb(__constant const st_medium* m, __global const uint* 
  * T is the temperature grid's value mapped as in blackbody_rgb (0 at or below the cutoff) or the
  * constant temperature.y, raised to the table's floor; ln N is interpolated from the table's lane w,
  * or the constant's blackbody_log_norm. */
-inline float4 blackbody_spectral_Le(__constant const st_medium* m, __global const uint* grids, float3 p, uint* lookups,
-                                    float4 lambda) {
+inline float4 blackbody_spectral_Le(__constant const st_medium* m, __global const uint* grids, float3 p, float t,
+                                    uint* lookups, float4 lambda) {
   float T = m->temperature.y, log_norm = m->blackbody_log_norm;
   if (m->emission_grid != ST_NO_GRID) {
+    const float3 pi = medium_lookup_index(m, grids, medium_to_index(m, p), t, lookups);
     *lookups += 1u;
-    T = grid_trilinear(grids, m->emission_grid, medium_to_index(m, p)) * m->temperature.x + m->temperature.y;
+    T = grid_trilinear(grids, m->emission_grid, pi) * m->temperature.x + m->temperature.y;
     if (!(T > m->temperature.z)) return (float4)(0.0f);
     uint i;
     const float f = blackbody_table_pos(m, T, &i);
@@ -187,16 +294,16 @@ inline float4 blackbody_spectral_Le(__constant const st_medium* m, __global cons
   return m->Le.x * blackbody_over_norm(lambda, T, log_norm);
 }
 
-/* Emitted radiance Le of medium m at p: radiance * scale (* the emission grid's value), or
- * scale * the blackbody colour of the temperature grid's value (emission type "blackbody"); in
+/* Emitted radiance Le of medium m at p at time t: radiance * scale (* the emission grid's value),
+ * or scale * the blackbody colour of the temperature grid's value (emission type "blackbody"); in
  * spectral mode at the path's wavelengths. */
-inline float4 medium_Le(__constant const st_medium* m, __global const uint* grids, float3 p, uint* lookups,
+inline float4 medium_Le(__constant const st_medium* m, __global const uint* grids, float3 p, float t, uint* lookups,
                         float4 lambda) {
   if (!ST_HAS_EMISSION || !m->emissive) return (float4)(0.0f);
-  if (ST_HAS_SPECTRAL && m->blackbody) return blackbody_spectral_Le(m, grids, p, lookups, lambda);
+  if (ST_HAS_SPECTRAL && m->blackbody) return blackbody_spectral_Le(m, grids, p, t, lookups, lambda);
   const float4 Le = medium_is_spectral(m) ? illuminant_at(m->Le, lambda) : m->Le;
   if (m->emission_grid == ST_NO_GRID) return Le;
-  float3 pi = medium_to_index(m, p);
+  float3 pi = medium_lookup_index(m, grids, medium_to_index(m, p), t, lookups);
   *lookups += 1u;
   const float v = grid_trilinear(grids, m->emission_grid, pi);
   if (m->blackbody_offset != ST_NO_GRID) return Le * blackbody_rgb(m, grids, v);
@@ -223,9 +330,9 @@ inline float4 medium_Le(__constant const st_medium* m, __global const uint* grid
  * most 2 max C; the host keeps that factor's bound in sigma_t_maj.x (1 for albedo; st_walker). */
 inline int medium_has_color(__constant const st_medium* m) { return ST_HAS_COLOR && m->color_mode != ST_COLOR_NONE; }
 
-/* C at world point p (3 lookups). */
-inline float4 medium_color(__constant const st_medium* m, __global const uint* grids, float3 p, uint* lookups) {
-  float3 pi = medium_to_index(m, p);
+/* C at world point p at time t (3 lookups). */
+inline float4 medium_color(__constant const st_medium* m, __global const uint* grids, float3 p, float t, uint* lookups) {
+  float3 pi = medium_lookup_index(m, grids, medium_to_index(m, p), t, lookups);
   *lookups += 3u;
   return (float4)(grid_trilinear(grids, m->color_grid[0], pi), grid_trilinear(grids, m->color_grid[1], pi),
                   grid_trilinear(grids, m->color_grid[2], pi), 0.0f);
@@ -303,11 +410,11 @@ inline st_coeffs scene_coeffs(__constant const st_scene* scene, __global const u
     c.tint[i] = (float4)(1.0f);
     if (i >= scene->n_media) continue;
     __constant const st_medium* m = &scene->media[i];
-    float d = medium_density(scene, m, grids, p, lookups, rng);
+    float d = medium_density(scene, m, grids, p, rng->time, lookups, rng);
     c.density[i] = d;
     if (medium_has_color(m) && !(extinction_only && m->color_mode == ST_COLOR_ALBEDO)) {
       if (d == 0.0f) continue;
-      c.tint[i] = medium_color(m, grids, p, lookups);
+      c.tint[i] = medium_color(m, grids, p, rng->time, lookups);
       float4 sa, ss;
       medium_unit_coeffs(m, grids, c.tint[i], rng->lambda, &sa, &ss);
       c.sigma_a += d * sa;

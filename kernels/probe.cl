@@ -12,14 +12,14 @@
 #include "transmittance.h"
 
 
-/* Density of medium `medium` at world points (xyz). */
+/* Density of medium `medium` at world points (xyz) at times w (seconds; a moving medium's). */
 __kernel void k_probe_density(__constant const st_scene* scene, __global const uint* grids,
                               __global const float4* points, __global float* out, int medium, uint n) {
   uint i = get_global_id(0);
   if (i >= n) return;
   uint lookups = 0;
   st_rng rng = rng_make(scene->seed, i, 3u, 0u, 7u, 0u); /* stochastic lookups: one draw */
-  out[i] = medium_density(scene, &scene->media[medium], grids, points[i].xyz, &lookups, &rng);
+  out[i] = medium_density(scene, &scene->media[medium], grids, points[i].xyz, points[i].w, &lookups, &rng);
 }
 
 /* (dmax, dmin) the walk uses at each world point: its fine cell's (one level), or in the
@@ -76,7 +76,7 @@ __kernel void k_probe_track(__constant const st_scene* scene, __global const uin
   float t = 0.0f;
   int medium = 0, ev;
   do {
-    ev = track_path(scene, grids, maj, o.xyz, normalize(d.xyz), &t, &beta, &r_u, hero, mask, &L, &medium, &rng,
+    ev = track_path(scene, grids, maj, o.xyz, normalize(d.xyz), &t, INFINITY, &beta, &r_u, hero, mask, &L, &medium, &rng,
                     scene->iteration_budget, &st);
   } while (ev == ST_EV_BUDGET);
   out[i] = (float4)(ev == ST_EV_ESCAPE ? INFINITY : t, (float)ev, (float)st.lookups, (float)st.dda_steps);
@@ -125,7 +125,7 @@ __kernel void k_probe_albedo(__constant const st_scene* scene, __global const ui
   float t = 0.0f, escaped = 0.0f;
   for (int events = 0; events < 1000000; ++events) {
     int medium = 0;
-    int ev = track_path(scene, grids, maj, o, d, &t, &beta, &r_u, hero, mask, &L, &medium, &rng, scene->iteration_budget, &st);
+    int ev = track_path(scene, grids, maj, o, d, &t, INFINITY, &beta, &r_u, hero, mask, &L, &medium, &rng, scene->iteration_budget, &st);
     if (ev == ST_EV_BUDGET) continue;
     if (ev == ST_EV_ESCAPE) { escaped = 1.0f; break; }
     if (ev == ST_EV_ABSORB) break;

@@ -5,12 +5,12 @@
  * current buffer and pushes into the next buffers with atomic_inc on the next-size counters,
  * which k_advance (wavefront.h) folds once per iteration on the device. The queues of path slots
  * (stage_types.h ST_STAGES, SLOTS) have capacity Q; FREE is the exception to the two buffers: one
- * stack of free slots (free_push below). SHADOW holds shadow-ray entry ids slot * NL + ring *
- * n_lights + light (capacity Q * NL, NL = n_lights * R, R the shadow ring of types.h).
- * ST_STAGE_ARGS is the argument list of every stage kernel, generated from ST_STAGE_ARG_LIST
- * (stage_types.h) like enum st_stage_arg, by which the host binds them; `it` (st_iteration) holds
- * the queue parity and sizes of the current iteration, which the kernels read from the loop state
- * (kernels/stages.cl). */
+ * stack of free slots (free_push below). SHADOW holds shadow-ray entry ids slot * NL + ring * E +
+ * light (capacity Q * NL, NL = E * R, E the entries per bounce (shadow_lights), R the shadow ring
+ * of types.h). ST_STAGE_ARGS is the argument list of every stage kernel, generated from
+ * ST_STAGE_ARG_LIST (stage_types.h) like enum st_stage_arg, by which the host binds them; `it`
+ * (st_iteration) holds the queue parity and sizes of the current iteration, which the kernels read
+ * from the loop state (kernels/stages.cl). */
 #ifndef SPECTRACK_QUEUES_H
 #define SPECTRACK_QUEUES_H
 
@@ -20,6 +20,7 @@
 #include "sampling.h"
 #include "spectrum.h"
 #include "tracking.h"
+#include "transmittance.h"
 #include "guiding.h"
 #include "wavefront.h"
 
@@ -37,8 +38,10 @@
  * kernels call this, so the sum folds). */
 #define ST_X_QUEUE_BEFORE(stage, QUEUE, HOLDS, GATE) \
   if ((int)ST_Q_##QUEUE < k) off += ST_HOLDS_##HOLDS == ST_HOLDS_SLOTS ? Q : Q * NL;
+/* Entries of one parity of every queue: Q per queue of path slots, Q * NL for the shadow queue. */
+inline uint queue_parity_words(uint Q, uint NL) { return (uint)ST_Q_PATH_QUEUES * Q + Q * NL; }
 inline uint queue_offset(uint Q, uint NL, uint parity, int k) {
-  uint off = parity * ((uint)ST_Q_PATH_QUEUES * Q + Q * NL);
+  uint off = parity * queue_parity_words(Q, NL);
   ST_STAGES(ST_X_QUEUE_BEFORE)
   return off;
 }
@@ -65,6 +68,11 @@ inline void free_push(__global uint* queues, __global uint* counters, uint Q, ui
   queues[free_offset(Q) + base + i] = slot;
 }
 
+/* Adaptive sampling (ST_FEATURE_ADAPTIVE): after both parities of the queues, the list of the
+ * window pixels (row-major indices in the window) whose samples this render draws; a batch is
+ * whole samples of these pixels, in list order. */
+inline uint active_pixels_offset(uint Q, uint NL) { return 2u * queue_parity_words(Q, NL); }
+
 inline void counter_add(__global uint* counters, int c, uint v) {
   if (v) atomic_add(&counters[c], v);
 }
@@ -89,6 +97,11 @@ inline void flush_track_stats(__global uint* counters, const st_track_stats* st,
  * first), which leaves every entry of the slot empty for the next path (the host clears the
  * buffer once). So each accumulator has one writer and adds its terms in bounce order: the sums,
  * and the image, do not depend on the order in which shadow rays finish. */
+/* Entries per path slot and bounce: one per light, and with equi-angular sampling one more
+ * (equiangular.h), whose ring-0 entry's Ls is its accumulator as a light's is. */
+inline int shadow_lights(__constant const st_scene* scene) {
+  return scene->n_lights + (ST_HAS_EQUIANGULAR && scene->equiangular.n_local > 0 ? 1 : 0);
+}
 inline int shadow_ring(uint NL, int n_lights) { return n_lights > 0 ? (int)(NL / (uint)n_lights) : 1; }
 inline uint shadow_entry(uint slot, uint NL, int n_lights, int bounce, int light) {
   return slot * NL + (uint)(bounce % shadow_ring(NL, n_lights)) * (uint)n_lights + (uint)light;
@@ -96,13 +109,38 @@ inline uint shadow_entry(uint slot, uint NL, int n_lights, int bounce, int light
 
 /* Adds finished entry e, of bounce `bounce`, to its light's accumulator acc and empties it; the
  * first scattering event's shadow rays also go to the direct pass (types.h ST_AOVS) of the path's
- * result `r` (its first float4 in the batch result buffer). */
+ * result `r` (its first float4 in the batch result buffer). A shadow catcher's entry (ground.h)
+ * goes to the shadow layer only. */
 inline void shadow_fold(__constant const st_scene* scene, __global st_shadow* acc, __global st_shadow* e, int bounce,
                         __global float4* r) {
   const float4 c = e->weight * e->tr.T;
+  if (ST_HAS_GROUND && e->catcher) {
+    r[ST_RESULT_SHADOW] += c;
+    e->state = ST_SHADOW_EMPTY;
+    return;
+  }
   acc->Ls += c;
   if (ST_HAS_AOV && scene->result_layers > ST_RESULT_LAYERS_AOV && bounce == 0) r[ST_RESULT_DIRECT] += c;
   e->state = ST_SHADOW_EMPTY;
+}
+
+/* A shadow entry's start: the ray from o along wi up to t_max (a local light's distance, else
+ * INFINITY), its weight, an empty transmittance estimate of the carried channels and its own
+ * random stream. */
+inline void shadow_begin(__global st_shadow* sh, float3 o, float3 wi, float t_max, float4 weight, float4 mask,
+                         uint stream, uint slot) {
+  sh->o = (float4)(o, 0.0f);
+  sh->d = (float4)(wi, 0.0f);
+  sh->t_max = t_max;
+  sh->weight = weight;
+  st_trans tr;
+  transmittance_begin(&tr, mask);
+  sh->tr = tr;
+  sh->rng_draw = 0u;
+  sh->stream = stream;
+  sh->slot = slot;
+  sh->state = ST_SHADOW_PENDING;
+  if (ST_HAS_GROUND) sh->catcher = 0u;
 }
 
 /* Spectral mode (st_film_color): the four wavelengths of sample (pixel, sample), shared by the
@@ -119,17 +157,25 @@ inline float4 path_wavelengths(__constant const st_scene* scene, const st_path* 
  * is open + u (close - open), st_camera.shutter): the pixel's N samples (shutter.z) are
  * stratified, sample s in stratum s mod N with a uniform offset inside it, and the strata are
  * rotated by a uniform per pixel (Cranley-Patterson), so every sample's u is uniform on its own and
- * a pixel's N samples cover the shutter evenly. Draws 0 and 1 of the stream ST_STREAM_TIME of
- * (pixel, sample) and of (pixel, 0) on channel 0: the time depends only on the seed, pixel and
- * sample, so the paths of a per-channel tracker's sample share it and shards merge exactly. */
+ * a pixel's N samples cover the shutter evenly. Both uniforms are hashes (rng.h hash_uniform) of
+ * the seed, the stream ST_STREAM_TIME, the pixel and the sample (the rotation: of the pixel
+ * alone), not Philox draws: every kernel that looks a moving medium up recomputes the time, and two
+ * Philox calls per path and kernel cost several percent of a blurred render. The time depends
+ * only on the seed, pixel and sample, so the paths of a per-channel tracker's sample share it and
+ * shards merge exactly. */
 inline float path_shutter_u(__constant const st_scene* scene, uint pixel, uint sample) {
   const uint N = (uint)scene->camera.shutter.z;
-  st_rng r = rng_make(scene->seed, pixel, sample, 0u, ST_STREAM_TIME, 0u);
-  const float xi = rng_uniform(&r);
-  st_rng r0 = rng_make(scene->seed, pixel, 0u, 0u, ST_STREAM_TIME, 1u);
-  const float rotation = rng_uniform(&r0);
+  const float xi = hash_uniform(scene->seed ^ ST_STREAM_TIME, pixel, sample);
+  const float rotation = hash_uniform(scene->seed ^ 0x68E31DA4u, pixel, ST_STREAM_TIME);
   const float u = ((float)(sample % N) + xi) / (float)N + rotation;
   return fmin(u - floor(u), 0x1.fffffep-1f);
+}
+
+/* The time of sample (pixel, sample) in seconds: open + u (close - open) (0 without a shutter). */
+inline float path_time(__constant const st_scene* scene, uint pixel, uint sample) {
+  __constant const st_camera* cam = &scene->camera;
+  if (!(cam->shutter.z > 0.0f)) return 0.0f;
+  return mix(cam->shutter.x, cam->shutter.y, path_shutter_u(scene, pixel, sample));
 }
 
 /* The lanes a path carries: its own lane for a per-channel tracker, else every lane of the scene. */
@@ -141,6 +187,7 @@ inline float4 path_mask(__constant const st_scene* scene, const st_path* p) {
 inline st_rng path_rng(__constant const st_scene* scene, const st_path* p, uint stream, uint draw) {
   st_rng r = rng_make(scene->seed, p->pixel, p->sample, p->channel, stream, draw);
   if (spectral_mode(scene)) r.lambda = p->lambda;
+  if (ST_HAS_VELOCITY) r.time = path_time(scene, p->pixel, p->sample);
   return r;
 }
 

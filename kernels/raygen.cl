@@ -12,7 +12,9 @@
 #include "walker.h"
 #include "tracking.h"
 #include "transmittance.h"
+#include "ground.h"
 #include "queues.h"
+#include "equiangular.h"
 #include "sampling.h"
 
 
@@ -26,7 +28,8 @@
  * w (sigma_s / sigma_t per channel, distance) there (a channel with sigma_t = 0 has albedo 0), or 0
  * when the ray leaves every medium. One walk, its budget unbounded (it ends at the first real
  * collision or at the last medium; the walker's exact position sum keeps it moving). Lookups count
- * as the camera layers' (density_lookups_alpha). */
+ * as the camera layers' (density_lookups_alpha). The walk ends at the nearest surface (ground.h);
+ * a diffuse ground there is the collision: its albedo at its distance. */
 inline float camera_first_collision(__constant const st_scene* scene, __global const uint* grids,
                                     __global const float2* maj, __global uint* counters, const st_path* p,
                                     float4* aux) {
@@ -36,7 +39,9 @@ inline float camera_first_collision(__constant const st_scene* scene, __global c
   st_track_stats st;
   track_stats_clear(&st);
   st_walker w;
-  walker_begin(scene, maj, &w, o, d, 0.0f, INFINITY, all, rng.lambda, 0, ST_WALK_SAMPLE_CONTROL, INT_MAX);
+  int sphere;
+  const float t_surface = surface_distance(scene, o, d, &sphere);
+  walker_begin(scene, maj, &w, o, d, 0.0f, t_surface, all, rng.lambda, 0, ST_WALK_SAMPLE_CONTROL, INT_MAX);
   float weight = 1.0f, hit = 0.0f;
   for (;;) {
     int step = walker_step(scene, maj, &w, &rng, &st.dda_steps, &st.dda_nonempty);
@@ -60,6 +65,10 @@ inline float camera_first_collision(__constant const st_scene* scene, __global c
     }
     if (sigma_n < 0.0f) weight *= sigma_n / (w.mu_bar * (1.0f - P_real)); /* else exactly 1 */
   }
+  if (ST_HAS_GROUND && hit == 0.0f && sphere < 0 && t_surface < INFINITY && scene->ground.mode == ST_GROUND_DIFFUSE) {
+    *aux = weight * (float4)(scene->ground.albedo_rgb.xyz, t_surface);
+    hit = weight;
+  }
   counter_add(counters, ST_C_LOOKUPS_ALPHA, st.lookups);
   return hit;
 }
@@ -69,7 +78,8 @@ inline float camera_first_collision(__constant const st_scene* scene, __global c
  * transmittance estimator along the whole camera ray (ratio tracking or ray marching, through
  * every medium, every lane at once), on the stream ST_STREAM_CAMERA_T so the path's own stream is unchanged. It runs to the end here
  * (roulette bounds it); its lookups are counted on their own (density_lookups_alpha). The albedo
- * and depth layers take the ray's first collision (camera_first_collision). */
+ * and depth layers take the ray's first collision (camera_first_collision). The estimate ends at
+ * the nearest surface (ground.h); a diffuse ground or a sphere light there is opaque: alpha 1. */
 inline void camera_layers_begin(__constant const st_scene* scene, __global const uint* grids,
                                 __global const float2* maj, __global uint* counters, __global float4* results,
                                 const st_path* p) {
@@ -77,6 +87,7 @@ inline void camera_layers_begin(__constant const st_scene* scene, __global const
   __global float4* r = &results[p->result_index * L];
   r[ST_RESULT_ENVIRONMENT] = (float4)(0.0f);
   if (L > ST_RESULT_LAYERS_AOV) r[ST_RESULT_EMISSION] = r[ST_RESULT_DIRECT] = (float4)(0.0f);
+  if (L > ST_RESULT_UNSHADOWED) r[ST_RESULT_SHADOW] = r[ST_RESULT_UNSHADOWED] = (float4)(0.0f);
   float4 alpha = (float4)(0.0f);
   /* one estimate per sample, for every channel: the per-channel trackers' channel-0 path makes it
    * (the sample's other paths add 0), the others carry every channel already */
@@ -88,10 +99,16 @@ inline void camera_layers_begin(__constant const st_scene* scene, __global const
     st_trans tr;
     transmittance_begin(&tr, all);
     float t = 0.0f;
-    while (!transmittance_estimate(scene, grids, maj, p->o.xyz, p->d.xyz, INFINITY, &t, &tr, all, all, &rng,
+    int sphere;
+    const float t_surface = surface_distance(scene, p->o.xyz, p->d.xyz, &sphere);
+    while (!transmittance_estimate(scene, grids, maj, p->o.xyz, p->d.xyz, t_surface, &t, &tr, all, all, &rng,
                                    scene->iteration_budget, &st)) {
     }
     alpha = all - tr.T;
+    /* opaque: a sphere light, a diffuse ground */
+    if ((ST_HAS_GROUND || ST_HAS_SPHERE_LIGHT) && t_surface < INFINITY &&
+        (sphere >= 0 || scene->ground.mode == ST_GROUND_DIFFUSE))
+      alpha = all;
     if (spectral_mode(scene)) /* 1 - T at the four wavelengths, a reflectance under D65, as linear sRGB */
       alpha = film_rgb(alpha * d65_at(rng.lambda), rng.lambda, wavelength_pdfs(rng.lambda), 4);
     alpha.w = 0.0f;
@@ -175,11 +192,14 @@ ST_STAGE_FUNCTION(raygen) {
   uint nch = (uint)scene->n_channels_per_sample;
   uint npix = (uint)(scene->window_width * scene->window_height);
   const uint batch_paths = it.batch_paths;
+  /* adaptive sampling: a batch is whole samples of the listed pixels only */
+  if (ST_HAS_ADAPTIVE) npix = batch_paths / (it.samples_per_batch * nch);
   ulong b = g / batch_paths;
   uint in_batch = (uint)(g - b * batch_paths);
   uint ch = in_batch % nch;
   uint wpix = (in_batch / nch) % npix;
   uint s_local = in_batch / (nch * npix);
+  if (ST_HAS_ADAPTIVE) wpix = queues[active_pixels_offset(Q, NL) + wpix];
 
   st_path p;
   p.sample = it.sample_begin + (uint)b * it.samples_per_batch + s_local;
@@ -206,8 +226,10 @@ ST_STAGE_FUNCTION(raygen) {
   p.pending = 0;
   p.medium = 0;
   p.r_u = scene_lanes(scene);
+  if (ea_on(scene)) ea_begin(scene, grids, env, shadows, queues, counters, Q, NL, cur, slot, &p);
   paths[slot] = p;
   if (ST_HAS_AOV && scene->result_layers > 1) camera_layers_begin(scene, grids, maj, counters, results, &p);
-  for (uint l = 0; l < (uint)scene->n_lights; ++l) shadows[slot * NL + l].Ls = (float4)(0.0f);
+  for (uint l = 0; l < (uint)shadow_lights(scene); ++l) shadows[slot * NL + l].Ls = (float4)(0.0f);
+  if (ST_HAS_GUIDING) guide_split_begin(guide, guide_records, slot);
   queue_push(queues, counters, Q, NL, cur, ST_Q_TRACK, slot);
 }

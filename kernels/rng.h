@@ -35,7 +35,8 @@
 #define ST_STREAM_CAMERA_COLLISION 0xfffffffeu /* the albedo and depth layers' camera-ray free flight */
 #define ST_STREAM_WAVELENGTHS 0xfffffffdu /* spectral mode: a sample's wavelengths (queues.h path_wavelengths) */
 #define ST_STREAM_LENS 0xfffffffcu /* the thin lens: a camera ray's point on the lens disc (raygen.cl) */
-#define ST_STREAM_TIME 0xfffffffbu /* a sample's time in the shutter (queues.h path_shutter_u) */
+#define ST_STREAM_TIME 0xfffffffbu /* a sample's time in the shutter (queues.h path_shutter_u; hashed, not drawn) */
+#define ST_STREAM_EQUIANGULAR 0x80000000u /* + segment: a path segment's equi-angular sample (equiangular.h) */
 #define ST_RNG_NO_BLOCK 0xffffffffu /* ctr.w when no block is cached (never a block: k / 4 < 2^30) */
 
 typedef struct {
@@ -46,6 +47,9 @@ typedef struct {
   /* spectral mode: the path's wavelengths (x, y, z; queues.h path_rng), which every function that
    * draws for the path also needs to evaluate its spectra; 0 in rgb mode. Not part of the stream. */
   float4 lambda;
+  /* motion blur: the path's time in seconds (queues.h path_rng; 0 without a moving medium), at
+   * which every medium lookup of the path is made (medium.h). Not part of the stream. */
+  float time;
 } st_rng;
 
 /* The 64-bit product of two 32-bit words, high and low halves. Written as one widening multiply:
@@ -78,6 +82,7 @@ inline st_rng rng_make(uint seed, uint pixel, uint sample, uint channel, uint st
   r.key = (uint2)(seed, 0x5EC7AC4Bu);
   r.draw = draw;
   r.lambda = (float4)(0.0f);
+  r.time = 0.0f;
   return r;
 }
 
@@ -99,5 +104,24 @@ inline uint rng_next_word(st_rng* r) {
 
 /* Uniform in [0, 1): 24 random bits (a multiple of 2^-24 below 1), so 1 - u is never 0. */
 inline float rng_uniform(st_rng* r) { return (float)(rng_next_word(r) >> 8) * (1.0f / 16777216.0f); }
+
+/* A 32-bit integer hash with full avalanche (Chris Wellons' lowbias32: every input bit flips each
+ * output bit with probability about 1/2). */
+inline uint st_hash32(uint x) {
+  x ^= x >> 16;
+  x *= 0x7feb352du;
+  x ^= x >> 15;
+  x *= 0x846ca68bu;
+  x ^= x >> 16;
+  return x;
+}
+
+/* A uniform in [0, 1) (24 bits, as rng_uniform) that depends only on the three words: a chained
+ * hash, for a value that every kernel of a path recomputes and that needs no stream of its own (a
+ * sample's time in the shutter, queues.h path_shutter_u), at a tenth of a Philox call. */
+inline float hash_uniform(uint a, uint b, uint c) {
+  const uint h = st_hash32(a ^ st_hash32(b ^ st_hash32(c ^ 0x2545F491u)));
+  return (float)(h >> 8) * (1.0f / 16777216.0f);
+}
 
 #endif

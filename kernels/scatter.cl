@@ -13,7 +13,10 @@
  * direction comes from the one-sample mixture of the phase function and the region's guide
  * (guiding.h) at the first scatter events, beta takes f_phase / p_mix and d.w holds p_mix, which
  * the light samples' MIS weights use too; training passes keep the path's last vertices in a ring
- * and credit every later contribution to them (guiding.h, st_guide_vertex). */
+ * and credit every later contribution to them (guiding.h, st_guide_vertex). At the ground (a
+ * surface vertex, ground.h) the same steps run with the Lambertian f = albedo cos / pi in place of
+ * the phase function and cosine sampling in place of phase sampling (no guiding there); a shadow
+ * ray that the ground or a sphere light blocks is not traced. */
 #include "types.h"
 #include "features.h"
 #include "rng.h"
@@ -22,8 +25,10 @@
 #include "tracking.h"
 #include "transmittance.h"
 #include "light.h"
+#include "ground.h"
 #include "guiding.h"
 #include "queues.h"
+#include "equiangular.h"
 
 /* Folds the finished shadow entries of bounce depth - R (R: the shadow ring) into their lights'
  * accumulators, in a guide training pass crediting them to the ring's earlier vertices (ring not
@@ -31,9 +36,9 @@
 inline int shadows_busy(__constant const st_scene* scene, __global st_shadow* shadows, __global float4* results,
                         uint NL, uint slot, const st_path* p, __global st_guide_vertex* ring) {
   int busy = 0;
-  const int bounce = p->depth - shadow_ring(NL, scene->n_lights);
+  const int bounce = p->depth - shadow_ring(NL, shadow_lights(scene));
   for (int l = 0; l < scene->n_lights; ++l) {
-    __global st_shadow* e = &shadows[shadow_entry(slot, NL, scene->n_lights, p->depth, l)];
+    __global st_shadow* e = &shadows[shadow_entry(slot, NL, shadow_lights(scene), p->depth, l)];
     if (e->state == ST_SHADOW_PENDING) {
       busy = 1;
     } else if (e->state == ST_SHADOW_DONE) { /* the entry of bounce depth - R (R: the shadow ring) */
@@ -41,19 +46,23 @@ inline int shadows_busy(__constant const st_scene* scene, __global st_shadow* sh
       shadow_fold(scene, &shadows[slot * NL + (uint)l], e, bounce, &results[p->result_index * (uint)scene->result_layers]);
     }
   }
+  /* equi-angular sampling: the entry whose place the next segment's takes (equiangular.h) */
+  if (ea_on(scene)) busy |= ea_fold(scene, shadows, results, NL, slot, p, bounce + 1);
   return busy;
 }
 
 /* The lights next-event estimation samples at this event, [first, *end), and the probability
  * *pick_pmf of a one-light choice (1 when every light is sampled). */
-inline int lights_to_sample(__constant const st_scene* scene, __constant const st_medium* m, float3 wo, float3 x,
-                            st_rng* rng, int* end, float* pick_pmf) {
+inline int lights_to_sample(__constant const st_scene* scene, __constant const st_medium* m, int ground, float3 wo,
+                            float3 x, st_rng* rng, int* end, float* pick_pmf) {
   int first = 0;
   *end = scene->n_lights;
   *pick_pmf = 1.0f;
   if (scene->light_sampling != ST_LIGHT_SAMPLING_ALL && scene->n_lights > 1) {
     if (scene->light_sampling == ST_LIGHT_SAMPLING_CONTRIBUTION) {
-      first = light_select_contribution(scene, m->phase_type, m->g, m->phase, wo, x, rng_uniform(rng), pick_pmf);
+      /* at the ground every light is weighed as by an isotropic phase function (unbiased for any weights) */
+      first = light_select_contribution(scene, ground ? ST_PHASE_ISOTROPIC : m->phase_type, m->g, m->phase, wo, x,
+                                        rng_uniform(rng), pick_pmf);
       *end = first < 0 ? 0 : first + 1;
     } else {
       first = light_select(scene, rng_uniform(rng));
@@ -64,22 +73,96 @@ inline int lights_to_sample(__constant const st_scene* scene, __constant const s
   return first;
 }
 
-/* A shadow entry's start: the ray from o along wi up to t_max (a local light's distance, else
- * INFINITY), its weight, an empty transmittance estimate of the carried channels and its own
- * random stream. */
-inline void shadow_begin(__global st_shadow* sh, float3 o, float3 wi, float t_max, float4 weight, float4 mask,
-                         uint stream, uint slot) {
-  sh->o = (float4)(o, 0.0f);
-  sh->d = (float4)(wi, 0.0f);
-  sh->t_max = t_max;
-  sh->weight = weight;
-  st_trans tr;
-  transmittance_begin(&tr, mask);
-  sh->tr = tr;
-  sh->rng_draw = 0u;
-  sh->stream = stream;
-  sh->slot = slot;
-  sh->state = ST_SHADOW_PENDING;
+/* A camera ray at a shadow catcher (ground.h): with the shadow layer, one light sample per light,
+ * its unshadowed estimate E = f Le / pdf (no beta, MIS or albedo) added to ST_RESULT_UNSHADOWED now
+ * and a shadow ray that adds E T to ST_RESULT_SHADOW (queues.h shadow_fold); then the path ends. */
+inline void shadow_catcher_event(__constant const st_scene* scene, __global const float* env,
+                                 __global st_shadow* shadows, __global uint* queues, __global uint* counters,
+                                 __global float4* results, uint Q, uint NL, uint cur, uint slot, st_path* p) {
+  if (scene->result_layers > ST_RESULT_UNSHADOWED) {
+    st_rng rng = path_rng(scene, p, 0u, p->rng_draw);
+    const float4 mask = path_mask(scene, p);
+    __global float4* r = &results[p->result_index * (uint)scene->result_layers];
+    for (int l = 0; l < scene->n_lights; ++l) {
+      float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
+      float3 wi;
+      float pdf_l, t_max;
+      float4 Le_over_pdf = light_sample(&scene->lights[l], env, p->o.xyz, u1, u2, &wi, &pdf_l, &t_max, rng.lambda);
+      const float4 E = mask * Le_over_pdf * ground_cos_over_pi(wi);
+      if (!(masked_max(fabs(E), mask) > 0.0f)) continue;
+      r[ST_RESULT_UNSHADOWED] += E;
+      if (surface_blocks(scene, p->o.xyz, wi, t_max, 1, l)) continue; /* a sphere light's shadow: T = 0 */
+      uint id = shadow_entry(slot, NL, shadow_lights(scene), 0, l);
+      shadow_begin(&shadows[id], p->o.xyz, wi, t_max, E, mask, 1u + (uint)l, slot);
+      shadows[id].catcher = 1u;
+      p->pending += 1;
+      queue_push(queues, counters, Q, NL, cur, ST_Q_SHADOW, id);
+    }
+    p->rng_draw = rng_draw_index(&rng);
+  }
+  p->depth = 1; /* k_finish folds the entries of bounce 0 */
+  queue_push(queues, counters, Q, NL, cur, ST_Q_FINISH, slot);
+}
+
+/* Next-event estimation at the scatter event of *p: one shadow ray per sampled light, weighted by the
+ * power heuristic against the density of the scattered direction's sampler (the one-sample mixture
+ * where the region guides, alpha > 0; else the phase function, or the ground's cosine lobe). */
+inline void scatter_nee(__constant const st_scene* scene, __global const float* env, __global st_shadow* shadows,
+                        __global uint* queues, __global uint* counters, uint Q, uint NL, uint cur, uint slot,
+                        st_path* p, st_rng* rng, int ground, float4 albedo, __global const st_guide_region* region,
+                        float alpha) {
+  __constant const st_medium* m = &scene->media[ground ? 0 : p->medium];
+  const float3 wo = p->d.xyz;
+  const float4 mask = path_mask(scene, p);
+  int l_end;
+  float pick_pmf; /* the probability of a one-light choice */
+  const int l_begin = lights_to_sample(scene, m, ground, wo, p->o.xyz, rng, &l_end, &pick_pmf);
+  for (int l = l_begin; l < l_end; ++l) {
+    __constant const st_light* light = &scene->lights[l];
+    float u1 = rng_uniform(rng), u2 = rng_uniform(rng);
+    float3 wi;
+    float pdf_l, t_max;
+    float4 Le_over_pdf = light_sample(light, env, p->o.xyz, u1, u2, &wi, &pdf_l, &t_max, rng->lambda);
+    float f = ground ? ground_cos_over_pi(wi) : phase_eval(m->phase_type, m->g, m->phase, dot(wo, wi));
+    /* the direction's density under the sampler of the scattered ray: the one-sample mixture
+     * with guiding (the same p_mix that k_escape reads from d.w), else the phase function */
+    float p_dir = f;
+    if (ST_HAS_GUIDING && alpha > 0.0f) p_dir = guide_mixture_pdf(alpha, vmf_mixture_pdf(&region->mix, wi), f);
+    float w = pdf_l > 0.0f ? power_heuristic(light->select_pmf * pdf_l, p_dir) : 1.0f;
+    /* in a medium: MIS against the segment's equi-angular sample (equiangular.h) */
+    if (ea_on(scene) && p->medium != ST_MEDIUM_GROUND)
+      w *= ea_flight_weight(scene, ea_entry(scene, shadows, NL, slot, p->depth), l, p->o.xyz);
+    float4 weight = p->beta * mask * Le_over_pdf * (f * w / pick_pmf);
+    if (ground) weight *= albedo;
+    if (!(masked_max(fabs(weight), mask) > 0.0f)) continue;
+    if (surface_blocks(scene, p->o.xyz, wi, t_max, ground, l)) continue;
+    uint id = shadow_entry(slot, NL, shadow_lights(scene), p->depth, l);
+    shadow_begin(&shadows[id], p->o.xyz, wi, t_max, weight, mask, 1u + (uint)p->depth * ST_MAX_LIGHTS + (uint)l, slot);
+    p->pending += 1;
+    queue_push(queues, counters, Q, NL, cur, ST_Q_SHADOW, id);
+  }
+}
+
+/* The scattered direction at the path's vertex, its pdf and f: cosine sampling at the ground (beta
+ * takes the albedo), the one-sample mixture of phase function and guide (alpha > 0: beta takes
+ * f_phase / p_mix, unbiased for any guide), else exact phase sampling (f / pdf = 1, beta unchanged). */
+inline float3 scatter_direction(__constant const st_medium* m, __global const st_guide_region* region, float alpha,
+                                int ground, float4 albedo, float3 wo, st_path* p, st_rng* rng, float* pdf, float* f) {
+  float3 wi;
+  if (ground) {
+    float u1 = rng_uniform(rng), u2 = rng_uniform(rng);
+    wi = ground_sample_cosine(u1, u2);
+    *pdf = *f = ground_cos_over_pi(wi);
+    p->beta *= albedo;
+  } else if (ST_HAS_GUIDING && alpha > 0.0f) {
+    float u0 = rng_uniform(rng), u1 = rng_uniform(rng), u2 = rng_uniform(rng);
+    wi = guided_phase_sample(&region->mix, alpha, m->phase_type, m->g, m->phase, wo, u0, u1, u2, rng, pdf, f);
+    p->beta *= *pdf > 0.0f ? *f / *pdf : 0.0f;
+  } else {
+    float u1 = rng_uniform(rng), u2 = rng_uniform(rng);
+    wi = phase_sample(m->phase_type, m->g, m->phase, wo, u1, u2, rng, pdf, f);
+  }
+  return wi;
 }
 
 /* Russian roulette on the throughput, from depth 3 on: the queue the path goes to next. */
@@ -99,20 +182,32 @@ ST_STAGE_FUNCTION(scatter) {
   const uint cur = it.cur;
   uint slot = queue_item(queues, Q, NL, cur, ST_Q_SCATTER, gid);
   st_path p = paths[slot];
-  if (scene->max_depth >= 0 && p.depth >= scene->max_depth) {
+  const int ground = ST_HAS_GROUND && p.medium == ST_MEDIUM_GROUND;
+  if (ground && scene->ground.mode == ST_GROUND_SHADOW_CATCHER) {
+    shadow_catcher_event(scene, env, shadows, queues, counters, results, Q, NL, cur, slot, &p);
+    paths[slot] = p;
+    return;
+  }
+  /* splitting (guiding.h): a waiting child resumes its parent's event at the choice of direction */
+  __global st_guide_slot* gs = guide_split_slot(guide, guide_records, slot);
+  const int child = gs && gs->split[3];
+  if (!child && scene->max_depth >= 0 && p.depth >= scene->max_depth) {
     queue_push(queues, counters, Q, NL, cur, ST_Q_FINISH, slot);
     return;
   }
   const int training = ST_HAS_GUIDING && guide->inv_cell.w > 0.0f;
   __global st_guide_vertex* ring = training ? guide_ring(guide_records, (uint)guide->dims[3], Q, slot) : 0;
-  if (shadows_busy(scene, shadows, results, NL, slot, &p, ring)) {
+  if (!child && shadows_busy(scene, shadows, results, NL, slot, &p, ring)) {
     atomic_inc(&counters[ST_C_WAITS]);
     queue_push(queues, counters, Q, NL, cur, ST_Q_SCATTER, slot);
     return;
   }
-  atomic_inc(&counters[ST_C_SCATTER_EVENTS]);
+  if (child) gs->split[3] = 0u;
+  else atomic_inc(&counters[ST_C_SCATTER_EVENTS]);
   st_rng rng = path_rng(scene, &p, 0u, p.rng_draw);
-  __constant const st_medium* m = &scene->media[p.medium];
+  if (ST_HAS_GUIDING) guide_rng_key(&rng, guide, guide_records, slot);
+  __constant const st_medium* m = &scene->media[ground ? 0 : p.medium];
+  const float4 albedo = ground ? ground_albedo(scene, rng.lambda) : (float4)(1.0f);
   float3 wo = p.d.xyz;
   const float4 mask = path_mask(scene, &p);
   /* guiding: training credits what the path gathered since its last scatter event; the region's
@@ -120,52 +215,34 @@ ST_STAGE_FUNCTION(scatter) {
   if (training) guide_training_scatter(guide, guide_records, ring, slot, &p, mask);
   __global const st_guide_region* region = 0;
   float alpha = 0.0f;
-  if (ST_HAS_GUIDING && guide->origin.w > 0.0f && p.depth < guide->guided_depth) {
+  /* not at a ground vertex (the medium index test, not `ground`, which is a constant without a ground) */
+  const int in_medium = p.medium != ST_MEDIUM_GROUND;
+  if (ST_HAS_GUIDING && guide->origin.w > 0.0f && p.depth < guide->guided_depth && in_medium) {
     region = guide_regions(guide) + guide_region_index(guide, p.o.x, p.o.y, p.o.z);
     alpha = region->alpha;
   }
-  int l_end;
-  float pick_pmf; /* the probability of a one-light choice */
-  const int l_begin = lights_to_sample(scene, m, wo, p.o.xyz, &rng, &l_end, &pick_pmf);
-  for (int l = l_begin; l < l_end; ++l) {
-    __constant const st_light* light = &scene->lights[l];
-    float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
-    float3 wi;
-    float pdf_l, t_max;
-    float4 Le_over_pdf = light_sample(light, env, p.o.xyz, u1, u2, &wi, &pdf_l, &t_max, rng.lambda);
-    float f = phase_eval(m->phase_type, m->g, m->phase, dot(wo, wi));
-    /* the direction's density under the sampler of the scattered ray: the one-sample mixture
-     * with guiding (the same p_mix that k_escape reads from d.w), else the phase function */
-    float p_dir = f;
-    if (ST_HAS_GUIDING && alpha > 0.0f) p_dir = guide_mixture_pdf(alpha, vmf_mixture_pdf(&region->mix, wi), f);
-    float w = pdf_l > 0.0f ? power_heuristic(light->select_pmf * pdf_l, p_dir) : 1.0f;
-    float4 weight = p.beta * mask * Le_over_pdf * (f * w / pick_pmf);
-    if (!(masked_max(fabs(weight), mask) > 0.0f)) continue;
-    uint id = shadow_entry(slot, NL, scene->n_lights, p.depth, l);
-    __global st_shadow* sh = &shadows[id];
-    shadow_begin(sh, p.o.xyz, wi, t_max, weight, mask, 1u + (uint)p.depth * ST_MAX_LIGHTS + (uint)l, slot);
-    p.pending += 1;
-    queue_push(queues, counters, Q, NL, cur, ST_Q_SHADOW, id);
+  if (!child) scatter_nee(scene, env, shadows, queues, counters, Q, NL, cur, slot, &p, &rng, ground, albedo, region, alpha);
+  /* guided roulette and splitting before the direction is drawn (-1: no estimate here; media only) */
+  const int split = gs && !child && in_medium ? guide_rrs(guide, gs, &p, mask, &rng) : -1;
+  if (split == 0) { /* the path ends after this event's next-event estimation (its bounce: depth + 1 folds it) */
+    p.depth += 1;
+    p.rng_draw = rng_draw_index(&rng);
+    paths[slot] = p;
+    queue_push(queues, counters, Q, NL, cur, ST_Q_FINISH, slot);
+    return;
   }
   float pdf, f;
-  float3 wi;
   const float4 beta_in = p.beta;
-  if (ST_HAS_GUIDING && alpha > 0.0f) {
-    /* the one-sample mixture of phase function and guide: weight f_phase / p_mix, unbiased for any guide */
-    float u0 = rng_uniform(&rng), u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
-    wi = guided_phase_sample(&region->mix, alpha, m->phase_type, m->g, m->phase, wo, u0, u1, u2, &rng, &pdf, &f);
-    p.beta *= pdf > 0.0f ? f / pdf : 0.0f;
-  } else {
-    float u1 = rng_uniform(&rng), u2 = rng_uniform(&rng);
-    wi = phase_sample(m->phase_type, m->g, m->phase, wo, u1, u2, &rng, &pdf, &f);
-    /* exact sampling: f / pdf = 1, beta unchanged */
-  }
-  if (training) guide_ring_enter(ring, p.depth, p.o.xyz, wi, f, beta_in);
+  const float3 wi = scatter_direction(m, region, alpha, ground, albedo, wo, &p, &rng, &pdf, &f);
+  if (training)
+    guide_ring_enter(ring, p.depth, p.o.xyz, wi, f, beta_in, guide_path_total(shadows, NL, shadow_lights(scene), slot, &p, mask));
   p.d = (float4)(wi, pdf);
   p.o.w = 0.0f;
   p.depth += 1;
-  const int q = path_roulette(&p, mask, &rng);
+  /* the throughput's roulette where guided roulette did not decide (a child was decided at its parent) */
+  const int q = split < 0 && !child ? path_roulette(&p, mask, &rng) : ST_Q_TRACK;
   p.rng_draw = rng_draw_index(&rng);
+  if (ea_on(scene) && q == ST_Q_TRACK) ea_begin(scene, grids, env, shadows, queues, counters, Q, NL, cur, slot, &p);
   paths[slot] = p;
   queue_push(queues, counters, Q, NL, cur, q, slot);
 }

@@ -10,6 +10,7 @@
 #include "transmittance.h"
 #include "guiding.h"
 #include "queues.h"
+#include "equiangular.h"
 
 ST_STAGE_FUNCTION(shadow) {
   const uint cur = it.cur;
@@ -17,6 +18,7 @@ ST_STAGE_FUNCTION(shadow) {
   st_shadow sh = shadows[id];
   st_path p = paths[sh.slot];
   st_rng rng = path_rng(scene, &p, sh.stream, sh.rng_draw);
+  if (ST_HAS_GUIDING) guide_rng_key(&rng, guide, guide_records, sh.slot); /* a split path's streams */
   st_track_stats st;
   track_stats_clear(&st);
   float t = sh.o.w;
@@ -27,6 +29,10 @@ ST_STAGE_FUNCTION(shadow) {
   const float4 importance = w_max > 0.0f ? w / w_max : mask;
   int done = transmittance_estimate(scene, grids, maj, sh.o.xyz, sh.d.xyz, sh.t_max, &t, &sh.tr, mask, importance, &rng,
                                     scene->iteration_budget, &st);
+  if (done && ST_HAS_EQUIANGULAR && sh.ea[0] == 1u) { /* an equi-angular entry's leg 1 (equiangular.h) */
+    done = ea_second_leg(scene, env, &sh, &p, mask);
+    t = 0.0f;
+  }
   sh.rng_draw = rng_draw_index(&rng);
   if (done) {
     sh.state = ST_SHADOW_DONE;

@@ -12,9 +12,9 @@
  * around stage_<stage>, kernels/stages.cl) reads queue ST_Q_<QUEUE>, whose items are path slots
  * (SLOTS: capacity Q) or shadow-ray entries (SHADOW: capacity Q * NL); GATE says when a render
  * launches it (ALWAYS; ESCAPE: the scene's escaping rays can see a light, ST_FEATURE_ESCAPE;
- * LIGHTS: the scene has lights). Each stage reads the current buffer of its queue and pushes into
- * the next buffers (queues.h); FREE is one stack of free path slots, not two buffers. Adding a
- * stage is a row here and its stage function. */
+ * LIGHTS: the scene has shadow-ray entries, queues.h shadow_lights). Each stage reads the current
+ * buffer of its queue and pushes into the next buffers (queues.h); FREE is one stack of free path
+ * slots, not two buffers. Adding a stage is a row here and its stage function. */
 #define ST_STAGES(X)                  \
   X(raygen, FREE, SLOTS, ALWAYS)      \
   X(track, TRACK, SLOTS, ALWAYS)      \
@@ -53,7 +53,8 @@ enum st_queue {
   X(DDA_NONEMPTY, dda_nonempty, "dda_steps_nonempty")              \
   X(REQUEUES, requeues, "requeues")                                \
   X(WAITS, waits, "waiting_requeues")                              \
-  X(NONFINITE, nonfinite_samples, "nonfinite_samples")
+  X(NONFINITE, nonfinite_samples, "nonfinite_samples")             \
+  X(SPLIT_PATHS, split_paths, "guide_split_paths")
 #define ST_X_COUNTER_ENUM(E, field, key) ST_C_##E,
 /* The counter buffer: queue sizes, finished paths per batch ring slot, the sums, the maximum. */
 enum st_counter {

@@ -165,9 +165,9 @@ inline st_collision collision_component(__constant const st_scene* scene, __glob
   return c;
 }
 
-/* sigma_a Le at p, summed over the emissive media that have a part of the collision's density. */
+/* sigma_a Le at p at time t, summed over the emissive media that have a part of the collision's density. */
 inline float4 absorbed_emission(__constant const st_scene* scene, __global const uint* grids, const st_collision* c,
-                                float3 p, uint* lookups, float4 lambda) {
+                                float3 p, float t, uint* lookups, float4 lambda) {
   float4 mua_Le = (float4)(0.0f);
   for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
     if (i >= scene->n_media || c->density[i] == 0.0f) continue;
@@ -175,7 +175,7 @@ inline float4 absorbed_emission(__constant const st_scene* scene, __global const
     if (!m->emissive) continue;
     float4 sigma_a, sigma_s;
     medium_unit_coeffs(m, grids, c->tint[i], lambda, &sigma_a, &sigma_s);
-    mua_Le += c->density[i] * sigma_a * medium_Le(m, grids, p, lookups, lambda);
+    mua_Le += c->density[i] * sigma_a * medium_Le(m, grids, p, t, lookups, lambda);
   }
   return mua_Le;
 }
@@ -239,7 +239,7 @@ inline int free_path_collision(__constant const st_scene* scene, __global const 
   float xi = rng_uniform(rng) * p_sum;
   if (xi < P.x) {
     if (ST_HAS_EMISSION) {
-      float4 mua_Le = absorbed_emission(scene, grids, &c, p, &st->emission_lookups, rng->lambda);
+      float4 mua_Le = absorbed_emission(scene, grids, &c, p, rng->time, &st->emission_lookups, rng->lambda);
       *L += *beta * mask * mua_Le * (p_sum / (c.mu_bar * P.x));
     }
     st->real += 1u;
@@ -247,7 +247,7 @@ inline int free_path_collision(__constant const st_scene* scene, __global const 
   }
   if (xi < P.x + P.y) {
     if (ST_HAS_EMISSION && weighted) { /* emission as a collision estimator at the real collision */
-      float4 mua_Le = absorbed_emission(scene, grids, &c, p, &st->emission_lookups, rng->lambda);
+      float4 mua_Le = absorbed_emission(scene, grids, &c, p, rng->time, &st->emission_lookups, rng->lambda);
       *L += *beta * mask * mua_Le * (p_sum / (c.mu_bar * P.y));
     }
     float4 sigma_s_k;
@@ -274,15 +274,16 @@ inline int free_path_collision(__constant const st_scene* scene, __global const 
   return ST_EV_NULL;
 }
 
-/* Samples the next real collision along (o, d) from *t. On ST_EV_SCATTER, *t is the collision,
+/* Samples the next real collision along (o, d) from *t up to t_max (the ground's distance, else
+ * INFINITY). On ST_EV_SCATTER, *t is the collision,
  * beta carries the scattering weight and *medium the medium whose phase function applies. On
  * ST_EV_ABSORB the emission score has been added to *L. On ST_EV_ESCAPE the ray left every
- * medium. On ST_EV_BUDGET, call again from *t. */
+ * medium (or reached t_max). On ST_EV_BUDGET, call again from *t. */
 inline int track_free_path(__constant const st_scene* scene, __global const uint* grids, __global const float2* maj,
-                           float3 o, float3 d, float* t, float4* beta, float4 mask, float4* L, int* medium,
+                           float3 o, float3 d, float* t, float t_max, float4* beta, float4 mask, float4* L, int* medium,
                            st_rng* rng, int budget, st_track_stats* st) {
   st_walker w;
-  walker_begin(scene, maj, &w, o, d, *t, INFINITY, mask, rng->lambda, tracker_decomposes(scene), ST_WALK_SAMPLE_CONTROL,
+  walker_begin(scene, maj, &w, o, d, *t, t_max, mask, rng->lambda, tracker_decomposes(scene), ST_WALK_SAMPLE_CONTROL,
                budget);
   int scheme = tracker_scheme(scene);
   for (;;) {
@@ -379,7 +380,7 @@ inline int mis_collision(__constant const st_scene* scene, __global const uint* 
     c.tint[i] = k.tint[i];
   }
   if (ST_HAS_EMISSION) { /* the collision estimator of emission, MIS-weighted over the techniques */
-    float4 mua_Le = absorbed_emission(scene, grids, &c, p, &st->emission_lookups, rng->lambda);
+    float4 mua_Le = absorbed_emission(scene, grids, &c, p, rng->time, &st->emission_lookups, rng->lambda);
     float pdf = masked_avg(*r_u * sigma_maj, lanes);
     if (pdf > 0.0f) *L += *beta * lanes * mua_Le / pdf;
   }
@@ -434,10 +435,10 @@ inline int mis_collision(__constant const st_scene* scene, __global const uint* 
 /* Spectral-MIS free-path sampling along (o, d) from *t (the contract of track_free_path); beta and
  * r_u as above, hero the path's hero channel. */
 inline int track_free_path_mis(__constant const st_scene* scene, __global const uint* grids, __global const float2* maj,
-                               float3 o, float3 d, float* t, float4* beta, float4* r_u, int hero, float4* L,
-                               int* medium, st_rng* rng, int budget, st_track_stats* st) {
+                               float3 o, float3 d, float* t, float t_max, float4* beta, float4* r_u, int hero,
+                               float4* L, int* medium, st_rng* rng, int budget, st_track_stats* st) {
   st_walker w;
-  walker_begin(scene, maj, &w, o, d, *t, INFINITY, one_hot(hero), rng->lambda, 0, ST_WALK_SAMPLE_CONTROL, budget);
+  walker_begin(scene, maj, &w, o, d, *t, t_max, one_hot(hero), rng->lambda, 0, ST_WALK_SAMPLE_CONTROL, budget);
   float4 sigma_maj = mis_sigma_maj(scene, &w, hero);
   for (;;) {
     float t_prev = w.t, t_end = w.seg.t1;
@@ -463,12 +464,13 @@ inline int track_free_path_mis(__constant const st_scene* scene, __global const 
   }
 }
 
-/* The scene's tracker: spectral MIS (r_u and hero its state) or track_free_path (mask). */
+/* The scene's tracker: spectral MIS (r_u and hero its state) or track_free_path (mask), up to t_max. */
 inline int track_path(__constant const st_scene* scene, __global const uint* grids, __global const float2* maj,
-                      float3 o, float3 d, float* t, float4* beta, float4* r_u, int hero, float4 mask, float4* L,
-                      int* medium, st_rng* rng, int budget, st_track_stats* st) {
-  if (tracker_is_mis(scene)) return track_free_path_mis(scene, grids, maj, o, d, t, beta, r_u, hero, L, medium, rng, budget, st);
-  return track_free_path(scene, grids, maj, o, d, t, beta, mask, L, medium, rng, budget, st);
+                      float3 o, float3 d, float* t, float t_max, float4* beta, float4* r_u, int hero, float4 mask,
+                      float4* L, int* medium, st_rng* rng, int budget, st_track_stats* st) {
+  if (tracker_is_mis(scene))
+    return track_free_path_mis(scene, grids, maj, o, d, t, t_max, beta, r_u, hero, L, medium, rng, budget, st);
+  return track_free_path(scene, grids, maj, o, d, t, t_max, beta, mask, L, medium, rng, budget, st);
 }
 
 /* A path's hero lane (spectral-mis), uniform over the scene's lanes; 0 for the other trackers (no draw). */

@@ -144,9 +144,17 @@ inline int st_tracker_default_absorption(int t) { return ST_TRACKERS(ST_X_TRACKE
 enum st_scheme { ST_SCHEMES(ST_X_SCHEME_ENUM) ST_SCHEME_COUNT };
 
 enum st_camera_type { ST_CAMERA_PERSPECTIVE = 0, ST_CAMERA_ORTHOGRAPHIC = 1 };
-/* Lights at infinity first; point and spot lights are local: intensity / r^2, delta in direction (light.h). */
-enum st_light_type { ST_LIGHT_ENV_UNIFORM, ST_LIGHT_ENV_MAP, ST_LIGHT_DIRECTIONAL, ST_LIGHT_POINT, ST_LIGHT_SPOT };
+/* Lights at infinity first; point and spot lights are local: intensity / r^2, delta in direction; a
+ * sphere is local and has an area: radiance on its surface, sampled in its cone (light.h). */
+enum st_light_type { ST_LIGHT_ENV_UNIFORM, ST_LIGHT_ENV_MAP, ST_LIGHT_DIRECTIONAL, ST_LIGHT_POINT, ST_LIGHT_SPOT, ST_LIGHT_SPHERE };
 enum st_medium_type { ST_MEDIUM_VDB = 0, ST_MEDIUM_HOMOGENEOUS = 1 };
+/* st_path.medium of a path at the ground (a surface vertex, ground.h), not a medium */
+#define ST_MEDIUM_GROUND (-1)
+/* What the ground does (ground.h): X(ENUM suffix, name): reflects diffusely; catches shadows (the
+ * shadow layer, transparent otherwise); holds out (occludes, transparent). */
+#define ST_GROUND_MODES(X) X(DIFFUSE, "diffuse") X(SHADOW_CATCHER, "shadow_catcher") X(HOLDOUT, "holdout")
+#define ST_X_GROUND_ENUM(E, name) ST_GROUND_##E,
+enum st_ground_mode { ST_GROUND_MODES(ST_X_GROUND_ENUM) ST_GROUND_MODE_COUNT };
 /* A medium's per-voxel colour grid (kernels/medium.h medium_unit_coeffs): none; the
  * single-scattering albedo per channel (sigma_t unchanged); a multiplier of sigma_s per channel. */
 enum st_color_mode { ST_COLOR_NONE = 0, ST_COLOR_ALBEDO = 1, ST_COLOR_SCATTERING = 2 };
@@ -171,13 +179,15 @@ enum st_phase_type { ST_PHASE_ISOTROPIC = 0, ST_PHASE_HG = 1, ST_PHASE_DRAINE_BL
  *                collision (a delta-tracking free flight of the channel-mean extinction along the
  *                camera ray, stream ST_STREAM_CAMERA_COLLISION), averaged over the samples whose
  *                ray collided: a denoiser's albedo buffer (docs/aov.md);
- *   depth:       the distance along the camera ray to that collision, averaged the same way.
+ *   depth:       the distance along the camera ray to that collision, averaged the same way;
+ *   shadow:      a shadow-catcher ground seen by the camera ray: the ratio of the shadowed to the
+ *                unshadowed direct light it receives, as two sums (ground.h; 1 where no sample saw it).
  * The bits are 1 << index (st_scene.aovs). Per path, alpha and environment take two more float4
  * of the batch result buffer (st_result_layer), the passes two more, albedo and depth one more
  * (ST_RESULT_AUX; the collision count rides in ST_RESULT_ALPHA's w); variance takes nothing per path. */
 #define ST_AOVS(X)                                                                       \
   X(ALPHA, "alpha") X(ENVIRONMENT, "environment") X(VARIANCE, "variance") X(EMISSION, "emission") \
-  X(DIRECT, "direct") X(INDIRECT, "indirect") X(ALBEDO, "albedo") X(DEPTH, "depth")
+  X(DIRECT, "direct") X(INDIRECT, "indirect") X(ALBEDO, "albedo") X(DEPTH, "depth") X(SHADOW, "shadow")
 #define ST_X_AOV_ENUM(E, name) ST_AOV_INDEX_##E,
 enum st_aov_index { ST_AOVS(ST_X_AOV_ENUM) ST_AOV_COUNT };
 #define ST_AOV_BIT(E) (1 << ST_AOV_INDEX_##E)
@@ -193,7 +203,10 @@ enum st_result_layer {
   ST_RESULT_DIRECT = 4,      /* the direct pass (its part of the beauty) */
   ST_RESULT_LAYERS_PASSES = 5, /* result_layers with the emission, direct or indirect pass */
   ST_RESULT_AUX = 5,         /* xyz: sigma_s / sigma_t at the camera ray's first collision, w: its distance (or 0) */
-  ST_RESULT_LAYERS_AUX = 6   /* result_layers with the albedo or depth layer */
+  ST_RESULT_LAYERS_AUX = 6,  /* result_layers with the albedo or depth layer */
+  ST_RESULT_SHADOW = 6,      /* the shadow catcher's light-sample estimates times their transmittance (ground.h) */
+  ST_RESULT_UNSHADOWED = 7,  /* the same estimates without the transmittance */
+  ST_RESULT_LAYERS_SHADOW = 8 /* result_layers with the shadow layer */
 };
 
 /* Scene features, as one mask: the kernels are compiled with ST_FEATURES = the scene's mask
@@ -220,10 +233,15 @@ enum st_feature {
   ST_FEATURE_SPECTRAL = 1 << 13,      /* spectral mode: the lanes are wavelengths (st_film_color) */
   ST_FEATURE_GUIDING = 1 << 14,       /* volume path guiding: guided scatter directions, radiance records (guiding.h) */
   ST_FEATURE_LOCAL_LIGHT = 1 << 15,   /* point or spot lights: shadow rays of finite length (light.h, walker.h) */
+  ST_FEATURE_GROUND = 1 << 16,        /* an infinite ground plane (ground.h): walks end at it, a surface vertex */
+  ST_FEATURE_SPHERE_LIGHT = 1 << 17,  /* emitting spheres: rays end at them (ground.h), cone sampling (light.h) */
   ST_FEATURE_PHASE_SET = 1 << 18,     /* some medium has a Draine blend phase (draine, rayleigh, hg2, mie) */
+  ST_FEATURE_EQUIANGULAR = 1 << 19,   /* equi-angular samples towards local lights, MIS with free flights (equiangular.h) */
   ST_FEATURE_THIN_LENS = 1 << 21,     /* depth of field: the camera's lens radius is > 0 (raygen.cl camera_ray) */
   ST_FEATURE_TIME = 1 << 22,          /* each path has a time in the shutter that something reads: camera motion */
-  ST_FEATURES_ALL = ((1 << 16) - 1) | ST_FEATURE_PHASE_SET | ST_FEATURE_THIN_LENS | ST_FEATURE_TIME
+  ST_FEATURE_VELOCITY = 1 << 23,      /* some medium moves during the shutter (a velocity grid; medium.h); implies TIME */
+  ST_FEATURE_ADAPTIVE = 1 << 27,      /* adaptive sampling: raygen starts paths of a list of pixels (queues.h active_pixels) */
+  ST_FEATURES_ALL = ((1 << 16) - 1) | ST_FEATURE_GROUND | ST_FEATURE_SPHERE_LIGHT | ST_FEATURE_PHASE_SET | ST_FEATURE_EQUIANGULAR | ST_FEATURE_THIN_LENS | ST_FEATURE_TIME | ST_FEATURE_VELOCITY
 };
 
 /* the wavefront's queues, counters and stage arguments */
@@ -277,6 +295,13 @@ typedef struct {
   st_int blackbody;
   float blackbody_log_norm;
   st_float4 phase;             /* Draine blend: (alpha of lobe 1, g of lobe 2, alpha of lobe 2, w: lobe 2's weight) */
+  /* motion blur (medium.h medium_lookup_index): x: word offset of the NanoVDB Vec3f velocity grid
+   * (ST_NO_GRID when the medium does not move); y, z: unused; w: 1 for a staggered (MAC) grid,
+   * whose component a sits half a voxel below the voxel centre along axis a */
+  st_uint velocity_grid[4];
+  /* rows of the map from a velocity value times a time (s) to an index-space displacement: the
+   * inverse of the file's index-to-world linear part times scale (times fps for per-frame grids) */
+  st_float4 velocity_to_index[3];
 } st_medium;
 
 /* Blackbody colours and spectra below this temperature (K) are those of this temperature (the
@@ -297,9 +322,11 @@ typedef struct {
 } st_camera;
 
 typedef struct {
-  st_float4 radiance;  /* env uniform: radiance; env map: scale; directional: disc radiance (delta: irradiance); local: W/sr */
+  st_float4 radiance;  /* env uniform: radiance; env map: scale; directional: disc radiance (delta: irradiance);
+                        * point, spot: W/sr; sphere: its surface's radiance */
   st_float4 direction; /* directional: unit vector towards the light; spot: unit axis of the cone (from the light) */
-  st_float4 position;  /* local: xyz the position; w: spot: cos(cone_angle - cone_delta), full intensity inside */
+  st_float4 position;  /* local: xyz the position (sphere: centre); w: spot: cos(cone_angle - cone_delta), full
+                        * intensity inside; sphere: the radius */
   st_int type;         /* st_light_type */
   st_int is_delta;     /* directional with angle 0; point and spot (delta in direction) */
   float cos_max;       /* directional: cos of the half apex angle; spot: cos of the cone angle (intensity 0 beyond) */
@@ -346,6 +373,19 @@ typedef struct {
   st_int aovs;                  /* st_aov_index bits of the layers asked for */
   st_int result_layers;         /* float4 per path in the batch result buffer: 1, ST_RESULT_LAYERS_AOV or _PASSES */
   st_int color;                 /* st_film_color: what the float4 lanes carry */
+  struct {                      /* the ground plane y = height (ground.h; features.h ST_HAS_GROUND) */
+    st_float4 albedo;           /* rgb; spectral mode: the sigmoid coefficients of its reflectance */
+    st_float4 albedo_rgb;       /* rgb in both modes (the albedo layer) */
+    float height;
+    st_int mode;                /* st_ground_mode */
+    st_int present;             /* 0: no ground */
+    st_int spectral;            /* albedo holds the coefficients */
+  } ground;
+  struct {                      /* equi-angular sampling (equiangular.h; features.h ST_HAS_EQUIANGULAR) */
+    st_int n_local;             /* local lights it samples towards (point, spot, sphere), each with 1 / n_local; 0: off */
+    float sigma_t;              /* the gray extinction (1/length) of the free-flight density its MIS weights assume */
+    st_int pad[2];
+  } equiangular;
 } st_scene;
 
 /* Path state, one slot per path in flight. */
@@ -401,7 +441,14 @@ typedef struct {
   st_uint stream;     /* random stream id (bounce, light) */
   st_uint slot;       /* owning path slot */
   st_uint state;      /* st_shadow_state */
-  float t_max; st_uint pad[3]; /* t_max: where the ray ends (a local light's distance; else INFINITY) */
+  float t_max; st_uint catcher, pad[2]; /* t_max: where the ray ends (a local light's distance; else INFINITY);
+                                         * catcher: 1 when it is the shadow catcher's (ground.h) */
+  /* equi-angular entries (equiangular.h; the entry after the lights'): the path's segment, its
+   * origin and t0 (w), its unit direction and t1 (w), which the tracker's MIS weights read too;
+   * ea: x the leg (0: not an equi-angular sample, 1: along the segment, 2: to the light), y the
+   * light, z the segment (the depth of the scatter events on it), w unused */
+  st_float4 seg_o, seg_d;
+  st_uint ea[4];
 } st_shadow;
 
 /* What changes from one iteration of the stage loop to the next (one by-value kernel argument). */
@@ -416,13 +463,13 @@ typedef struct {
   st_uint pad[3];
 } st_iteration;
 
-#define ST_SIZEOF_MEDIUM 272
+#define ST_SIZEOF_MEDIUM 336
 #define ST_SIZEOF_CAMERA 160
 #define ST_SIZEOF_LIGHT 112
-#define ST_SIZEOF_SCENE (ST_SIZEOF_CAMERA + ST_MAX_LIGHTS * ST_SIZEOF_LIGHT + ST_MAX_MEDIA * ST_SIZEOF_MEDIUM + 96)
+#define ST_SIZEOF_SCENE (ST_SIZEOF_CAMERA + ST_MAX_LIGHTS * ST_SIZEOF_LIGHT + ST_MAX_MEDIA * ST_SIZEOF_MEDIUM + 96 + 48 + 16)
 #define ST_SIZEOF_PATH 128
 #define ST_SIZEOF_TRANS 128
-#define ST_SIZEOF_SHADOW 224
+#define ST_SIZEOF_SHADOW 272
 #define ST_SIZEOF_ITERATION 64
 
 #ifdef __OPENCL_VERSION__

@@ -49,13 +49,13 @@ typedef struct {
   float t_max;      /* where the ray ends (a local light; INFINITY: past every medium) */
 } st_walker;
 
-/* The segment at w->t. A ray that ends at t_max (local lights, features.h) clips its segments
+/* The segment at w->t. A ray that ends at t_max (local lights, the ground: features.h) clips its segments
  * there: the walk is over (seg.t1 = INFINITY) once it reaches t_max, so no medium beyond the
  * light attenuates it. With t_max = INFINITY nothing changes. */
 inline void walker_load_segment(__constant const st_scene* scene, st_walker* w) {
   w->seg = segments_current(scene, &w->dda, w->t, w->mask, w->sigma_a_l, w->sigma_s_l, w->decompose);
   w->mu_bar = w->mode == ST_WALK_CONTROL_CLOSED_FORM ? w->seg.mu_bar_r : w->seg.mu_bar_c + w->seg.mu_bar_r;
-  if (ST_HAS_LOCAL_LIGHT && w->seg.t1 > w->t_max)
+  if ((ST_HAS_LOCAL_LIGHT || ST_HAS_GROUND) && w->seg.t1 > w->t_max)
     w->seg.t1 = (w->t >= w->t_max || isinf(w->seg.t1)) ? INFINITY : w->t_max;
 }
 

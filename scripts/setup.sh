@@ -4,7 +4,7 @@
 # SETUP_PACKAGES_ONLY=1 installs the packages and builds nothing (sanitize.sh, fuzz.sh).
 # clang + libclang-rt-14-dev (libFuzzer, only recommended by clang) are for scripts/fuzz.sh.
 # pybind11-dev, python3-dev, python3-numpy, python3-pytest: the Python module and its tests (docs/python.md).
-# SETUP_TARGETS="spectrack default_cloud" builds only those targets (render-default.sh: the renderer
+# SETUP_TARGETS="spectrack default_scene" builds only those targets (render-default.sh: the renderer
 # and the default scene's volume, not the tests), and then installs only the packages they need.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -19,8 +19,10 @@ missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
-if [ ${#missing[@]} -gt 0 ]; then
-  echo "setup: installing ${missing[*]}"
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#PKGS[@]} Debian packages are installed (no apt-get)"
+else
+  echo "setup: installing ${#missing[@]} of ${#PKGS[@]} Debian packages (apt-get): ${missing[*]}"
   SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

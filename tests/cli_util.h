@@ -235,6 +235,17 @@ inline json lumpy_sky_scene(const std::string& vdb) {
   return s;
 }
 
+// lumpy_sky_scene on a small film (24x16 unless given), the lumpy volume written into `dir` once:
+// a chromatic, heterogeneous scene for renders to a noise target, uniform or adaptive, denoised.
+inline json small_noise_scene(const std::string& dir, int width = 24, int height = 16) {
+  const std::string vdb = dir + "/lumpy.vdb";
+  if (!fs::exists(vdb)) st_test::write_lumpy(vdb);
+  json s = lumpy_sky_scene(vdb);
+  s["film"]["width"] = width;
+  s["film"]["height"] = height;
+  return s;
+}
+
 // Every channel of every pixel of an image file as floats, pixel-major (empty, and a test
 // failure, when it cannot be read); `channels` gets the channel count.
 inline std::vector<float> image_pixels(const std::string& path, int* channels = nullptr) {

@@ -422,8 +422,10 @@ TEST(Aov, PassesOnATransparentFilmAndThroughEveryLayerOfAnExr) {
     EXPECT_NEAR(q.aov_sum[i], p.aov_sum[i], 1e-5 * std::max(1.0, std::abs(p.aov_sum[i]))) << res.aov_channels[i % na];
   auto in = OIIO::ImageInput::open(dir + "/all.exr");
   ASSERT_TRUE(in);
-  EXPECT_EQ(in->spec().nchannels, 27);
-  for (const char* n : {"emission.G", "direct.B", "indirect.R", "albedo.G", "depth.Z", "collision.fraction"}) EXPECT_GE(in->spec().channelindex(n), 0) << n;
+  EXPECT_EQ(in->spec().nchannels, 33);
+  for (const char* n : {"emission.G", "direct.B", "indirect.R", "albedo.G", "depth.Z", "collision.fraction", "shadow.R",
+                        "unshadowed.B"})
+    EXPECT_GE(in->spec().channelindex(n), 0) << n;
 }
 
 // A scattering, absorbing chromatic box [-1, 1]^3 seen along z from z = -3: sigma_t = (1.5, 1.5, 2.25).

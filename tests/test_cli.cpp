@@ -318,6 +318,12 @@ TEST(CliRender, TinyRenderWritesExrAndStats) {
   EXPECT_GE(j.value("seconds_render", -1.0), 0.0);
   // one path per pixel and sample for a spectral tracker
   EXPECT_EQ(j.value("paths", uint64_t(0)), uint64_t(8 * 8 * 2));
+  // the choices the device settles, as used: the CPU's default path slots capped by the render's
+  // 128 paths, the default iteration budget, a ring of at least one batch
+  EXPECT_EQ(j.value("path_slots", uint64_t(0)), uint64_t(8 * 8 * 2)) << j.dump(2);
+  EXPECT_EQ(j.value("iteration_budget", 0), spectrack::kDefaultIterationBudget);
+  EXPECT_GE(j.value("batches_in_flight", 0), 1);
+  EXPECT_GE(j.value("shadow_ring", 0), 1);
 }
 
 // --spectral: the stats and the EXR's metadata record the colour mode; an EXR output gets its alpha

@@ -1,16 +1,19 @@
 // test_docs.cpp: the docs stay true. docs/scene-format.md: every example under docs/examples
 // loads and renders at 1 spp on a small tile, every field the parser knows is documented, and
 // the default tracker is the one the reference and the README state. docs/cli.md: every flag
-// that a subcommand's --help prints is documented. README.md, docs/, src/ and kernels/ point
+// that a subcommand's --help prints is documented, and its reference table of the `render` flags
+// is the settings table (integrator/option_table.def), as `render --help` is. README.md, docs/, src/ and kernels/ point
 // only into the repository (no design notes outside it, no issue numbers).
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <cctype>
 #include <regex>
 #include <set>
 
 #include "cli_util.h"
+#include "integrator/option_table.h"
 #include "scene/scene.h"
 
 namespace {
@@ -156,6 +159,75 @@ TEST(DocsCli, EveryHelpFlagIsInCliMd) {
   EXPECT_FALSE(documents_flag(doc, "--no-such-flag"));
   EXPECT_FALSE(documents_flag("`--spp-range A:B`", "--spp"));
   EXPECT_TRUE(documents_flag("`--spp N`", "--spp"));
+}
+
+// docs/cli.md's reference table of the `render` flags, between its two markers.
+const std::string kTableBegin = "<!-- the settings table: generated from src/integrator/option_table.def -->\n";
+const std::string kTableEnd = "<!-- end of the settings table -->";
+
+// The reference table of docs/cli.md is the settings table, row for row (option_table_markdown).
+// With SPECTRACK_UPDATE_DOCS=1 the test writes the table into docs/cli.md instead of failing:
+//   SPECTRACK_UPDATE_DOCS=1 build/spectrack_tests --gtest_filter='DocsCli.ReferenceTable*'
+TEST(DocsCli, ReferenceTableIsTheSettingsTable) {
+  const std::string path = kSrc + "/docs/cli.md";
+  std::string doc = read_text(path);
+  const size_t b = doc.find(kTableBegin), e = doc.find(kTableEnd);
+  ASSERT_TRUE(b != std::string::npos && e != std::string::npos && b < e) << "docs/cli.md lost the table's markers";
+  const size_t from = b + kTableBegin.size();
+  const std::string table = spectrack::option_table_markdown();
+  if (std::getenv("SPECTRACK_UPDATE_DOCS")) {
+    doc.replace(from, e - from, table);
+    std::ofstream(path) << doc;
+  }
+  EXPECT_EQ(doc.substr(from, e - from), table)
+      << "docs/cli.md's reference table differs from src/integrator/option_table.def: run "
+         "SPECTRACK_UPDATE_DOCS=1 spectrack_tests --gtest_filter='DocsCli.ReferenceTable*'";
+  // one line per row, each naming its flag: a row left out or a doc changed is seen
+  const auto& rows = spectrack::render_option_table();
+  EXPECT_GE(rows.size(), 40u);
+  for (const auto& r : rows) EXPECT_NE(table.find("| `" + r.flags + "` |"), std::string::npos) << r.flags;
+  std::string edited = table;
+  edited.replace(edited.find("samples per pixel"), 7, "sample ");
+  EXPECT_NE(edited, table);
+}
+
+// Every scene field the settings table names is one the scene parser reads: set to a value of
+// the wrong type it is refused by its own path, never as an unknown field.
+TEST(DocsCli, EverySceneFieldOfTheTableIsParsed) {
+  size_t fields = 0;
+  for (const auto& r : spectrack::render_option_table()) {
+    if (r.scene.empty()) continue;
+    const size_t dot = r.scene.find('.');
+    ASSERT_NE(dot, std::string::npos) << r.scene;
+    const std::string section = r.scene.substr(0, dot), key = r.scene.substr(dot + 1);
+    const std::string text = "{\"format\": \"spectrack-scene/1\", \"" + section + "\": {\"" + key + "\": {\"x\": 1}}}";
+    try {
+      spectrack::parse_scene(text, "table.json", ".");
+      ADD_FAILURE() << r.scene << ": an object was accepted";
+    } catch (const spectrack::Error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("/" + section + "/" + key), std::string::npos) << r.scene << ": " << what;
+      EXPECT_EQ(what.find("unknown field"), std::string::npos) << r.scene << ": " << what;
+    }
+    ++fields;
+  }
+  EXPECT_GE(fields, 15u);
+  // a field the parser does not read is told apart: the check above can fail
+  try {
+    spectrack::parse_scene("{\"format\": \"spectrack-scene/1\", \"render\": {\"no_such\": {\"x\": 1}}}", "t.json", ".");
+    ADD_FAILURE() << "render.no_such was accepted";
+  } catch (const spectrack::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown field"), std::string::npos) << e.what();
+  }
+}
+
+// `render --help` prints each row's help line (option_help): the flags come from the table.
+TEST(DocsCli, RenderHelpIsTheSettingsTable) {
+  Proc p = run({"render", "--help"});
+  ASSERT_TRUE(p.exited && p.code == 0) << p.describe();
+  for (const auto& r : spectrack::render_option_table())
+    EXPECT_NE(p.out.find(spectrack::option_help(r)), std::string::npos) << r.flags << "\n" << p.out;
+  EXPECT_EQ(p.out.find(spectrack::option_help(spectrack::option_row("spp")) + "x"), std::string::npos);
 }
 
 // README.md, docs/, src/ and kernels/ point only into the repository: no path into the design

@@ -99,7 +99,7 @@ TEST(GuidingRender, CachePointingAwayFromTheSunStaysUnbiased) {
 TEST(GuidingRender, DeterministicAndGenericKernelsAgree) {
   const std::string dir = temp_dir("guided_bits");
   json s = guiding_scene(dir);
-  s["film"]["spp"] = 4;
+  s["film"]["spp"] = 8;  // the training passes' 7 samples and one of the render
   RenderResult a = render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 7, true);
   RenderResult b = render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 7, true);
   RenderResult g = render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 7, true, {}, true);
@@ -112,9 +112,17 @@ TEST(GuidingRender, DeterministicAndGenericKernelsAgree) {
   EXPECT_FALSE(off.features & ST_FEATURE_GUIDING);
   EXPECT_FALSE(off.guide.used);
   EXPECT_EQ(a.guide.training_passes, kGuideTrainingPasses);
+  EXPECT_EQ(a.spp_done, 8) << "the training passes' 7 samples are part of the image";
   EXPECT_GT(a.guide.records, 0u);
-  EXPECT_EQ(a.guide.bytes, sizeof(st_guide_header) + size_t(a.guide.regions) * sizeof(st_guide_region));
-  EXPECT_LE(a.guide.regions, kGuideGridCells * kGuideGridCells * kGuideGridCells);
+  // the header, the regions, the kd-trees' nodes (one per cell and two per region refinement
+  // added) and one pixel estimate per film pixel; a 2-cell grid along the longest axis: 1-8 cells
+  const size_t fixed = sizeof(st_guide_header) + size_t(a.guide.regions) * sizeof(st_guide_region) + 16 * 16 * 4;
+  ASSERT_GT(a.guide.bytes, fixed);
+  const int64_t cells = 2 * int64_t(a.guide.regions) - int64_t((a.guide.bytes - fixed) / sizeof(st_guide_node));
+  EXPECT_EQ((a.guide.bytes - fixed) % sizeof(st_guide_node), 0u);
+  EXPECT_GE(cells, 1);
+  EXPECT_LE(cells, 8);
+  EXPECT_LE(size_t(a.guide.regions), kGuideMaxRegions);
   EXPECT_GT(a.guide.seconds_training, 0.0);
   EXPECT_GE(a.seconds_render, a.guide.seconds_training) << "training is part of seconds_render";
 }
@@ -141,13 +149,13 @@ TEST(GuidingRender, AutoIsOffAndShardsAreRefused) {
 // the medium and sees the sky, weighted by the power heuristic of two equal pdfs (the phase
 // function's and the uniform sky's, 1 / 4 pi): 1/2, or scatters and ends with nothing. The ring
 // credits the escape to the vertex through the path's radiance at k_finish, so every record (only
-// positive ones are kept) weighs exactly 1/2, and so does every region's mean. The twin asks for 3%
-// more and must fail.
+// positive ones are kept) weighs exactly 1/2, and so does every region's mean of the fit's records.
+// The twin asks for 3% more and must fail.
 TEST(GuidingRender, RingRecordsCreditTheEscapeToTheFirstVertex) {
   const std::string dir = temp_dir("guided_furnace");
   json s = {{"format", "spectrack-scene/1"},
             {"camera", {{"type", "perspective"}, {"position", {0, 0, -4.5}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 26}}},
-            {"film", {{"width", 32}, {"height", 32}, {"spp", 1}}},
+            {"film", {{"width", 32}, {"height", 32}, {"spp", 8}}},
             {"render", {{"seed", 5}, {"light_sampling", "all"}, {"max_depth", 1}}},
             {"lights", {{{"type", "environment"}, {"radiance", {1, 1, 1}}}}},
             {"media", json::array()}};
@@ -160,10 +168,10 @@ TEST(GuidingRender, RingRecordsCreditTheEscapeToTheFirstVertex) {
   render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 11, true, hook);
   int regions = 0;
   for (const st_guide_region& g : first)
-    if (g.records > 0) {
+    if (g.alpha > 0) {
       ++regions;
-      EXPECT_NEAR(g.radiance, 0.5, 1e-5) << "records " << g.records;
-      EXPECT_GT(std::abs(g.radiance - 0.5 * 1.03), 1e-5) << "twin: a 3% error must be detected";
+      EXPECT_NEAR(g.weight, 0.5, 1e-5) << "records " << g.records;
+      EXPECT_GT(std::abs(g.weight - 0.5 * 1.03), 1e-5) << "twin: a 3% error must be detected";
     }
   EXPECT_GE(regions, 4) << "the first pass must fill most of the 2 x 2 x 2 regions";
 }

@@ -47,16 +47,6 @@ TEST(NoiseEstimate, IsTheStandardErrorOverTheMeanOfTheNoisyPixels) {
   EXPECT_EQ(next_noise_check(0.1, 100, 0.1), 101);
 }
 
-// A small chromatic, heterogeneous scene: the lumpy volume under a sky and a sun.
-nlohmann::json noise_scene(const std::string& dir) {
-  const std::string vdb = dir + "/lumpy.vdb";
-  if (!fs::exists(vdb)) st_test::write_lumpy(vdb);
-  json s = lumpy_sky_scene(vdb);
-  s["film"]["width"] = 24;
-  s["film"]["height"] = 16;
-  return s;
-}
-
 RenderResult render_with(const SceneDesc& scene, RenderOptions o) {
   Renderer r(scene, o);
   return r.render();
@@ -64,7 +54,7 @@ RenderResult render_with(const SceneDesc& scene, RenderOptions o) {
 
 TEST(NoiseTarget, StopsBelowTheTargetWithTheUniformImageOfItsSamplesAndNoBias) {
   const std::string dir = test_dir();
-  const SceneDesc scene = st_test::scene_from_json(noise_scene(dir), dir);
+  const SceneDesc scene = st_test::scene_from_json(small_noise_scene(dir), dir);
   RenderOptions o = st_test::quiet_options(4096);
   o.noise_target = 0.04;
   o.aovs = ST_AOV_BIT(VARIANCE);
@@ -108,7 +98,7 @@ struct StopAt : FilmWatch {
 
 TEST(Resume, ContinuesTheSampleSequenceToTheUninterruptedSumsBitForBit) {
   const std::string dir = test_dir();
-  const SceneDesc scene = st_test::scene_from_json(noise_scene(dir), dir);
+  const SceneDesc scene = st_test::scene_from_json(small_noise_scene(dir), dir);
   RenderOptions o = st_test::quiet_options(48);
   o.aovs = ST_AOV_BIT(VARIANCE) | ST_AOV_BIT(ALPHA);
   o.path_slots = 4096;  // several batches of a few samples
@@ -154,7 +144,7 @@ int meta_int(const std::string& path, const std::string& key) {
 
 TEST(CliNoiseTarget, RecordsTheTargetTheErrorReachedAndWhyItStopped) {
   const std::string dir = test_dir();
-  const std::string scene = write_scene(dir, "scene.json", noise_scene(dir));
+  const std::string scene = write_scene(dir, "scene.json", small_noise_scene(dir));
   RunOptions ro;
   ro.timeout_s = 240;
   Proc p = run({"render", scene, "-o", dir + "/n.exr", "--noise-target", "0.05", "--spp", "4096", "--stats-json",
@@ -186,7 +176,7 @@ TEST(CliNoiseTarget, RecordsTheTargetTheErrorReachedAndWhyItStopped) {
   EXPECT_EQ(t.value("stop_reason", ""), "time-limit");
   EXPECT_GT(t.value("noise_error", 0.0), 0.0001);
   // refusals: a scene value out of range names its field; shards and several devices exit 2
-  json bad = noise_scene(dir);
+  json bad = small_noise_scene(dir);
   bad["render"]["noise_target"] = 2.0;
   p = run({"render", write_scene(dir, "bad.json", bad), "-o", dir + "/b.exr", "--quiet"});
   EXPECT_EQ(p.code, 1) << p.describe();
@@ -199,7 +189,7 @@ TEST(CliNoiseTarget, RecordsTheTargetTheErrorReachedAndWhyItStopped) {
 
 TEST(CliResume, AnInterruptedCheckpointedRenderResumesToTheUninterruptedImage) {
   const std::string dir = test_dir();
-  json s = noise_scene(dir);
+  json s = small_noise_scene(dir);
   s["film"]["width"] = 96;
   s["film"]["height"] = 64;
   const std::string scene = write_scene(dir, "scene.json", s);
@@ -253,7 +243,7 @@ namespace {
 // leaves a readable preview of the samples done by then.
 TEST(CliPreview, IsRewrittenDuringTheRender) {
   const std::string dir = test_dir();
-  const std::string scene = write_scene(dir, "scene.json", noise_scene(dir));
+  const std::string scene = write_scene(dir, "scene.json", small_noise_scene(dir));
   st_cli::RunOptions o;
   o.timeout_s = 180;
   o.signal = SIGKILL;

@@ -186,7 +186,7 @@ TEST_F(SceneTest, FullExampleParses) {
 
   EXPECT_EQ(s.render.tracker, ST_TRACKER_SPECTRAL_DECOMPOSITION);
   EXPECT_EQ(s.render.scheme, ST_SCHEME_HISTORY_AVERAGE);
-  EXPECT_EQ(s.render.max_depth, -1);
+  EXPECT_FALSE(s.render.max_depth.has_value());
   EXPECT_EQ(s.render.seed, 0u);
 
   ASSERT_EQ(s.lights.size(), 2u);
@@ -247,7 +247,7 @@ TEST_F(SceneTest, MinimalSceneGetsDefaults) {
   EXPECT_EQ(s.film.output, in_dir("out.exr"));
   EXPECT_EQ(s.render.tracker, ST_TRACKER_SPECTRAL_DECOMPOSITION);
   EXPECT_EQ(s.render.scheme, ST_SCHEME_HISTORY_AVERAGE);
-  EXPECT_EQ(s.render.max_depth, -1);
+  EXPECT_FALSE(s.render.max_depth.has_value());
   EXPECT_EQ(s.render.seed, 0u);
   EXPECT_TRUE(s.lights.empty());
   EXPECT_TRUE(s.media.empty());
@@ -539,7 +539,7 @@ TEST_F(SceneTest, DuplicateKeyIsAnError) {
 TEST_F(SceneTest, UnknownFieldAtRoot) {
   json j = example();
   j["lighs"] = json::array();
-  EXPECT_SCENE_ERROR(j, "/lighs", "unknown field (expected one of: format, camera, film, render, lights, media)");
+  EXPECT_SCENE_ERROR(j, "/lighs", "unknown field (expected one of: format, camera, film, render, lights, media, ground)");
 }
 
 TEST_F(SceneTest, UnknownFieldInSections) {
@@ -551,7 +551,7 @@ TEST_F(SceneTest, UnknownFieldInSections) {
   EXPECT_SCENE_ERROR(j, "/film/samples", "unknown field");
   j = example();
   j["render"]["scheme"] = "max";
-  EXPECT_SCENE_ERROR(j, "/render/scheme", "unknown field (expected one of: tracker, spectral_scheme, absorption, light_sampling, transmittance, lookup, color, max_depth, seed, time_limit, guiding, noise_target)");
+  EXPECT_SCENE_ERROR(j, "/render/scheme", "unknown field (expected one of: tracker, spectral_scheme, absorption, light_sampling, transmittance, lookup, color, max_depth, seed, time_limit, guiding, noise_target, adaptive, equiangular)");
 }
 
 TEST_F(SceneTest, UnknownFieldInArrays) {
@@ -727,14 +727,14 @@ TEST_F(SceneTest, UnknownTypeNames) {
   EXPECT_EQ(parse(j).render.light_sampling, ST_LIGHT_SAMPLING_POWER);
   j["render"]["light_sampling"] = "contribution";
   EXPECT_EQ(parse(j).render.light_sampling, ST_LIGHT_SAMPLING_CONTRIBUTION);
-  EXPECT_EQ(parse(example()).render.light_sampling, -1) << "not given: the default (settings.h)";
+  EXPECT_FALSE(parse(example()).render.light_sampling.has_value()) << "not given: the default (settings.h)";
   j = example();
   j["render"]["lookup"] = "nearest";
   EXPECT_SCENE_ERROR(j, "/render/lookup",
                      "unknown density lookup mode \"nearest\" (expected one of: trilinear, stochastic)");
   j["render"]["lookup"] = "stochastic";
   EXPECT_EQ(parse(j).render.lookup, ST_LOOKUP_STOCHASTIC);
-  EXPECT_EQ(parse(example()).render.lookup, -1) << "not given: the default (settings.h)";
+  EXPECT_FALSE(parse(example()).render.lookup.has_value()) << "not given: the default (settings.h)";
   j = example();
   j["camera"]["type"] = "fisheye";
   EXPECT_SCENE_ERROR(j, "/camera/type", "unknown camera type \"fisheye\"");

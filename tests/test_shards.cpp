@@ -132,6 +132,14 @@ TEST(CliShards, FourShardsMergeToTheFullRenderWithLocalLights) {
   });
 }
 
+// a diffuse ground (surface vertices, shadow rays it blocks) and a sphere light (rays that end at it)
+TEST(CliShards, FourShardsMergeToTheFullRenderWithAGroundAndASphereLight) {
+  check_four_shards("spectral-decomposition", [](json& s) {
+    s["ground"] = {{"height", -0.7}, {"albedo", {0.4, 0.35, 0.3}}};
+    s["lights"].push_back({{"type", "sphere"}, {"position", {0.9, 0.1, -0.9}}, {"radius", 0.15}, {"radiance", {4, 3, 2}}});
+  });
+}
+
 // ---- tiles -------------------------------------------------------------------------------------
 
 TEST(CliShards, TilesEqualThosePixelsOfTheFullRenderAndMergeToIt) {

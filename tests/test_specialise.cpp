@@ -52,7 +52,9 @@ TEST(Specialisation, GenericAndSpecialisedKernelsRenderTheSameImageOnEveryBenchm
     RenderResult a = Renderer(s, spec).render();
     RenderResult b = Renderer(s, gen).render();
     EXPECT_NE(a.features, uint32_t(ST_FEATURES_ALL)) << "a benchmark scene that needs every feature tests nothing";
-    EXPECT_EQ(b.features, uint32_t(ST_FEATURES_ALL));
+    // the generic kernel has every feature, and the render modes outside them (adaptive sampling:
+    // the default scene asks for it) as the specialised one has them
+    EXPECT_EQ(b.features, uint32_t(ST_FEATURES_ALL) | (a.features & ~uint32_t(ST_FEATURES_ALL)));
     ASSERT_EQ(a.rgb.size(), b.rgb.size());
     EXPECT_TRUE(a.rgb == b.rgb) << "specialised and generic kernels give different images";
     double sum = 0;

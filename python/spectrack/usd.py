@@ -167,7 +167,8 @@ def _extra_field(mp, prim, m, name, f):
     elif name == "Cd" and same_file:
         m["color"] = {"grid": f["name"] or "Cd", "mode": "albedo"}
     elif name.lower() in ("vel", "velocity", "v"):
-        mp.warn(prim, f"field {name}: velocity is not used (media do not move during the shutter yet: no Eulerian motion blur)")
+        mp.warn(prim, f"field {name}: velocity is not used by the import (for motion blur give the medium "
+                      f"\"velocity\": {{\"grid\": \"{f['name'] or name}\"}} and the camera a shutter)")
     else:
         mp.warn(prim, f"field {name} ({f['file']}): not mapped" + ("" if same_file else " (not in the density's file)"))
 

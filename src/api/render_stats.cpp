@@ -22,18 +22,18 @@ nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_tota
   j["spp_ranges"] = format_ranges(p.ranges);
   j["interrupted"] = p.interrupted;
   j["stop_reason"] = render_stop_reason(r);
-  for (const char* k : {"time_limit", "noise_target", "noise_error"})
+  for (const char* k : {"time_limit", "noise_target", "noise_error", "adaptive_floor", "adaptive_mean_spp", "denoise_seconds"})
     if (auto t = meta.find(k); t != meta.end()) j[k] = std::get<float>(t->second);
   if (auto t = meta.find("noise_pixels"); t != meta.end()) j["noise_pixels"] = std::get<int>(t->second);
+  if (auto t = meta.find("adaptive_rounds"); t != meta.end()) j["adaptive_rounds"] = std::get<int>(t->second);
   j["seed"] = r.seed;
-  j["tracker"] = tracker_name(r.tracker);
-  j["scheme"] = scheme_name(r.scheme);
-  j["absorption"] = absorption_name(r.absorption);
-  j["light_sampling"] = light_sampling_name(r.light_sampling);
+  for (const RecordedChoice& c : recorded_choices()) j[c.key] = p.id.*c.field;  // as the EXR records them
   j["light_sampling_used"] = light_sampling_name(r.light_sampling_used);
-  j["transmittance"] = transmittance_name(r.transmittance);
-  j["lookup"] = lookup_name(r.lookup);
-  j["color"] = film_color_name(r.color);
+  // the run's automatic choices as used (renderer.h RunChoices; the first device's)
+  j["path_slots"] = r.path_slots;
+  j["shadow_ring"] = r.shadow_ring;
+  j["batches_in_flight"] = r.batches_in_flight;
+  j["iteration_budget"] = r.iteration_budget;
   j["film_layers"] = nlohmann::json::array();
   for (int k = 0; k < ST_AOV_COUNT; ++k)
     if (r.aovs & (1u << k)) j["film_layers"].push_back(aov_name(k));
@@ -55,6 +55,7 @@ nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_tota
   j["seconds_first_pass_from_start"] = seconds_to_renderer + r.seconds_first_pass;  // scene loading included
   j["features"] = r.features;
   j["generic_kernels"] = r.features == uint32_t(ST_FEATURES_ALL);
+  j["guiding"] = guiding_name(r.guiding_requested);  // as requested; guiding_used: whether it ran
   j["guiding_used"] = r.guide.used;
   j["guide_cache_bytes"] = r.guide.bytes;
   j["guide_regions"] = r.guide.regions;
@@ -67,7 +68,7 @@ nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_tota
   for (const MajorantInfo& m : r.majorants)
     maj.push_back({{"cell", m.cell}, {"block", m.block}, {"levels", m.levels}, {"blocks_per_level", m.blocks_per_level}, {"fine_cells", m.fine_cells},
                    {"blocks_empty", m.blocks_empty}, {"blocks_whole", m.blocks_whole},
-                   {"blocks_refined", m.blocks_refined}, {"bytes", m.bytes}, {"seconds_build", m.seconds_build},
+                   {"blocks_refined", m.blocks_refined}, {"bytes", m.bytes}, {"step_cost", m.step_cost}, {"seconds_build", m.seconds_build},
                    {"chord_lookups", m.chord_lookups}});
   j["majorant_grids"] = maj;
   j["dda_steps_per_nonempty_cell"] = r.stats.dda_nonempty > 0 ? double(r.stats.dda_steps) / double(r.stats.dda_nonempty) : 0.0;

@@ -22,6 +22,7 @@
 #include <cstring>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -53,11 +54,12 @@ inline void check_tracker_scheme(const SceneDesc& scene, const RenderOptions& op
 }
 
 // --chunk-spp shares samples between devices: with one device named (not "all") it means nothing.
-inline void check_chunk_spp(int chunk_spp, const std::vector<std::string>& devices, const std::string& device_flag) {
-  if (chunk_spp <= 0 || devices.size() > 1 || device_flag == "all") return;
+inline void check_chunk_spp(std::optional<int> chunk_spp, const std::vector<std::string>& devices,
+                            const std::string& device_flag) {
+  if (!chunk_spp || devices.size() > 1 || device_flag == "all") return;
   throw UsageError(fmt::format("--chunk-spp {}: only used to share samples between several devices (--device all or "
                                "a comma-separated list); this render has one device",
-                               chunk_spp));
+                               *chunk_spp));
 }
 
 // Every file a render of `scene` reads.

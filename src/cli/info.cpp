@@ -43,6 +43,7 @@ json volume_json(const std::string& file, const std::vector<GridInfo>& grids) {
     json j = {{"name", g.name}, {"type", g.type}, {"class", g.cls}, {"empty", g.empty},
               {"active_voxels", g.active_voxels}, {"voxel_size", vec(g.voxel_size, 0)},
               {"density_use", g.density_use}};
+    if (!g.velocity_use.empty()) j["velocity_use"] = g.velocity_use;
     if (!g.empty) {
       j["index_bbox"] = {ivec(g.index_min), ivec(g.index_max)};
       j["world_bbox"] = {vec(g.world_min, 0), vec(g.world_max, 0)};
@@ -79,6 +80,7 @@ void print_volume(const std::string& file, const std::vector<GridInfo>& grids) {
                                                                    : std::string("n/a"));
     std::cout << fmt::format("      as NanoVDB     {}\n", bytes_str(g.nanovdb_bytes));
     std::cout << fmt::format("      as density     {}\n", g.density_use);
+    if (!g.velocity_use.empty()) std::cout << fmt::format("      as velocity    {}\n", g.velocity_use);
   }
 }
 
@@ -116,6 +118,7 @@ const char* light_type(int t) {
          : t == ST_LIGHT_ENV_MAP   ? "environment (map)"
          : t == ST_LIGHT_POINT     ? "point"
          : t == ST_LIGHT_SPOT      ? "spot"
+         : t == ST_LIGHT_SPHERE    ? "sphere"
                                    : "environment (uniform)";
 }
 
@@ -190,6 +193,9 @@ json scene_json(const SceneDesc& s, std::string* text) {
     if (l.type == ST_LIGHT_DIRECTIONAL) {
       j["to_light"] = vec(l.to_light), j["irradiance"] = vec(l.irradiance), j["angle_deg"] = l.angle_deg;
       what = fmt::format("to_light {}, irradiance {}, angle {:.3g} deg", v3(l.to_light), v3(l.irradiance), l.angle_deg);
+    } else if (l.type == ST_LIGHT_SPHERE) {
+      j["position"] = vec(l.position), j["radius"] = l.radius, j["radiance"] = vec(l.radiance);
+      what = fmt::format("position {}, radius {:g}, radiance {}", v3(l.position), l.radius, v3(l.radiance));
     } else if (l.type == ST_LIGHT_POINT || l.type == ST_LIGHT_SPOT) {
       j["position"] = vec(l.position), j["intensity"] = vec(l.intensity);
       what = fmt::format("position {}, intensity {} W/sr", v3(l.position), v3(l.intensity));
@@ -198,6 +204,12 @@ json scene_json(const SceneDesc& s, std::string* text) {
         what += fmt::format(", look_at {}, cone {:.3g} deg, falloff {:.3g} deg", v3(l.look_at), l.cone_angle_deg,
                             l.cone_delta_deg);
       }
+    } else if (l.type == ST_LIGHT_ENV_MAP && l.sky) {
+      const SkyDesc& k = *l.sky;
+      j["sky"] = {{"sun_elevation_deg", k.sun_elevation_deg}, {"sun_azimuth_deg", k.sun_azimuth_deg},
+                  {"intensity", k.intensity}, {"resolution", k.resolution}};
+      what = fmt::format("sky, sun at elevation {:.3g} deg, azimuth {:.3g} deg, intensity {:.6g}, map {}x{}",
+                         k.sun_elevation_deg, k.sun_azimuth_deg, k.intensity, k.resolution, k.resolution / 2);
     } else if (l.type == ST_LIGHT_ENV_MAP) {
       j["map"] = l.map, j["scale"] = l.scale;
       what = fmt::format("map {}, scale {:.6g}", l.map, l.scale);
@@ -207,6 +219,10 @@ json scene_json(const SceneDesc& s, std::string* text) {
     }
     out["lights"].push_back(j);
     t += fmt::format("  light {}: {}\n", light_type(l.type), what);
+  }
+  if (s.ground.present) {
+    out["ground"] = {{"height", s.ground.height}, {"albedo", vec(s.ground.albedo)}, {"mode", ground_mode_name(s.ground.mode)}};
+    t += fmt::format("  ground: height {:g}, albedo {}, {}\n", s.ground.height, v3(s.ground.albedo), ground_mode_name(s.ground.mode));
   }
   const CameraDesc& c0 = s.camera;
   const CameraDesc c = frame_camera(c0, s.film.width, s.film.height, boxes, s.path + ": /camera");

@@ -30,6 +30,7 @@
 #include "cli/render_outputs.h"
 #include "integrator/render_watch.h"
 #include "cli/run_control.h"
+#include "image/denoise.h"
 #include "image/image.h"
 #include "film/film.h"
 #include "integrator/multi_device.h"
@@ -47,13 +48,13 @@ namespace {
 // The command line's overrides of the scene (the flags CLI11 has already range-checked).
 RenderOptions render_options(const RenderArgs& a, bool quiet) {
   RenderOptions opt;
-  if (a.seed >= 0) opt.seed = a.seed;
+  opt.seed = a.seed;
   opt.quiet = quiet;
   opt.path_slots = a.path_slots;
-  opt.iteration_budget = a.budget;
-  opt.majorant_cell = a.majorant_cell;
-  opt.majorant_block = a.majorant_block;
-  opt.majorant_step_cost = a.majorant_step_cost;
+  opt.iteration_budget = a.budget.value_or(opt.iteration_budget);
+  opt.majorant_cell = a.majorant_cell.value_or(opt.majorant_cell);
+  opt.majorant_block = a.majorant_block.value_or(opt.majorant_block);
+  if (a.majorant_step_cost && *a.majorant_step_cost >= 0) opt.majorant_step_cost = a.majorant_step_cost;  // < 0: automatic
   opt.generic_kernels = a.generic_kernels;
   opt.batches_in_flight = a.batches_in_flight;
   opt.shadow_ring = a.shadow_ring;
@@ -84,16 +85,19 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
       throw Error(fmt::format("--lookup {}: unknown density lookup mode (one of: {})", a.lookup, lookup_names()));
   }
   if (!a.guiding.empty()) opt.guiding = guiding_from_name(a.guiding);  // checked by CLI11
+  if (!a.equiangular.empty()) opt.equiangular = guiding_from_name(a.equiangular);  // checked by CLI11
+  if (!a.guide_splitting.empty()) opt.guide_splitting = a.guide_splitting == "on";
   if (a.spectral) opt.color = ST_FILM_COLOR_SPECTRAL;
-  if (a.march_spacing > 0) opt.march_spacing = a.march_spacing;
-  if (a.pilot_spacing > 0) opt.pilot_spacing = a.pilot_spacing;
+  opt.march_spacing = a.march_spacing;
+  opt.pilot_spacing = a.pilot_spacing;
   if (!a.absorption.empty()) {
     opt.absorption = absorption_from_name(a.absorption);
     if (*opt.absorption < 0)
       throw Error(fmt::format("--absorption {}: unknown absorption mode (one of: {})", a.absorption, absorption_names()));
   }
-  if (a.spp > 0) opt.spp = a.spp;
-  if (a.noise_target > 0) opt.noise_target = a.noise_target;
+  opt.spp = a.spp;
+  opt.noise_target = a.noise_target;
+  if (a.adaptive) opt.adaptive = true;  // a flag: without it the scene's render.adaptive holds
   if (!a.spp_range.empty()) {
     int64_t b = 0;
     check_spp_range(a.spp_range, &opt.sample_begin, &b);  // checked by CLI11 already
@@ -163,6 +167,9 @@ uint32_t film_layers(const RenderArgs& a, const SceneDesc& scene, const std::str
   const bool exr = ext == ".exr";
   if (a.alpha && a.no_alpha) throw Error("--alpha and --no-alpha: choose one");
   if (alpha_listed && a.no_alpha) throw Error(fmt::format("--aov {} lists alpha, which --no-alpha turns off", a.aov));
+  if (a.denoise && !exr)
+    throw UsageError(fmt::format("{}: --denoise writes the denoised beauty as an EXR layer: write an EXR", output));
+  if (a.denoise) aovs |= ST_AOV_BIT(ALBEDO);  // the denoiser's auxiliary input
   bool alpha = a.alpha || alpha_listed ? true : a.no_alpha ? false : scene.film.alpha.value_or(exr);
   if (!exr && (aovs || ((a.alpha || alpha_listed || scene.film.alpha.value_or(false)) && !a.no_alpha)))
     throw Error(fmt::format("{}: film layers ({}) need an EXR output; a PNG holds the beauty only (write an EXR and add "
@@ -193,21 +200,24 @@ std::unique_ptr<RenderWatch> make_watch(const RenderArgs& a, const MpiArg& mpi, 
   if (set.noise_target > 0 && (!a.spp_range.empty() || !a.pixel_bounds.empty()))
     throw UsageError("--noise-target (render.noise_target) with --spp-range or --pixel-bounds: each shard or tile would "
                      "stop at its own noise, and the pieces would not merge; render the whole film");
-  if ((a.checkpoint > 0 || a.resume) && (several || set.guiding))
+  if ((a.checkpoint || a.resume) && set.adaptive)
+    throw UsageError("--checkpoint and --resume do not work with adaptive sampling (a film state holds one sample "
+                     "count for every pixel)");
+  if ((a.checkpoint || a.resume) && (several || set.guiding))
     throw UsageError("--checkpoint and --resume work with one device and no --mpi or guiding");
-  if (set.noise_target <= 0 && a.checkpoint <= 0 && !a.resume && (a.preview.empty() || several)) return nullptr;
+  if (set.noise_target <= 0 && !a.checkpoint && !a.resume && (a.preview.empty() || several)) return nullptr;
   WatchConfig c;
   c.noise_target = set.noise_target;
   c.preview = a.preview;
   c.image = output;
-  c.checkpoint_seconds = a.checkpoint;
+  c.checkpoint_seconds = a.checkpoint.value_or(0);
   c.state_path = film_state_path(output);
   c.id = render_identity(set);
   c.exr = exr_options(a.half, a.compression, scene.film);
   c.meta["scene"] = scene.path;
   c.meta["spp_requested"] = set.spp;
   c.spp = set.spp;
-  if (a.checkpoint > 0 || a.resume) {
+  if (a.checkpoint || a.resume) {
     c.id.scene_hash = hash();
     c.state_key = film_state_key(c.id, set.window, set.sample_begin, set.spp);
   }
@@ -232,7 +242,7 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   check_half(a.half, scene, output, quiet);  // --half with a PNG: exit 2
   check_tracker_scheme(scene, opt, a.scheme, a.tracker);  // --scheme with a tracker that ignores it: exit 2
   const RenderSettings set = resolve_settings(scene, opt);
-  const double time_limit = a.time_limit > 0 ? a.time_limit : scene.render.time_limit;
+  const double time_limit = a.time_limit.value_or(scene.render.time_limit);
   loop_started_flag()->store(false);  // this frame's loop: until it starts, a signal ends the process at once
   if (time_limit > 0) {
     opt.deadline = t0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(time_limit));
@@ -240,6 +250,7 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
       throw TimeLimitError(time_limit_message(deadline_watch().context(), time_limit, phase_slot().load()));
     deadline_watch().arm(*opt.deadline, time_limit);  // set-up phases: ends the process at the deadline
   }
+  if (a.denoise && find_oidn_library().empty()) throw UsageError(denoise_unavailable());
   set_phase("output checks and device selection");
   check_distinct_paths({{"the image", output}, {"--preview", a.preview}, {"--stats-json", a.stats_json}},
                        scene_inputs(scene));
@@ -281,7 +292,7 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
                              mpi.on ? fmt::format(", {} MPI ranks", mpi.size) : "");
   const double seconds_to_renderer = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   set_phase("renderer set-up");
-  MultiDeviceResult r = render_share(scene, opt, set, devices, a.chunk_spp, mpi);
+  MultiDeviceResult r = render_share(scene, opt, set, devices, a.chunk_spp.value_or(0), mpi);  // 0: by device count
   deadline_watch().disarm();  // the stage loop ran: what it finished is written whatever the time
   if (tty && !quiet) std::fprintf(stderr, "\n");
   const bool signalled = stop_flag()->load();
@@ -289,7 +300,7 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   if (r.piece.samples() > 0) r.piece.id.scene_hash = get_hash();
   if (a.frame) r.piece.id.frame = std::to_string(*a.frame);
   const RenderOutputs out{output, a.preview, a.stats_json, exr_options(a.half, a.compression, scene.film), a.quiet, a.mpi,
-                          set.noise_target};
+                          set.noise_target, a.denoise};
   const RenderTimes times{std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), seconds_to_renderer};
   return finish_render(out, scene, r, times, mpi.size, time_limit, signalled);
 }
@@ -302,10 +313,10 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
 int cmd_render(const RenderArgs& a, MpiArg& mpi) {
   const auto t0 = command_start();
   // --time-limit bounds the scene loading too (a scene's render.time_limit is known once it is loaded)
-  if (a.time_limit > 0)
+  if (a.time_limit)
     deadline_watch().arm(t0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                  std::chrono::duration<double>(a.time_limit)),
-                         a.time_limit);
+                                  std::chrono::duration<double>(*a.time_limit)),
+                         *a.time_limit);
   set_phase("scene loading");
   SceneDesc scene = load_scene(a.scene);
   const std::string output = a.output.empty() ? scene.film.output : a.output;
@@ -333,7 +344,7 @@ int cmd_render(const RenderArgs& a, MpiArg& mpi) {
     RenderArgs fa = a;
     // the majorant hierarchy is compiled in for every frame (an empty frame has none), so that the
     // frames share one kernel build
-    if (a.majorant_block > 1) fa.feature_floor = ST_FEATURE_COARSE_MAJORANT;
+    if (a.majorant_block.value_or(RenderOptions().majorant_block) > 1) fa.feature_floor = ST_FEATURE_COARSE_MAJORANT;
     fa.frame = f;
     fa.preview = expand_frame(a.preview, f);
     fa.stats_json = expand_frame(a.stats_json, f);

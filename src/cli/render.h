@@ -1,13 +1,16 @@
 // render.h: `spectrack render`: its arguments, its flags and the command.
 //
-// Design: RenderArgs holds what CLI11 parsed (range-checked by the validators of cli/options.h);
-// cmd_render turns it into RenderOptions once (render.cpp) and renders one scene or a frame
+// Design: RenderArgs holds what CLI11 parsed, one member per row of the settings table
+// (integrator/option_table.h; range-checked by the validators of cli/options.h); cmd_render turns
+// it into RenderOptions once (render.cpp) and renders one scene or a frame
 // sequence, on one or several devices, or as one MPI rank (MpiArg, started by main).
 #pragma once
 #include <CLI/CLI.hpp>
 
 #include <cstdint>
+#include <optional>
 #include <string>
+#include <type_traits>
 
 #include "integrator/settings.h"
 #ifdef SPECTRACK_HAVE_MPI
@@ -16,30 +19,20 @@
 
 namespace spectrack {
 
+// What a value of `Type` in the settings table is held in: numbers as std::optional (not given:
+// nullopt), flags as bool, texts as std::string (not given: empty).
+template <class Type>
+using ArgSlot = std::conditional_t<std::is_same_v<Type, bool> || std::is_same_v<Type, std::string>, Type,
+                                   std::optional<Type>>;
+
 struct RenderArgs {
-  std::string scene, output, stats_json, preview, device, tracker, scheme, absorption, light_sampling, transmittance,
-      lookup, spp_range, pixel_bounds, frames, aov, compression, guiding, shutter;
-  bool alpha = false, no_alpha = false, half = false, spectral = false;
-  double march_spacing = 0, pilot_spacing = 0;  // 0: not given
-  int spp = -1;
-  int64_t seed = -1;
-  int path_slots = 0;
-  int budget = 256;
-  int chunk_spp = 0;
-  int majorant_cell = RenderOptions().majorant_cell;
-  int majorant_block = RenderOptions().majorant_block;
-  double majorant_step_cost = RenderOptions().majorant_step_cost;
-  int batches_in_flight = 0;
-  int shadow_ring = 0;
+  std::string scene;  // the positional argument
+  // one member per row of the settings table (integrator/option_table.def)
+#define ST_OPTION(member, Type, ...) ArgSlot<Type> member{};
+#include "integrator/option_table.def"
+#undef ST_OPTION
   uint32_t feature_floor = 0;  // RenderOptions::feature_floor (frame sequences)
   std::optional<long long> frame;  // the frame a sequence renders (EXR metadata spectrack:frame)
-  double time_limit = 0;
-  double noise_target = 0;  // 0: not given
-  double checkpoint = 0;    // seconds between checkpoints; 0: none
-  bool resume = false;
-  bool generic_kernels = false;
-  bool quiet = false;
-  bool mpi = false;
 };
 
 struct MpiArg {

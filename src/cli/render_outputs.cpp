@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <climits>
 #include <iostream>
 #include <optional>
@@ -13,6 +14,7 @@
 #include "cli/run_control.h"
 #include "api/render_stats.h"
 #include "film/film.h"
+#include "image/denoise.h"
 #include "integrator/noise.h"
 #include "util/output_file.h"
 #include "util/strings.h"
@@ -24,6 +26,25 @@ namespace {
 std::optional<NoiseEstimate> film_noise(const FilmPiece& p) {
   if (!(p.id.aovs & ST_AOV_BIT(VARIANCE)) || p.samples() == 0) return std::nullopt;
   return estimate_film_noise(p.sum, p.aov_sum, aov_sum_channels(p.id.aovs), p.samples());
+}
+
+// The beauty of `p` denoised (image/denoise.h) with its albedo layer as auxiliary input: per pixel the
+// mean albedo of the samples whose camera ray collided, and 1 for the fraction that did not (a
+// background takes the light it shows as its own colour).
+std::vector<float> denoised_beauty(const FilmPiece& p) {
+  const std::vector<std::string> sums = aov_sum_channels(p.id.aovs);
+  const size_t na = sums.size(), npix = size_t(p.width) * size_t(p.height);
+  const size_t a = size_t(std::find(sums.begin(), sums.end(), "albedo.R") - sums.begin());
+  const size_t h = size_t(std::find(sums.begin(), sums.end(), "collision.fraction") - sums.begin());
+  if (a >= na || h >= na) throw Error("internal: --denoise without the albedo layer");
+  std::vector<float> albedo(npix * 3);
+  const double n = double(p.samples());
+  for (size_t i = 0; i < npix; ++i) {
+    const double hits = p.aov_sum[i * na + h], f = n > 0 ? std::clamp(hits / n, 0.0, 1.0) : 0.0;
+    for (size_t c = 0; c < 3; ++c)
+      albedo[i * 3 + c] = float((hits != 0 ? p.aov_sum[i * na + a + c] / hits : 0.0) * f + (1.0 - f));
+  }
+  return denoise(piece_beauty(p), albedo, p.width, p.height);
 }
 
 void write_stats_json(const std::string& path, const MultiDeviceResult& r, double seconds_total,
@@ -44,17 +65,38 @@ void write_render_outputs(const RenderOutputs& o, const SceneDesc& scene, const 
     meta["noise_error"] = float(noise->error);
     meta["noise_pixels"] = int(std::min<uint64_t>(noise->pixels, INT32_MAX));
   }
+  if (!r.piece.pixel_samples.empty()) {  // adaptive sampling (integrator/adaptive.h)
+    double total = 0;
+    for (float n : r.piece.pixel_samples) total += n;
+    meta["adaptive"] = 1;
+    meta["adaptive_rounds"] = r.adaptive_rounds;
+    meta["adaptive_floor"] = float(r.adaptive_floor);
+    meta["adaptive_mean_spp"] = float(total / double(r.piece.pixel_samples.size()));
+  }
   if (r.stats.nonfinite_samples > 0) meta["nonfinite_samples"] = int(std::min<uint64_t>(r.stats.nonfinite_samples, INT32_MAX));
   meta["spp_requested"] = r.spp_requested;
   meta["device"] = join(r.devices, ", ");
   meta["render_seconds"] = float(r.seconds_render);
   meta["scene"] = scene.path;
   if (o.mpi) meta["mpi_ranks"] = mpi_ranks;
-  write_piece(o.image, r.piece, meta, o.exr);
+  if (o.denoise) {
+    FilmPiece d = r.piece;
+    const auto t0 = std::chrono::steady_clock::now();
+    d.denoised = denoised_beauty(d);
+    meta["denoised"] = std::string("oidn RT, albedo");
+    meta["denoise_seconds"] = float(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    write_piece(o.image, d, meta, o.exr);
+  } else {
+    write_piece(o.image, r.piece, meta, o.exr);
+  }
   if (!o.preview.empty()) write_piece(o.preview, r.piece, meta);
   if (!o.stats_json.empty()) write_stats_json(o.stats_json, r, t.total, t.to_renderer, mpi_ranks, meta);
   if (!o.quiet) {
-    std::cerr << fmt::format("wrote {} ({} spp in {:.2f} s render, {:.2f} s total{}{})\n", o.image, r.piece.samples(),
+    std::cerr << fmt::format("wrote {} ({} in {:.2f} s render, {:.2f} s total{}{})\n", o.image,
+                             r.piece.pixel_samples.empty()
+                                 ? fmt::format("{} spp", r.piece.samples())
+                                 : fmt::format("adaptive, {:.1f} spp on average, at most {}",
+                                               std::get<float>(meta["adaptive_mean_spp"]), r.piece.samples()),
                              r.seconds_render, t.total,
                              noise ? fmt::format(", noise {:.3g}%", 100.0 * noise->error) : std::string(),
                              r.noise_target_reached ? ", noise target reached"

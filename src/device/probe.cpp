@@ -35,9 +35,10 @@ std::vector<T> run_probe(DeviceScene& d, KernelLauncher& launcher, const std::st
   return out;
 }
 
-std::vector<st_float4> to_points(const std::vector<std::array<float, 3>>& pts) {
+// w: the point's time (seconds; 0 without times)
+std::vector<st_float4> to_points(const std::vector<std::array<float, 3>>& pts, const std::vector<float>& times) {
   std::vector<st_float4> v(pts.size());
-  for (size_t i = 0; i < pts.size(); ++i) v[i] = st_float4{pts[i][0], pts[i][1], pts[i][2], 0};
+  for (size_t i = 0; i < pts.size(); ++i) v[i] = st_float4{pts[i][0], pts[i][1], pts[i][2], i < times.size() ? times[i] : 0.0f};
   return v;
 }
 
@@ -48,9 +49,9 @@ std::vector<st_float4> to_points(const std::vector<std::array<float, 3>>& pts) {
 // A probe over world points of one medium: kernel(scene, data, points, out, medium, n).
 template <typename T>
 std::vector<T> Probe::per_point(const char* kernel, const cl::Buffer& data, int medium,
-                                const std::vector<std::array<float, 3>>& world_points) {
+                                const std::vector<std::array<float, 3>>& world_points, const std::vector<float>& times) {
   if (medium < 0 || medium >= ds().packed.st.n_media) throw Error(fmt::format("{}: no such medium {}", kernel, medium));
-  auto pts = to_points(world_points);
+  auto pts = to_points(world_points, times);
   cl::Buffer b_pts = ds().buffer(CL_MEM_READ_ONLY, std::max<size_t>(1, pts.size()) * 16, pts.empty() ? nullptr : pts.data(), "probe points");
   return run_probe<T>(ds(), *launcher_, kernel, pts.size(), [&](cl::Kernel& k, cl::Buffer& out) {
     k.setArg(0, ds().b_scene);
@@ -62,12 +63,13 @@ std::vector<T> Probe::per_point(const char* kernel, const cl::Buffer& data, int 
   });
 }
 
-std::vector<float> Probe::density(int medium, const std::vector<std::array<float, 3>>& world_points) {
-  return per_point<float>("k_probe_density", ds().b_grids, medium, world_points);
+std::vector<float> Probe::density(int medium, const std::vector<std::array<float, 3>>& world_points,
+                                  const std::vector<float>& times) {
+  return per_point<float>("k_probe_density", ds().b_grids, medium, world_points, times);
 }
 
 std::vector<std::array<float, 2>> Probe::majorant(int medium, const std::vector<std::array<float, 3>>& world_points) {
-  return per_point<std::array<float, 2>>("k_probe_majorant", ds().b_maj, medium, world_points);
+  return per_point<std::array<float, 2>>("k_probe_majorant", ds().b_maj, medium, world_points, {});
 }
 
 std::vector<std::array<float, 4>> Probe::segments(int medium, std::array<float, 3> o, std::array<float, 3> d,

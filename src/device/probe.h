@@ -30,7 +30,10 @@ class Probe {
   Probe(const Probe&) = delete;
   Probe& operator=(const Probe&) = delete;
 
-  std::vector<float> density(int medium, const std::vector<std::array<float, 3>>& world_points);
+  // Density of a medium at world points, each at its time in `times` (seconds; a moving medium's
+  // lookup, kernels/medium.h; none: time 0).
+  std::vector<float> density(int medium, const std::vector<std::array<float, 3>>& world_points,
+                             const std::vector<float>& times = {});
   // (dmax, dmin) of the majorant cell holding each point ((-1, -1) outside the medium's box).
   std::vector<std::array<float, 2>> majorant(int medium, const std::vector<std::array<float, 3>>& world_points);
   // The majorant segments of medium `medium`'s DDA along the world ray (o, d) from t = 0, at most
@@ -77,7 +80,8 @@ class Probe {
   DeviceScene& ds() { return renderer_.device_scene(); }
   template <typename T>
   std::vector<T> per_point(const char* kernel, const cl::Buffer& data, int medium,
-                           const std::vector<std::array<float, 3>>& world_points);
+                           const std::vector<std::array<float, 3>>& world_points,
+                           const std::vector<float>& times);
   Renderer& renderer_;
   std::unique_ptr<KernelLauncher> launcher_;
 };

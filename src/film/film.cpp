@@ -103,7 +103,7 @@ std::string scene_hash(const SceneDesc& scene, const std::string& json_text) {
     }
     if (j.contains("render") && j["render"].is_object())
       for (const char* k : {"seed", "tracker", "spectral_scheme", "absorption", "light_sampling", "transmittance", "lookup", "color",
-                            "noise_target"})
+                            "noise_target", "equiangular"})
         j["render"].erase(k);
     // file names stand for their contents, hashed below: a scene whose assets moved is the same scene
     for (const char* list : {"media", "lights"})
@@ -133,10 +133,27 @@ RenderIdentity render_identity(const RenderSettings& s) {
   id.transmittance = transmittance_name(s.transmittance);
   id.lookup = lookup_name(s.lookup);
   id.color = film_color_name(s.color);
+  id.guide_splitting = s.guide_splitting ? "on" : "off";
+  id.equiangular = guiding_name(s.equiangular);
   id.aovs = s.aovs;
   if (s.shutter) id.shutter = fmt::format("{}:{}/{}", (*s.shutter)[0], (*s.shutter)[1], s.time_strata);
   id.version = SPECTRACK_VERSION;
   return id;
+}
+
+const std::vector<RecordedChoice>& recorded_choices() {
+  static const std::vector<RecordedChoice> list = {
+      {"tracker", &RenderIdentity::tracker, "the tracker", true},
+      {"scheme", &RenderIdentity::scheme, "the spectral scheme", true},
+      {"absorption", &RenderIdentity::absorption, "the absorption mode", false},
+      {"light_sampling", &RenderIdentity::light_sampling, "the light sampling", false},
+      {"transmittance", &RenderIdentity::transmittance, "the transmittance estimator", false},
+      {"lookup", &RenderIdentity::lookup, "the density lookup mode", false},
+      {"color", &RenderIdentity::color, "the colour mode", false},
+      {"guide_splitting", &RenderIdentity::guide_splitting, "guided roulette and splitting", false},
+      {"equiangular", &RenderIdentity::equiangular, "equi-angular sampling", false},
+  };
+  return list;
 }
 
 FilmPiece empty_piece(const RenderIdentity& id, const FilmWindow& w, const std::string& source) {
@@ -198,15 +215,8 @@ void check_one_render(const std::vector<FilmPiece>& pieces, bool with_sums) {
       differ("the resolution", fmt::format("{}x{}", a.id.full_width, a.id.full_height),
              fmt::format("{}x{}", p.id.full_width, p.id.full_height));
     if (p.id.seed != a.id.seed) differ("the seed", std::to_string(a.id.seed), std::to_string(p.id.seed));
-    if (p.id.tracker != a.id.tracker) differ("the tracker", a.id.tracker, p.id.tracker);
-    if (p.id.scheme != a.id.scheme) differ("the spectral scheme", a.id.scheme, p.id.scheme);
-    if (p.id.absorption != a.id.absorption) differ("the absorption mode", a.id.absorption, p.id.absorption);
-    if (p.id.light_sampling != a.id.light_sampling)
-      differ("the light sampling", a.id.light_sampling, p.id.light_sampling);
-    if (p.id.transmittance != a.id.transmittance)
-      differ("the transmittance estimator", a.id.transmittance, p.id.transmittance);
-    if (p.id.lookup != a.id.lookup) differ("the density lookup mode", a.id.lookup, p.id.lookup);
-    if (p.id.color != a.id.color) differ("the colour mode", a.id.color, p.id.color);
+    for (const RecordedChoice& c : recorded_choices())
+      if (p.id.*c.field != a.id.*c.field) differ(c.what, a.id.*c.field, p.id.*c.field);
     if (p.id.frame != a.id.frame)
       differ("the frame", a.id.frame.empty() ? "none" : a.id.frame, p.id.frame.empty() ? "none" : p.id.frame);
     if (p.id.shutter != a.id.shutter)

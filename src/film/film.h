@@ -45,6 +45,8 @@ struct RenderIdentity {
   std::string transmittance = "ratio";  // st_transmittance_mode name (pieces written before the option: ratio)
   std::string lookup = "trilinear";  // st_lookup_mode name (pieces written before the option: trilinear)
   std::string color = "rgb";         // st_film_color name (pieces written before spectral mode: rgb)
+  std::string guide_splitting = "off";  // guided roulette and splitting: on or off (off without guiding, and in pieces written before it)
+  std::string equiangular = "off";  // equi-angular sampling as requested: off, on or auto (pieces written before it: off)
   uint32_t aovs = 0;  // the film layers (ST_AOV_BIT bits; pieces written before them: none)
   // the shutter, "open:close" in seconds, and the samples the paths' times are stratified over
   // ("0:0.02/64"); empty: no shutter (pieces written before it: none)
@@ -66,6 +68,18 @@ std::string scene_hash(const SceneDesc& scene, const std::string& json_text);
 // it with rendering, on the rank that writes).
 RenderIdentity render_identity(const RenderSettings& settings);
 
+// The estimator choices a render records by name, in one list: EXR metadata spectrack:<key> (film_io.cpp
+// writes and reads them), the statistics JSON's <key> (api/render_stats.cpp) and merge's
+// comparison (check_one_render names `what`). `required`: every piece has it; the others may be
+// missing from pieces written before the option, which then hold RenderIdentity's default.
+struct RecordedChoice {
+  const char* key;
+  std::string RenderIdentity::*field;
+  const char* what;
+  bool required;
+};
+const std::vector<RecordedChoice>& recorded_choices();
+
 struct FilmPiece {
   std::string source;  // the file (or device, or rank) it came from, for messages
   RenderIdentity id;
@@ -74,6 +88,12 @@ struct FilmPiece {
   std::vector<double> sum;          // width * height * 3: R, G, B (with alpha the transparent film's, renderer.h)
   std::vector<double> aov_sum;      // width * height * aov_sum_channels(id.aovs).size() (renderer.h)
   bool interrupted = false;
+  // Adaptive sampling (integrator/adaptive.h): the samples each pixel took (EXR channel "samples");
+  // the sums are then weighted estimates times samples(). Empty otherwise.
+  std::vector<float> pixel_samples;
+  // The denoised beauty (--denoise, image/denoise.h), 3 per pixel: EXR channels denoised.R/G/B; empty
+  // otherwise. Not a sum: a merge drops it.
+  std::vector<float> denoised;
   int64_t samples() const { return count_samples(ranges); }
   // Mean per pixel (0 where no sample).
   std::vector<float> mean() const;
@@ -126,6 +146,7 @@ class PieceDecoder {
     int moment_of = -1;  // second moments: the beauty channel 0..2
     size_t env_col = 0;
     bool per_collision = false;  // albedo, depth: a mean over the collided samples (collision.fraction of them)
+    size_t ratio_of = 0;         // shadow: a ratio, the sum index of its denominator (unshadowed); 0: none
   };
   double n_;
   bool alpha_;

@@ -4,6 +4,7 @@
 // (piece_exr_channels, PieceDecoder), so that a merge can stream a band of rows at a time
 // (film/merge_files.h) with the very operations of a whole-image read and write.
 #include "film/film.h"
+#include "image/extra_channels.h"
 #include "util/strings.h"
 
 #include <fmt/format.h>
@@ -35,13 +36,7 @@ Metadata piece_metadata(const FilmPiece& p) {
   // an int where it fits (every seed below 2^31), else the decimal text
   if (p.id.seed <= 2147483647) m["seed"] = int(p.id.seed);
   else m["seed"] = std::to_string(p.id.seed);
-  m["tracker"] = p.id.tracker;
-  m["scheme"] = p.id.scheme;
-  m["absorption"] = p.id.absorption;
-  m["light_sampling"] = p.id.light_sampling;
-  m["transmittance"] = p.id.transmittance;
-  m["lookup"] = p.id.lookup;
-  m["color"] = p.id.color;
+  for (const RecordedChoice& c : recorded_choices()) m[c.key] = p.id.*c.field;
   if (!p.id.shutter.empty()) m["shutter"] = p.id.shutter;
   if (!p.id.frame.empty()) m["frame"] = p.id.frame;
   m["version"] = p.id.version;
@@ -57,19 +52,21 @@ Metadata piece_metadata(const FilmPiece& p) {
 // (the mean of AR, AG, AB) and AR, AG, AB, environment.R/G/B, variance.R/G/B (the variance of the
 // pixel's mean: (S2 - S1^2 / n) / (n (n - 1)), 0 below 2 samples), emission.R/G/B, direct.R/G/B,
 // indirect.R/G/B (means), albedo.R/G/B and depth.Z (means over the samples whose camera ray
-// collided, 0 where none did) and collision.fraction (the fraction that collided, their weight in a merge).
+// collided, 0 where none did) and collision.fraction (the fraction that collided, their weight in a merge),
+// shadow.R/G/B (the shadowed over the unshadowed sum, 1 where that is 0) and unshadowed.R/G/B (its mean,
+// the ratio's weight in a merge).
 std::vector<std::string> piece_exr_channels(const FilmPiece& p, std::vector<float>* px) {
   const uint32_t aovs = p.id.aovs;
   const bool alpha = aovs & ST_AOV_BIT(ALPHA);
   const std::vector<std::string> sums = aov_sum_channels(aovs);
   auto at = [&](const std::string& name) { return size_t(std::find(sums.begin(), sums.end(), name) - sums.begin()); };
   // each channel's recipe, decided once (not per pixel), in the table's order (aov_exr_channels)
-  enum Kind { kBeauty, kAlphaMean, kMean, kVariance, kPerCollision, kCollisionFraction };
+  enum Kind { kBeauty, kAlphaMean, kMean, kVariance, kPerCollision, kCollisionFraction, kRatio };
   struct Channel {
     Kind kind;
     size_t col = 0;      // its sum's column in aov_sum (kVariance: the second moment's)
     int k = 0;           // kBeauty, kVariance: the colour channel
-    size_t env_col = 0;  // kVariance with alpha: the environment's column (the whole beauty)
+    size_t env_col = 0;  // kVariance with alpha: the environment's column (the whole beauty); kRatio: the denominator's
   };
   std::vector<std::string> names = {"R", "G", "B"};
   std::vector<Channel> recipe = {{kBeauty, 0, 0}, {kBeauty, 0, 1}, {kBeauty, 0, 2}};
@@ -83,6 +80,7 @@ std::vector<std::string> piece_exr_channels(const FilmPiece& p, std::vector<floa
         recipe.push_back({kVariance, at("moment2." + chans[c].substr(chans[c].size() - 1)), int(c),
                           alpha ? at("environment." + chans[c].substr(chans[c].size() - 1)) : 0});
       else if (k == ST_AOV_INDEX_ALBEDO || k == ST_AOV_INDEX_DEPTH) recipe.push_back({kPerCollision, at(chans[c])});
+      else if (k == ST_AOV_INDEX_SHADOW && c < 3) recipe.push_back({kRatio, at(chans[c]), 0, at(chans[c + 3])});
       else recipe.push_back({kMean, at(chans[c])});
     }
   }
@@ -91,6 +89,11 @@ std::vector<std::string> piece_exr_channels(const FilmPiece& p, std::vector<floa
     names.push_back(kCollisionChannel);
     recipe.push_back({kCollisionFraction, at(kCollisionChannel)});
   }
+  const bool adaptive = !p.pixel_samples.empty(), denoised = !p.denoised.empty();
+  const size_t first_extra = names.size();
+  if (adaptive) names.push_back(kSamplesChannel);
+  if (denoised)
+    for (const char* c : kDenoisedChannels) names.push_back(c);
   const size_t hits_col = collisions ? at(kCollisionChannel) : 0;
   const size_t a_col[3] = {at("AR"), at("AG"), at("AB")};
   const size_t na = sums.size(), nc = names.size(), npix = size_t(p.width) * p.height;
@@ -100,7 +103,10 @@ std::vector<std::string> piece_exr_channels(const FilmPiece& p, std::vector<floa
   for (size_t i = 0; i < npix; ++i) {
     const double* a = na ? &p.aov_sum[i * na] : nullptr;
     float* o = &(*px)[i * nc];
-    for (size_t c = 0; c < nc; ++c) {
+    if (adaptive) o[first_extra] = p.pixel_samples[i];
+    if (denoised)
+      for (size_t c = 0; c < 3; ++c) o[first_extra + (adaptive ? 1 : 0) + c] = p.denoised[i * 3 + c];
+    for (size_t c = 0; c < recipe.size(); ++c) {
       const Channel& ch = recipe[c];
       switch (ch.kind) {
         case kBeauty: o[c] = float(p.sum[i * 3 + size_t(ch.k)] / n); break;
@@ -118,6 +124,7 @@ std::vector<std::string> piece_exr_channels(const FilmPiece& p, std::vector<floa
         }
         case kPerCollision: o[c] = a[hits_col] != 0 ? float(a[ch.col] / a[hits_col]) : 0.0f; break;
         case kCollisionFraction: o[c] = float(a[ch.col] / n); break;
+        case kRatio: o[c] = a[ch.env_col] != 0 ? float(a[ch.col] / a[ch.env_col]) : 1.0f; break;
       }
     }
   }
@@ -236,17 +243,16 @@ FilmPiece piece_from_header(const std::string& path, const RgbImage& img) {
     throw Error(fmt::format("{}: a {} image cannot be merged: only spectrack's EXR outputs hold the float pixels and "
                             "sample ranges a merge needs",
                             path, img.format));
+  if (img.meta.count("adaptive"))
+    throw UsageError(fmt::format("{}: an adaptive render cannot be merged: each pixel holds its own number of samples "
+                                 "(layer 'samples'), so no other piece adds to it (docs/adaptive.md)",
+                                 path));
   auto str = [&](const char* key) { return meta_text(path, img.meta, key); };
   FilmPiece p;
   p.source = path;
   p.id.scene_hash = str("scene_hash");
-  p.id.tracker = str("tracker");
-  p.id.scheme = str("scheme");
-  if (img.meta.count("absorption")) p.id.absorption = str("absorption");
-  if (img.meta.count("light_sampling")) p.id.light_sampling = str("light_sampling");
-  if (img.meta.count("transmittance")) p.id.transmittance = str("transmittance");
-  if (img.meta.count("lookup")) p.id.lookup = str("lookup");
-  if (img.meta.count("color")) p.id.color = str("color");
+  for (const RecordedChoice& c : recorded_choices())
+    if (c.required || img.meta.count(c.key)) p.id.*c.field = str(c.key);
   if (img.meta.count("shutter")) p.id.shutter = str("shutter");
   if (img.meta.count("frame")) p.id.frame = str("frame");
   p.id.version = str("version");
@@ -281,9 +287,10 @@ PieceDecoder::PieceDecoder(const FilmPiece& p, const std::vector<std::string>& h
       src_[c].col = column("variance." + ch);
       if (alpha_) src_[c].env_col = column("environment." + ch);
     } else {
-      src_[c].col = column(name);  // AR, AG, AB, environment.*, the passes, albedo, depth, collision.fraction
+      src_[c].col = column(name);  // AR, AG, AB, environment.*, the passes, albedo, depth, shadow, collision.fraction
       for (int k : {ST_AOV_INDEX_ALBEDO, ST_AOV_INDEX_DEPTH})
         for (const std::string& a : aov_exr_channels(k)) src_[c].per_collision = src_[c].per_collision || name == a;
+      if (name.rfind("shadow.", 0) == 0) src_[c].ratio_of = c + 3;  // its unshadowed sum, decoded first
     }
   }
   hits_col_ = column(kCollisionChannel);
@@ -295,7 +302,7 @@ void PieceDecoder::decode(const float* rgb, const float* extra, size_t npix, dou
   for (size_t i = 0; i < npix; ++i) {
     const float* e = ne ? &extra[i * ne] : nullptr;
     for (int k = 0; k < 3; ++k) sum[i * 3 + k] = double(rgb[i * 3 + k]) * n;
-    for (size_t c = 0; c < na; ++c) {
+    for (size_t c = na; c-- > 0;) {  // backwards: a ratio's weight comes after it
       const Source& sc = src_[c];
       double v = double(e[sc.col]);
       if (sc.moment_of >= 0) {  // back from the variance of the mean (piece_exr_channels)
@@ -304,6 +311,8 @@ void PieceDecoder::decode(const float* rgb, const float* extra, size_t npix, dou
         v = v * n * (n - 1) + (n > 0 ? s1 * s1 / n : 0.0);
       } else if (sc.per_collision) {
         v *= double(e[hits_col_]) * n;
+      } else if (sc.ratio_of > 0) {  // the shadow layer: the ratio times its decoded denominator
+        v *= aov_sum[i * na + sc.ratio_of];
       } else {
         v *= n;
       }

@@ -1,9 +1,11 @@
-// guide_cache.cpp: the grid of regions over the media and the per-region fits (guide_cache.h).
+// guide_cache.cpp: the grid of cells over the media and the per-region fits (guide_cache.h); the
+// cells' kd-trees are guide_tree.cpp.
 #include "guiding/guide_cache.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <map>
 #include <tuple>
 
 #include "guiding/vmf_fit.h"
@@ -41,10 +43,26 @@ void medium_world_box(const st_medium& m, double lo[3], double hi[3]) {
 
 }  // namespace
 
+size_t GuideCache::capacity_bytes() const {
+  // every region refinement adds is one region and two nodes
+  const size_t more = kGuideMaxRegions - std::min(regions.size(), kGuideMaxRegions);
+  return bytes() + more * (sizeof(st_guide_region) + 2 * sizeof(st_guide_node));
+}
+
 std::vector<unsigned char> GuideCache::serialize() const {
   std::vector<unsigned char> out(bytes());
-  std::memcpy(out.data(), &header, sizeof(header));
-  if (!regions.empty()) std::memcpy(out.data() + sizeof(header), regions.data(), regions.size() * sizeof(st_guide_region));
+  st_guide_header h = header;
+  h.regions = int(regions.size());
+  h.nodes = int(nodes.size());
+  std::memcpy(out.data(), &h, sizeof(h));
+  size_t at = sizeof(h);
+  auto put = [&](const void* data, size_t n) {
+    if (n) std::memcpy(out.data() + at, data, n);
+    at += n;
+  };
+  put(regions.data(), regions.size() * sizeof(st_guide_region));
+  put(nodes.data(), nodes.size() * sizeof(st_guide_node));
+  put(pixel_estimate.data(), pixel_estimate.size() * sizeof(float));
   return out;
 }
 
@@ -71,9 +89,74 @@ GuideCache make_guide_cache(const st_scene& st, int cells_longest_axis) {
   c.header.origin = st_float4{origin[0], origin[1], origin[2], 0.0f};
   c.header.inv_cell = st_float4{inv_cell[0], inv_cell[1], inv_cell[2], 0.0f};
   c.header.guided_depth = kGuideDepth;
-  c.regions.assign(size_t(c.header.dims[0]) * c.header.dims[1] * c.header.dims[2], st_guide_region{});
+  const size_t cells = size_t(c.header.dims[0]) * c.header.dims[1] * c.header.dims[2];
+  c.regions.assign(cells, st_guide_region{});
+  for (size_t i = 0; i < cells; ++i) c.nodes.push_back(st_guide_node{0.0f, ST_GUIDE_LEAF | uint32_t(i)});  // leaf i: region i
+  c.node_depth.assign(cells, 0);
+  c.pixel_estimate.assign(size_t(std::max(st.camera.width, 0)) * size_t(std::max(st.camera.height, 0)), 0.0f);
   return c;
 }
+
+void set_pixel_estimates(GuideCache& cache, const std::vector<double>& sums, double samples) {
+  double film = 0;
+  for (double v : sums) film += v;
+  const double floor = sums.empty() ? 0.0 : kGuidePixelFloor * film / double(sums.size()) / samples;
+  for (size_t i = 0; i < sums.size() && i < cache.pixel_estimate.size(); ++i)
+    cache.pixel_estimate[i] = float(std::max(sums[i] / samples, floor));
+}
+
+namespace {
+
+using PathKey = std::tuple<uint32_t, uint32_t, uint32_t>;  // pixel, sample, channel
+
+// The region of records [begin, end) (sorted, one region): its radiance from its vertices'
+// radiance records joined with their paths' end records (`ends`: each path's radiance), its
+// mixture from the fit's records. Returns 1 when the region guides.
+int fit_region(GuideCache& cache, const std::vector<st_guide_record>& records, size_t begin, size_t end,
+               const std::map<PathKey, float>& ends) {
+  int32_t region;
+  std::memcpy(&region, &records[begin].pos.w, 4);
+  st_guide_region& g = cache.regions[size_t(region)];
+  double sum_radiance = 0;
+  size_t n_radiance = 0;
+  std::vector<size_t> guided_depth;
+  for (size_t i = begin; i < end; ++i) {
+    const st_guide_record& r = records[i];
+    if (r.key[3] & ST_GUIDE_RECORD_RADIANCE) {
+      const auto e = ends.find(PathKey{r.key[0], r.key[1], r.key[2]});
+      const double L = e == ends.end() ? 0.0 : std::max(0.0, double(e->second) - double(r.dir.x)) / double(r.dir.y);
+      if (std::isfinite(L)) sum_radiance += L, ++n_radiance;
+    } else if (r.dir.w > 0) {
+      guided_depth.push_back(i);
+    }
+  }
+  if (n_radiance >= size_t(kGuideMinRecords)) {
+    g.records = float(n_radiance);
+    g.radiance = float(sum_radiance / double(n_radiance));
+  }
+  const size_t n = guided_depth.size();
+  if (n < size_t(kGuideMinRecords)) return 0;
+  const size_t stride = (n + kGuideMaxRecordsPerRegion - 1) / kGuideMaxRecordsPerRegion;
+  std::vector<DirectionalSample> samples;
+  double sum = 0;
+  for (size_t k = 0; k < n; k += stride) {
+    const st_guide_record& r = records[guided_depth[k]];
+    samples.push_back(DirectionalSample{{r.dir.x, r.dir.y, r.dir.z}, r.dir.w});
+    sum += r.dir.w;
+  }
+  VmfFitOptions options;
+  options.max_iterations = 40;
+  VmfFitResult fit = fit_vmf_mixture(samples, options);
+  g.mix = fit.mixture;
+  bool finite = true;
+  for (int k = 0; k < ST_VMF_LOBES; ++k)
+    finite = finite && std::isfinite(g.mix.weight[k]) && std::isfinite(g.mix.lobe[k].w);
+  g.alpha = finite && sum > 0 ? kGuideAlpha : 0.0f;
+  g.weight = float(sum / double(samples.size()));
+  return g.alpha > 0;
+}
+
+}  // namespace
 
 int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records) {
   auto region_of = [](const st_guide_record& r) {
@@ -85,36 +168,21 @@ int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records) {
     return std::make_tuple(region_of(a), a.key[0], a.key[1], a.key[2], a.key[3]) <
            std::make_tuple(region_of(b), b.key[0], b.key[1], b.key[2], b.key[3]);
   };
+  for (st_guide_record& r : records) {  // the region under the current trees (END records: -1)
+    const int32_t region = r.key[3] == ST_GUIDE_RECORD_END ? -1 : guide_region_of(cache, r.pos.x, r.pos.y, r.pos.z);
+    std::memcpy(&r.pos.w, &region, 4);
+  }
   std::sort(records.begin(), records.end(), order);
+  std::map<PathKey, float> ends;  // every path's radiance (lane mean), from its end record
+  for (const st_guide_record& r : records)
+    if (r.key[3] == ST_GUIDE_RECORD_END) ends[PathKey{r.key[0], r.key[1], r.key[2]}] = r.dir.x;
   for (st_guide_region& g : cache.regions) g = st_guide_region{};
   int guided = 0;
-  VmfFitOptions options;
-  options.max_iterations = 40;
   for (size_t begin = 0; begin < records.size();) {
     const int region = region_of(records[begin]);
     size_t end = begin;
     while (end < records.size() && region_of(records[end]) == region) ++end;
-    const size_t n = end - begin;
-    if (region >= 0 && size_t(region) < cache.regions.size() && n >= size_t(kGuideMinRecords)) {
-      const size_t stride = (n + kGuideMaxRecordsPerRegion - 1) / kGuideMaxRecordsPerRegion;
-      std::vector<DirectionalSample> samples;
-      double sum = 0;
-      for (size_t i = begin; i < end; i += stride) {
-        const st_guide_record& r = records[i];
-        samples.push_back(DirectionalSample{{r.dir.x, r.dir.y, r.dir.z}, r.dir.w});
-        sum += r.dir.w;
-      }
-      VmfFitResult fit = fit_vmf_mixture(samples, options);
-      st_guide_region& g = cache.regions[size_t(region)];
-      g.mix = fit.mixture;
-      bool finite = true;
-      for (int k = 0; k < ST_VMF_LOBES; ++k)
-        finite = finite && std::isfinite(g.mix.weight[k]) && std::isfinite(g.mix.lobe[k].w);
-      g.alpha = finite && sum > 0 ? kGuideAlpha : 0.0f;
-      g.records = float(samples.size());
-      g.radiance = float(sum / double(samples.size()));
-      guided += g.alpha > 0;
-    }
+    if (region >= 0 && size_t(region) < cache.regions.size()) guided += fit_region(cache, records, begin, end, ends);
     begin = end;
   }
   return guided;

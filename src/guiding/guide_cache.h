@@ -1,10 +1,13 @@
 // guide_cache.h: the host side of the guide cache (kernels/guiding.h): its regions over the media,
 // and the fit of every region's mixture from the radiance records of a training pass.
 //
-// Design: the regions are the cells of one uniform grid over the union of the media's world boxes
-// (the longest axis cut into kGuideGridCells cells, the others into as many cells of about the same
-// edge). A grid is the simplest structure that the scatter kernel reaches with one index and whose
-// memory is known before training: cells x 176 bytes. The fit sorts the records by (region, key),
+// Design: the regions start as the cells of one uniform grid over the union of the media's world
+// boxes (the longest axis cut into kGuideGridCells cells, the others into as many cells of about
+// the same edge); every cell is the root of a kd-tree whose leaves are the regions, refined after
+// each training pass where the pass's records crowd (refine_guide_regions, guide_tree.cpp), so the
+// regions follow where the paths scatter: a dense medium's lit shell and its dark core end up in
+// different regions. The memory is bounded by kGuideMaxRegions. The fit bins the records by
+// position into the current regions and sorts them by (region, key),
 // so its input does not depend on the order in which the device appended them, and fits each
 // region with enough records by fit_vmf_mixture (a pure function of its input): the cache after a
 // training pass depends only on the records' contents, which depend only on the scene, the
@@ -32,6 +35,21 @@ constexpr float kGuideAlpha = 0.5f;
 constexpr int kGuideTrainingPasses = 3;
 // The training passes' random streams: the render's seed xor this.
 constexpr uint32_t kGuideTrainingSeed = 0x6a09e667u;
+// Region refinement: a region that holds more than this many radiance records of a training pass
+// splits (its halves hold at least half as many each: the split is at their median), and the cache
+// holds at most kGuideMaxRegions regions (176 bytes each, and two kd-tree nodes of 8 bytes).
+constexpr size_t kGuideSplitRecords = 512;
+constexpr size_t kGuideMaxRegions = size_t(1) << 16;
+
+// Guided roulette and splitting in the render (kernels/guiding.h guide_rrs): the most paths one
+// path splits into, the ratio of expected contribution to the pixel's estimate below which roulette
+// applies, and the least survival probability.
+constexpr int kGuideSplitMax = 8;
+constexpr float kGuideRouletteBelow = 0.25f;
+constexpr float kGuideSurvivalFloor = 0.25f;
+// The least pixel estimate, as a fraction of the film's mean: a dark pixel's estimate is noisy, and
+// its paths' expected contributions must not look huge against it (they would all split).
+constexpr double kGuidePixelFloor = 0.05;
 
 // Scatter events that are guided: those of depth below this (the first only). Guiding deeper events
 // measured worse on the bench scenes (bench/results/guiding_*.txt): in dense media one direction
@@ -41,29 +59,58 @@ constexpr int kGuideDepth = 1;
 static_assert(kGuideDepth >= 1 && kGuideDepth <= ST_GUIDE_RING, "records of guided vertices come from the ring");
 
 // Bytes of the record buffer for Q path slots: the count, and in training passes the records of
-// one iteration (a slot records at most one vertex per scatter event and kGuideDepth when it
-// finishes), the slots' guide state and the vertex rings (kernels/guiding.h).
-inline uint64_t guide_record_capacity(uint64_t Q) { return Q * uint64_t(kGuideDepth + 1); }
-inline size_t guide_record_buffer_bytes(uint64_t Q, bool training) {
+// one iteration (a slot records the fit's and the radiance record of the vertex that leaves its
+// ring at a scatter event; when it finishes, those of its ring and its end record), the slots'
+// guide state and the vertex rings (kernels/guiding.h); with splitting in the render, the count
+// and the slots' state.
+inline uint64_t guide_record_capacity(uint64_t Q) { return Q * uint64_t(ST_GUIDE_RING + kGuideDepth + 1); }
+inline size_t guide_record_buffer_bytes(uint64_t Q, bool training, bool splitting = false) {
   return 16 + (training ? guide_record_capacity(Q) * sizeof(st_guide_record) +
                               Q * (sizeof(st_guide_slot) + ST_GUIDE_RING * sizeof(st_guide_vertex))
-                        : 0);
+                        : splitting ? Q * sizeof(st_guide_slot) : 0);
 }
 
 struct GuideCache {
   st_guide_header header{};
   std::vector<st_guide_region> regions;
-  size_t bytes() const { return sizeof(st_guide_header) + regions.size() * sizeof(st_guide_region); }
-  // The device buffer's contents: the header, then the regions.
+  std::vector<st_guide_node> nodes;   // the cells' kd-trees (kernels/guiding.h): the cells first
+  std::vector<int> node_depth;        // each node's depth below its cell (host only)
+  std::vector<float> pixel_estimate;  // per film pixel: the training passes' mean over samples and RGB
+  size_t bytes() const {
+    return sizeof(st_guide_header) + regions.size() * sizeof(st_guide_region) + nodes.size() * sizeof(st_guide_node) +
+           pixel_estimate.size() * sizeof(float);
+  }
+  // The device buffer's bytes for this cache grown to kGuideMaxRegions regions.
+  size_t capacity_bytes() const;
+  // The device buffer's contents: the header (its region and node counts set), the regions, the
+  // nodes, then the pixel estimates.
   std::vector<unsigned char> serialize() const;
 };
 
-// An empty cache (every alpha 0, guided sampling and training off) over the media of `st`.
+// An empty cache (every alpha 0, guided sampling, training and splitting off, pixel estimates 0)
+// over the media and the film of `st`.
 GuideCache make_guide_cache(const st_scene& st, int cells_longest_axis = kGuideGridCells);
 
-// Refits every region from `records` (any order; sorted here): the records of every scatter event
-// whose direction was guided (depth below kGuideDepth); regions with fewer than
-// kGuideMinRecords records get alpha 0 and the uniform mixture. Returns the regions that guide.
+// The pixel estimates from the training passes' sums of pixel means times spp over `samples`
+// samples: each pixel's mean, raised to kGuidePixelFloor times the film's mean.
+void set_pixel_estimates(GuideCache& cache, const std::vector<double>& sums, double samples);
+
+// The region that holds world position (x, y, z) (the device's guide_region_index).
+int guide_region_of(const GuideCache& cache, float x, float y, float z);
+
+// Splits the regions that hold more than `split_above` radiance records of a training pass
+// (`records`, any order): each at the median of its records' positions along the axis where they
+// spread most, its halves again while they hold more, the most crowded region first (ties: the
+// lower node index), until the cache holds `max_regions` regions or no region has more. Depends on
+// the set of records only. Returns the regions added.
+size_t refine_guide_regions(GuideCache& cache, const std::vector<st_guide_record>& records,
+                            size_t split_above = kGuideSplitRecords, size_t max_regions = kGuideMaxRegions);
+
+// Refits every region from `records` (any order; binned by position and sorted here): its mixture from the records of the
+// scatter events whose direction was guided (depth below kGuideDepth), its radiance (guided
+// roulette's estimate) from the records of every depth; regions with fewer than kGuideMinRecords
+// records of either kind get alpha 0 and the uniform mixture, or no radiance estimate (records 0).
+// Returns the regions that guide.
 int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records);
 
 }  // namespace spectrack

@@ -1,5 +1,6 @@
 // image.cpp: see image.h. Reading images; image_write.cpp writes them.
 #include "image/image.h"
+#include "image/extra_channels.h"
 #include "image/image_open.h"
 #include "scene/scene.h"
 #include "util/files.h"
@@ -20,8 +21,11 @@
 
 namespace spectrack {
 
+// (and the channels of image/extra_channels.h: a merge refuses an adaptive film, drops the denoised beauty)
 bool film_layer_channel(const std::string& name) {
-  if (name == kCollisionChannel) return true;
+  if (name == kCollisionChannel || name == kSamplesChannel) return true;
+  for (const char* c : kDenoisedChannels)
+    if (name == c) return true;
   for (int k = 0; k < ST_AOV_COUNT; ++k)
     for (const std::string& c : aov_exr_channels(k))
       if (name == c) return true;

@@ -17,10 +17,10 @@ namespace {
 // What sizes the buffers of path slots and shadow rays, for messages: the options given
 // (--path-slots, --shadow-ring) are named, so that a refusal says which one to lower.
 std::string slot_cause(const RenderOptions& opt, const BatchPlan& p, bool shadows) {
-  std::string s = opt.path_slots > 0 ? fmt::format("--path-slots {}", p.Q) : fmt::format("{} path slots", p.Q);
+  std::string s = opt.path_slots ? fmt::format("--path-slots {}", p.Q) : fmt::format("{} path slots", p.Q);
   if (shadows)
     s += fmt::format(" x {} light(s) x {}", p.NL / std::max<uint64_t>(1, p.shadow_ring),
-                     opt.shadow_ring > 0 ? fmt::format("--shadow-ring {}", p.shadow_ring)
+                     opt.shadow_ring ? fmt::format("--shadow-ring {}", p.shadow_ring)
                                          : fmt::format("shadow ring {}", p.shadow_ring));
   return s;
 }
@@ -32,14 +32,17 @@ BatchPlan Renderer::Impl::plan_batches(int spp) const {
   // the shadow ring (types.h): 2 by default, which removes most waiting where shadow rays take
   // several launches and costs nothing measurable where they do not (bench/RESULTS.md, "No
   // waiting paths")
-  p.shadow_ring = opt.shadow_ring > 0 ? uint64_t(opt.shadow_ring) : uint64_t(kDefaultShadowRing);
-  if (p.shadow_ring > ST_MAX_SHADOW_RING)
-    throw Error(fmt::format("shadow ring {} is above the maximum of {}", p.shadow_ring, ST_MAX_SHADOW_RING));
-  p.NL = uint64_t(ds.packed.st.n_lights) * p.shadow_ring;
-  p.npix = settings.window.pixels();
+  const int ring = opt.shadow_ring.value_or(kDefaultShadowRing);
+  if (ring < 1 || ring > ST_MAX_SHADOW_RING)
+    throw Error(fmt::format("shadow ring {} is outside 1..{}", ring, ST_MAX_SHADOW_RING));
+  p.shadow_ring = uint64_t(ring);
+  p.NL = shadow_lights(ds.packed.st) * p.shadow_ring;
+  p.npix = settings.adaptive ? uint64_t(active_pixels.size()) : settings.window.pixels();
   p.nch = uint64_t(settings.channels_per_sample);
   p.spp = uint64_t(spp);
-  p.Q = opt.path_slots > 0 ? uint64_t(opt.path_slots) : ((ds.dev.type & CL_DEVICE_TYPE_GPU) ? (1u << 20) : (1u << 16));
+  const int slots = opt.path_slots.value_or((ds.dev.type & CL_DEVICE_TYPE_GPU) ? kDefaultPathSlotsGpu : kDefaultPathSlotsCpu);
+  if (slots < 1) throw Error(fmt::format("path slots {}: at least 1 path must be in flight", slots));
+  p.Q = uint64_t(slots);
   p.total_paths = p.spp * p.npix * p.nch;
   p.Q = std::max<uint64_t>(1, std::min<uint64_t>(p.Q, p.total_paths));
   p.samples_per_batch = std::max<uint64_t>(1, (batch_target_paths(p.Q) + p.npix * p.nch - 1) / (p.npix * p.nch));
@@ -56,7 +59,7 @@ BatchPlan Renderer::Impl::plan_batches(int spp) const {
   // A ring of result buffers: more than two batches in flight keep the slots busy while a batch's
   // longest paths finish; capped by ST_MAX_BATCHES_IN_FLIGHT, the batch count, 32-bit indices and
   // the device's largest buffer (film layers make each path's result L float4).
-  uint64_t k = opt.batches_in_flight > 0 ? uint64_t(opt.batches_in_flight) : uint64_t(ST_MAX_BATCHES_IN_FLIGHT);
+  uint64_t k = uint64_t(std::max(1, opt.batches_in_flight.value_or(ST_MAX_BATCHES_IN_FLIGHT)));
   k = std::min<uint64_t>({k, uint64_t(ST_MAX_BATCHES_IN_FLIGHT), std::max<uint64_t>(1, p.n_batches)});
   while (k > 1 && (k * p.batch_paths * p.L >= (uint64_t(1) << 32) ||
                    k * p.batch_paths * p.L * sizeof(st_float4) > uint64_t(ds.dev.max_alloc)))
@@ -86,10 +89,9 @@ void Renderer::Impl::check_memory(const BatchPlan& p) const {
                                        need.film_device / 1048576.0, p.Q, need.slots_device / 1048576.0,
                                        slot_cause(opt, p, true), need.results_device / 1048576.0);
   const std::string slots_advice =
-      opt.path_slots > 0 || opt.shadow_ring > 0
-          ? fmt::format("{}{}{}", opt.path_slots > 0 ? "a lower --path-slots" : "",
-                        opt.path_slots > 0 && opt.shadow_ring > 0 ? " or " : "",
-                        opt.shadow_ring > 0 ? "a lower --shadow-ring" : "")
+      opt.path_slots || opt.shadow_ring
+          ? fmt::format("{}{}{}", opt.path_slots ? "a lower --path-slots" : "",
+                        opt.path_slots && opt.shadow_ring ? " or " : "", opt.shadow_ring ? "a lower --shadow-ring" : "")
           : std::string("fewer --path-slots");
   const std::string advice = "use " + slots_advice +
                              ", a smaller film (or a tile with --pixel-bounds), fewer film layers, or another device "
@@ -124,6 +126,8 @@ RenderBuffers Renderer::Impl::allocate(const BatchPlan& p) {
   const uint64_t per_parity = p.Q * queue_words_per_slot(p.NL) / 2;
   std::vector<uint32_t> init_queue(2 * per_parity, 0u);
   for (uint64_t i = 0; i < p.Q; ++i) init_queue[i] = uint32_t(i);  // parity 0, FREE: every slot
+  // adaptive sampling: the pixel list follows the queues (queues.h active_pixels_offset)
+  if (settings.adaptive) init_queue.insert(init_queue.end(), active_pixels.begin(), active_pixels.end());
   b.queues = ds.buffer(CL_MEM_READ_WRITE, init_queue.size() * 4, init_queue.data(),
                        fmt::format("queues ({})", slot_cause(opt, p, true)).c_str());
   std::vector<uint32_t> counters(ST_C_COUNT, 0u);

@@ -2,6 +2,7 @@
 // progress sums and the first error; everything else (renderer, piece, stats) is per device
 // (MultiDeviceRun::PerDevice).
 #include "integrator/multi_device.h"
+#include "integrator/adaptive.h"
 
 #include <fmt/format.h>
 
@@ -69,14 +70,9 @@ class MultiDeviceRun {
   struct PerDevice {
     std::string name;
     FilmPiece piece;
-    RenderStats stats;
     int64_t samples = 0;
-    double setup = 0, build = 0, first_pass = -1.0, render = 0;  // render: its stage loops
-    bool from_cache = true, time_limit_reached = false, noise_target_reached = false;
-    uint32_t features = 0;
-    int light_sampling_used = 0;
-    std::vector<MajorantInfo> majorants;
-    GuideInfo guide;
+    bool started = false;  // a chunk came back: `run` holds its device_result
+    MultiDeviceResult run;  // seconds_render and stats summed over its chunks, the flags or-ed
   };
   bool stopped() const {
     return failed_.load() || (base_.stop && base_.stop->load()) ||
@@ -124,24 +120,21 @@ void MultiDeviceRun::add_chunk(size_t i, int64_t begin, const RenderResult& res)
     p.x0 = res.x0, p.y0 = res.y0, p.width = res.width, p.height = res.height;
     p.sum.assign(res.sum.size(), 0.0);
     p.aov_sum.assign(res.aov_sum.size(), 0.0);
-    d.setup = res.seconds_setup;
-    d.build = res.seconds_build;
-    d.from_cache = res.kernels_from_cache;
-    d.first_pass = res.seconds_first_pass;
-    d.features = res.features;
-    d.light_sampling_used = res.light_sampling_used;
-    d.majorants = res.majorants;
-    d.guide = res.guide;
   }
-  d.render += res.seconds_render;
+  if (!d.started) {
+    d.run = device_result(res);
+    d.started = true;
+  } else {
+    d.run.seconds_render += res.seconds_render;
+    d.run.stats.add(res.stats);
+    d.run.time_limit_reached |= res.time_limit_reached;
+    d.run.noise_target_reached |= res.noise_target_reached;
+  }
   for (size_t k = 0; k < res.sum.size(); ++k) p.sum[k] += res.sum[k];
   for (size_t k = 0; k < res.aov_sum.size(); ++k) p.aov_sum[k] += res.aov_sum[k];
   if (res.spp_done > 0) p.ranges.push_back({begin, begin + res.spp_done});
   p.ranges = join_ranges(p.ranges);
   p.interrupted |= res.interrupted;
-  d.time_limit_reached |= res.time_limit_reached;
-  d.noise_target_reached |= res.noise_target_reached;
-  d.stats.add(res.stats);
   std::lock_guard<std::mutex> lock(mu_);
   d.samples += res.spp_done;
   finished_ += res.spp_done;
@@ -159,7 +152,7 @@ void MultiDeviceRun::work(size_t i) {
       in_chunk_[i] = f * double(chunk_len);
       report();
     };
-    Renderer r(scene_, opt);
+    Renderer r(scene_, settings_, opt);
     {
       std::lock_guard<std::mutex> lock(mu_);
       dev_[i].name = r.device_name();
@@ -203,21 +196,18 @@ MultiDeviceResult MultiDeviceRun::combine() const {
     out.devices.push_back(d.name);
     out.samples_per_device.push_back(d.samples);
     interrupted |= d.piece.interrupted;
-    out.time_limit_reached |= d.time_limit_reached;
-    out.noise_target_reached |= d.noise_target_reached;
     if (d.piece.samples() > 0) with_samples.push_back(d.piece);
-    out.stats.add(d.stats);
-    out.seconds_setup = std::max(out.seconds_setup, d.setup);
-    out.seconds_build = std::max(out.seconds_build, d.build);
-    out.seconds_render = std::max(out.seconds_render, d.render);
-    out.kernels_from_cache = out.kernels_from_cache && d.from_cache;
-    if (d.first_pass >= 0) {
-      out.seconds_first_pass = out.seconds_first_pass > 0 ? std::min(out.seconds_first_pass, d.first_pass) : d.first_pass;
-      out.features = d.features;
-      out.light_sampling_used = d.light_sampling_used;
-      out.majorants = d.majorants;
-      out.guide = d.guide;
-    }
+    if (!d.started) continue;
+    const MultiDeviceResult& r = d.run;
+    out.time_limit_reached |= r.time_limit_reached;
+    out.noise_target_reached |= r.noise_target_reached;
+    out.stats.add(r.stats);
+    out.seconds_setup = std::max(out.seconds_setup, r.seconds_setup);
+    out.seconds_build = std::max(out.seconds_build, r.seconds_build);
+    out.seconds_render = std::max(out.seconds_render, r.seconds_render);
+    out.kernels_from_cache = out.kernels_from_cache && r.kernels_from_cache;
+    out.seconds_first_pass = out.seconds_first_pass > 0 ? std::min(out.seconds_first_pass, r.seconds_first_pass) : r.seconds_first_pass;
+    static_cast<RunChoices&>(out) = static_cast<const RunChoices&>(r);
   }
   out.record_settings(settings_);
   if (with_samples.empty())  // stopped before any sample finished
@@ -233,6 +223,20 @@ MultiDeviceResult MultiDeviceRun::combine() const {
 
 }  // namespace
 
+MultiDeviceResult device_result(const RenderResult& res) {
+  MultiDeviceResult out;
+  static_cast<RunChoices&>(out) = static_cast<const RunChoices&>(res);
+  out.stats = res.stats;
+  out.seconds_setup = res.seconds_setup;
+  out.seconds_build = res.seconds_build;
+  out.seconds_render = res.seconds_render;
+  out.kernels_from_cache = res.kernels_from_cache;
+  out.seconds_first_pass = res.seconds_first_pass;
+  out.time_limit_reached = res.time_limit_reached;
+  out.noise_target_reached = res.noise_target_reached;
+  return out;
+}
+
 MultiDeviceResult render_multi_device(const SceneDesc& scene, const RenderOptions& base, const RenderSettings& settings,
                                       const std::vector<std::string>& devices, int64_t sample_begin, int spp,
                                       int chunk_spp) {
@@ -242,6 +246,11 @@ MultiDeviceResult render_multi_device(const SceneDesc& scene, const RenderOption
   if (settings.guiding && n_dev > 1)
     throw UsageError("guiding renders on one device for now (each device would train its own cache); use --guiding "
                      "off with several devices");
+  if (settings.adaptive) {
+    if (n_dev > 1 || sample_begin != 0 || spp != settings.spp)
+      throw UsageError("adaptive sampling renders on one device, over the whole sample range");
+    return render_adaptive_film(scene, base, settings, devices[0]);
+  }
   if (chunk_spp <= 0) chunk_spp = n_dev == 1 ? spp : std::max(1, (spp + int(4 * n_dev) - 1) / int(4 * n_dev));
   MultiDeviceRun run(scene, base, settings, devices, sample_begin, spp, chunk_spp);
   run.run();

@@ -20,7 +20,7 @@ namespace spectrack {
 // them ("P:D" or a name substring); "" is the one default device. Throws Error for an empty item.
 std::vector<std::string> parse_device_list(const std::string& spec);
 
-struct MultiDeviceResult : RenderChoices {
+struct MultiDeviceResult : RenderChoices, RunChoices {
   FilmPiece piece;          // the merged film of every device
   RenderStats stats;        // summed over devices and chunks
   std::vector<std::string> devices;  // device names, in list order
@@ -29,14 +29,18 @@ struct MultiDeviceResult : RenderChoices {
   double seconds_render = 0;                    // stage loops alone: the device with the longest sum
   bool kernels_from_cache = true;
   double seconds_first_pass = 0;  // the first device to put a batch on its film: construction to then
-  uint32_t features = 0;          // the kernels' feature mask (the same on every device)
-  int light_sampling_used = 0;    // st_light_sampling the kernels ran ("auto" resolved; the same on every device)
-  std::vector<MajorantInfo> majorants;  // each VDB medium's majorant structure (the same on every device)
-  GuideInfo guide;                      // volume path guiding (one device only)
   int spp_requested = 0;
   bool time_limit_reached = false;  // some device stopped at RenderOptions::deadline
   bool noise_target_reached = false;  // the watch stopped the render at its noise target (not interrupted)
+  // adaptive sampling (integrator/adaptive.h; piece.pixel_samples): its rounds and brightness floor
+  int adaptive_rounds = 0;
+  double adaptive_floor = 0;
 };
+
+// What one device's render says about its run, as a MultiDeviceResult of that device alone: the
+// timings, the kernel cache, what it ran with (RunChoices), the statistics and the stop flags (the
+// film, the device list and the settings are the caller's).
+MultiDeviceResult device_result(const RenderResult& res);
 
 // Renders samples [sample_begin, sample_begin + spp) of the settings' window (resolved from
 // `base`; base.device and base.progress are replaced per device, base.stop is honoured) on each

@@ -26,7 +26,7 @@ int RenderWatch::wants(int64_t n) {
 
 bool RenderWatch::see(const RenderResult& film, const FilmState* state) {
   const int64_t n = film.spp_done;
-  if (c_.noise_target > 0 && n >= next_check_) {
+  if (c_.noise_target > 0 && (n >= next_check_ || n >= c_.spp)) {  // n = spp: an adaptive film so far
     const NoiseEstimate e = estimate_film_noise(film.sum, film.aov_sum, film.aov_channels, n);
     {
       std::lock_guard<std::mutex> lock(mu_);

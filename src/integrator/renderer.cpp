@@ -1,5 +1,5 @@
 // renderer.cpp: the wavefront stage loop on one device (see renderer.h for the design).
-// Set-up: resolve the settings (integrator/settings.h), pack the scene (scene/scene_pack.h), choose
+// Set-up: take the resolved settings (integrator/settings.h), pack the scene (scene/scene_pack.h), choose
 // the device and upload (device/device_scene.h), build the kernels (cached) for the scene's
 // st_feature mask (--generic-kernels: every feature and ST_MAX_MEDIA media). A render is then a
 // few named steps: plan the batches, check the memory, allocate, bind the stage arguments, run the
@@ -31,13 +31,13 @@ namespace spectrack {
 
 void Renderer::Impl::setup() {
   auto t0 = Clock::now();
-  settings = resolve_settings(scene, opt);
   set_phase("scene packing (volumes, environment maps and their CDFs, majorant grids)");
   PackedScene packed = pack_scene(scene, settings, {opt.majorant_cell, opt.majorant_block, opt.iteration_budget, opt.majorant_step_cost});
   // the feature mask is in the source, hence in the kernel-cache key
   if (opt.generic_kernels) packed.features = ST_FEATURES_ALL;
   packed.features |= opt.feature_floor & uint32_t(ST_FEATURES_ALL);
   if (settings.guiding) packed.features |= ST_FEATURE_GUIDING;
+  if (settings.adaptive) packed.features |= ST_FEATURE_ADAPTIVE;
   const int max_media = opt.generic_kernels ? ST_MAX_MEDIA : std::max(1, packed.st.n_media);
   std::vector<std::pair<std::string, std::string>> defines = {
       {"ST_KERNEL_MAX_MEDIA", std::to_string(max_media)}, {"ST_FEATURES", fmt::format("0x{:x}u", packed.features)}};
@@ -46,7 +46,8 @@ void Renderer::Impl::setup() {
   // guiding off: a header of zeros (nothing guides, nothing records); the kernels compiled without
   // ST_FEATURE_GUIDING never read it
   if (settings.guiding) guide = make_guide_cache(ds.packed.st, opt.guide_grid_cells > 0 ? opt.guide_grid_cells : kGuideGridCells);
-  const std::vector<unsigned char> g = guide.serialize();
+  std::vector<unsigned char> g = guide.serialize();
+  if (settings.guiding) g.resize(guide.capacity_bytes(), 0);  // room for the regions refinement adds
   b_guide = ds.buffer(CL_MEM_READ_ONLY, g.size(), g.data(), "guide cache");
   const uint32_t no_records[4] = {0, 0, 0, 0};
   b_records = ds.buffer(CL_MEM_READ_WRITE, sizeof(no_records), no_records, "guide records");
@@ -113,7 +114,8 @@ RenderResult Renderer::Impl::result_header(int64_t sample_begin, int spp) const 
   res.seconds_build = seconds_build;
   res.kernels_from_cache = from_cache;
   res.features = ds.packed.features;
-  res.light_sampling_used = ds.packed.st.light_sampling;
+  res.light_sampling_used = st_light_sampling(ds.packed.st.light_sampling);
+  res.iteration_budget = opt.iteration_budget;
   res.majorants = ds.packed.majorants;
   return res;
 }
@@ -177,6 +179,9 @@ void Renderer::Impl::read_film(const RenderBuffers& b, const BatchPlan& p, const
     if (settings.aovs & ST_AOV_BIT(ALBEDO))  // sums over the samples whose camera ray collided
       for (int k = 0; k < 3; ++k) res.aov_sum[i * na + a++] = layer(ST_RESULT_AUX, i, k);
     if (settings.aovs & ST_AOV_BIT(DEPTH)) res.aov_sum[i * na + a++] = layer(ST_RESULT_AUX, i, 3);
+    if (settings.aovs & ST_AOV_BIT(SHADOW))  // a shadow catcher's shadowed, then unshadowed estimates
+      for (int l : {ST_RESULT_SHADOW, ST_RESULT_UNSHADOWED})
+        for (int k = 0; k < 3; ++k) res.aov_sum[i * na + a++] = layer(l, i, k);
     if (settings.aovs & (ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH)))
       res.aov_sum[i * na + a++] = layer(ST_RESULT_ALPHA, i, 3);  // how many of them collided
   }
@@ -186,8 +191,14 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
   if (sample_begin < 0 || spp < 1 || uint64_t(sample_begin) + uint64_t(spp) > (uint64_t(1) << 32))
     throw Error(fmt::format("sample range {}:{} is not a non-empty range of sample indices 0 .. 2^32",
                             sample_begin, sample_begin + spp));
-  const double seconds_training = settings.guiding && !guide_trained ? train_guide() : 0.0;
-  RenderResult res = run_stage_loop(sample_begin, spp, nullptr);
+  if (settings.adaptive && active_pixels.empty()) {  // a render of every pixel (Renderer::render)
+    active_pixels.resize(settings.window.pixels());
+    for (size_t i = 0; i < active_pixels.size(); ++i) active_pixels[i] = uint32_t(i);
+  }
+  const double seconds_training = settings.guiding && !guide_trained ? train_guide(spp) : 0.0;
+  // the training passes' samples are part of the image: the render adds the rest
+  RenderResult res = run_stage_loop(sample_begin, spp - guide_samples.spp_done, nullptr);
+  add_guide_samples(res);
   res.seconds_render += seconds_training;  // efficiency counts the training
   res.guide = guide_info;
   return res;
@@ -205,18 +216,22 @@ RenderResult Renderer::Impl::run_stage_loop(int64_t sample_begin, int spp, std::
   BatchPlan plan = plan_batches(int(spp - before));
   // the default shadow ring falls back to one entry per (path, light) where two would not fit (the
   // image is the same; paths may wait for their shadow rays)
-  if (opt.shadow_ring == 0 && plan.shadow_ring > 1 && memory_need(plan).device > double(ds.dev.global_mem)) {
+  if (!opt.shadow_ring && plan.shadow_ring > 1 && memory_need(plan).device > double(ds.dev.global_mem)) {
     plan.shadow_ring = 1;
-    plan.NL = uint64_t(ds.packed.st.n_lights);
+    plan.NL = shadow_lights(ds.packed.st);
   }
   check_memory(plan);  // refuse what cannot fit before allocating anything
+  res.path_slots = plan.Q;
+  res.shadow_ring = plan.shadow_ring;
+  res.batches_in_flight = plan.ring;
   set_phase("film allocation");
   set_ring_size(plan.ring);
   RenderBuffers buf = allocate(plan);
   if (settings.guiding) {  // training: records on, vertex rings, one iteration's records
     const uint64_t capacity = records ? guide_record_capacity(plan.Q) : 0;
     const uint32_t head[4] = {0, 0, 0, 0};
-    b_records = ds.buffer(CL_MEM_READ_WRITE, guide_record_buffer_bytes(plan.Q, records != nullptr), nullptr, "guide records");
+    b_records = ds.buffer(CL_MEM_READ_WRITE, guide_record_buffer_bytes(plan.Q, records != nullptr, guide.header.split_max > 0),
+                          nullptr, "guide records");
     ST_CL_CHECK(ds.queue.enqueueWriteBuffer(b_records, CL_TRUE, 0, sizeof(head), head), "clear the guide record count");
     guide.header.dims[3] = int(capacity);
     guide.header.inv_cell.w = records ? 1.0f : 0.0f;
@@ -247,15 +262,27 @@ RenderResult Renderer::Impl::run_stage_loop(int64_t sample_begin, int spp, std::
   return res;
 }
 
-Renderer::Renderer(const SceneDesc& scene, const RenderOptions& options) : impl_(new Impl) {
+Renderer::Renderer(const SceneDesc& scene, const RenderOptions& options)
+    : Renderer(scene, resolve_settings(scene, options), options) {}
+Renderer::Renderer(const SceneDesc& scene, const RenderSettings& settings, const RenderOptions& options)
+    : impl_(new Impl) {
   impl_->scene = scene;
   impl_->opt = options;
+  impl_->settings = settings;
   impl_->setup();
 }
 Renderer::~Renderer() = default;
 
 RenderResult Renderer::render() { return impl_->render(impl_->settings.sample_begin, impl_->settings.spp); }
 RenderResult Renderer::render(int64_t sample_begin, int spp) { return impl_->render(sample_begin, spp); }
+RenderResult Renderer::render_pixels(const std::vector<uint32_t>& window_pixels, int64_t sample_begin, int spp) {
+  if (!impl_->settings.adaptive) throw Error("internal: a render of a pixel list without adaptive sampling");
+  if (window_pixels.empty()) throw Error("internal: a render of no pixel");
+  for (uint32_t p : window_pixels)
+    if (p >= impl_->settings.window.pixels()) throw Error(fmt::format("internal: pixel {} outside the window", p));
+  impl_->active_pixels = window_pixels;
+  return impl_->render(sample_begin, spp);
+}
 const std::string& Renderer::device_name() const { return impl_->ds.dev.name; }
 uint32_t Renderer::features() const { return impl_->ds.packed.features; }
 const SceneDesc& Renderer::scene() const { return impl_->scene; }

@@ -56,13 +56,28 @@ struct RenderStats {
 struct GuideInfo {
   bool used = false;
   size_t bytes = 0;           // device memory of the cache
-  int regions = 0, regions_guided = 0;  // grid cells, and those whose fit guides (alpha > 0)
+  int regions = 0, regions_guided = 0;  // regions (the cells' kd-tree leaves), and those whose fit guides (alpha > 0)
   int training_passes = 0;
   uint64_t records = 0;       // radiance records of the last training pass
   double seconds_training = 0;  // part of seconds_render
 };
 
-struct RenderResult : RenderChoices {
+// What a render ran with where its settings leave the choice to the scene or the device: recorded
+// as used, beside RenderChoices' as requested (the EXR metadata and the statistics). A
+// multi-device render takes the first device's (path slots and the shadow ring follow each
+// device's type and memory; the rest is the same on every device).
+struct RunChoices {
+  uint32_t features = 0;          // st_feature mask the kernels were compiled for (ST_FEATURES_ALL: generic)
+  st_light_sampling light_sampling_used{};  // the kernels' (light_sampling "auto" resolved: scene_pack.cpp)
+  std::vector<MajorantInfo> majorants;      // each VDB medium's majorant structure
+  GuideInfo guide;                // volume path guiding (its training time is in seconds_render)
+  uint64_t path_slots = 0;        // paths in flight (--path-slots, else by device type: batch_plan.cpp)
+  uint64_t shadow_ring = 0;       // shadow-ray entries per (path, light) (1 where the default 2 would not fit)
+  uint64_t batches_in_flight = 0;  // result buffers in the ring (capped by the batch count and the device)
+  int iteration_budget = 0;       // tracking iterations per path and launch
+};
+
+struct RenderResult : RenderChoices, RunChoices {
   int width = 0, height = 0;           // the pixel window rendered
   int full_width = 0, full_height = 0; // the film
   int x0 = 0, y0 = 0;                  // the window's top-left pixel in the film
@@ -86,10 +101,6 @@ struct RenderResult : RenderChoices {
   double seconds_setup = 0, seconds_build = 0, seconds_render = 0;
   double seconds_first_pass = 0;  // Renderer construction to the first batch added to the film
   bool kernels_from_cache = false;
-  uint32_t features = 0;          // st_feature mask the kernels were compiled for (ST_FEATURES_ALL: generic)
-  int light_sampling_used = 0;    // st_light_sampling the kernels ran (light_sampling "auto" resolved: scene_pack.cpp)
-  std::vector<MajorantInfo> majorants;  // each VDB medium's majorant structure
-  GuideInfo guide;                // volume path guiding (its training time is in seconds_render)
   RenderStats stats;
 };
 
@@ -106,6 +117,11 @@ struct DeviceScene;
 
 class Renderer {
  public:
+  // Settings resolved by the caller (resolve_settings(scene, options), once per render: the CLI,
+  // the Python API and the multi-device and adaptive drivers), with the options for what they do
+  // not hold (device, tuning, hooks, stop flags).
+  Renderer(const SceneDesc& scene, const RenderSettings& settings, const RenderOptions& options);
+  // Resolves the settings itself (tests, benchmarks: callers that render once).
   Renderer(const SceneDesc& scene, const RenderOptions& options);
   ~Renderer();
   Renderer(const Renderer&) = delete;
@@ -116,6 +132,10 @@ class Renderer {
   // Renders samples [sample_begin, sample_begin + spp) of every window pixel (a shard of the full
   // sequence, e.g. one chunk of a multi-device render).
   RenderResult render(int64_t sample_begin, int spp);
+  // Adaptive sampling (settings().adaptive): renders samples [sample_begin, sample_begin + spp) of
+  // the listed window pixels only (row-major indices in the window); the result's sums (and
+  // rgb, aov_sum) hold those pixels in list order.
+  RenderResult render_pixels(const std::vector<uint32_t>& window_pixels, int64_t sample_begin, int spp);
 
   const std::string& device_name() const;
   uint32_t features() const;  // the kernels' st_feature mask

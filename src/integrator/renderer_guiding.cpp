@@ -1,6 +1,7 @@
 // renderer_guiding.cpp: the guide's training passes (docs/guiding.md): a few passes over the full
-// film with random streams of their own, whose images are dropped and whose radiance records are
-// drained after every iteration and fitted on the host into the guide cache, then uploaded.
+// film with random streams of their own, whose images are kept for the render and whose radiance
+// records are drained after every iteration; after each pass the host refines the cache's regions
+// where the records crowd and fits them, then uploads the cache.
 #include "integrator/renderer_impl.h"
 
 #include <fmt/format.h>
@@ -32,9 +33,47 @@ void Renderer::Impl::drain_records(std::vector<st_guide_record>& out) {
   ST_CL_CHECK(ds.queue.enqueueWriteBuffer(b_records, CL_TRUE, 0, 4, &zero), "reset the guide record count");
 }
 
+// Adds a training pass's pixel means (over RGB) times its spp to `sum` (guided roulette's pixel
+// estimates: their mean over the passes' samples).
+static void add_pixel_estimates(std::vector<double>& sum, const RenderResult& pass, int spp) {
+  for (size_t i = 0; i < sum.size() && 3 * i + 2 < pass.rgb.size(); ++i)
+    sum[i] += double(pass.rgb[3 * i] + pass.rgb[3 * i + 1] + pass.rgb[3 * i + 2]) / 3.0 * double(spp);
+}
+
+// Adds a training pass's film sums (beauty and layers) and samples to `kept`.
+static void keep_samples(RenderResult& kept, const RenderResult& pass) {
+  if (kept.spp_done == 0) {
+    kept.sum.assign(pass.sum.size(), 0.0);
+    kept.aov_sum.assign(pass.aov_sum.size(), 0.0);
+  }
+  for (size_t i = 0; i < kept.sum.size() && i < pass.sum.size(); ++i) kept.sum[i] += pass.sum[i];
+  for (size_t i = 0; i < kept.aov_sum.size() && i < pass.aov_sum.size(); ++i) kept.aov_sum[i] += pass.aov_sum[i];
+  kept.spp_done += pass.spp_done;
+}
+
+// The first render after training adds the training passes' samples to its film (sums of samples,
+// so the image is their mean over every sample: each training sample is unbiased, its pass guided
+// by a cache fitted from the passes before it alone). Later renders of the same Renderer do not.
+void Renderer::Impl::add_guide_samples(RenderResult& res) {
+  const RenderResult& g = guide_samples;
+  if (g.spp_done == 0) return;
+  if (g.sum.size() != res.sum.size() || g.aov_sum.size() != res.aov_sum.size())
+    throw Error("internal: the training passes' film does not match the render's");
+  for (size_t i = 0; i < res.sum.size(); ++i) res.sum[i] += g.sum[i];
+  for (size_t i = 0; i < res.aov_sum.size(); ++i) res.aov_sum[i] += g.aov_sum[i];
+  res.spp_done += g.spp_done;
+  res.spp_requested += g.spp_done;
+  for (size_t i = 0; i < res.rgb.size(); ++i) res.rgb[i] = float(res.sum[i] / double(res.spp_done));
+  guide_samples = RenderResult{};
+}
+
 // The training passes: 1, 2, 4, ... samples per pixel (samples 0, 1-2, 3-6, ... of a seed of their
 // own), each guided by the cache the previous one fitted; records are fitted once per pass.
-double Renderer::Impl::train_guide() {
+// With adaptive sampling the passes run in the first round (the pilot), over every pixel in film
+// order, so their film adds to that round's as in a plain render.
+double Renderer::Impl::train_guide(int spp) {
+  if (settings.adaptive && active_pixels.size() != size_t(settings.window.pixels()))
+    throw Error("internal: guide training in an adaptive round that does not cover every pixel");
   auto t0 = Clock::now();
   const uint32_t seed = ds.packed.st.seed;
   ds.packed.st.seed = seed ^ kGuideTrainingSeed;
@@ -42,12 +81,17 @@ double Renderer::Impl::train_guide() {
   const auto progress = opt.progress;
   opt.progress = nullptr;
   std::vector<st_guide_record> records;
+  std::vector<double> pixel_sum(guide.pixel_estimate.size(), 0.0);
   int64_t begin = 0;
   guide_info = GuideInfo{};
-  for (int k = 0; k < kGuideTrainingPasses; ++k) {
+  guide_samples = RenderResult{};
+  for (int k = 0; k < kGuideTrainingPasses && begin + (1 << k) < spp; ++k) {
     records.clear();
     const RenderResult pass = run_stage_loop(begin, 1 << k, &records);
     begin += 1 << k;
+    add_pixel_estimates(pixel_sum, pass, 1 << k);
+    keep_samples(guide_samples, pass);
+    refine_guide_regions(guide, records);  // where the pass's records crowd (guide_tree.cpp)
     guide_info.regions_guided = fit_guide_cache(guide, records);
     if (opt.guide_cache_hook) opt.guide_cache_hook(guide);
     guide.header.origin.w = 1.0f;  // the next passes and the render sample the guide
@@ -56,6 +100,12 @@ double Renderer::Impl::train_guide() {
     if (pass.interrupted) break;
   }
   guide.header.inv_cell.w = 0.0f;  // no records in the render
+  set_pixel_estimates(guide, pixel_sum, double(std::max<int64_t>(begin, 1)));
+  if (settings.guide_splitting) {
+    guide.header.split_max = kGuideSplitMax;
+    guide.header.rr_below = kGuideRouletteBelow;
+    guide.header.rr_floor = kGuideSurvivalFloor;
+  }
   upload_guide();
   opt.progress = progress;
   ds.packed.st.seed = seed;

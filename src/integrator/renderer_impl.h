@@ -27,6 +27,12 @@ using Clock = std::chrono::steady_clock;
 inline double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 // How one render's paths are cut into batches of whole samples per pixel.
+// Shadow-ray entries per path slot and bounce: one per light, one more for equi-angular sampling
+// (kernels/queues.h shadow_lights).
+inline uint64_t shadow_lights(const st_scene& st) {
+  return uint64_t(st.n_lights) + (st.equiangular.n_local > 0 ? 1u : 0u);
+}
+
 struct BatchPlan {
   uint64_t Q = 0;            // path slots
   uint64_t shadow_ring = 1;  // shadow-ray entries per (path slot, light), types.h
@@ -80,6 +86,11 @@ struct Renderer::Impl {
   cl::Buffer b_guide, b_records;
   GuideInfo guide_info;
   bool guide_trained = false;
+  RenderResult guide_samples;  // the training passes' film sums, added to the first render's image
+
+  // adaptive sampling: the window pixels the next stage loop renders (kernels/queues.h
+  // active_pixels_offset); empty without adaptive sampling
+  std::vector<uint32_t> active_pixels;
 
   void setup();
   void warm_kernels();
@@ -89,12 +100,14 @@ struct Renderer::Impl {
   RenderResult run_stage_loop(int64_t sample_begin, int spp, std::vector<st_guide_record>* records);
   void upload_guide();
   void drain_records(std::vector<st_guide_record>& out);
-  double train_guide();  // returns its seconds
+  // The training passes, leaving at least one of `spp` samples to the render; returns its seconds.
+  double train_guide(int spp);
+  void add_guide_samples(RenderResult& res);
 
   // Paths per batch (rounded up to whole samples): 2Q with two batches in flight, so one batch
   // fills the slots while the other finishes; Q with the ring, so the first pass is done sooner.
   uint64_t batch_target_paths(uint64_t Q) const {
-    return (opt.batches_in_flight > 0 && opt.batches_in_flight <= 2) ? 2 * Q : Q;
+    return opt.batches_in_flight.value_or(ST_MAX_BATCHES_IN_FLIGHT) <= 2 ? 2 * Q : Q;
   }
   // Batches that may be issued beyond the accumulated ones: the first batch alone (its longest
   // paths finish sooner without later batches sharing the device, so the first pass, a preview,

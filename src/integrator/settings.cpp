@@ -9,6 +9,13 @@ namespace spectrack {
 
 namespace {
 
+// An enum choice given as a number (RenderOptions): its value, or an error naming it.
+template <class E>
+E checked_enum(int v, int count, const char* what) {
+  if (v < 0 || v >= count) throw Error(fmt::format("{} {} does not exist", what, v));
+  return E(v);
+}
+
 FilmWindow resolve_window(const SceneDesc& scene, const RenderOptions& o) {
   const int W = scene.film.width, H = scene.film.height;
   if (!o.pixel_bounds) return FilmWindow{0, 0, W, H};
@@ -22,33 +29,50 @@ FilmWindow resolve_window(const SceneDesc& scene, const RenderOptions& o) {
   return FilmWindow{x0, y0, x1 - x0, y1 - y0};
 }
 
+// The noise target and adaptive sampling; a noise target is measured from the variance layer
+// (integrator/noise.h), which it adds.
+void resolve_noise_target(const SceneDesc& scene, const RenderOptions& o, RenderSettings& s) {
+  s.noise_target = o.noise_target.value_or(scene.render.noise_target);
+  if (!(s.noise_target >= 0 && s.noise_target <= 1))
+    throw Error(fmt::format("noise target {} is not a relative error in (0, 1] (0: none)", s.noise_target));
+  if (s.noise_target > 0) s.aovs |= ST_AOV_BIT(VARIANCE);
+  s.adaptive = o.adaptive.value_or(scene.render.adaptive);
+  if (s.adaptive && s.noise_target <= 0)
+    throw UsageError("adaptive sampling (--adaptive, render.adaptive) needs a noise target (--noise-target, "
+                     "render.noise_target): it gives each pixel the samples that bring it to that target");
+}
+
+// Equi-angular sampling asked for (the scene packer resolves auto): the option, else the scene,
+// else kDefaultEquiangular; refused with guiding, whose scattered directions its MIS weights ignore.
+EquiangularMode resolve_equiangular(const SceneDesc& scene, const RenderOptions& o, bool guiding) {
+  const EquiangularMode e = o.equiangular ? checked_enum<EquiangularMode>(*o.equiangular, kEquiangularAuto + 1, "equi-angular mode")
+                                          : scene.render.equiangular.value_or(kDefaultEquiangular);
+  if (guiding && e == kEquiangularOn)
+    throw UsageError("equi-angular sampling does not work with guiding yet (its MIS weights assume phase "
+                     "sampling); use --equiangular off or auto, or --guiding off");
+  return e;
+}
+
 }  // namespace
 
 RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) {
   RenderSettings s;
-  s.tracker = o.tracker.value_or(scene.render.tracker);
-  s.scheme = o.scheme.value_or(scene.render.scheme);
-  if (s.tracker < 0 || s.tracker >= ST_TRACKER_COUNT) throw Error(fmt::format("tracker {} does not exist", s.tracker));
-  if (s.scheme < 0 || s.scheme >= ST_SCHEME_COUNT) throw Error(fmt::format("spectral scheme {} does not exist", s.scheme));
+  // the enum choices: the option (a number, checked here), else the scene, else the default
+  s.tracker = o.tracker ? checked_enum<st_tracker>(*o.tracker, ST_TRACKER_COUNT, "tracker") : scene.render.tracker;
+  s.scheme = o.scheme ? checked_enum<st_scheme>(*o.scheme, ST_SCHEME_COUNT, "spectral scheme") : scene.render.scheme;
   // a tracker without a scheme runs the analog probabilities (kernels/tracking.h): record those
   if (!st_tracker_uses_scheme(s.tracker)) s.scheme = ST_SCHEME_MAX;
-  // absorption: the option, else the scene, else the tracker's default (ST_TRACKERS)
-  s.absorption = o.absorption.value_or(scene.render.absorption >= 0 ? scene.render.absorption
-                                                                     : st_tracker_default_absorption(s.tracker));
-  if (s.absorption < 0 || s.absorption >= ST_ABSORPTION_COUNT)
-    throw Error(fmt::format("absorption mode {} does not exist", s.absorption));
-  s.light_sampling = o.light_sampling.value_or(scene.render.light_sampling >= 0 ? scene.render.light_sampling
-                                                                             : kDefaultLightSampling);
-  if (s.light_sampling < 0 || s.light_sampling >= ST_LIGHT_SAMPLING_COUNT)
-    throw Error(fmt::format("light sampling mode {} does not exist", s.light_sampling));
-  s.transmittance = o.transmittance.value_or(scene.render.transmittance >= 0 ? scene.render.transmittance
-                                                                           : kDefaultTransmittance);
-  if (s.transmittance < 0 || s.transmittance >= ST_TRANSMITTANCE_COUNT)
-    throw Error(fmt::format("transmittance estimator {} does not exist", s.transmittance));
-  s.lookup = o.lookup.value_or(scene.render.lookup >= 0 ? scene.render.lookup : kDefaultLookup);
-  if (s.lookup < 0 || s.lookup >= ST_LOOKUP_COUNT) throw Error(fmt::format("density lookup mode {} does not exist", s.lookup));
-  s.color = o.color.value_or(scene.render.color);
-  if (s.color < 0 || s.color >= ST_FILM_COLOR_COUNT) throw Error(fmt::format("colour mode {} does not exist", s.color));
+  s.absorption = o.absorption ? checked_enum<st_absorption>(*o.absorption, ST_ABSORPTION_COUNT, "absorption mode")
+                              : scene.render.absorption.value_or(st_absorption(st_tracker_default_absorption(s.tracker)));
+  s.light_sampling = o.light_sampling
+                         ? checked_enum<st_light_sampling>(*o.light_sampling, ST_LIGHT_SAMPLING_COUNT, "light sampling mode")
+                         : scene.render.light_sampling.value_or(kDefaultLightSampling);
+  s.transmittance =
+      o.transmittance ? checked_enum<st_transmittance_mode>(*o.transmittance, ST_TRANSMITTANCE_COUNT, "transmittance estimator")
+                      : scene.render.transmittance.value_or(kDefaultTransmittance);
+  s.lookup = o.lookup ? checked_enum<st_lookup_mode>(*o.lookup, ST_LOOKUP_COUNT, "density lookup mode")
+                      : scene.render.lookup.value_or(kDefaultLookup);
+  s.color = o.color ? checked_enum<st_film_color>(*o.color, ST_FILM_COLOR_COUNT, "colour mode") : scene.render.color;
   s.march_spacing = o.march_spacing.value_or(kDefaultMarchSpacing);
   s.pilot_spacing = o.pilot_spacing.value_or(kDefaultPilotSpacing);
   // below 1e-3 a sample per thousandth of an optical depth; above 1e3 one sample per ray
@@ -61,12 +85,9 @@ RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) 
   // holds what RGB leaves out
   s.aovs = o.aovs ? *o.aovs : (scene.film.aovs | (scene.film.alpha.value_or(false) ? uint32_t(ST_AOV_BIT(ALPHA)) : 0u));
   if (s.aovs >= (1u << ST_AOV_COUNT)) throw Error(fmt::format("film layer mask 0x{:x} names layers that do not exist", s.aovs));
+  if (scene.ground.present && scene.ground.mode == ST_GROUND_SHADOW_CATCHER) s.aovs |= ST_AOV_BIT(SHADOW);  // ground.h
   if (s.aovs & ST_AOV_BIT(ALPHA)) s.aovs |= ST_AOV_BIT(ENVIRONMENT);
-  // a noise target is measured from the variance layer (integrator/noise.h)
-  s.noise_target = o.noise_target.value_or(scene.render.noise_target);
-  if (!(s.noise_target >= 0 && s.noise_target <= 1))
-    throw Error(fmt::format("noise target {} is not a relative error in (0, 1] (0: none)", s.noise_target));
-  if (s.noise_target > 0) s.aovs |= ST_AOV_BIT(VARIANCE);
+  resolve_noise_target(scene, o, s);
   s.seed = o.seed ? uint32_t(*o.seed) : scene.render.seed;
   s.spp = o.spp.value_or(scene.film.spp);
   s.shutter = o.shutter ? o.shutter : scene.camera.shutter;
@@ -84,11 +105,14 @@ RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) 
   // guiding: auto resolves to off until measurements say where it pays (docs/guiding.md); the
   // cache is trained over the full film and every sample from 0, so a window or a sample range
   // would train another cache than the single render's: refused for now
-  const int guiding = o.guiding.value_or(scene.render.guiding >= 0 ? scene.render.guiding : int(kGuidingAuto));
-  s.guiding = guiding == kGuidingOn;
+  s.guiding_requested = o.guiding ? checked_enum<GuidingMode>(*o.guiding, kGuidingAuto + 1, "guiding mode")
+                                  : scene.render.guiding.value_or(kGuidingAuto);
+  s.guiding = s.guiding_requested == kGuidingOn;
+  s.guide_splitting = s.guiding && o.guide_splitting;
   if (s.guiding && (o.pixel_bounds || s.sample_begin != 0))
     throw UsageError("guiding does not work with --pixel-bounds or --spp-range yet (its cache is trained over the "
                      "full film); use --guiding off for shards and tiles");
+  s.equiangular = resolve_equiangular(scene, o, s.guiding);
   if (st_tracker_achromatic_only(s.tracker)) {
     for (auto& m : scene.media) {
       if (!achromatic(m.sigma_a) || !achromatic(m.sigma_s))

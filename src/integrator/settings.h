@@ -1,11 +1,15 @@
 // settings.h: what a render is asked for and what it resolves to.
 //
 // Design (pbrt-v4's PBRTOptions pattern): RenderOptions holds the caller's overrides of the scene
-// (command line, tests, benchmarks), each one std::optional so "not given" is not a sentinel
-// value; resolve_settings() combines them with the scene once, checks them against the scene and
-// the film, and returns plain RenderSettings (tracker, scheme, seed, samples, pixel window,
-// channels per sample). Every consumer (Renderer, the render identity of a film piece, the
+// (command line, tests, benchmarks, Python), each one std::optional so "not given" is not a
+// sentinel value; its estimator choices are numbers of the enum tables of kernels/types.h, as
+// those callers give them. resolve_settings() combines them with the scene once, checks them
+// against the scene and the film, and returns typed RenderSettings (enums for every choice;
+// tracker, scheme, seed, samples, pixel window, channels per sample). Every consumer (Renderer, the render identity of a film piece, the
 // multi-device and MPI drivers, the CLI) takes the resolved settings; nothing else re-derives them.
+// An `auto` choice is recorded twice, as requested and as used: light_sampling and
+// light_sampling_used (RenderResult, resolved by the scene packer), guiding_requested and
+// guiding (resolved here; the statistics' guiding and guiding_used).
 #pragma once
 #include <array>
 #include <atomic>
@@ -26,24 +30,39 @@ class FilmWatch;   // integrator/film_watch.h
 
 // Light sampling of next-event estimation when neither the command line nor the scene chooses
 // (bench/RESULTS.md, "One light per scatter event" and "Light sampling by contribution").
-constexpr int kDefaultLightSampling = ST_LIGHT_SAMPLING_AUTO;
+constexpr st_light_sampling kDefaultLightSampling = ST_LIGHT_SAMPLING_AUTO;
 // Light sampling "auto" (types.h) picks "contribution" when the scene's media make a shadow ray
 // crossing them take at least this many density lookups (the residual majorant's optical depth
 // along the mean chord of each medium's box, summed over media: MajorantInfo::chord_lookups), and
 // "all" below. bench/RESULTS.md "Light sampling by contribution": the bench scenes' values and
 // where one shadow ray per event starts to pay.
 constexpr double kAutoContributionLookups = 2.0;
+// Equi-angular sampling (docs/equiangular.md) when neither the command line nor the scene chooses,
+// and the rule of its "auto": on while the media's mean majorant optical depth along the mean chord
+// of their boxes (summed over media) is below kAutoEquiangularDepth (bench/RESULTS.md,
+// "Equi-angular sampling": where it pays and where it does not).
+constexpr EquiangularMode kDefaultEquiangular = kEquiangularOff;
+constexpr double kAutoEquiangularDepth = 1.0;
 // Transmittance estimator of shadow rays when neither the command line nor the scene chooses, and
 // the ray-marching spacings (majorant optical depth between samples; bench/RESULTS.md,
 // "Ray-marching transmittance").
-constexpr int kDefaultTransmittance = ST_TRANSMITTANCE_RATIO;
+constexpr st_transmittance_mode kDefaultTransmittance = ST_TRANSMITTANCE_RATIO;
 constexpr double kDefaultMarchSpacing = 1.0;
 constexpr double kDefaultPilotSpacing = 2.0;
 // Density lookups when neither the command line nor the scene chooses (bench/RESULTS.md,
 // "Stochastic one-voxel lookups": on PoCL the variance it adds outweighs the time it saves).
-constexpr int kDefaultLookup = ST_LOOKUP_TRILINEAR;
+constexpr st_lookup_mode kDefaultLookup = ST_LOOKUP_TRILINEAR;
 // Shadow-ray entries per (path, light) (types.h; bench/RESULTS.md, "No waiting paths").
 constexpr int kDefaultShadowRing = 2;
+// Tentative collisions + DDA steps per item and kernel launch (unfinished items are re-queued).
+constexpr int kDefaultIterationBudget = 256;
+// Paths in flight by device type (batch_plan.cpp).
+constexpr int kDefaultPathSlotsCpu = 1 << 16, kDefaultPathSlotsGpu = 1 << 20;
+// Fine cells per block edge of the adaptive majorant hierarchy (docs/majorant-hierarchy.md).
+constexpr int kDefaultMajorantBlock = 8;
+// The hierarchy's automatic step cost in density lookups per DDA step (auto_majorant_step_cost,
+// scene/pack_media.cpp), and that of spectral trackers that decompose media with a control.
+constexpr double kMajorantStepCost = 0.6, kMajorantStepCostControl = 2.0;
 
 struct RenderOptions {
   std::optional<int> spp;               // samples per pixel (else film.spp)
@@ -62,20 +81,22 @@ struct RenderOptions {
   std::optional<int> color;             // st_film_color, else render.color (--spectral)
   std::optional<uint32_t> aovs;         // film layers, ST_AOV_BIT bits; else film.aovs (+ alpha if film.alpha)
   std::optional<int> guiding;           // GuidingMode (scene.h), else render.guiding, else auto
+  std::optional<int> equiangular;       // EquiangularMode (scene.h), else render.equiangular, else kDefaultEquiangular
   std::optional<std::array<double, 2>> shutter;  // [open, close] seconds (--shutter), else camera.shutter
   // Testing: called with the guide cache after every training pass's fit, before its upload (a
   // deliberately wrong cache must still give an unbiased image).
   std::function<void(GuideCache&)> guide_cache_hook;
   int guide_grid_cells = 0;             // guide regions along the media box's longest axis; 0: kGuideGridCells
+  bool guide_splitting = true;          // with guiding: guided roulette and splitting in the render (guide_cache.h)
   std::string device;                   // "P:D", name substring, or "" (SPECTRACK_DEVICE, then default)
-  int path_slots = 0;                   // paths in flight; 0 = by device type
-  int iteration_budget = 256;           // tentative collisions + DDA steps per item and launch
+  std::optional<int> path_slots;        // paths in flight; else by device type (kDefaultPathSlotsCpu/Gpu)
+  int iteration_budget = kDefaultIterationBudget;  // tentative collisions + DDA steps per item and launch
   int majorant_cell = 0;                // voxels per fine majorant-cell edge; 0: automatic (2, coarser for huge grids)
-  int majorant_block = 8;               // fine cells per block edge of the adaptive majorant hierarchy; 0 or 1 = one level
-  double majorant_step_cost = -1;       // the hierarchy's cost model: one DDA step, in density lookups; < 0: automatic
+  int majorant_block = kDefaultMajorantBlock;  // fine cells per block edge of the majorant hierarchy; 0 or 1: one level
+  std::optional<double> majorant_step_cost;  // the hierarchy's cost model: one DDA step, in density lookups; else automatic
   bool generic_kernels = false;         // the generic kernel (every feature) instead of one specialised to the scene
-  int batches_in_flight = 0;            // batch result buffers in the ring (0: ST_MAX_BATCHES_IN_FLIGHT; 2: the old scheme)
-  int shadow_ring = 0;                  // shadow-ray entries per (path, light), 1..ST_MAX_SHADOW_RING (types.h); 0: kDefaultShadowRing
+  std::optional<int> batches_in_flight;  // batch result buffers in the ring (else ST_MAX_BATCHES_IN_FLIGHT)
+  std::optional<int> shadow_ring;       // shadow-ray entries per (path, light), 1..ST_MAX_SHADOW_RING (types.h); else kDefaultShadowRing
   // st_feature bits compiled in whatever the scene needs (a kernel with more features renders the
   // same image): a frame sequence asks for the bits that depend on a frame's grid data, so every
   // frame uses the one kernel build
@@ -92,6 +113,8 @@ struct RenderOptions {
   // Relative error at which to stop (integrator/noise.h), else render.noise_target; 0: none. Adds the
   // variance layer, which the error is measured from.
   std::optional<double> noise_target;
+  // Adaptive sampling to the noise target (integrator/adaptive.h), else render.adaptive.
+  std::optional<bool> adaptive;
   // Looks at the film during the stage loop: stops it at a noise target, writes previews and
   // checkpoints, resumes from a checkpoint (integrator/film_watch.h); not owned.
   FilmWatch* watch = nullptr;
@@ -106,13 +129,14 @@ struct FilmWindow {
 };
 
 struct RenderSettings {
-  int tracker = 0, scheme = 0;  // st_tracker, st_scheme
-  int absorption = 0;           // st_absorption
-  int light_sampling = 0;       // st_light_sampling
-  int transmittance = 0;        // st_transmittance_mode
+  st_tracker tracker{};
+  st_scheme scheme{};
+  st_absorption absorption{};
+  st_light_sampling light_sampling{};  // as requested (auto: resolved by the scene packer, RenderResult)
+  st_transmittance_mode transmittance{};
   double march_spacing = kDefaultMarchSpacing, pilot_spacing = kDefaultPilotSpacing;  // ray marching
-  int lookup = 0;               // st_lookup_mode
-  int color = 0;                // st_film_color
+  st_lookup_mode lookup{};
+  st_film_color color{};
   uint32_t aovs = 0;            // film layers (ST_AOV_BIT bits; alpha implies environment)
   uint32_t seed = 0;
   int spp = 0;                  // samples per pixel to render
@@ -120,27 +144,34 @@ struct RenderSettings {
   FilmWindow window;            // the pixels rendered
   int full_width = 0, full_height = 0;  // the film
   int channels_per_sample = 1;  // paths per (pixel, sample): the per-channel trackers' lanes (st_paths_per_sample)
-  bool guiding = false;         // volume path guiding on (auto resolved: off for now)
+  GuidingMode guiding_requested = kGuidingAuto;  // as asked for (scene.h: off, on, auto)
+  bool guiding = false;         // volume path guiding on: guiding_requested resolved (auto: off for now)
+  EquiangularMode equiangular = kDefaultEquiangular;  // as asked for (the scene packer resolves auto)
+  bool guide_splitting = false;  // with guiding: guided roulette and splitting (RenderOptions::guide_splitting)
   // The shutter [open, close] in seconds (none: every path at time 0); the paths' times are
   // stratified over film.spp samples (the scene's, so every shard of a render has the same times)
   std::optional<std::array<double, 2>> shutter;
   int time_strata = 1;
   double noise_target = 0;      // relative error at which the render stops (integrator/noise.h); 0: none
+  bool adaptive = false;        // adaptive sampling to the noise target (integrator/adaptive.h)
 };
 
 // What a result records of the settings it was rendered with: the estimator choices and the seed
 // (RenderResult, MultiDeviceResult; film identities and stats are made from these).
 struct RenderChoices {
-  int tracker = 0, scheme = 0;  // st_tracker, st_scheme
-  int absorption = 0;           // st_absorption
-  int light_sampling = 0;       // st_light_sampling
-  int transmittance = 0;        // st_transmittance_mode
-  int lookup = 0;               // st_lookup_mode
-  int color = 0;                // st_film_color
+  st_tracker tracker{};
+  st_scheme scheme{};
+  st_absorption absorption{};
+  st_light_sampling light_sampling{};  // as requested (RenderResult::light_sampling_used: as run)
+  st_transmittance_mode transmittance{};
+  st_lookup_mode lookup{};
+  st_film_color color{};
   uint32_t aovs = 0;            // film layers (ST_AOV_BIT bits)
   uint32_t seed = 0;
+  GuidingMode guiding_requested = kGuidingAuto;  // as asked for (whether guiding ran: GuideInfo::used)
 
   void record_settings(const RenderSettings& s) {
+    guiding_requested = s.guiding_requested;
     aovs = s.aovs;
     tracker = s.tracker;
     scheme = s.scheme;
@@ -167,6 +198,7 @@ struct MajorantInfo {
   std::vector<int> levels;               // group edges (fine cells) of the hierarchy, finest first
   std::vector<size_t> blocks_per_level;  // blocks walked at each level
   size_t bytes = 0;             // device memory of the structure
+  double step_cost = 0;         // the cost model's DDA step in density lookups, as used (--majorant-step-cost or automatic)
   double seconds_build = 0;
   // density lookups of a ratio-tracking shadow ray along the mean chord of the medium's box (4 V /
   // S, Cauchy): the mean residual majorant over the fine cells times that length (light sampling

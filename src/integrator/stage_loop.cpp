@@ -88,7 +88,7 @@ uint64_t paths_finished(const st_loop& d) {
 std::vector<const Stage*> Renderer::Impl::launched_stages() const {
   std::vector<const Stage*> v;
   for (const Stage& s : kStages)
-    if (stage_launched(s, ds.packed.features, ds.packed.st.n_lights)) v.push_back(&s);
+    if (stage_launched(s, ds.packed.features, int(shadow_lights(ds.packed.st)))) v.push_back(&s);
   return v;
 }
 

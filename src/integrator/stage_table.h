@@ -26,11 +26,12 @@ constexpr Stage kStages[] = {ST_STAGES(ST_X_HOST_STAGE)};
 static_assert(sizeof(kStages) / sizeof(kStages[0]) == ST_Q_COUNT, "one stage per queue");
 
 // Whether a render of a scene with these features and lights launches the stage: without
-// ST_FEATURE_ESCAPE track never queues an escape, without lights nothing queues a shadow ray.
-inline bool stage_launched(const Stage& s, uint32_t features, int n_lights) {
+// ST_FEATURE_ESCAPE track never queues an escape, without shadow-ray entries (lights, and the
+// equi-angular entry: kernels/queues.h shadow_lights) nothing queues a shadow ray.
+inline bool stage_launched(const Stage& s, uint32_t features, int shadow_entries) {
   switch (s.gate) {
     case ST_GATE_ESCAPE: return (features & ST_FEATURE_ESCAPE) != 0;
-    case ST_GATE_LIGHTS: return n_lights > 0;
+    case ST_GATE_LIGHTS: return shadow_entries > 0;
     default: return true;
   }
 }

@@ -17,8 +17,19 @@ void spot_cosines(const LightDesc& ld, double* cos_total, double* cos_start) {
 
 }  // namespace
 
+Vec3 local_light_intensity(const LightDesc& ld) {
+  if (ld.type != ST_LIGHT_SPHERE) return ld.intensity;
+  const double area = M_PI * ld.radius * ld.radius;  // the sphere's projected area: its intensity L pi r^2
+  return Vec3{ld.radiance[0] * area, ld.radiance[1] * area, ld.radiance[2] * area};
+}
+
 void pack_local_light(st_light& l, const LightDesc& ld) {
   l.type = ld.type;
+  if (ld.type == ST_LIGHT_SPHERE) {  // not delta: an area seen in a cone (kernels/light.h)
+    l.radiance = st_float4{float(ld.radiance[0]), float(ld.radiance[1]), float(ld.radiance[2]), 0.0f};
+    l.position = st_float4{float(ld.position[0]), float(ld.position[1]), float(ld.position[2]), float(ld.radius)};
+    return;
+  }
   l.is_delta = 1;
   l.radiance = st_float4{float(ld.intensity[0]), float(ld.intensity[1]), float(ld.intensity[2]), 0.0f};
   l.position = st_float4{float(ld.position[0]), float(ld.position[1]), float(ld.position[2]), 1.0f};
@@ -47,8 +58,9 @@ double local_light_power(const LightDesc& ld, const std::vector<Box3>& media_box
     for (int k = 0; k < 3; ++k) r2 += 0.25 * (u.hi[k] - u.lo[k]) * (u.hi[k] - u.lo[k]);
     r2 = std::max(r2, 1e-30);
   }
-  const double I = (ld.intensity[0] + ld.intensity[1] + ld.intensity[2]) / 3.0;
-  double solid_angle = 4.0 * M_PI;  // pbrt-v4: a point light's Phi = 4 pi I
+  const Vec3 intensity = local_light_intensity(ld);
+  const double I = (intensity[0] + intensity[1] + intensity[2]) / 3.0;
+  double solid_angle = 4.0 * M_PI;  // pbrt-v4: a point light's Phi = 4 pi I (a sphere's: 4 pi L pi r^2)
   if (ld.type == ST_LIGHT_SPOT) {   // the cone's full part, and the falloff's at its mean
     double cos_total, cos_start;
     spot_cosines(ld, &cos_total, &cos_start);

@@ -1,5 +1,6 @@
-// light_pack.h: the kernels' entries (st_light) of point and spot lights and their powers for light
-// sampling "power" (kernels/light.h; docs/scene-format.md, `lights`).
+// light_pack.h: the kernels' entries (st_light) of point, spot and sphere lights and their powers for
+// light sampling "power" (kernels/light.h; docs/scene-format.md, `lights`). A sphere holds its
+// centre, radius and surface radiance.
 //
 // Design: a local light is delta in direction, so it needs no sampling tables: its entry holds the
 // position, the intensity (W/sr), and for a spot the unit axis and the cosines of the cone angle
@@ -14,7 +15,11 @@
 
 namespace spectrack {
 
-// Fills l (zero-filled by the caller) for the point or spot light ld.
+// A local light's radiant intensity (W/sr): a point or spot light's own, a sphere's radiance times
+// its projected area pi r^2 (the same in every direction).
+Vec3 local_light_intensity(const LightDesc& ld);
+
+// Fills l (zero-filled by the caller) for the point, spot or sphere light ld.
 void pack_local_light(st_light& l, const LightDesc& ld);
 
 // Phi / (pi r^2) of the point or spot light ld (the mean over channels), r the radius of the

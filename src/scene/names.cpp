@@ -23,6 +23,7 @@ namespace {
 #define ST_X_LOOKUP_NAME(E, name) name,
 #define ST_X_AOV_NAME(E, name) name,
 #define ST_X_FILM_COLOR_NAME(E, name) name,
+#define ST_X_GROUND_NAME(E, name) name,
 const char* const kTrackerNames[] = {ST_TRACKERS(ST_X_TRACKER_NAME)};
 const char* const kSchemeNames[] = {ST_SCHEMES(ST_X_SCHEME_NAME)};
 const char* const kAbsorptionNames[] = {ST_ABSORPTIONS(ST_X_ABSORPTION_NAME)};
@@ -31,6 +32,8 @@ const char* const kTransmittanceNames[] = {ST_TRANSMITTANCES(ST_X_TRANSMITTANCE_
 const char* const kLookupNames[] = {ST_LOOKUPS(ST_X_LOOKUP_NAME)};
 const char* const kAovNames[] = {ST_AOVS(ST_X_AOV_NAME)};
 const char* const kFilmColorNames[] = {ST_FILM_COLORS(ST_X_FILM_COLOR_NAME)};
+const char* const kGroundModeNames[] = {ST_GROUND_MODES(ST_X_GROUND_NAME)};
+static_assert(sizeof(kGroundModeNames) / sizeof(kGroundModeNames[0]) == ST_GROUND_MODE_COUNT, "ground mode names");
 static_assert(sizeof(kFilmColorNames) / sizeof(kFilmColorNames[0]) == ST_FILM_COLOR_COUNT, "film colour names");
 static_assert(sizeof(kAovNames) / sizeof(kAovNames[0]) == ST_AOV_COUNT, "aov names");
 static_assert(sizeof(kLookupNames) / sizeof(kLookupNames[0]) == ST_LOOKUP_COUNT, "lookup names");
@@ -90,6 +93,9 @@ int lookup_from_name(const std::string& name) { return value_of(kLookupNames, na
 std::string lookup_names() { return list_of(kLookupNames); }
 std::vector<std::string> lookup_name_list() { return {std::begin(kLookupNames), std::end(kLookupNames)}; }
 const char* film_color_name(int mode) { return name_of(kFilmColorNames, mode); }
+const char* ground_mode_name(int mode) { return name_of(kGroundModeNames, mode); }
+int ground_mode_from_name(const std::string& name) { return value_of(kGroundModeNames, name); }
+std::string ground_mode_names() { return list_of(kGroundModeNames); }
 int film_color_from_name(const std::string& name) { return value_of(kFilmColorNames, name); }
 std::string film_color_names() { return list_of(kFilmColorNames); }
 const char* aov_name(int index) { return name_of(kAovNames, index); }
@@ -103,6 +109,8 @@ const std::vector<std::string>& aov_exr_channels(int index) {
       const std::string n = kAovNames[k];
       if (k == ST_AOV_INDEX_ALPHA) t.push_back({"A", "AR", "AG", "AB"});
       else if (k == ST_AOV_INDEX_DEPTH) t.push_back({n + ".Z"});
+      else if (k == ST_AOV_INDEX_SHADOW)  // the ratio, then the mean unshadowed estimate (its weight)
+        t.push_back({n + ".R", n + ".G", n + ".B", "unshadowed.R", "unshadowed.G", "unshadowed.B"});
       else t.push_back({n + ".R", n + ".G", n + ".B"});
     }
     return t;

@@ -17,6 +17,7 @@
 #include "color/spectrum.h"
 #include "image/image.h"
 #include "scene/radiance.h"
+#include "scene/sky_light.h"
 #include "volume/float_limits.h"
 #include "scene/media_bounds.h"
 #include "integrator/memory_budget.h"
@@ -31,10 +32,10 @@ void Packer::add_light(int i, const LightDesc& ld) {
   std::memset(&l, 0, sizeof(l));
   l.type = ld.type;
   auto mean = [](const Vec3& v) { return (v[0] + v[1] + v[2]) / 3.0; };
-  if (ld.type == ST_LIGHT_POINT || ld.type == ST_LIGHT_SPOT) {
+  if (ld.type >= ST_LIGHT_POINT) {
     pack_local_light(l, ld);
     light_power[i] = local_light_power(ld, media_boxes);
-    local_strength[i] = mean(ld.intensity);
+    local_strength[i] = mean(local_light_intensity(ld));
     return;
   }
   if (ld.type == ST_LIGHT_DIRECTIONAL) {
@@ -56,7 +57,7 @@ void Packer::add_light(int i, const LightDesc& ld) {
     }
     return;
   }
-  if (ld.map.empty()) {
+  if (ld.map.empty() && !ld.sky) {
     l.type = ST_LIGHT_ENV_UNIFORM;
     l.radiance = f4(ld.radiance);
     light_power[i] = 4.0 * M_PI * mean(ld.radiance);
@@ -71,6 +72,18 @@ int Packer::resolve_light_sampling(int requested) const {
   if (requested != ST_LIGHT_SAMPLING_AUTO) return requested;
   return st.n_lights > 1 && chord_lookups >= kAutoContributionLookups ? ST_LIGHT_SAMPLING_CONTRIBUTION
                                                                        : ST_LIGHT_SAMPLING_ALL;
+}
+
+// Equi-angular sampling (kernels/equiangular.h) towards every point, spot and sphere light, each
+// chosen with 1 / n_local; "auto" turns it on while the media are thin (settings.h
+// kAutoEquiangularDepth). Its MIS weights take the media's mean gray majorant extinction as the
+// free-flight density's rate.
+void Packer::set_equiangular(int requested) {
+  int n_local = 0;
+  for (int i = 0; i < st.n_lights; ++i) n_local += st.lights[i].type >= ST_LIGHT_POINT ? 1 : 0;
+  const bool on = requested == kEquiangularOn || (requested == kEquiangularAuto && chord_depth < kAutoEquiangularDepth);
+  st.equiangular.n_local = on && st.n_media > 0 ? n_local : 0;
+  st.equiangular.sigma_t = float(mean_sigma_maj);
 }
 
 // The probabilities with which next-event estimation picks each light (st_light::select_pmf):
@@ -103,12 +116,18 @@ void Packer::set_light_selection(int light_sampling) {
 double Packer::add_env_map(st_light& l, const LightDesc& ld) {
   l.type = ST_LIGHT_ENV_MAP;
   RgbImage img;
-  try {
-    img = read_image(ld.map, ImageUse::kEnvironmentMap, [&](int w, int h) { check_env_map_memory(ld.map, w, h); });
-  } catch (const Error& e) {
-    throw Error(fmt::format("{}: {}/map: {}", scene.path, ld.json_path, e.what()));
+  if (ld.sky) {  // a sky: its map is made from the model (scene/sky_light.h)
+    check_env_map_memory(scene.path + ": " + ld.json_path + "/resolution", ld.sky->resolution, ld.sky->resolution / 2);
+    img = sky_map(*ld.sky);
+  } else {
+    try {
+      img = read_image(ld.map, ImageUse::kEnvironmentMap, [&](int w, int h) { check_env_map_memory(ld.map, w, h); });
+    } catch (const Error& e) {
+      throw Error(fmt::format("{}: {}/map: {}", scene.path, ld.json_path, e.what()));
+    }
   }
-  check_env_map_bounds(scene.path + ": " + ld.json_path + "/map", ld.map, img.rgb, img.width, img.height, ld.scale);
+  check_env_map_bounds(scene.path + ": " + ld.json_path + (ld.sky ? "/intensity" : "/map"),
+                       ld.sky ? std::string("the sky's map") : ld.map, img.rgb, img.width, img.height, ld.scale);
   l.radiance = f4(ld.scale, ld.scale, ld.scale);
   const size_t W = size_t(img.width), H = size_t(img.height);
   l.map_width = img.width;

@@ -126,7 +126,8 @@ Mat4 user_transform(const TransformDesc& t) {
 // about 10% with the tighter control of finer levels (media with a control: not colour media) (the control's per-channel collision weights
 // replace the residual's history-aware probabilities), which the lookup-only model does not see.
 double auto_majorant_step_cost(int tracker, bool has_control) {
-  return (has_control && st_tracker_decomposes(tracker) && st_tracker_channels(tracker) == 1) ? 2.0 : 0.6;
+  return (has_control && st_tracker_decomposes(tracker) && st_tracker_channels(tracker) == 1) ? kMajorantStepCostControl
+                                                                                             : kMajorantStepCost;
 }
 
 void Packer::add_medium(int i, const MediumDesc& md) {
@@ -144,6 +145,7 @@ void Packer::add_medium(int i, const MediumDesc& md) {
   m.density_grid = ST_NO_GRID;
   m.emission_grid = ST_NO_GRID;
   m.blackbody_offset = ST_NO_GRID;
+  m.velocity_grid[0] = ST_NO_GRID;
   if (md.emission.present) {
     const EmissionDesc& e = md.emission;
     Vec3 r = e.radiance;
@@ -185,6 +187,8 @@ void Packer::add_medium(int i, const MediumDesc& md) {
     // bounding scales)
     chord_lookups += residual_majorant(1.0, 1.0, md.majorant_scale, md.minorant_scale, st_tracker_decomposes(tracker)) *
                      max_sigma_t(m) * mean_chord({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+    mean_sigma_maj += max_sigma_t(m);
+    chord_depth += max_sigma_t(m) * mean_chord({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
     return;
   }
 
@@ -203,7 +207,8 @@ void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::strin
   check_float_limits(md, m, &g, ctx_name);
   m.density_grid = upload_grid(ctx_name, g);
   const double color_max = md.color.present ? add_color_grid(m, md, g, ctx_name) : 0.0;  // sets sigma_t_maj, which the cost model uses
-  add_majorants(m, md, g, index_to_scene);
+  const MotionReach motion = md.velocity.present ? add_velocity_grid(m, md, g, ctx_name) : MotionReach{};
+  add_majorants(m, md, g, index_to_scene, motion);
   if (spectral && md.color.present) {
     // spectral mode (kernels/medium.h): the bound of the colour's spectrum per unit of sigma_s, 1
     // for an albedo; 2 max C for a scattering factor (its unbounded spectrum's scale), rounded up
@@ -215,10 +220,13 @@ void Packer::add_vdb_medium(st_medium& m, const MediumDesc& md, const std::strin
   add_emission(m, md, g, ctx_name);
 }
 
-void Packer::add_majorants(st_medium& m, const MediumDesc& md, const GridData& g, const Mat4& index_to_scene) {
+void Packer::add_majorants(st_medium& m, const MediumDesc& md, const GridData& g, const Mat4& index_to_scene,
+                           const MotionReach& motion) {
   const auto t_build = std::chrono::steady_clock::now();
   const int cell = opt.majorant_cell > 0 ? opt.majorant_cell : auto_majorant_cell(g);
-  MajorantGrid mg = build_majorant_grid(g, majorant_cell_for(m, g, md.majorant_scale, cell));
+  const std::array<double, 3>& reach = motion.reach;
+  const std::array<int, 3> margin{int(std::ceil(reach[0])), int(std::ceil(reach[1])), int(std::ceil(reach[2]))};
+  MajorantGrid mg = build_majorant_grid(g, majorant_cell_for(m, g, md.majorant_scale, cell), margin, motion.cell_reach);
   m.maj_origin = f4(mg.origin[0], mg.origin[1], mg.origin[2], mg.cell);
   for (int a = 0; a < 3; ++a) m.maj_dims[a] = mg.dims[a];
   MajorantInfo info;
@@ -240,6 +248,11 @@ void Packer::add_majorants(st_medium& m, const MediumDesc& md, const GridData& g
                         std::sqrt(w.m[0][a] * w.m[0][a] + w.m[1][a] * w.m[1][a] + w.m[2][a] * w.m[2][a]);
     info.chord_lookups = mg.dmax.empty() ? 0.0 : sum / double(mg.dmax.size()) * sigma_t * mean_chord(side);
     chord_lookups += info.chord_lookups;
+    double dmax_sum = 0;
+    for (float d : mg.dmax) dmax_sum += double(d);
+    const double mean_dmax = mg.dmax.empty() ? 0.0 : dmax_sum / double(mg.dmax.size());
+    mean_sigma_maj += mean_dmax * sigma_t;
+    chord_depth += mean_dmax * sigma_t * mean_chord(side);
   }
   const int B = opt.majorant_block;
   if (B > 1) {
@@ -247,7 +260,7 @@ void Packer::add_majorants(st_medium& m, const MediumDesc& md, const GridData& g
     MajorantCostModel cost;
     cost.lookups_per_density = sigma_t * std::max(1.0, md.majorant_scale) * longest_voxel_edge(m);
     cost.decompose = decompose;
-    cost.step_cost = opt.majorant_step_cost >= 0 ? opt.majorant_step_cost : auto_majorant_step_cost(tracker, !color);
+    cost.step_cost = opt.majorant_step_cost ? *opt.majorant_step_cost : auto_majorant_step_cost(tracker, !color);
     MajorantHierarchy h = build_majorant_hierarchy(mg, B, cost);
     m.maj_block = B;
     m.maj_coarse_offset = uint32_t(maj_cells.size() / 2);
@@ -255,6 +268,7 @@ void Packer::add_majorants(st_medium& m, const MediumDesc& md, const GridData& g
     m.maj_offset = uint32_t(maj_cells.size() / 2);
     maj_cells.insert(maj_cells.end(), h.pool.begin(), h.pool.end());
     info.block = B;
+    info.step_cost = cost.step_cost;
     info.blocks_empty = h.blocks_empty;
     info.blocks_whole = h.blocks_whole;
     info.blocks_refined = h.blocks_refined;
@@ -275,12 +289,10 @@ void Packer::add_majorants(st_medium& m, const MediumDesc& md, const GridData& g
 void Packer::add_emission(st_medium& m, const MediumDesc& md, const GridData& g, const std::string& ctx_name) {
   const EmissionDesc& em = md.emission;
   auto same_transform = [&](const GridData& e, const std::string& field) {
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 4; ++c)
-        if (std::abs(e.index_to_world[r][c] - g.index_to_world[r][c]) > 1e-6 * (1 + std::abs(g.index_to_world[r][c])))
-          throw Error(fmt::format("{}/emission/{}: grid '{}' has a different index-to-world transform than density "
-                                  "grid '{}'; both grids must share one transform",
-                                  ctx_name, field, e.name, md.grid));
+    if (!same_index_to_world(e, g))
+      throw Error(fmt::format("{}/emission/{}: grid '{}' has a different index-to-world transform than density "
+                              "grid '{}'; both grids must share one transform",
+                              ctx_name, field, e.name, md.grid));
   };
   if (em.blackbody && em.temperature > 0) {
     // add_medium set Le = scale x the colour (emissive: scale > 0)
@@ -390,13 +402,10 @@ GridData Packer::add_temperature_grid(st_medium& m, const MediumDesc& md, const 
 double Packer::add_color_grid(st_medium& m, const MediumDesc& md, const GridData& density, const std::string& ctx_name) {
   const std::string ctx = ctx_name + "/color";
   std::array<GridData, 3> c = load_color_grid(md.file, md.color.grid, ctx);
-  for (int r = 0; r < 3; ++r)
-    for (int k = 0; k < 4; ++k)
-      if (std::abs(c[0].index_to_world[r][k] - density.index_to_world[r][k]) >
-          1e-6 * (1 + std::abs(density.index_to_world[r][k])))
-        throw Error(fmt::format("{}/grid: grid '{}' has a different index-to-world transform than density grid "
-                                "'{}'; both grids must share one transform (resample one onto the other)",
-                                ctx, md.color.grid, md.grid));
+  if (!same_index_to_world(c[0], density))
+    throw Error(fmt::format("{}/grid: grid '{}' has a different index-to-world transform than density grid "
+                            "'{}'; both grids must share one transform (resample one onto the other)",
+                            ctx, md.color.grid, md.grid));
   std::array<double, 3> cmax{};
   for (int k = 0; k < 3; ++k) cmax[size_t(k)] = c[size_t(k)].value_max;
   if (md.color.mode == ST_COLOR_ALBEDO) {

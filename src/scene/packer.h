@@ -64,8 +64,18 @@ Mat4 user_transform(const TransformDesc& t);
 // about 10% with the tighter control of finer levels (media with a control: not colour media) (the control's per-channel collision weights
 // replace the residual's history-aware probabilities), which the lookup-only model does not see.
 double auto_majorant_step_cost(int tracker, bool has_control);
+// Whether two grids share one index-to-world map (to 1e-6 relative).
+bool same_index_to_world(const GridData& a, const GridData& b);
 Vec3 normalize(Vec3 v);
 Vec3 cross(const Vec3& a, const Vec3& b);
+
+// How far a moving medium's lookups reach (motion blur, pack_velocity.cpp): reach[a] bounds the
+// index displacement along axis a over the whole grid (its box grows by that); cell_reach bounds
+// it per majorant cell (build_majorant_grid), empty for a still medium.
+struct MotionReach {
+  std::array<double, 3> reach{0, 0, 0};
+  CellReach cell_reach;
+};
 
 // Fills a PackedScene; member names follow st_scene's buffers.
 struct Packer {
@@ -81,6 +91,8 @@ struct Packer {
   std::vector<Box3> media_boxes = {};  // world boxes, for the camera's framing
   Vec3 camera_position = {};          // as placed (framing included), in double
   uint32_t camera_features = 0;       // st_feature bits of the lens and the shutter (pack_camera.cpp)
+  double shutter_reach = 0;           // the largest |time| of the shutter (s; 0: none): motion blur's reach
+  bool stochastic_lookup = false;     // one-voxel lookups (st_lookup_mode): a moving cell's bounds in whole voxels
   // Each light's power up to the common factor pi r^2 of pbrt-v4's Light::Phi (r: the scene
   // radius): the mean over channels of the irradiance a directional light gives, or 4 pi times the
   // mean radiance of an environment over the sphere.
@@ -90,11 +102,19 @@ struct Packer {
   // density lookups of a shadow ray crossing every medium along its box's mean chord (the sum of
   // MajorantInfo::chord_lookups, homogeneous media included): light sampling "auto"
   double chord_lookups = 0;
+  // equi-angular sampling (kernels/equiangular.h): the media's mean gray majorant extinction summed
+  // over media (1/length), and its optical depth along the mean chord of each medium's box, summed
+  double mean_sigma_maj = 0, chord_depth = 0;
 
   void add_medium(int i, const MediumDesc& md);
   void add_vdb_medium(st_medium& m, const MediumDesc& md, const std::string& ctx_name);
-  // the majorant grid (and hierarchy) of a VDB medium, its MajorantInfo and chord lookups
-  void add_majorants(st_medium& m, const MediumDesc& md, const GridData& g, const Mat4& index_to_scene);
+  // the majorant grid (and hierarchy) of a VDB medium, its MajorantInfo and chord lookups; motion:
+  // the index displacement its lookups reach (motion blur), which grows its cells
+  void add_majorants(st_medium& m, const MediumDesc& md, const GridData& g, const Mat4& index_to_scene,
+                     const MotionReach& motion);
+  // a moving medium's velocity grid (pack_velocity.cpp); returns the reach of its lookups (none
+  // when it does not move during the shutter, and then uploads nothing)
+  MotionReach add_velocity_grid(st_medium& m, const MediumDesc& md, const GridData& density, const std::string& ctx_name);
   // a VDB medium's emission: blackbody bounds, temperature or emission grid
   void add_emission(st_medium& m, const MediumDesc& md, const GridData& g, const std::string& ctx_name);
   // returns the colour's largest value over its channels, its voxels and its background
@@ -107,6 +127,8 @@ struct Packer {
   double add_env_cdf(st_light& l);
   void set_light_selection(int light_sampling);
   int resolve_light_sampling(int requested) const;
+  // st_scene::equiangular from the EquiangularMode asked for (auto: on in thin media)
+  void set_equiangular(int requested);
   // the camera (framed), its thin lens and its shutter and motion (the settings' shutter)
   void set_camera(const RenderSettings& s);
   uint32_t scene_features() const;

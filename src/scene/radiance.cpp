@@ -68,6 +68,11 @@ void check_radiance_bounds(const SceneDesc& s) {
       if (l.scale > kMaxFloat)
         fail(s, l.json_path + "/scale", "value " + num(l.scale) + " is beyond the largest float (" + num(kMaxFloat) +
                                             ")" + kWhy);
+    } else if (l.type == ST_LIGHT_SPHERE) {  // the kernels hold the radiance in float, and Le / pdf
+      const double r = max3(l.radiance);
+      if (4.0 * kPi * r > kMaxRadiance)
+        fail(s, l.json_path + "/radiance", "value " + num(r) + " is too large: 4 pi x radiance must be at most " +
+                                               num(kMaxRadiance) + kWhy);
     } else if (l.type == ST_LIGHT_POINT || l.type == ST_LIGHT_SPOT) {
       // I / r^2 grows without bound near the light; the kernels hold I itself in float
       const double i = max3(l.intensity);

@@ -17,14 +17,17 @@
 #include <filesystem>
 #include <iomanip>
 #include <limits>
+#include <type_traits>
 #include <map>
 #include <set>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
 
+#include "integrator/option_table.h"
 #include "scene/scene.h"
 #include "scene/scene_parser.h"
+#include "scene/sky_light.h"
 #include "scene/radiance.h"
 #include "util/files.h"
 #include "scene/frames.h"
@@ -65,7 +68,7 @@ SceneDesc Parser::scene(const json& root) {
   if (!format.is_string()) fail("/format", std::string("expected a string, got ") + format.type_name());
   if (format.get<std::string>() != kFormat)
     fail("/format", "unsupported format " + in_quotes(format.get<std::string>()) + " (expected " + in_quotes(kFormat) + ")");
-  fields(root, "", {"format", "camera", "film", "render", "lights", "media"});
+  fields(root, "", {"format", "camera", "film", "render", "lights", "media", "ground"});
 
   SceneDesc s;
   s.dir = dir_.string();
@@ -73,6 +76,7 @@ SceneDesc Parser::scene(const json& root) {
   if (const json* j = find(root, "film")) film(*j, "/film", s.film);
   else s.film.output = normalized(dir_ / s.film.output).string();
   if (const json* j = find(root, "render")) render(*j, "/render", s.render);
+  if (const json* j = find(root, "ground")) s.ground = ground(*j, "/ground");
 
   if (const json* lights = find(root, "lights")) {
     if (!lights->is_array()) fail("/lights", std::string("expected an array, got ") + lights->type_name());
@@ -88,7 +92,12 @@ SceneDesc Parser::scene(const json& root) {
       if (!env_path.empty())
         fail(path, "only one environment light is allowed (the first is " + env_path + ")");
       env_path = path;
+      if (s.lights.back().sky)  // a sky's sun: a light of its own
+        if (std::optional<LightDesc> sun = sky_sun_light(s.lights.back())) s.lights.push_back(*sun);
     }
+    if (s.lights.size() > ST_MAX_LIGHTS)
+      fail("/lights", std::to_string(s.lights.size()) + " lights with the sky's sun, at most " +
+                          std::to_string(ST_MAX_LIGHTS) + " (ST_MAX_LIGHTS) are supported");
   }
 
   if (const json* media = find(root, "media")) {
@@ -207,7 +216,8 @@ void Parser::film(const json& j, const std::string& path, FilmDesc& f) {
   if (static_cast<long long>(f.width) * f.height > (1ll << 28))
     fail(path, "width * height = " + std::to_string(static_cast<long long>(f.width) * f.height) +
                    " pixels is too many (at most 2^28)");
-  f.spp = static_cast<int>(integer(j, path, "spp", f.spp, 1, 1 << 24));
+  const OptionCheck& spp = option_row("spp").check;  // the range of --spp (integrator/option_table.def)
+  f.spp = static_cast<int>(integer(j, path, "spp", f.spp, int64_t(spp.lo), int64_t(spp.hi)));
   auto boolean = [&](const char* key) -> std::optional<bool> {
     const json* v = find(j, key);
     if (!v) return std::nullopt;
@@ -253,16 +263,21 @@ void Parser::render(const json& j, const std::string& path, RenderDesc& r) {
   expect_object(j, path);
   fields(j, path,
          {"tracker", "spectral_scheme", "absorption", "light_sampling", "transmittance", "lookup", "color", "max_depth", "seed",
-          "time_limit", "guiding", "noise_target"});
+          "time_limit", "guiding", "noise_target", "adaptive", "equiangular"});
   // a name from one of the enum tables of kernels/types.h (scene/names.cpp): its value, or the
   // field named with the valid names
   auto named = [&](const char* key, const char* what, int (*from_name)(const std::string&), std::string (*names)(),
-                   int* out) {
+                   auto* out) {
     if (!find(j, key)) return false;
     std::string t = string(j, path, key, "");
-    *out = from_name(t);
-    if (*out < 0)
+    const int v = from_name(t);
+    if (v < 0)
       fail(path + "/" + key, std::string("unknown ") + what + " " + in_quotes(t) + " (expected one of: " + names() + ")");
+    using Out = std::remove_pointer_t<decltype(out)>;
+    if constexpr (std::is_enum_v<Out>)
+      *out = Out(v);
+    else
+      *out = typename Out::value_type(v);
     return true;
   };
   named("tracker", "tracker", tracker_from_name, tracker_names, &r.tracker);
@@ -273,10 +288,20 @@ void Parser::render(const json& j, const std::string& path, RenderDesc& r) {
   named("lookup", "density lookup mode", lookup_from_name, lookup_names, &r.lookup);
   named("color", "colour mode", film_color_from_name, film_color_names, &r.color);
   named("guiding", "guiding mode", guiding_from_name, guiding_names, &r.guiding);
-  r.max_depth = static_cast<int>(integer(j, path, "max_depth", r.max_depth, -1, std::numeric_limits<int>::max()));
-  r.seed = static_cast<uint32_t>(integer(j, path, "seed", r.seed, 0, 0xffffffffll));
+  named("equiangular", "equi-angular mode", guiding_from_name, guiding_names, &r.equiangular);
+  // -1: unlimited, as the kernels read it (types.h st_scene.max_depth)
+  if (find(j, "max_depth")) {
+    const int d = static_cast<int>(integer(j, path, "max_depth", -1, -1, std::numeric_limits<int>::max()));
+    r.max_depth = d >= 0 ? std::optional<int>(d) : std::nullopt;
+  }
+  const OptionCheck& seed = option_row("seed").check;  // the range of --seed
+  r.seed = static_cast<uint32_t>(integer(j, path, "seed", r.seed, int64_t(seed.lo), int64_t(seed.hi)));
   if (find(j, "time_limit")) r.time_limit = number(j, path, "time_limit", 0.0, Range{0, 1e9, true, false});
   if (find(j, "noise_target")) r.noise_target = number(j, path, "noise_target", 0.0, Range{0, 1, true, false});
+  if (const json* v = find(j, "adaptive")) {
+    if (!v->is_boolean()) fail(path + "/adaptive", std::string("expected true or false, got ") + v->type_name());
+    r.adaptive = v->get<bool>();
+  }
 }
 
 // nlohmann's messages start with "[json.exception.parse_error.101] "; keep what follows.

@@ -6,11 +6,13 @@
 // the scene file's folder. Enum values are the ones of kernels/types.h.
 #pragma once
 #include <array>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "color/blackbody.h"
+#include "color/sky.h"
 #include "kernels/types.h"
 #include "util/error.h"
 
@@ -80,6 +82,19 @@ struct ColorDesc {
   int mode = ST_COLOR_ALBEDO;  // st_color_mode
 };
 
+// Motion blur from a velocity grid (a vec3s grid of the medium's file, sharing the density grid's
+// transform; kernels/medium.h medium_lookup_index): the velocity in the file's world units per
+// second is the grid's value times scale, times fps when the grid stores displacement per frame
+// (fps > 0); voxels whose velocity is longer than outlier_threshold (world units per second, after
+// scale and fps) read as 0.
+struct VelocityDesc {
+  bool present = false;
+  std::string grid = "vel";
+  double scale = 1.0;
+  double fps = 0.0;  // 0: the grid holds world units per second
+  double outlier_threshold = std::numeric_limits<double>::infinity();
+};
+
 struct MediumDesc {
   std::string name;
   std::string json_path;  // "/media/0", for messages
@@ -93,6 +108,7 @@ struct MediumDesc {
   PhaseDesc phase;
   EmissionDesc emission;
   ColorDesc color;
+  VelocityDesc velocity;
   TransformDesc transform;
   std::array<Vec3, 2> bounds{Vec3{-1, -1, -1}, Vec3{1, 1, 1}};  // homogeneous
   double majorant_scale = 1.0;  // testing aid: < 1 under-estimates (still unbiased)
@@ -106,10 +122,22 @@ inline double emission_gain(const MediumDesc& m) {
   return m.emission.scale / (m.emission.per_density ? m.sigma_a[0] : 1.0);
 }
 
+// A physical sky (color/sky.h, docs/scene-format.md "sky"): its environment map is made when the
+// scene is packed (scene/sky_light.h), its sun is a directional light of its own.
+struct SkyDesc {
+  double sun_elevation_deg = 15;  // above the horizon (the x-z plane), degrees
+  double sun_azimuth_deg = 0;     // from -z towards +x (the environment map's centre is 0), degrees
+  SkyAtmosphere atmosphere;
+  double intensity = 1;           // multiplies the sky and the sun
+  bool sun_disc = true;           // false: the sky alone
+  double sun_angle_deg = 0.545;   // the sun's apparent diameter, degrees (0: a delta light)
+  int resolution = 1024;          // the map's width (its height is half of it)
+};
+
 struct LightDesc {
   std::string json_path;
   int type = ST_LIGHT_ENV_UNIFORM;
-  Vec3 radiance{1, 1, 1};  // environment (uniform)
+  Vec3 radiance{1, 1, 1};  // environment (uniform); sphere: its surface's radiance
   std::string map;         // environment map (absolute path), empty if uniform
   double scale = 1.0;      // environment map multiplier
   Vec3 to_light{0, 1, 0};  // directional, as given (not normalised)
@@ -121,6 +149,19 @@ struct LightDesc {
   Vec3 look_at{0, -1, 0};        // spot: the cone's axis points from position to look_at
   double cone_angle_deg = 30.0;  // spot: half angle of the cone, beyond which nothing is emitted
   double cone_delta_deg = 5.0;   // spot: width of the falloff (full intensity inside cone_angle - cone_delta)
+  double radius = 0.0;           // sphere: world units, > 0 (position: its centre)
+  // an environment map made from a sky model instead of a file (map empty, scale: the intensity);
+  // a sky's sun is a directional light that follows it, with the same json_path
+  std::optional<SkyDesc> sky;
+};
+
+// The ground (kernels/ground.h): the plane y = height, facing up, opaque; "albedo" its Lambertian
+// reflectance in [0, 1] per channel; "mode" one of ST_GROUND_MODES (diffuse, shadow_catcher, holdout).
+struct GroundDesc {
+  bool present = false;
+  double height = 0.0;     // world units
+  Vec3 albedo{0.5, 0.5, 0.5};
+  int mode = ST_GROUND_DIFFUSE;
 };
 
 struct CameraDesc {
@@ -155,28 +196,36 @@ struct FilmDesc {
   std::string compression = "zip"; // film.compression: an EXR compression (exr_compressions())
 };
 
-struct RenderDesc {
-  int tracker = ST_TRACKER_SPECTRAL_DECOMPOSITION;
-  int scheme = ST_SCHEME_HISTORY_AVERAGE;
-  bool scheme_set = false;  // the file gave spectral_scheme (a tracker that ignores it gets a warning)
-  int absorption = -1;      // st_absorption; -1: the tracker's default (ST_TRACKERS)
-  int light_sampling = -1;  // st_light_sampling; -1: the default (kDefaultLightSampling, settings.h)
-  int transmittance = -1;   // st_transmittance_mode; -1: the default (kDefaultTransmittance, settings.h)
-  int lookup = -1;          // st_lookup_mode; -1: the default (kDefaultLookup, settings.h)
-  int color = ST_FILM_COLOR_RGB;  // st_film_color: what a path's lanes carry (render.color)
-  int max_depth = -1;
-  uint32_t seed = 0;
-  double time_limit = 0;  // seconds from the start of the command after which the render stops cleanly; 0: none
-  double noise_target = 0;  // relative error of the image at which the render stops (integrator/noise.h); 0: none
-  int guiding = -1;       // GuidingMode (render.guiding); -1: the default, auto
-};
-
 // Volume path guiding (docs/guiding.md): off, on, or auto (the renderer decides per scene; it
 // resolves to off until measurements say where guiding pays).
 enum GuidingMode { kGuidingOff = 0, kGuidingOn = 1, kGuidingAuto = 2 };
 inline int guiding_from_name(const std::string& n) { return n == "off" ? 0 : n == "on" ? 1 : n == "auto" ? 2 : -1; }
 inline std::string guiding_names() { return "off, on, auto"; }
 inline const char* guiding_name(int mode) { return mode == 0 ? "off" : mode == 1 ? "on" : "auto"; }
+// Equi-angular sampling towards local lights (docs/equiangular.md): off, on, or auto (on where the
+// media are thin: settings.h kAutoEquiangularDepth); the names and values are guiding's.
+enum EquiangularMode { kEquiangularOff = kGuidingOff, kEquiangularOn = kGuidingOn, kEquiangularAuto = kGuidingAuto };
+
+// The scene's `render` section. A field the file does not give is empty (std::nullopt) where the
+// renderer's default depends on something else (the tracker's absorption) or lives in the
+// settings (integrator/settings.h, kDefault...): resolve_settings() fills it.
+struct RenderDesc {
+  st_tracker tracker = ST_TRACKER_SPECTRAL_DECOMPOSITION;
+  st_scheme scheme = ST_SCHEME_HISTORY_AVERAGE;
+  bool scheme_set = false;  // the file gave spectral_scheme (a tracker that ignores it gets a warning)
+  std::optional<st_absorption> absorption;            // none: the tracker's default (ST_TRACKERS)
+  std::optional<st_light_sampling> light_sampling;    // none: kDefaultLightSampling (settings.h)
+  std::optional<st_transmittance_mode> transmittance;  // none: kDefaultTransmittance (settings.h)
+  std::optional<st_lookup_mode> lookup;               // none: kDefaultLookup (settings.h)
+  st_film_color color = ST_FILM_COLOR_RGB;  // what a path's lanes carry (render.color)
+  std::optional<int> max_depth;  // real scattering events a path may have; none: unlimited (the file's -1)
+  uint32_t seed = 0;
+  double time_limit = 0;  // seconds from the start of the command after which the render stops cleanly; 0: none
+  double noise_target = 0;  // relative error of the image at which the render stops (integrator/noise.h); 0: none
+  bool adaptive = false;    // adaptive sampling to noise_target (integrator/adaptive.h)
+  std::optional<GuidingMode> guiding;  // none: auto
+  std::optional<EquiangularMode> equiangular;  // none: kDefaultEquiangular (settings.h)
+};
 
 struct SceneDesc {
   std::string path;  // the scene file as given
@@ -186,6 +235,7 @@ struct SceneDesc {
   RenderDesc render;
   std::vector<LightDesc> lights;
   std::vector<MediumDesc> media;
+  GroundDesc ground;
 };
 
 // Parses and validates a scene file. Throws spectrack::Error.
@@ -223,6 +273,10 @@ const char* transmittance_name(int mode);
 int transmittance_from_name(const std::string& name);  // -1 when unknown
 std::string transmittance_names();
 std::vector<std::string> transmittance_name_list();
+// Names of the ground's modes (st_ground_mode): "diffuse", "shadow_catcher", "holdout".
+const char* ground_mode_name(int mode);
+int ground_mode_from_name(const std::string& name);  // -1 when unknown
+std::string ground_mode_names();
 // Names of the film colour modes (st_film_color): "rgb", "spectral".
 const char* film_color_name(int mode);
 int film_color_from_name(const std::string& name);  // -1 when unknown
@@ -239,8 +293,9 @@ int aov_from_name(const std::string& name);  // -1 when unknown
 std::string aov_names();
 std::vector<std::string> aov_name_list();
 // The one table of the film layers' EXR channels (docs/aov.md), what a render writes, merge reads and
-// read_image accepts: alpha "A", "AR", "AG", "AB"; depth "depth.Z"; the others "<name>.R", ".G",
-// ".B". The albedo and depth layers also write kCollisionChannel, their shared weight.
+// read_image accepts: alpha "A", "AR", "AG", "AB"; depth "depth.Z"; shadow "shadow.R", ".G", ".B" and
+// "unshadowed.R", ".G", ".B"; the others "<name>.R", ".G", ".B". The albedo and depth layers also
+// write kCollisionChannel, their shared weight.
 const std::vector<std::string>& aov_exr_channels(int index);
 inline constexpr const char* kCollisionChannel = "collision.fraction";
 // OpenEXR compressions (film.compression, --compression): none, rle, zips, zip, piz, pxr24, b44,

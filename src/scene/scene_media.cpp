@@ -30,11 +30,13 @@ namespace parsing {
 LightDesc Parser::light(const json& j, const std::string& path) {
   expect_object(j, path);
   const Names all = {"type",      "radiance", "map",      "scale",          "to_light",      "irradiance",
-                     "angle_deg", "position", "intensity", "look_at", "cone_angle_deg", "cone_delta_deg"};
+                     "angle_deg", "position", "intensity", "look_at", "cone_angle_deg", "cone_delta_deg", "radius",
+                     "sun_elevation_deg", "sun_azimuth_deg", "altitude", "air_density", "dust_density",
+                     "ozone_density", "sun_disc", "sun_angle_deg", "resolution"};
   fields(j, path, all);
   LightDesc l;
   l.json_path = path;
-  need(j, path, "type", "expected one of: environment, directional, point, spot");
+  need(j, path, "type", "expected one of: environment, directional, point, spot, sphere, sky");
   std::string type = string(j, path, "type", "");
   if (type == "environment") {
     fields(j, path, {"type", "radiance", "map", "scale"}, "an environment light", all);
@@ -57,11 +59,35 @@ LightDesc Parser::light(const json& j, const std::string& path) {
     l.angle_deg = number(j, path, "angle_deg", l.angle_deg, Range{0, 180, false, true});
   } else if (type == "point" || type == "spot") {
     local_light(j, path, type == "spot", all, l);
+  } else if (type == "sphere") {  // an emitting sphere: centre, radius (world units), surface radiance
+    fields(j, path, {"type", "position", "radius", "radiance"}, "a sphere light", all);
+    l.type = ST_LIGHT_SPHERE;
+    l.position = vec3_at(need(j, path, "position"), path + "/position", kAny);
+    l.radius = number_at(need(j, path, "radius"), path + "/radius", Range{0, 1.15e18, true, false});
+    l.radiance = vec3(j, path, "radiance", l.radiance, kNonNegative);
+  } else if (type == "sky") {
+    sky_light(j, path, all, l);
   } else {
     fail(path + "/type",
-         "unknown light type " + in_quotes(type) + " (expected one of: environment, directional, point, spot)");
+         "unknown light type " + in_quotes(type) + " (expected one of: environment, directional, point, spot, sphere, sky)");
   }
   return l;
+}
+
+// The ground (kernels/ground.h): height (world units, within 2^60 as every coordinate), albedo in
+// [0, 1] per channel, mode.
+GroundDesc Parser::ground(const json& j, const std::string& path) {
+  expect_object(j, path);
+  fields(j, path, {"height", "albedo", "mode"});
+  GroundDesc g;
+  g.present = true;
+  g.height = number(j, path, "height", g.height, Range{-1.15e18, 1.15e18, false, false});
+  g.albedo = vec3(j, path, "albedo", g.albedo, Range{0, 1, false, false});
+  const std::string mode = string(j, path, "mode", ground_mode_name(g.mode));
+  g.mode = ground_mode_from_name(mode);
+  if (g.mode < 0)
+    fail(path + "/mode", "unknown ground mode " + in_quotes(mode) + " (expected one of: " + ground_mode_names() + ")");
+  return g;
 }
 
 // A point or spot light (kernels/light.h): position and intensity (W/sr); a spot's axis towards
@@ -84,15 +110,44 @@ void Parser::local_light(const json& j, const std::string& path, bool spot, cons
                                        num(l.cone_angle_deg) + ")");
 }
 
+// A physical sky (color/sky.h): the sun's place, the atmosphere's densities, the viewer's altitude,
+// an intensity for sky and sun, the sun's disc and the map's resolution. Its environment map is
+// made when the scene is packed; the sun follows it as a directional light (scene.cpp).
+void Parser::sky_light(const json& j, const std::string& path, const Names& all, LightDesc& l) {
+  fields(j, path,
+         {"type", "sun_elevation_deg", "sun_azimuth_deg", "altitude", "air_density", "dust_density", "ozone_density",
+          "intensity", "sun_disc", "sun_angle_deg", "resolution"},
+         "a sky", all);
+  l.type = ST_LIGHT_ENV_MAP;
+  SkyDesc k;
+  k.sun_elevation_deg = number(j, path, "sun_elevation_deg", k.sun_elevation_deg, Range{-90, 90, false, false});
+  k.sun_azimuth_deg = number(j, path, "sun_azimuth_deg", k.sun_azimuth_deg, Range{-360, 360, false, false});
+  k.atmosphere.altitude_m = number(j, path, "altitude", 0.0, Range{0, 59000, false, false});
+  k.atmosphere.air = number(j, path, "air_density", 1.0, Range{0, 10, false, false});
+  k.atmosphere.dust = number(j, path, "dust_density", 1.0, Range{0, 10, false, false});
+  k.atmosphere.ozone = number(j, path, "ozone_density", 1.0, Range{0, 10, false, false});
+  k.intensity = number(j, path, "intensity", k.intensity, Range{0, 1e12, false, false});
+  if (const json* v = find(j, "sun_disc")) {
+    if (!v->is_boolean()) fail(path + "/sun_disc", std::string("expected true or false, got ") + v->type_name());
+    k.sun_disc = v->get<bool>();
+  }
+  k.sun_angle_deg = number(j, path, "sun_angle_deg", k.sun_angle_deg, Range{0, 10, false, false});
+  k.resolution = static_cast<int>(integer(j, path, "resolution", k.resolution, 16, 8192));
+  if (k.resolution % 2) fail(path + "/resolution", "value " + std::to_string(k.resolution) + " is odd (the map is resolution x resolution / 2)");
+  l.scale = k.intensity;
+  l.sky = k;
+}
+
 MediumDesc Parser::medium(const json& j, const std::string& path, size_t index) {
   expect_object(j, path);
-  const Names all = {"name", "type", "file", "grid", "grid_index", "bounds", "density_scale", "sigma_s",
-                     "sigma_a", "phase", "emission", "color", "transform", "majorant_scale", "minorant_scale",
-                     "preset"};
+  const Names all = {"name", "type", "file", "file_source", "grid", "grid_index", "bounds", "density_scale", "sigma_s",
+                     "sigma_a", "phase", "emission", "color", "velocity", "transform", "majorant_scale",
+                     "minorant_scale", "preset"};
   Names vdb, homogeneous;
   for (const char* k : all) {
     if (std::strcmp(k, "bounds") != 0) vdb.push_back(k);
-    if (!contains({"file", "grid", "grid_index", "transform", "color", "preset"}, k)) homogeneous.push_back(k);
+    if (!contains({"file", "file_source", "grid", "grid_index", "transform", "color", "velocity", "preset"}, k))
+      homogeneous.push_back(k);
   }
   fields(j, path, all);
 
@@ -106,6 +161,7 @@ MediumDesc Parser::medium(const json& j, const std::string& path, size_t index) 
     fields(j, path, vdb, "a vdb medium", all);
     m.type = ST_MEDIUM_VDB;
     need(j, path, "file", "the .vdb or .nvdb file");
+    string(j, path, "file_source", "");  // a string when present (quoted when the file is missing)
     m.file = file(j, path, "file", true);
     if (find(j, "preset")) {
       m.preset = string(j, path, "preset", "");
@@ -116,6 +172,7 @@ MediumDesc Parser::medium(const json& j, const std::string& path, size_t index) 
     m.grid_index = static_cast<int>(integer(j, path, "grid_index", m.grid_index, 0, std::numeric_limits<int>::max()));
     if (const json* t = find(j, "transform")) m.transform = transform(*t, path + "/transform");
     if (const json* c = find(j, "color")) m.color = color(*c, path + "/color");
+    if (const json* v = find(j, "velocity")) m.velocity = velocity(*v, path + "/velocity");
   } else if (type == "homogeneous") {
     fields(j, path, homogeneous, "a homogeneous medium", all);
     m.type = ST_MEDIUM_HOMOGENEOUS;
@@ -279,6 +336,19 @@ ColorDesc Parser::color(const json& j, const std::string& path) {
     fail(path + "/mode", "unknown colour mode " + in_quotes(mode) + " (expected one of: albedo, scattering)");
   }
   return c;
+}
+
+VelocityDesc Parser::velocity(const json& j, const std::string& path) {
+  expect_object(j, path);
+  fields(j, path, {"grid", "scale", "fps", "outlier_threshold"});
+  VelocityDesc v;
+  v.present = true;
+  v.grid = string(j, path, "grid", v.grid);
+  if (v.grid.empty()) fail(path + "/grid", "must name a vec3s velocity grid of the medium's file");
+  v.scale = number(j, path, "scale", v.scale, kAny);
+  v.fps = number(j, path, "fps", v.fps, kPositive);
+  v.outlier_threshold = number(j, path, "outlier_threshold", v.outlier_threshold, kPositive);
+  return v;
 }
 
 TransformDesc Parser::transform(const json& j, const std::string& path) {

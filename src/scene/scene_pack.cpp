@@ -42,12 +42,14 @@ uint32_t Packer::scene_features() const {
     if (m.phase_type == ST_PHASE_DRAINE_BLEND) f |= ST_FEATURE_PHASE_SET;
     if (m.type == ST_MEDIUM_VDB) f |= ST_FEATURE_VDB;
     if (m.maj_block > 0) f |= ST_FEATURE_COARSE_MAJORANT;
+    if (m.type == ST_MEDIUM_VDB && m.velocity_grid[0] != ST_NO_GRID) f |= ST_FEATURE_VELOCITY | ST_FEATURE_TIME;
   }
   for (int i = 0; i < st.n_lights; ++i) {
     const st_light& l = st.lights[i];
     if (l.type == ST_LIGHT_ENV_MAP) f |= ST_FEATURE_ENV_MAP;
-    if (l.type == ST_LIGHT_POINT || l.type == ST_LIGHT_SPOT) {
-      f |= ST_FEATURE_LOCAL_LIGHT;  // delta in direction: no escaping ray sees one
+    if (l.type == ST_LIGHT_SPHERE) f |= ST_FEATURE_SPHERE_LIGHT;  // rays that reach one end there: no escape
+    if (l.type >= ST_LIGHT_POINT) {
+      f |= ST_FEATURE_LOCAL_LIGHT;  // delta in direction or hit at a finite distance: no escaping ray sees one
       continue;
     }
     if (l.type != ST_LIGHT_DIRECTIONAL || !l.is_delta) f |= ST_FEATURE_ESCAPE;
@@ -56,6 +58,8 @@ uint32_t Packer::scene_features() const {
   if (st.tracker == ST_TRACKER_SPECTRAL_MIS) f |= ST_FEATURE_SPECTRAL_MIS;
   if (st.lookup == ST_LOOKUP_STOCHASTIC && (f & ST_FEATURE_VDB)) f |= ST_FEATURE_STOCHASTIC_LOOKUP;
   if (st.result_layers > 1) f |= ST_FEATURE_AOV;
+  if (st.ground.present) f |= ST_FEATURE_GROUND;
+  if (st.equiangular.n_local > 0) f |= ST_FEATURE_EQUIANGULAR | ST_FEATURE_LOCAL_LIGHT;
   return f | camera_features;
 }
 
@@ -65,8 +69,10 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
   if (options.iteration_budget < 1) throw Error("iteration budget must be at least 1");
   if (options.majorant_cell < 0) throw Error("majorant cell must be 0 (automatic) or at least 1 voxel");
   if (options.majorant_block < 0) throw Error("majorant block must be 0 (one level) or at least 1 cell");
-  if (!std::isfinite(options.majorant_step_cost))
-    throw Error("majorant step cost must be a finite number (< 0: automatic)");
+  if (options.majorant_step_cost && !(std::isfinite(*options.majorant_step_cost) && *options.majorant_step_cost >= 0))
+    throw Error(fmt::format("majorant step cost {} must be a finite number of density lookups, at least 0 (leave it "
+                            "out for the automatic one)",
+                            *options.majorant_step_cost));
   PackedScene out;
   st_scene& st = out.st;
   std::memset(&st, 0, sizeof(st));
@@ -74,8 +80,18 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
             s.color == ST_FILM_COLOR_SPECTRAL};
   st.n_media = int(scene.media.size());
   st.n_lights = int(scene.lights.size());
+  if (s.shutter) pk.shutter_reach = std::max(std::abs((*s.shutter)[0]), std::abs((*s.shutter)[1]));
+  pk.stochastic_lookup = s.lookup == ST_LOOKUP_STOCHASTIC;
   for (int i = 0; i < st.n_media; ++i) pk.add_medium(i, scene.media[i]);
   for (int i = 0; i < st.n_lights; ++i) pk.add_light(i, scene.lights[i]);
+  if (scene.ground.present) {  // kernels/ground.h
+    const Vec3& a = scene.ground.albedo;
+    st.ground.present = 1;
+    st.ground.height = float(scene.ground.height);
+    st.ground.mode = scene.ground.mode;
+    st.ground.albedo = st.ground.albedo_rgb = st_float4{float(a[0]), float(a[1]), float(a[2]), 0.0f};
+  }
+  pk.set_equiangular(s.guiding ? kEquiangularOff : s.equiangular);
   const int light_sampling = pk.resolve_light_sampling(s.light_sampling);
   pk.set_light_selection(light_sampling);
   pk.set_camera(s);
@@ -89,11 +105,12 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
   st.pilot_spacing = float(s.pilot_spacing);
   st.lookup = s.lookup;
   st.aovs = int(s.aovs);
-  st.result_layers = (s.aovs & (ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH)))  ? ST_RESULT_LAYERS_AUX
+  st.result_layers = (s.aovs & ST_AOV_BIT(SHADOW))                         ? ST_RESULT_LAYERS_SHADOW
+                     : (s.aovs & (ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH))) ? ST_RESULT_LAYERS_AUX
                      : (s.aovs & (ST_AOV_BIT(EMISSION) | ST_AOV_BIT(DIRECT) | ST_AOV_BIT(INDIRECT)))
                          ? ST_RESULT_LAYERS_PASSES
                          : (s.aovs & (ST_AOV_BIT(ALPHA) | ST_AOV_BIT(ENVIRONMENT))) ? ST_RESULT_LAYERS_AOV : 1;
-  st.max_depth = scene.render.max_depth;
+  st.max_depth = scene.render.max_depth.value_or(-1);  // -1: unlimited
   st.seed = s.seed;
   st.n_channels_per_sample = s.channels_per_sample;
   st.iteration_budget = options.iteration_budget;

@@ -8,6 +8,7 @@
 // specialised kernels are compiled for (kernels/features.h).
 #pragma once
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "integrator/settings.h"
@@ -26,9 +27,9 @@ struct PackedScene {
 
 struct PackOptions {
   int majorant_cell = 0;   // voxels per fine majorant-cell edge; 0: automatic (auto_majorant_cell)
-  int majorant_block = 8;  // fine cells per block edge of the adaptive hierarchy; 0 or 1: one level
-  int iteration_budget = 256;
-  double majorant_step_cost = -1;  // the hierarchy's cost model: one DDA step, in density lookups; < 0: automatic
+  int majorant_block = kDefaultMajorantBlock;  // fine cells per block edge of the adaptive hierarchy; 0 or 1: one level
+  int iteration_budget = kDefaultIterationBudget;
+  std::optional<double> majorant_step_cost;  // the hierarchy's cost model: one DDA step, in density lookups; else automatic
 };
 
 // Loads every grid and map the scene references and packs it; throws Error naming the file and

@@ -96,12 +96,15 @@ class Parser {
   void film(const json& j, const std::string& path, FilmDesc& f);
   void render(const json& j, const std::string& path, RenderDesc& r);
   LightDesc light(const json& j, const std::string& path);
+  GroundDesc ground(const json& j, const std::string& path);
   void local_light(const json& j, const std::string& path, bool spot, const Names& all, LightDesc& l);
+  void sky_light(const json& j, const std::string& path, const Names& all, LightDesc& l);
   MediumDesc medium(const json& j, const std::string& path, size_t index);
   PhaseDesc phase(const json& j, const std::string& path);
   EmissionDesc ramp(const json& j, const std::string& path, bool vdb, EmissionDesc e);
   EmissionDesc emission(const json& j, const std::string& path, bool vdb);
   ColorDesc color(const json& j, const std::string& path);
+  VelocityDesc velocity(const json& j, const std::string& path);
   TransformDesc transform(const json& j, const std::string& path);
 
   [[noreturn]] void fail(const std::string& path, const std::string& reason) const {
@@ -167,13 +170,19 @@ class Parser {
     const json* v = find(obj, key);
     return v ? vec3_at(*v, child(path, key), r) : def;
   }
-  // Resolves `key` (a path string) against the scene folder; `must_exist` for input files.
+  // Resolves `key` (a path string) against the scene folder; `must_exist` for input files. A missing
+  // file's error quotes the object's "<key>_source" string when it has one: where to get a
+  // third-party file that the repository does not hold.
   std::string file(const json& obj, const std::string& path, const char* key, bool must_exist) const {
     std::string p = string(obj, path, key, "");
     fs::path resolved = normalized(fs::path(p).is_absolute() ? fs::path(p) : dir_ / p);
     std::error_code ec;
     if (must_exist && has_frame_pattern(resolved.filename().string())) return resolved.string();  // checked per frame (--frames)
-    if (must_exist && !fs::exists(resolved, ec)) fail(child(path, key), resolved.string() + ": no such file");
+    if (must_exist && !fs::exists(resolved, ec)) {
+      const std::string source = string(obj, path, (std::string(key) + "_source").c_str(), "");
+      fail(child(path, key), resolved.string() + ": no such file" +
+                                 (source.empty() ? "" : "; it is third-party data, not in the repository: " + source));
+    }
     if (must_exist && fs::is_directory(resolved, ec)) fail(child(path, key), resolved.string() + ": is a directory");
     if (must_exist) {
       try {

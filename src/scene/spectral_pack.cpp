@@ -108,6 +108,8 @@ void make_spectral(const SceneDesc& scene, PackedScene& packed) {
     l.radiance = coefficients(fit, rgb_of(l.radiance));
     l.spectral = 1;
   }
+  st.ground.spectral = st.ground.present;  // a reflectance: the albedo's spectrum (kernels/ground.h)
+  if (st.ground.present) st.ground.albedo = coefficients(fit, rgb_of(st.ground.albedo));
   st.color = ST_FILM_COLOR_SPECTRAL;
   packed.features |= ST_FEATURE_SPECTRAL;
 }

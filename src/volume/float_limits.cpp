@@ -214,7 +214,7 @@ void check_coordinates(const SceneDesc& scene, const st_scene& st, const std::ve
   if (c.focus_distance > kMaxCoordinate)
     throw Error(fmt::format("{}: /camera/focus_distance: {:g} is beyond 2^60{}", scene.path, c.focus_distance, why));
   for (const LightDesc& l : scene.lights)  // a local light's distance to every point it lights
-    if ((l.type == ST_LIGHT_POINT || l.type == ST_LIGHT_SPOT) && !(max_norm(l.position) <= kMaxCoordinate))
+    if (l.type >= ST_LIGHT_POINT && !(max_norm(l.position) <= kMaxCoordinate))
       throw Error(fmt::format("{}: {}/position: ({:g}, {:g}, {:g}) is beyond 2^60{}", scene.path, l.json_path,
                               l.position[0], l.position[1], l.position[2], why));
   for (size_t i = 0; i < scene.media.size() && i < boxes.size(); ++i) {

@@ -10,6 +10,7 @@
 #include <limits>
 #include <type_traits>
 
+#include <fmt/format.h>
 #include <nanovdb/util/OpenToNanoVDB.h>
 #include <openvdb/io/GridDescriptor.h>
 #include <openvdb/openvdb.h>
@@ -93,6 +94,17 @@ GridInfo vdb_grid(const openvdb::GridBase& g, const Fail& fail) {
   }
   describe_values<false, openvdb::FloatGrid, openvdb::DoubleGrid, openvdb::Int32Grid, openvdb::Int64Grid>(g, out) ||
       describe_values<true, openvdb::Vec3SGrid, openvdb::Vec3DGrid>(g, out);
+  // As a medium's velocity (velocity_grid.cpp): the largest speed over the active values, in the
+  // grid's own units (before the medium's scale and fps)
+  if (g.isType<openvdb::Vec3SGrid>()) {
+    const bool staggered = g.getGridClass() == openvdb::GRID_STAGGERED;
+    if (!g.transform().isLinear()) out.velocity_use = "no: non-affine transform";
+    else if (out.has_range && !std::isfinite(out.value_max)) out.velocity_use = "no: non-finite values";
+    else
+      out.velocity_use = fmt::format("yes{}, largest speed {:.6g} (\"velocity\": {{\"grid\": \"{}\"}})",
+                                     staggered ? " (staggered)" : "", out.has_range ? out.value_max : 0.0,
+                                     printable(out.name));
+  }
   // The loader's refusals (volume.cpp), as a note rather than an error.
   if (!g.isType<openvdb::FloatGrid>()) {
     out.density_use = out.type == "vec3s" ? "no: value type vec3s; usable as a medium's colour grid (\"color\": {\"grid\": \"" + out.name + "\"})" : "no: value type " + out.type + " (only float density grids)";

@@ -23,6 +23,7 @@ struct GridInfo {
   double value_min = 0, value_max = 0;
   int64_t nanovdb_bytes = -1;               // size of the grid as a NanoVDB buffer; -1: not convertible
   std::string density_use;                  // "yes", or why the grid cannot be a medium's density
+  std::string velocity_use;                 // vec3s grids: "yes" with the largest speed, or why not; else empty
 };
 
 // Every grid of a .vdb or .nvdb file. Throws spectrack::Error naming the file and the reason for

@@ -18,6 +18,7 @@
 #include <nanovdb/NanoVDB.h>
 
 #include "volume/volume.h"
+#include "volume/volume_detail.h"
 
 namespace spectrack {
 
@@ -41,10 +42,13 @@ int64_t floor_div(int64_t a, int64_t b) { return a >= 0 ? a / b : -((-a + b - 1)
 // Marks the cells whose trilinear support meets the voxel box lo .. hi (inclusive). Cell c's
 // support on an axis is origin + c*cell .. origin + (c+1)*cell, so it meets lo .. hi when
 // c >= ceil((lo - origin) / cell) - 1 and c <= floor((hi - origin) / cell).
-void mark_box(const MajorantGrid& mg, const nanovdb::Coord& lo, int width, std::vector<uint8_t>& marked) {
+// With a margin of m voxels (build_majorant_grid) the support grows by m on both sides, and so
+// does the voxel box it must meet.
+void mark_box(const MajorantGrid& mg, const nanovdb::Coord& lo, int width, const std::array<int, 3>& margin,
+              std::vector<uint8_t>& marked) {
   int64_t c0[3], c1[3];
   for (int a = 0; a < 3; ++a) {
-    const int64_t l = int64_t(lo[a]) - mg.origin[a], h = l + width - 1;
+    const int64_t l = int64_t(lo[a]) - mg.origin[a] - margin[size_t(a)], h = int64_t(lo[a]) - mg.origin[a] + width - 1 + margin[size_t(a)];
     c0[a] = std::max<int64_t>(0, -floor_div(-l, mg.cell) - 1);
     c1[a] = std::min<int64_t>(mg.dims[a] - 1, floor_div(h, mg.cell));
     if (c0[a] > c1[a]) return;
@@ -58,28 +62,71 @@ void mark_box(const MajorantGrid& mg, const nanovdb::Coord& lo, int width, std::
 // The cells whose support holds a leaf or an active tile of the tree. Every other cell reads
 // only inactive tiles and the background, which are 0 (the loader zeroes inactive values), so
 // its bounds are (0, 0) without a lookup: the build costs what the tree holds, not its bbox.
-std::vector<uint8_t> occupied_cells(const FloatGrid& g, const MajorantGrid& mg) {
+std::vector<uint8_t> occupied_cells(const FloatGrid& g, const MajorantGrid& mg, const std::array<int, 3>& margin) {
   std::vector<uint8_t> marked(mg.dmax.size(), 0);
   const auto& root = g.tree().root();
   for (uint32_t i = 0; i < root.tileCount(); ++i) {
     const auto* t = root.data()->tile(i);
     if (!t->isChild()) {
-      if (t->isActive()) mark_box(mg, t->origin(), nanovdb::NanoUpper<float>::DIM, marked);
+      if (t->isActive()) mark_box(mg, t->origin(), nanovdb::NanoUpper<float>::DIM, margin, marked);
       continue;
     }
     const auto* u = root.data()->getChild(t);
     for (uint32_t n = 0; n < nanovdb::NanoUpper<float>::SIZE; ++n) {
       if (!u->data()->isChild(n)) {
-        if (u->data()->isActive(n)) mark_box(mg, u->offsetToGlobalCoord(n), nanovdb::NanoLower<float>::DIM, marked);
+        if (u->data()->isActive(n)) mark_box(mg, u->offsetToGlobalCoord(n), nanovdb::NanoLower<float>::DIM, margin, marked);
         continue;
       }
       const auto* l = u->data()->getChild(n);
       for (uint32_t m = 0; m < nanovdb::NanoLower<float>::SIZE; ++m) {
-        if (l->data()->isChild(m) || l->data()->isActive(m)) mark_box(mg, l->offsetToGlobalCoord(m), Leaf::DIM, marked);
+        if (l->data()->isChild(m) || l->data()->isActive(m)) mark_box(mg, l->offsetToGlobalCoord(m), Leaf::DIM, margin, marked);
       }
     }
   }
   return marked;
+}
+
+// The largest and smallest value of the voxels lo .. hi (inclusive).
+template <typename Accessor>
+std::array<float, 2> voxel_bounds(Accessor& acc, const std::array<int, 3>& lo, const std::array<int, 3>& hi) {
+  float top = -std::numeric_limits<float>::infinity(), bottom = std::numeric_limits<float>::infinity();
+  volume_detail::for_each_box_value(acc, lo, hi, [&](float v) {
+    top = std::max(top, v);
+    bottom = std::min(bottom, v);
+  });
+  return {top, bottom};
+}
+
+// The largest and smallest trilinear value over the box lo - r .. hi + r (index coordinates; lo, hi
+// voxel centres, r >= 0 per axis). The trilinear function is multilinear inside each voxel cube, so
+// its extremes over the box lie at the vertices of the box's cuts by the voxel planes: coordinates
+// lo - r, the voxels lo - k + 1 .. hi + k - 1 (k = ceil r) and hi + r along each axis. Their values
+// are the voxels lo - k .. hi + k with the outermost layer on each side blended towards its
+// neighbour, at lo - r = (lo - k) + w with w = k - r: (1 - w) v(lo - k) + w v(lo - k + 1), one axis
+// after the other (the blend is linear along each axis, so the order does not matter).
+template <typename Accessor>
+std::array<float, 2> reach_bounds(Accessor& acc, const std::array<int, 3>& lo, const std::array<int, 3>& hi,
+                                  const std::array<double, 3>& r) {
+  std::array<int, 3> k{}, n{};
+  for (size_t a = 0; a < 3; ++a) k[a] = int(std::ceil(r[a])), n[a] = hi[a] - lo[a] + 1 + 2 * k[a];
+  std::vector<double> v(size_t(n[0]) * size_t(n[1]) * size_t(n[2]));
+  size_t i = 0;
+  for (int z = 0; z < n[2]; ++z)
+    for (int y = 0; y < n[1]; ++y)
+      for (int x = 0; x < n[0]; ++x) v[i++] = acc.getValue(nanovdb::Coord(lo[0] - k[0] + x, lo[1] - k[1] + y, lo[2] - k[2] + z));
+  const std::array<size_t, 3> stride{1, size_t(n[0]), size_t(n[0]) * size_t(n[1])};
+  for (size_t a = 0; a < 3; ++a) {
+    const double w = double(k[a]) - r[a];
+    if (k[a] == 0 || w == 0) continue;
+    const size_t last = size_t(n[a] - 1) * stride[a];
+    for (size_t j = 0; j < v.size(); ++j) {
+      if ((j / stride[a]) % size_t(n[a]) != 0) continue;  // j: the first voxel of a line along a
+      v[j] += w * (v[j + stride[a]] - v[j]);
+      v[j + last] += w * (v[j + last - stride[a]] - v[j + last]);
+    }
+  }
+  const auto [bottom, top] = std::minmax_element(v.begin(), v.end());
+  return {float(*top), float(*bottom)};
 }
 
 }  // namespace
@@ -89,8 +136,11 @@ std::vector<uint8_t> occupied_cells(const FloatGrid& g, const MajorantGrid& mg) 
 // its one constant value. The cost is thus about (1 + 1/cell)^3 reads per voxel of allocated
 // leaves plus a probe per 8^3 block of active tiles and one byte per cell of the box; the Disney
 // cloud (16x11x20 cells) takes a few ms, and a few stray voxels far apart cost a few cells each.
-MajorantGrid build_majorant_grid(const GridData& grid, int cell) {
+MajorantGrid build_majorant_grid(const GridData& grid, int cell, const std::array<int, 3>& margin,
+                                 const CellReach& cell_reach) {
   if (cell < 1) throw Error("build_majorant_grid: cell size must be >= 1, got " + std::to_string(cell));
+  for (int m : margin)
+    if (m < 0 || m > (1 << 24)) throw Error("build_majorant_grid: margin out of range: " + std::to_string(m));
   MajorantGrid mg;
   mg.cell = cell;
   const FloatGrid* g = grid.handle.grid<float>();
@@ -102,8 +152,8 @@ MajorantGrid build_majorant_grid(const GridData& grid, int cell) {
     return mg;
   }
   for (int a = 0; a < 3; ++a) {
-    mg.origin[a] = grid.index_min[a] - 1;
-    const int64_t span = int64_t(grid.index_max[a]) - grid.index_min[a] + 2;
+    mg.origin[a] = grid.index_min[a] - 1 - margin[size_t(a)];
+    const int64_t span = int64_t(grid.index_max[a]) - grid.index_min[a] + 2 + 2 * int64_t(margin[size_t(a)]);
     mg.dims[a] = int(std::max<int64_t>(1, (span + cell - 1) / cell));
   }
   const double cells = double(mg.dims[0]) * mg.dims[1] * mg.dims[2];
@@ -125,41 +175,29 @@ MajorantGrid build_majorant_grid(const GridData& grid, int cell) {
   const size_t n = size_t(cells);
   mg.dmax.assign(n, 0.0f);
   mg.dmin.assign(n, 0.0f);
-  const std::vector<uint8_t> occupied = occupied_cells(*g, mg);
+  const std::vector<uint8_t> occupied = occupied_cells(*g, mg, margin);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const tbb::blocked_range<size_t>& r) {
     auto acc = g->getAccessor();
     for (size_t idx = r.begin(); idx != r.end(); ++idx) {
       if (!occupied[idx]) continue;  // (0, 0), as assigned
-      const int cx = int(idx % size_t(mg.dims[0]));
-      const int cy = int((idx / size_t(mg.dims[0])) % size_t(mg.dims[1]));
-      const int cz = int(idx / (size_t(mg.dims[0]) * size_t(mg.dims[1])));
-      const int x0 = mg.origin[0] + cx * cell, y0 = mg.origin[1] + cy * cell, z0 = mg.origin[2] + cz * cell;
-      float hi = -std::numeric_limits<float>::infinity(), lo = std::numeric_limits<float>::infinity();
-      const int x1 = x0 + cell, y1 = y0 + cell, z1 = z0 + cell;
-      for (int bz = z0 & ~7; bz <= z1; bz += 8)
-        for (int by = y0 & ~7; by <= y1; by += 8)
-          for (int bx = x0 & ~7; bx <= x1; bx += 8) {
-            const nanovdb::Coord block(bx, by, bz);
-            const Leaf* leaf = acc.probeLeaf(block);
-            if (!leaf) {
-              const float v = acc.getValue(block);
-              hi = std::max(hi, v);
-              lo = std::min(lo, v);
-              continue;
-            }
-            for (int z = std::max(z0, bz); z <= std::min(z1, bz + 7); ++z)
-              for (int y = std::max(y0, by); y <= std::min(y1, by + 7); ++y)
-                for (int x = std::max(x0, bx); x <= std::min(x1, bx + 7); ++x) {
-                  const float v = leaf->getValue(nanovdb::Coord(x, y, z));
-                  hi = std::max(hi, v);
-                  lo = std::min(lo, v);
-                }
-          }
+      const std::array<int, 3> c{int(idx % size_t(mg.dims[0])), int((idx / size_t(mg.dims[0])) % size_t(mg.dims[1])),
+                                 int(idx / (size_t(mg.dims[0]) * size_t(mg.dims[1])))};
+      std::array<int, 3> lo{}, hi{};
+      for (size_t a = 0; a < 3; ++a) lo[a] = mg.origin[a] + c[a] * cell, hi[a] = lo[a] + cell;
+      std::array<float, 2> b;
+      if (cell_reach) {
+        std::array<double, 3> r = cell_reach(lo, hi);
+        for (size_t a = 0; a < 3; ++a) r[a] = std::clamp(r[a], 0.0, double(margin[a]));
+        b = reach_bounds(acc, lo, hi, r);
+      } else {
+        for (size_t a = 0; a < 3; ++a) lo[a] -= margin[a], hi[a] += margin[a];
+        b = voxel_bounds(acc, lo, hi);
+      }
       // Float rounding of the interpolation can exceed the corner values by a few ulps.
-      hi = hi * (1.0f + 1e-5f);
-      if (hi > 0.0f) hi += 1e-30f;
-      mg.dmax[idx] = hi;
-      mg.dmin[idx] = lo * (1.0f - 1e-5f);
+      float top = b[0] * (1.0f + 1e-5f);
+      if (top > 0.0f) top += 1e-30f;
+      mg.dmax[idx] = top;
+      mg.dmin[idx] = b[1] * (1.0f - 1e-5f);
     }
   });
   return mg;

@@ -7,6 +7,7 @@
 #include <openvdb/openvdb.h>
 
 #include "volume/vdb_prescan.h"
+#include "volume/volume.h"
 #include "volume/volume_detail.h"
 
 namespace spectrack {
@@ -16,5 +17,12 @@ namespace volume_detail {
 std::unique_ptr<openvdb::io::File> open_vdb_checked(const std::string& file, const Fail& fail, VdbLayout* layout = nullptr);
 // Fails when a grid's tree disagrees with its file_bbox metadata (damaged files).
 void check_vdb_file_bbox(const openvdb::GridBase& g, const Fail& fail);
+// The active index box and the affine index-to-world map of an OpenVDB grid, into g.
+void set_box_and_map(GridData& g, const openvdb::GridBase& grid);
+// The component float grids `comp` of a vec3 grid (a colour) as GridData: NanoVDB handles
+// named grid_name.x, .y, .z, the vec3 grid's active box and index-to-world map (value ranges are
+// the caller's); `what` names the grid in the conversion's error.
+std::array<GridData, 3> vec3_components(const openvdb::Vec3SGrid& grid, const std::array<openvdb::FloatGrid::Ptr, 3>& comp,
+                                        const std::string& grid_name, const std::string& what, const Fail& fail);
 }  // namespace volume_detail
 }  // namespace spectrack

@@ -250,6 +250,37 @@ std::unique_ptr<openvdb::io::File> open_vdb_checked(const std::string& file, con
   return vdb_open(file, fail, layout);
 }
 void check_vdb_file_bbox(const openvdb::GridBase& g, const Fail& fail) { check_file_bbox(g, fail); }
+
+void set_box_and_map(GridData& g, const openvdb::GridBase& grid) {
+  const openvdb::math::Mat4d mat = grid.transform().baseMap()->getAffineMap()->getMat4();
+  const openvdb::CoordBBox box = grid.evalActiveVoxelBoundingBox();
+  g.empty = box.empty();
+  if (!g.empty) {
+    g.index_min = {box.min()[0], box.min()[1], box.min()[2]};
+    g.index_max = {box.max()[0], box.max()[1], box.max()[2]};
+  }
+  for (int r = 0; r < 3; ++r) {
+    for (int k = 0; k < 3; ++k) g.index_to_world[r][k] = mat(k, r);
+    g.index_to_world[r][3] = mat(3, r);
+  }
+}
+
+std::array<GridData, 3> vec3_components(const openvdb::Vec3SGrid& grid, const std::array<openvdb::FloatGrid::Ptr, 3>& comp,
+                                        const std::string& grid_name, const std::string& what, const Fail& fail) {
+  std::array<GridData, 3> out;
+  for (int c = 0; c < 3; ++c) {
+    GridData& g = out[size_t(c)];
+    g.file = fail.file;
+    g.name = grid_name + "." + "xyz"[c];
+    try {
+      g.handle = nanovdb::openToNanoVDB(*comp[size_t(c)]);
+    } catch (const std::exception& ex) {
+      fail("cannot convert " + what + " to NanoVDB: " + ex.what());
+    }
+    set_box_and_map(g, grid);
+  }
+  return out;
+}
 }  // namespace volume_detail
 
 GridData load_float_grid(const std::string& file, const std::string& grid_name, int grid_index,
@@ -372,29 +403,10 @@ std::array<GridData, 3> load_color_grid(const std::string& file, const std::stri
   check_file_bbox(*grid, fail);
   std::array<float, 3> lo{}, hi{};
   const std::array<openvdb::FloatGrid::Ptr, 3> comp = split_color_grid(*grid, gname, fail, lo, hi);
-  std::array<GridData, 3> out;
-  const openvdb::math::Mat4d mat = grid->transform().baseMap()->getAffineMap()->getMat4();
-  const openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
+  std::array<GridData, 3> out = vec3_components(*grid, comp, grid_name, "colour grid " + gname, fail);
   for (int c = 0; c < 3; ++c) {
-    GridData& g = out[size_t(c)];
-    g.file = file;
-    g.name = grid_name + "." + "xyz"[c];
-    try {
-      g.handle = nanovdb::openToNanoVDB(*comp[c]);
-    } catch (const std::exception& ex) {
-      fail("cannot convert colour grid " + gname + " to NanoVDB: " + ex.what());
-    }
-    g.empty = box.empty();
-    if (!g.empty) {
-      g.index_min = {box.min()[0], box.min()[1], box.min()[2]};
-      g.index_max = {box.max()[0], box.max()[1], box.max()[2]};
-    }
-    g.value_min = lo[size_t(c)];  // over active values and the background
-    g.value_max = hi[size_t(c)];
-    for (int r = 0; r < 3; ++r) {
-      for (int k = 0; k < 3; ++k) g.index_to_world[r][k] = mat(k, r);
-      g.index_to_world[r][3] = mat(3, r);
-    }
+    out[size_t(c)].value_min = lo[size_t(c)];  // over active values and the background
+    out[size_t(c)].value_max = hi[size_t(c)];
   }
   return out;
 }

@@ -11,6 +11,7 @@
 // (docs/estimators.md, 'The trilinear-support rule'), so dmin <= density(p) <= dmax for every p in the cell.
 #pragma once
 #include <array>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -61,8 +62,18 @@ struct MajorantGrid {
 
 // Builds the majorant grid of `grid` with `cell` voxels per cell edge. dmax is inflated by a
 // relative 1e-5 (float rounding of the interpolation), dmin deflated likewise. An empty grid
-// gives a single cell with dmax = dmin = 0.
-MajorantGrid build_majorant_grid(const GridData& grid, int cell = 8);
+// gives a single cell with dmax = dmin = 0. margin: a moving medium's lookups reach up to
+// margin[a] voxels away along axis a (motion blur, kernels/medium.h medium_lookup_index): the
+// box grows by margin[a] voxels on both faces and each cell's support by margin[a] voxels on both
+// sides, so the cell bounds the density at every point its lookups can reach (0: the plain grid).
+// cell_reach, when given, narrows that per cell: for a cell whose support spans the voxels
+// lo .. hi (inclusive; cell edges on voxel centres) it returns how far (voxels, fractional, clamped
+// to 0 .. margin) the lookups of points inside the cell can reach along each axis, and the cell
+// bounds the trilinear density over its extent grown by exactly that; the box, and the cells that
+// read only the background, stay those of margin.
+using CellReach = std::function<std::array<double, 3>(const std::array<int, 3>& lo, const std::array<int, 3>& hi)>;
+MajorantGrid build_majorant_grid(const GridData& grid, int cell = 8, const std::array<int, 3>& margin = {0, 0, 0},
+                                 const CellReach& cell_reach = {});
 // The largest majorant cell edge (voxels): --majorant-cell and the automatic choice stay within it.
 // A grid that needs more than 2^27 cells even at this edge is refused by build_majorant_grid.
 constexpr int kMaxMajorantCellEdge = 1024;

@@ -1,6 +1,8 @@
 // volume_detail.h: what the loaders of volume.cpp and nvdb_file.cpp share (internal to
 // src/volume): NanoVDB type names, the Fail message builder, and the grid list entry.
 #pragma once
+#include <algorithm>
+#include <array>
 #include <cstdint>
 #include <sstream>
 #include <string>
@@ -22,6 +24,26 @@ using Root = nanovdb::NanoRoot<float>;
 using Upper = nanovdb::NanoUpper<float>;
 using Lower = nanovdb::NanoLower<float>;
 using Leaf = nanovdb::NanoLeaf<float>;
+
+// Calls f(value) for the voxels lo .. hi (inclusive) of a NanoVDB grid through its accessor: each
+// 8^3 leaf-aligned block that meets the box gives a leaf's voxels inside the box, or the block's
+// one value (a tile's or the background) once. The bounds of a box cost what its leaves hold.
+template <typename Accessor, typename F>
+void for_each_box_value(Accessor& acc, const std::array<int, 3>& lo, const std::array<int, 3>& hi, F&& f) {
+  for (int bz = lo[2] & ~7; bz <= hi[2]; bz += 8)
+    for (int by = lo[1] & ~7; by <= hi[1]; by += 8)
+      for (int bx = lo[0] & ~7; bx <= hi[0]; bx += 8) {
+        const nanovdb::Coord block(bx, by, bz);
+        const auto* leaf = acc.probeLeaf(block);
+        if (!leaf) {
+          f(acc.getValue(block));
+          continue;
+        }
+        for (int z = std::max(lo[2], bz); z <= std::min(hi[2], bz + 7); ++z)
+          for (int y = std::max(lo[1], by); y <= std::min(hi[1], by + 7); ++y)
+            for (int x = std::max(lo[0], bx); x <= std::min(hi[0], bx + 7); ++x) f(leaf->getValue(nanovdb::Coord(x, y, z)));
+      }
+}
 
 // Formats "<context>: <file>: <reason>" and throws.
 struct Fail {

@@ -62,17 +62,23 @@ void check_scene(const spectrack::SceneDesc& s) {
   check(fs::path(s.film.output).is_absolute(), "film output not resolved to an absolute path");
   check(s.render.tracker >= 0 && s.render.tracker < ST_TRACKER_COUNT, "render tracker");
   check(s.render.scheme >= 0 && s.render.scheme < ST_SCHEME_COUNT, "render scheme");
-  check(s.render.max_depth >= -1, "render max_depth < -1");
+  check(!s.render.max_depth || *s.render.max_depth >= 0, "render max_depth < 0");
   check(s.lights.size() <= ST_MAX_LIGHTS, "more than ST_MAX_LIGHTS lights");
   int environments = 0;
   for (const LightDesc& l : s.lights) {
-    check(l.type == ST_LIGHT_ENV_UNIFORM || l.type == ST_LIGHT_ENV_MAP || l.type == ST_LIGHT_DIRECTIONAL, "light type");
-    if (l.type != ST_LIGHT_DIRECTIONAL) ++environments;
+    check(l.type >= ST_LIGHT_ENV_UNIFORM && l.type <= ST_LIGHT_SPHERE, "light type");
+    const bool local = l.type == ST_LIGHT_POINT || l.type == ST_LIGHT_SPOT || l.type == ST_LIGHT_SPHERE;
+    if (l.type == ST_LIGHT_ENV_UNIFORM || l.type == ST_LIGHT_ENV_MAP) ++environments;
+    if (local) check(finite3(l.position) && nonneg3(l.intensity), "local light position or intensity");
+    if (l.type == ST_LIGHT_SPOT)
+      check(l.cone_angle_deg > 0 && l.cone_angle_deg <= 180 && l.cone_delta_deg >= 0 && l.cone_delta_deg <= l.cone_angle_deg,
+            "spot cone");
+    if (l.type == ST_LIGHT_SPHERE) check(l.radius > 0 && std::isfinite(l.radius), "sphere radius");
     check(nonneg3(l.radiance) && nonneg3(l.irradiance), "light radiance/irradiance negative or not finite");
     check(std::isfinite(l.scale) && l.scale >= 0, "light scale");
     check(finite3(l.to_light) && (l.to_light[0] != 0 || l.to_light[1] != 0 || l.to_light[2] != 0), "light to_light");
     check(l.angle_deg >= 0 && l.angle_deg < 180, "light angle_deg");
-    check(l.type != ST_LIGHT_ENV_MAP || fs::path(l.map).is_absolute(), "environment map not absolute");
+    check(l.type != ST_LIGHT_ENV_MAP || l.sky || fs::path(l.map).is_absolute(), "environment map not absolute");
     // scene/radiance.h: what the float kernels can carry
     const double r = std::max({l.radiance[0], l.radiance[1], l.radiance[2]});
     const double e = std::max({l.irradiance[0], l.irradiance[1], l.irradiance[2]});

@@ -1,0 +1,198 @@
+/* guide_paths.h: what guiding does along a path on the device (docs/guiding.md): the radiance
+ * records of training passes (a ring of the path's last scatter vertices, credited with every later
+ * contribution) and guided Russian roulette and splitting in the render.
+ *
+ * Design: included by guiding.h on the device only, after the cache's structs and lookups; each
+ * kernel calls these only where the feature mask has ST_FEATURE_GUIDING (features.h). */
+#ifndef SPECTRACK_GUIDE_PATHS_H
+#define SPECTRACK_GUIDE_PATHS_H
+
+/* Appends one record (the count is the buffer's first uint; the records start 16 bytes in). The
+ * host drains the buffer after every iteration, and its capacity is the shadow queue's, so no
+ * record is lost. */
+inline void guide_record_push(__global uint* rec, uint capacity, float3 pos, float3 dir, float weight, uint4 key) {
+  uint i = atomic_inc(&rec[0]);
+  if (i >= capacity) return;
+  __global st_guide_record* r = (__global st_guide_record*)(rec + 4) + i;
+  r->pos = (float4)(pos, 0.0f); /* the host bins the records by position into its refined regions */
+  r->dir = (float4)(dir, weight);
+  r->key[0] = key.x;
+  r->key[1] = key.y;
+  r->key[2] = key.z;
+  r->key[3] = key.w;
+}
+
+/* The record buffer of a training pass: a uint count (16 bytes), `capacity` records, one
+ * st_guide_slot per path slot (Q of them), then ST_GUIDE_RING vertices per path slot. Outside
+ * training it holds the count only, and no kernel reads further. */
+inline __global st_guide_slot* guide_slot(__global uint* rec, uint capacity, uint slot) {
+  return (__global st_guide_slot*)(rec + 4 + capacity * (ST_SIZEOF_GUIDE_RECORD / 4)) + slot;
+}
+inline __global st_guide_vertex* guide_ring(__global uint* rec, uint capacity, uint Q, uint slot) {
+  return (__global st_guide_vertex*)guide_slot(rec, capacity, Q) + slot * ST_GUIDE_RING;
+}
+
+/* The mean over the path's lanes of c / beta (lanes whose beta is 0 left out): what a contribution
+ * c of the path says about the radiance at a vertex that beta arrived at. */
+inline float guide_ratio(float4 c, float4 beta, float4 mask) {
+  float cc[4] = {c.x, c.y, c.z, c.w}, bb[4] = {beta.x, beta.y, beta.z, beta.w}, mm[4] = {mask.x, mask.y, mask.z, mask.w};
+  float sum = 0.0f, n = 0.0f;
+  for (int i = 0; i < 4; ++i)
+    if (mm[i] > 0.0f && bb[i] != 0.0f) sum += cc[i] / bb[i], n += 1.0f;
+  return n > 0.0f ? sum / n : 0.0f;
+}
+
+/* Credits the contribution c to the ring's vertices of depths first .. last (those below 0 or out
+ * of the ring are skipped); the ring's later vertices (depths last + 1 .. depth - 1) add it to
+ * what their record's radiance leaves out (st_guide_vertex.total). */
+inline void guide_credit(__global st_guide_vertex* ring, int first, int last, int depth, float4 c, float4 mask) {
+  if (!(masked_max(fabs(c), mask) > 0.0f)) return;
+  for (int k = max(max(first, 0), depth - ST_GUIDE_RING); k < depth; ++k) {
+    __global st_guide_vertex* v = &ring[k % ST_GUIDE_RING];
+    if (k <= last) v->pos.w += guide_ratio(c, v->beta, mask);
+    else v->total.x += masked_avg(c, mask);
+  }
+}
+
+/* Vertex `depth` of a training path enters the ring: its position, scattered direction wi with the
+ * phase function's value f there, the throughput beta_in that arrived at it, and the path's
+ * radiance so far (lane mean) `total`. */
+inline void guide_ring_enter(__global st_guide_vertex* ring, int depth, float3 x, float3 wi, float f, float4 beta_in,
+                             float total) {
+  __global st_guide_vertex* v = &ring[depth % ST_GUIDE_RING];
+  v->pos = (float4)(x, 0.0f);
+  v->dir = (float4)(wi, f);
+  v->beta = beta_in;
+  v->total = (float4)(total, 0.0f, 0.0f, 0.0f);
+}
+
+
+/* The record of ring vertex k of a path: what its scattered direction brought back per unit
+ * throughput arriving at it, f_phase L / p_mix (its credited sum): the fit's density then follows
+ * the product of the phase function and the incident radiance, averaged over the region's
+ * vertices (at the first scatter event their propagation directions are close: the camera's). */
+inline void guide_vertex_record(__global uint* rec, __global const st_guide_header* h, __global st_guide_vertex* v,
+                                uint4 key, float4 mask) {
+  float w = v->pos.w;
+  if ((int)key.w < h->guided_depth && w > 0.0f && isfinite(w)) /* only the guided scatter events fit */
+    guide_record_push(rec, (uint)h->dims[3], v->pos.xyz, v->dir.xyz, w, key);
+  const float b = masked_avg(fabs(v->beta), mask);
+  if (b > 0.0f && isfinite(v->total.x))
+    guide_record_push(rec, (uint)h->dims[3], v->pos.xyz, (float3)(v->total.x, b, 0.0f), 0.0f,
+                      (uint4)(key.xyz, key.w | ST_GUIDE_RECORD_RADIANCE));
+}
+/* A scatter event of a training path: credits what the path gathered since its last scatter
+ * event (emission) to its vertices, records the vertex that leaves the ring; the slot's state
+ * starts at the path's first scatter event. */
+inline void guide_training_scatter(__global const st_guide_header* h, __global uint* rec, __global st_guide_vertex* ring,
+                                   uint slot, const st_path* p, float4 mask) {
+  __global st_guide_slot* gs = guide_slot(rec, (uint)h->dims[3], slot);
+  if (p->depth == 0) gs->L_seen = p->L;
+  guide_credit(ring, 0, p->depth - 1, p->depth, p->L - gs->L_seen, mask);
+  gs->L_seen = p->L;
+  if (p->depth >= ST_GUIDE_RING) /* vertex depth - RING leaves the ring */
+    guide_vertex_record(rec, h, &ring[p->depth % ST_GUIDE_RING],
+                        (uint4)(p->pixel, p->sample, p->channel, (uint)(p->depth - ST_GUIDE_RING)), mask);
+}
+
+/* The radiance a path has gathered so far, its lanes' mean: its L and its lights' accumulators
+ * (the folded shadow rays). */
+inline float guide_path_total(__global const st_shadow* shadows, uint NL, int n_lights, uint slot, const st_path* p,
+                              float4 mask) {
+  float4 r = p->L;
+  for (int l = 0; l < n_lights; ++l) r += shadows[slot * NL + (uint)l].Ls;
+  return masked_avg(r, mask);
+}
+
+/* A finished training path (its shadow rays folded): credits what it gathered since its last
+ * scatter event, records the vertices left in its ring and appends its end record. */
+inline void guide_training_finish(__global const st_guide_header* h, __global uint* rec, __global st_guide_vertex* ring,
+                                  uint slot, const st_path* p, float4 mask, float total) {
+  if (p->depth <= 0) return;
+  guide_credit(ring, 0, p->depth - 1, p->depth, p->L - guide_slot(rec, (uint)h->dims[3], slot)->L_seen, mask);
+  for (int k = max(0, p->depth - ST_GUIDE_RING); k < p->depth; ++k)
+    guide_vertex_record(rec, h, &ring[k % ST_GUIDE_RING], (uint4)(p->pixel, p->sample, p->channel, (uint)k), mask);
+  guide_record_push(rec, (uint)h->dims[3], (float3)(0.0f), (float3)(total, 0.0f, 0.0f), 0.0f,
+                    (uint4)(p->pixel, p->sample, p->channel, ST_GUIDE_RECORD_END));
+}
+
+/* ---- guided Russian roulette and splitting (Vorba and Krivanek 2016, docs/guiding.md) ----
+ * After the regions the cache buffer holds the training passes' estimate of every film pixel (the
+ * mean over its samples and RGB channels). At a scatter event whose direction is not drawn yet,
+ * the ratio q of the path's expected contribution from there on (its throughput's lane mean times
+ * the region's mean radiance per unit throughput) to its pixel's estimate decides: below
+ * rr_below the path survives with probability max(q, rr_floor), its throughput divided by it;
+ * from 1.5 on it splits into n = min(round(q), split_max) paths of throughput beta / n. Both keep
+ * the expectation, for any cache. Splitting is depth first inside the path's slot: the parent goes
+ * on as the first path and the n - 1 others wait in the slot's st_guide_slot; when a path of the
+ * family finishes, the next waiting child restarts there (its parent's next-event estimation is
+ * not repeated), with random streams of its own (its split id in the key). The family's radiance
+ * carries over from path to path and the sample is written once, by its last path, so the image
+ * does not depend on the schedule, the device or the shard. While a child waits, the family does
+ * not split again (roulette still applies); a family starts at most ST_GUIDE_FAMILY_MAX children. */
+#define ST_GUIDE_FAMILY_MAX 64u
+
+inline __global const float* guide_pixel_estimates(__global const st_guide_header* h) {
+  return (__global const float*)(guide_nodes(h) + h->nodes);
+}
+
+/* The slot's guide state where guided roulette and splitting are on (the render, not training). */
+inline __global st_guide_slot* guide_split_slot(__global const st_guide_header* h, __global uint* rec, uint slot) {
+  return ST_HAS_GUIDING && h->split_max > 0 ? guide_slot(rec, (uint)h->dims[3], slot) : 0;
+}
+
+/* The random key of the path in `slot`: its split id times an odd constant (a bijection of the
+ * 32-bit ids) folded into the key's second word; id 0, the camera path, keeps the plain key. */
+inline void guide_rng_key(st_rng* r, __global const st_guide_header* h, __global uint* rec, uint slot) {
+  __global st_guide_slot* gs = guide_split_slot(h, rec, slot);
+  if (gs) r->key.y ^= gs->split[0] * 0x9E3779B9u;
+}
+
+/* A new camera path in the slot: no family yet. */
+inline void guide_split_begin(__global const st_guide_header* h, __global uint* rec, uint slot) {
+  __global st_guide_slot* gs = guide_split_slot(h, rec, slot);
+  if (gs)
+    for (int k = 0; k < 4; ++k) gs->split[k] = 0u;
+}
+
+/* Guided roulette and splitting at the scatter event of *p (above): returns 0 when the path ends,
+ * n >= 2 when it splits (beta divided by n, n - 1 children saved in the slot), 1 when it goes on,
+ * and -1 where the region or the pixel has no estimate (the throughput's roulette applies). */
+inline int guide_rrs(__global const st_guide_header* h, __global st_guide_slot* gs, st_path* p, float4 mask, st_rng* rng) {
+  __global const st_guide_region* r = guide_regions(h) + guide_region_index(h, p->o.x, p->o.y, p->o.z);
+  const float estimate = guide_pixel_estimates(h)[p->pixel];
+  if (!(r->records > 0.0f) || !(estimate > 0.0f) || !(r->radiance >= 0.0f)) return -1;
+  const float q = masked_avg(fabs(p->beta), mask) * r->radiance / estimate;
+  if (q < h->rr_below) {
+    const float survive = fmax(q, h->rr_floor);
+    if (rng_uniform(rng) >= survive) return 0;
+    p->beta /= survive;
+    return 1;
+  }
+  const int n = min((int)fmin(q + 0.5f, 1e6f), h->split_max);
+  if (n < 2 || gs->split[1] > 0u || gs->split[2] + (uint)n > ST_GUIDE_FAMILY_MAX) return 1;
+  p->beta /= (float)n;
+  gs->saved = *p;
+  gs->split[1] = (uint)(n - 1);
+  return n;
+}
+
+/* A finished path of a family with a waiting child: the child takes the slot (its saved state, the
+ * family's radiance L so far, a new split id and stream) and resumes its parent's scatter event.
+ * Returns 1 when a child restarted (the sample is not written yet). */
+inline int guide_next_child(__global const st_guide_header* h, __global uint* rec, uint slot, st_path* p) {
+  __global st_guide_slot* gs = guide_split_slot(h, rec, slot);
+  if (!gs || gs->split[1] == 0u) return 0;
+  const float4 L = p->L;
+  *p = gs->saved;
+  p->L = L;
+  p->pending = 0;
+  p->rng_draw = 0u;
+  gs->split[1] -= 1u;
+  gs->split[2] += 1u;
+  gs->split[0] = gs->split[2];
+  gs->split[3] = 1u;
+  return 1;
+}
+
+#endif /* SPECTRACK_GUIDE_PATHS_H */

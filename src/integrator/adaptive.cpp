@@ -1,0 +1,314 @@
+// adaptive.cpp: see adaptive.h.
+#include "integrator/adaptive.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <limits>
+#include <map>
+#include <cmath>
+#include <numeric>
+
+#include "integrator/film_watch.h"
+#include "integrator/noise.h"
+#include "util/error.h"
+
+namespace spectrack {
+
+double AdaptivePixel::sample_variance(int c) const {
+  if (n < 2) return 0.0;
+  const double dn = double(n);
+  return std::max(0.0, (s2[c] - s1[c] * s1[c] / dn) / (dn - 1.0));
+}
+
+double AdaptivePixel::brightness() const { return n > 0 ? (s1[0] + s1[1] + s1[2]) / (3.0 * double(n)) : 0.0; }
+
+int64_t adaptive_round_samples(int64_t n, const AdaptivePlan& plan) {
+  const int64_t pilot = std::min(plan.pilot, plan.spp);
+  if (n == 0) return pilot;
+  return std::min(std::max(pilot, n / 2), plan.spp - n);
+}
+
+double adaptive_relative_variance(const AdaptivePixel& px, double floor) {
+  const double sigma2 = (px.sample_variance(0) + px.sample_variance(1) + px.sample_variance(2)) / 3.0;
+  const double m = std::max(px.brightness(), floor);
+  return sigma2 > 0.0 && m > 0.0 ? sigma2 / (m * m) : 0.0;
+}
+
+std::vector<double> adaptive_neighbourhood(const std::vector<AdaptivePixel>& px, int width, int height, double floor) {
+  std::vector<double> rho(px.size()), out(px.size(), 0.0);
+  for (size_t i = 0; i < px.size(); ++i) rho[i] = adaptive_relative_variance(px[i], floor);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      double sum = 0;
+      int count = 0;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int u = x + dx, v = y + dy;
+          if (u >= 0 && v >= 0 && u < width && v < height) {
+            sum += rho[size_t(v) * size_t(width) + size_t(u)];
+            ++count;
+          }
+        }
+      const size_t i = size_t(y) * size_t(width) + size_t(x);
+      out[i] = std::max(rho[i], sum / double(count));
+    }
+  return out;
+}
+
+double adaptive_samples_needed(const AdaptivePixel& px, double rho, const AdaptivePlan& plan) {
+  if (!(rho > 0.0)) return 0.0;  // nothing to average out (a background every sample sees alike)
+  const double e = plan.target * kAdaptiveAim;
+  if (!(e * e > rho * px.V)) return std::numeric_limits<double>::infinity();
+  return std::ceil(px.B * px.B * rho / (e * e - rho * px.V));
+}
+
+double adaptive_round_weight(const AdaptivePixel& px, int64_t k, int64_t cap, double rho, const AdaptivePlan& plan) {
+  // the pilot: fixed before any sample, as if every pixel took the whole spp
+  if (px.n == 0) return k >= plan.spp ? 1.0 : double(k) / double(plan.spp);
+  const int64_t left = std::min(cap, plan.spp) - px.n;
+  if (k >= left) return px.B;
+  // the samples to come that bring rho (V + B^2 / T) down to the aim, at most what is left
+  const double T = std::min(double(left), adaptive_samples_needed(px, rho, plan));
+  if (T <= double(k)) return px.B;
+  // the weight from rho made larger where it rests on few samples (adaptive.h kAdaptiveWeightMargin)
+  const double rho_w = rho * (1.0 + kAdaptiveWeightMargin / std::sqrt(double(px.n)));
+  const double T_w = std::min(double(left), adaptive_samples_needed(px, rho_w, plan));
+  return px.B * double(k) / std::max(T, T_w);
+}
+
+int64_t adaptive_round_length(const AdaptivePixel& px, int64_t k, int64_t cap, double rho, const AdaptivePlan& plan) {
+  if (px.n == 0) return k;  // the pilot
+  // the last round: the samples still needed (at most those left below the cap) rounded up to a
+  // multiple of a quarter of the round, at least a quarter (a cap that fell below the pixel's
+  // samples leaves none, and the weight left still needs samples)
+  const int64_t q = (k + kAdaptiveLastRoundSteps - 1) / kAdaptiveLastRoundSteps;
+  const int64_t left = std::min(cap, plan.spp) - px.n;
+  const double T = std::min(double(left), adaptive_samples_needed(px, rho, plan));
+  if (k < left && T > double(k)) return k;  // not the last round
+  return std::min(k, std::max<int64_t>(q, (int64_t(std::ceil(T)) + q - 1) / q * q));
+}
+
+int64_t adaptive_cap(const std::vector<AdaptivePixel>& px, const std::vector<double>& rho, const AdaptivePlan& plan) {
+  std::vector<double> need;
+  for (size_t i = 0; i < px.size(); ++i) {
+    const AdaptivePixel& x = px[i];
+    if (!(x.brightness() > 0.0 && adaptive_relative_variance(x, 0.0) > 0.0)) continue;  // noise.h's counted pixels
+    need.push_back(x.done() ? double(x.n) : double(x.n) + adaptive_samples_needed(x, rho[i], plan));
+  }
+  if (need.empty()) return plan.spp;
+  const size_t k = std::min(need.size() - 1, size_t(std::ceil(kNoisePercentile * double(need.size()))) - 1);
+  std::nth_element(need.begin(), need.begin() + std::ptrdiff_t(k), need.end());
+  return int64_t(std::min(double(plan.spp), std::max(need[k], double(2 * plan.pilot))));
+}
+
+void adaptive_add_round(AdaptivePixel& px, double a, int64_t k, const double* s1, const double* s2) {
+  px.n += k;
+  for (int c = 0; c < 3; ++c) {
+    px.s1[c] += s1[c];
+    px.s2[c] += s2[c];
+  }
+  px.V += a * a / double(k);
+  px.B = a >= px.B ? 0.0 : px.B - a;
+}
+
+namespace {
+
+// The weighted sums of one window's film: beauty R, G, B, then the film layers' sums (the second
+// moments' columns unused: finish() makes them from the pixels' variances).
+struct WeightedFilm {
+  size_t na = 0, stride = 0;
+  int64_t m2 = -1, env = -1;  // columns of moment2.R and (transparent film) environment.R
+  std::vector<std::string> channels;
+  std::vector<double> w;
+  std::vector<AdaptivePixel> px;
+
+  WeightedFilm(const RenderSettings& s) : channels(aov_sum_channels(s.aovs)) {
+    na = channels.size();
+    stride = 3 + na;
+    for (size_t q = 0; q < na; ++q) {
+      if (channels[q] == "moment2.R") m2 = int64_t(q);
+      if (channels[q] == "environment.R" && (s.aovs & ST_AOV_BIT(ALPHA))) env = int64_t(q);
+    }
+    if (m2 < 0) throw Error("internal: adaptive sampling without the variance layer");
+    w.assign(s.window.pixels() * stride, 0.0);
+    px.resize(s.window.pixels());
+  }
+
+  // Adds round-pixel j of `rr` (k samples) to window pixel p with weight a.
+  void add(const RenderResult& rr, size_t j, uint32_t p, double a, int64_t k) {
+    double s1[3], s2[3];
+    for (int c = 0; c < 3; ++c) {
+      s1[c] = rr.sum[j * 3 + c] + (env >= 0 ? rr.aov_sum[j * na + size_t(env) + c] : 0.0);  // the whole beauty
+      s2[c] = rr.aov_sum[j * na + size_t(m2) + c];
+    }
+    double* o = &w[p * stride];
+    const double f = a / double(k);
+    for (int c = 0; c < 3; ++c) o[c] += f * rr.sum[j * 3 + c];
+    for (size_t q = 0; q < na; ++q) o[3 + q] += f * rr.aov_sum[j * na + q];
+    adaptive_add_round(px[p], a, k, s1, s2);
+  }
+
+  // The film as a render of spp samples (adaptive.h AdaptiveResult::film).
+  void finish(RenderResult& f, const RenderSettings& s, int64_t spp) const {
+    const size_t npix = px.size();
+    const double n = double(spp);
+    f.width = s.window.width;
+    f.height = s.window.height;
+    f.sample_begin = 0;
+    f.spp_requested = int(spp);
+    f.spp_done = int(spp);
+    f.aov_channels = channels;
+    f.sum.assign(npix * 3, 0.0);
+    f.aov_sum.assign(npix * na, 0.0);
+    f.rgb.assign(npix * 3, 0.0f);
+    for (size_t p = 0; p < npix; ++p) {
+      const AdaptivePixel& x = px[p];
+      const double taken = 1.0 - x.B;  // 1 unless the render was stopped
+      if (!(taken > 0.0)) continue;
+      const double scale = n / taken;
+      for (int c = 0; c < 3; ++c) {
+        f.sum[p * 3 + c] = w[p * stride + c] * scale;
+        f.rgb[p * 3 + c] = float(f.sum[p * 3 + c] / n);
+      }
+      for (size_t q = 0; q < na; ++q) f.aov_sum[p * na + q] = w[p * stride + 3 + q] * scale;
+      for (int c = 0; c < 3; ++c) {  // S2 = n (n - 1) v + S1^2 / n gives film.h's variance v
+        const double s1 = f.sum[p * 3 + c] + (env >= 0 ? f.aov_sum[p * na + size_t(env) + c] : 0.0);
+        const double v = x.sample_variance(c) * x.V / (taken * taken);
+        f.aov_sum[p * na + size_t(m2) + c] = n >= 2 ? n * (n - 1.0) * v + s1 * s1 / n : s1 * s1;
+      }
+    }
+  }
+};
+
+// kNoiseFloor times the mean brightness of the pixels whose pilot is noisy (noise.h).
+double pilot_floor(const std::vector<AdaptivePixel>& px) {
+  double total = 0;
+  uint64_t count = 0;
+  for (const AdaptivePixel& x : px) {
+    const double m = x.brightness(), v = x.sample_variance(0) + x.sample_variance(1) + x.sample_variance(2);
+    if (m > 0.0 && v > 0.0) {
+      total += m;
+      ++count;
+    }
+  }
+  return count ? kNoiseFloor * total / double(count) : 0.0;
+}
+
+void add_round_info(RenderResult& f, const RenderResult& rr, bool first) {
+  if (first) {
+    RenderStats none;
+    f = rr;
+    f.stats = none;
+    f.seconds_render = 0;
+  }
+  f.stats.add(rr.stats);
+  f.seconds_render += rr.seconds_render;
+  f.time_limit_reached = f.time_limit_reached || rr.time_limit_reached;
+}
+
+// A round's pixels by the samples they take in it, longest first.
+using RoundGroups = std::map<int64_t, std::vector<uint32_t>, std::greater<int64_t>>;
+
+// Renders one round, starting at sample n: each group is one render of its pixels, added with the
+// weights wt (per window pixel). Returns whether the render was stopped.
+bool render_round(Renderer& r, const RoundGroups& groups, const std::vector<double>& wt, int64_t n, WeightedFilm& film,
+                  AdaptiveResult& out) {
+  static const bool trace = std::getenv("SPECTRACK_TRACE_ADAPTIVE") != nullptr;
+  for (const auto& [len, pix] : groups) {
+    const RenderResult rr = r.render_pixels(pix, n, int(len));
+    if (trace)
+      fmt::print(stderr, "round {}: {} samples of {} pixels from sample {}: {:.3f} s, occupancy {:.2f}, {} iterations\n",
+                 out.rounds, len, pix.size(), n, rr.seconds_render, rr.stats.occupancy_mean, rr.stats.iterations);
+    add_round_info(out.film, rr, out.film.width == 0);
+    if (rr.spp_done > 0)
+      for (size_t j = 0; j < pix.size(); ++j) film.add(rr, j, pix[j], wt[pix[j]], rr.spp_done);
+    if (rr.interrupted) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+AdaptiveResult render_adaptive(Renderer& r, const AdaptivePlan& plan,
+                               const std::function<void(const AdaptiveResult&)>& after_round) {
+  const RenderSettings& s = r.settings();
+  if (!s.adaptive) throw Error("internal: an adaptive render with a renderer made without adaptive sampling");
+  if (plan.spp < 1 || !(plan.target > 0)) throw Error("internal: an adaptive render needs spp >= 1 and a target");
+  WeightedFilm film(s);
+  AdaptiveResult out;
+  std::vector<uint32_t> active(s.window.pixels());
+  std::iota(active.begin(), active.end(), 0u);
+  out.floor = plan.floor;
+  int64_t n = 0;
+  bool stopped = false;
+  while (!active.empty() && n < plan.spp && !stopped) {
+    const int64_t k = adaptive_round_samples(n, plan);
+    const std::vector<double> rho = adaptive_neighbourhood(film.px, s.window.width, s.window.height, out.floor);
+    const int64_t cap = n == 0 ? plan.spp : adaptive_cap(film.px, rho, plan);
+    RoundGroups groups;
+    std::vector<double> wt(film.px.size());
+    for (const uint32_t p : active) {
+      wt[p] = adaptive_round_weight(film.px[p], k, cap, rho[p], plan);
+      groups[adaptive_round_length(film.px[p], k, cap, rho[p], plan)].push_back(p);
+    }
+    stopped = render_round(r, groups, wt, n, film, out);
+    if (n == 0 && plan.floor <= 0) out.floor = pilot_floor(film.px);
+    n += k;
+    ++out.rounds;
+    out.round_end = n;
+    active.erase(std::remove_if(active.begin(), active.end(), [&](uint32_t p) { return film.px[p].done(); }),
+                 active.end());
+    if (after_round) {
+      film.finish(out.film, s, plan.spp);
+      after_round(out);
+    }
+  }
+  RenderResult& f = out.film;
+  film.finish(f, s, plan.spp);
+  f.interrupted = stopped;
+  if (std::all_of(film.px.begin(), film.px.end(), [](const AdaptivePixel& x) { return x.n == 0; }))
+    f.spp_done = 0;  // stopped before the pilot's first batch: nothing to write
+  out.samples.resize(film.px.size());
+  double total = 0;
+  for (size_t p = 0; p < film.px.size(); ++p) {
+    out.samples[p] = float(film.px[p].n);
+    total += double(film.px[p].n);
+  }
+  out.mean_samples = film.px.empty() ? 0.0 : total / double(film.px.size());
+  const NoiseEstimate e = estimate_film_noise(f.sum, f.aov_sum, f.aov_channels, plan.spp);
+  f.noise_target_reached = !stopped && e.error <= plan.target;
+  return out;
+}
+
+MultiDeviceResult render_adaptive_film(const SceneDesc& scene, const RenderOptions& base, const RenderSettings& settings,
+                                       const std::string& device) {
+  RenderOptions opt = base;
+  opt.device = device;
+  opt.watch = nullptr;  // a round's film is not the render's: the watch sees the adaptive film
+  opt.progress = nullptr;
+  Renderer renderer(scene, settings, opt);
+  AdaptivePlan plan;
+  plan.target = settings.noise_target;
+  plan.spp = settings.spp;
+  plan.pilot = kNoiseMinSpp;
+  const AdaptiveResult a = render_adaptive(renderer, plan, [&](const AdaptiveResult& so_far) {
+    if (base.watch) base.watch->see(so_far.film, nullptr);  // the preview
+    if (base.progress) base.progress(double(so_far.round_end) / double(plan.spp));
+  });
+  const RenderResult& f = a.film;
+  MultiDeviceResult out = device_result(f);
+  out.piece = piece_from_result(f, render_identity(settings), "render");
+  out.piece.pixel_samples = a.samples;
+  out.devices = {renderer.device_name()};
+  out.samples_per_device = {int64_t(a.mean_samples * double(settings.window.pixels()) + 0.5)};
+  out.record_settings(settings);
+  out.spp_requested = settings.spp;
+  out.piece.interrupted = f.interrupted;
+  out.adaptive_rounds = a.rounds;
+  out.adaptive_floor = a.floor;
+  return out;
+}
+
+}  // namespace spectrack

@@ -1,0 +1,121 @@
+// adaptive.h: adaptive sampling to a noise target, without bias.
+//
+// Design (docs/adaptive.md has the derivation). A pixel's samples come in rounds: round 0, the
+// pilot, gives every pixel kNoiseMinSpp samples; round r >= 1 gives each pixel still active
+// k_r = max(pilot, n_r / 2) more (n_r the samples before it, the same for every pixel that takes
+// the round, so a round's paths are samples n_r .. n_r + k_r - 1 of each listed pixel, the very
+// paths a uniform render draws), capped at the render's spp. The pixel's estimate is
+// X = sum_r a_r M_r, M_r the mean of its round-r samples, with a weight a_r that is fixed before
+// round r is drawn (it depends on rounds < r only) and weights that sum to 1 over the rounds the
+// pixel takes: whether round r is its last is decided before round r too, and the last round
+// takes the weight left, B_r = 1 - sum_{s<r} a_s. Then E[a_r M_r | rounds < r] = a_r mu, and
+// E[X] = mu E[sum_r a_r] = mu: no bias from stopping. Var X = sigma^2 V, V = sum_r a_r^2 / k_r,
+// which is sigma^2 / n when the weights are a_r = k_r / n (equal per sample); the rule aims
+// there: before round r, the samples T still needed are predicted from the rounds so far,
+// rho (V + B^2 / T) <= E^2 with rho = sigma^2 / max(m, floor)^2 the relative variance per sample
+// (as noise.h measures the error), or the mean over the pixel's 3x3 neighbourhood where that is
+// larger; then a_r = B k_r / T, or B when T <= k_r (the last round, which then takes T samples
+// rounded up to a quarter of k_r: finishing pixels of a round are rendered in up to four groups of
+// lengths; the weight of a round that is not the last is taken from a rho with a margin,
+// kAdaptiveWeightMargin). The aim is kAdaptiveAim times the target. No pixel is given more than the samples
+// the image's 95th-percentile pixel needs (adaptive_cap), since the image's error is that
+// pixel's. The pilot's weight k_0 / spp is fixed before any sample, so it can only be too small
+// (what it loses is at most its own samples). The floor is kNoiseFloor times the mean brightness
+// of the pilot's noisy pixels. Decisions use other pixels' samples (the floor, the neighbourhood,
+// the cap), which are independent of a pixel's own paths, so they bias nothing; but they tie the
+// pixels together, so an adaptive film is rendered whole: no shards, tiles, devices or ranks.
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "integrator/multi_device.h"
+#include "integrator/renderer.h"
+
+namespace spectrack {
+
+// Each pixel aims at kAdaptiveAim times the target: the image's error is the 95th percentile of
+// the pixels' errors as measured after the render, which drift from the prediction that stopped
+// them (the last round's samples change the sample variance), so pixels aimed exactly at the
+// target leave more than 5% of them above it.
+constexpr double kAdaptiveAim = 0.9;
+// A pixel's last round takes the samples it still needs, rounded up to a multiple of
+// 1 / kAdaptiveLastRoundSteps of the round (each length is one render of its pixels).
+constexpr int64_t kAdaptiveLastRoundSteps = 4;
+
+// A round that is not the pixel's last gets its weight B k / T from rho (1 + kAdaptiveWeightMargin
+// / sqrt(n)), not rho: a rho estimated too low from few samples would give the early rounds too
+// much weight, and a pixel whose fixed weights already hold more variance than its aim allows
+// (rho V >= aim^2) can no longer reach it, however many samples it takes; a weight too small
+// costs only part of its round's samples.
+constexpr double kAdaptiveWeightMargin = 4.0;
+
+struct AdaptivePlan {
+  double target = 0;      // the relative error each pixel is brought to (noise.h's r_p)
+  int64_t spp = 0;        // at most this many samples per pixel
+  int64_t pilot = 16;     // round 0 (kNoiseMinSpp, at most spp)
+  double floor = 0;       // brightness floor of r_p (radiance); 0: from the pilot
+};
+
+// One pixel's rounds so far (RGB of its whole beauty).
+struct AdaptivePixel {
+  double B = 1;           // the weight the rounds to come share
+  double V = 0;           // sum of a_r^2 / k_r over the rounds taken
+  int64_t n = 0;          // samples taken
+  double s1[3] = {}, s2[3] = {};  // sums and sums of squares of its samples (unweighted)
+  bool done() const { return B == 0; }
+  // The per-channel variance of one sample (0 below 2 samples) and the mean brightness.
+  double sample_variance(int c) const;
+  double brightness() const;
+};
+
+// The samples of the round that starts after n samples.
+int64_t adaptive_round_samples(int64_t n, const AdaptivePlan& plan);
+// A pixel's relative variance per sample, sigma^2 / max(m, floor)^2 (0 below 2 samples), and per
+// pixel the larger of its own and the mean over its 3x3 neighbourhood: a pixel whose samples
+// missed a rare bright path that its neighbours drew does not stop (Cycles' adaptive sampling
+// looks at neighbours too), while one noisier than its neighbours keeps its own. The window's
+// pixels are row-major, width x height.
+double adaptive_relative_variance(const AdaptivePixel& px, double floor);
+std::vector<double> adaptive_neighbourhood(const std::vector<AdaptivePixel>& px, int width, int height, double floor);
+// The samples to come that bring rho (V + B^2 / T) to the aim (0: none needed, inf: out of reach).
+double adaptive_samples_needed(const AdaptivePixel& px, double rho, const AdaptivePlan& plan);
+// The weight of the pixel's next round of k samples, from rounds so far only: B when it is the
+// last round (the pixel reaches its aim, or `cap` samples, with it), else B k / T (above).
+double adaptive_round_weight(const AdaptivePixel& px, int64_t k, int64_t cap, double rho, const AdaptivePlan& plan);
+// The samples the pixel takes in that round: k, or fewer in its last round.
+int64_t adaptive_round_length(const AdaptivePixel& px, int64_t k, int64_t cap, double rho, const AdaptivePlan& plan);
+// The samples the image's percentile pixel needs (noise.h kNoisePercentile over the counted pixels
+// of the rounds so far: the taken samples of finished pixels, taken plus needed of the others),
+// within [2 pilot, spp]: the image's error is that percentile's, so no pixel is given more.
+int64_t adaptive_cap(const std::vector<AdaptivePixel>& px, const std::vector<double>& rho, const AdaptivePlan& plan);
+// Adds a round of k samples taken with weight a (s1, s2: 3 sums each of the round's samples).
+void adaptive_add_round(AdaptivePixel& px, double a, int64_t k, const double* s1, const double* s2);
+
+struct AdaptiveResult {
+  // The window's film as a render of plan.spp samples per pixel: every sum is the weighted
+  // estimate times plan.spp, the second moments hold what gives each pixel's variance layer the
+  // variance of its estimate, sigma^2 V (film.h writes them); sample_begin 0, spp_done plan.spp.
+  RenderResult film;
+  std::vector<float> samples;  // the samples each pixel took
+  double floor = 0;            // the brightness floor used
+  int rounds = 0;
+  int64_t round_end = 0;       // the sample count the last round ended at
+  double mean_samples = 0;     // over the window's pixels
+};
+
+// Renders the adaptive film of the renderer's window (settings().adaptive). `after_round` (may be
+// empty) sees the film after each round (a preview). A stop or the deadline ends the render after
+// the current round's finished samples; the pixels then average the weight they took (biased:
+// film.interrupted).
+AdaptiveResult render_adaptive(Renderer& r, const AdaptivePlan& plan,
+                               const std::function<void(const AdaptiveResult&)>& after_round = {});
+
+// The command line's and the Python module's adaptive render (render_multi_device with
+// settings.adaptive): one Renderer on `device`, the plan from the settings (noise_target, spp),
+// the film as a piece with its samples layer. base.progress, when set, is told after each round.
+MultiDeviceResult render_adaptive_film(const SceneDesc& scene, const RenderOptions& base, const RenderSettings& settings,
+                                       const std::string& device);
+
+}  // namespace spectrack
