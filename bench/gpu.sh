@@ -23,7 +23,7 @@
 #   6. bench/run --quick --no-mitsuba --device there (needs apt; skipped where a bundle was used);
 #   8. the wavefront against the bundle's spectrack_old (gpu_bundle.py --old: f9c773d's binary):
 #      paths/s of both (and of the new one's sized loop, SPECTRACK_LOOP=sized) at 16 spp on every
-#      bench scene (WAVEFRONT_SPP), interleaved, 2 rounds (wavefront.tsv, with
+#      bench scene (WAVEFRONT_SPP; WAVEFRONT_SCENES picks some), interleaved, 2 rounds (wavefront.tsv, with
 #      iterations, host_waits and occupancy), their ratios, the grid's ratio from step 7
 #      (GRID_SPP, 256), and the registers of every kernel (registers.txt: the new binary's NVIDIA
 #      build log with -cl-nv-verbose, and ptxas -v on both binaries' cached PTX where ptxas is);
@@ -204,7 +204,7 @@ if step 8; then
       *) build/$v "$@" ;;
     esac
   }
-  for s in bench/scenes/*.json; do
+  for s in ${WAVEFRONT_SCENES:-bench/scenes/*.json}; do
     for v in "${variants[@]}"; do run_variant $v render "$s" --spp 1 -q --no-alpha -o "$OUT/warm.exr" >/dev/null 2>&1; done
     for round in 1 2; do
       for v in "${variants[@]}"; do

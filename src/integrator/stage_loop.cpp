@@ -162,13 +162,13 @@ bool Renderer::Impl::stop_requested(LoopState& s) const {
 // loop is over (every batch on the film, or the watch stopped it).
 bool Renderer::Impl::see_loop(const RenderBuffers& b, const BatchPlan& p, LoopState& s, const st_loop& d,
                               RenderResult& res, std::vector<st_guide_record>* records) {
+  if (trace_queues()) trace_iteration(d);  // before the checks: a failed state is traced too
   if (d.status == ST_LOOP_LAYOUT) throw Error("internal: the host's and the device's loop state differ in layout");
   if (d.status == ST_LOOP_SLOTS_LOST)
     throw Error(fmt::format("internal: the path queues do not hold all {} slots after iteration {}", p.Q, d.iterations));
   if (d.status == ST_LOOP_STALLED)
     throw Error(fmt::format("internal: wavefront stalled with {} of {} batches accumulated", d.accumulated,
                             d.batches_target));
-  if (trace_queues()) trace_iteration(d);
   if (records) drain_records(*records);
   if (s.sized && d.acc_first != d.acc_end) launcher->launch("k_accumulate", launch_items(p.npix));
   const uint64_t before = s.accumulated;
