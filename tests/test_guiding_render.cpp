@@ -99,7 +99,7 @@ TEST(GuidingRender, CachePointingAwayFromTheSunStaysUnbiased) {
 TEST(GuidingRender, DeterministicAndGenericKernelsAgree) {
   const std::string dir = temp_dir("guided_bits");
   json s = guiding_scene(dir);
-  s["film"]["spp"] = 8;  // the training passes' 7 samples and one of the render
+  s["film"]["spp"] = 8;  // the training passes' samples and the render's
   RenderResult a = render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 7, true);
   RenderResult b = render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 7, true);
   RenderResult g = render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 7, true, {}, true);
@@ -112,7 +112,7 @@ TEST(GuidingRender, DeterministicAndGenericKernelsAgree) {
   EXPECT_FALSE(off.features & ST_FEATURE_GUIDING);
   EXPECT_FALSE(off.guide.used);
   EXPECT_EQ(a.guide.training_passes, kGuideTrainingPasses);
-  EXPECT_EQ(a.spp_done, 8) << "the training passes' 7 samples are part of the image";
+  EXPECT_EQ(a.spp_done, 8) << "the training passes' samples are part of the image";
   EXPECT_GT(a.guide.records, 0u);
   // the header, the regions, the kd-trees' nodes (one per cell and two per region refinement
   // added) and one pixel estimate per film pixel; a 2-cell grid along the longest axis: 1-8 cells
