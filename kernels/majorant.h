@@ -221,9 +221,9 @@ inline void dda_advance(__constant const st_medium* m, __global const float2* ma
 
 /* ---- the interval iterator: majorant segments through every medium at once ----
  * (after OpenVKL's interval iterators and pbrt-v4's RayMajorantIterator). majorant_iterator_init
- * starts it on a ray at parameter t; each majorant_iterator_next yields the next segment
- * [t0, t1) (the first: the one holding t) with each medium's density bounds over it, which hold
- * the hierarchy's levels and entries out of sight. A segment ends at the first cell, group,
+ * starts it on a ray at parameter t and yields the segment holding t; each
+ * majorant_iterator_next yields the next segment [t0, t1), each with every medium's density
+ * bounds over it, which hold the hierarchy's levels and entries out of sight. A segment ends at the first cell, group,
  * block or box boundary of any medium; t1 = INFINITY: no medium ahead (the walk is over). What
  * a tracker makes of the bounds (its channels, a control and a residual) is its own
  * (walker.h); majorant_segment_sigma_maj gives the plain per-channel majorant. */
@@ -236,58 +236,51 @@ typedef struct {
 typedef struct {
   st_dda m[ST_KERNEL_MAX_MEDIA];
   float t0, end; /* the current segment: [t0, end) */
-  int started;   /* 0 until the first segment is yielded */
 } st_majorant_iterator;
 
-inline void majorant_iterator_update_end(__constant const st_scene* scene, st_majorant_iterator* it) {
+/* The iterator's current segment into *seg. */
+inline void majorant_iterator_segment(__constant const st_scene* scene, st_majorant_iterator* it,
+                                      st_majorant_segment* seg) {
   float e = INFINITY;
   for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i)
     if (i < scene->n_media) e = fmin(e, it->m[i].seg_end);
   it->end = e;
+  seg->t0 = it->t0;
+  seg->t1 = e;
+  for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
+    const int inside = i < scene->n_media && it->m[i].state == ST_DDA_INSIDE;
+    seg->dmax[i] = inside ? it->m[i].dmax : 0.0f;
+    seg->dmin[i] = inside ? it->m[i].dmin : 0.0f;
+  }
 }
 
+/* Starts the iterator on the world ray (o, d) at parameter t; *seg: the first segment (the one
+ * holding t). */
 inline void majorant_iterator_init(__constant const st_scene* scene, __global const float2* maj,
-                                   st_majorant_iterator* it, float3 o, float3 d, float t) {
+                                   st_majorant_iterator* it, float3 o, float3 d, float t, st_majorant_segment* seg) {
   for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i)
     if (i < scene->n_media) dda_init(&scene->media[i], maj, &it->m[i], o, d, t);
   it->t0 = t;
-  it->started = 0;
-  majorant_iterator_update_end(scene, it);
+  majorant_iterator_segment(scene, it, seg);
 }
 
-/* Moves every medium's DDA past the current segment's end; returns the DDA steps taken and adds
- * to *nonempty those that entered a cell with a non-zero majorant. */
-inline uint majorant_iterator_advance(__constant const st_scene* scene, __global const float2* maj,
-                                      st_majorant_iterator* it, uint* nonempty) {
-  uint steps = 0;
+/* Moves every medium's DDA past the current segment's end and yields the next segment into *seg;
+ * the DDA steps are added to *steps, those that entered a cell with a non-zero majorant also to
+ * *nonempty. */
+inline void majorant_iterator_next(__constant const st_scene* scene, __global const float2* maj,
+                                   st_majorant_iterator* it, st_majorant_segment* seg, uint* steps, uint* nonempty) {
   float e = it->end;
   for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
     if (i >= scene->n_media) continue;
     /* a medium may have several zero-length segments at e (corner crossings) */
     for (int k = 0; k < 4 && it->m[i].seg_end <= e; ++k) {
       dda_advance(&scene->media[i], maj, &it->m[i]);
-      ++steps;
+      *steps += 1u;
       if (it->m[i].dmax != 0.0f) *nonempty += 1u;
     }
   }
   it->t0 = e;
-  majorant_iterator_update_end(scene, it);
-  return steps;
-}
-
-/* Yields the next segment into *seg (see above); DDA steps are added to *steps, those entering a
- * non-empty cell also to *nonempty. */
-inline void majorant_iterator_next(__constant const st_scene* scene, __global const float2* maj,
-                                   st_majorant_iterator* it, st_majorant_segment* seg, uint* steps, uint* nonempty) {
-  if (it->started) *steps += majorant_iterator_advance(scene, maj, it, nonempty);
-  it->started = 1;
-  seg->t0 = it->t0;
-  seg->t1 = it->end;
-  for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
-    const int inside = i < scene->n_media && it->m[i].state == ST_DDA_INSIDE;
-    seg->dmax[i] = inside ? it->m[i].dmax : 0.0f;
-    seg->dmin[i] = inside ? it->m[i].dmin : 0.0f;
-  }
+  majorant_iterator_segment(scene, it, seg);
 }
 
 /* The segment's majorant per channel, for each medium's extinction (bound) per unit density

@@ -128,9 +128,7 @@ inline void walker_load_segment(__constant const st_scene* scene, st_walker* w) 
 inline void walker_begin(__constant const st_scene* scene, __global const float2* maj, st_walker* w, float3 o,
                          float3 d, float t, float t_max, float4 mask, float4 lambda, int decompose, int mode,
                          int budget) {
-  majorant_iterator_init(scene, maj, &w->it, o, d, t);
-  uint steps = 0u, nonempty = 0u; /* the first segment takes no step */
-  majorant_iterator_next(scene, maj, &w->it, &w->maj, &steps, &nonempty);
+  majorant_iterator_init(scene, maj, &w->it, o, d, t, &w->maj);
   w->t = t;
   w->t_max = t_max;
   w->mask = mask;
