@@ -1,5 +1,7 @@
 // test_hierarchy.cpp: the adaptive majorant/minorant hierarchy (kernels/majorant.h,
 // build_majorant_hierarchy in src/volume/majorant_grid.cpp, docs/majorant-hierarchy.md):
+//   - host: the typed block entries round-trip through the majorant buffer, and a corrupted entry
+//     (a bound 3% low, a group edge that does not divide the block, groups past the pool) fails;
 //   - host: every fine cell's bounds at its block's level contain the fine cell's own; an empty
 //     block is walked whole at zero, a uniform one whole, a block on a sharp interface at the
 //     finest level when lookups are dear and whole when they are cheap;
