@@ -1,12 +1,12 @@
-/* majorant.h: majorant segments along a ray, through every medium at once; walker.h steps the
- * exponential flights of every tracker through them.
+/* majorant.h: majorant segments along a ray, through every medium at once: the interval
+ * iterator of the medium interface (st_majorant_iterator, below), which walker.h steps the
+ * exponential flights of every tracker through.
  *
  * Each medium has a sparse grid of (dmax, dmin) cells in its index space, walked by a 3D DDA
- * (after pbrt-v4's DDAMajorantIterator; docs/estimators.md, 'Walking the grid'). The merged DDA (st_segments) ends
- * its current segment at the first cell boundary or medium boundary of any medium; the plain
- * segment the trackers see (st_segment) holds [t0, t1) and its free-path components: the
- * control coefficients and the residual bound (segments_current). Cells with dmax = 0 give
- * segments with zero majorant, which tracking crosses with no lookup.
+ * (after pbrt-v4's DDAMajorantIterator; docs/estimators.md, 'Walking the grid'). The iterator
+ * merges the media's DDAs: it ends its current segment at the first cell boundary or medium
+ * boundary of any medium and yields [t0, t1) with each medium's (dmax, dmin) over it. Cells with
+ * dmax = 0 give segments with zero majorant, which tracking crosses with no lookup.
  *
  * The adaptive hierarchy (maj_block = B > 1, docs/majorant-hierarchy.md): the fine grid is cut
  * into blocks of B^3 cells and each block has its own level, chosen at load by a cost model: it
@@ -17,8 +17,9 @@
  * entering a block of another level it recomputes the group holding the ray and its face
  * crossings from the ray (not accumulated). Zero-majorant segments draw no random numbers.
  *
- * The walker (walker.h: st_walker, walker_step) owns the merged DDA, the exponential flights and
- * the iteration budget; tracking.h keeps only the bodies run at each tentative collision.
+ * The walker (walker.h: st_walker, walker_step) owns the iterator, the exponential flights and
+ * the iteration budget, and makes the trackers' components of each segment (tracker_segment);
+ * tracking.h keeps only the bodies run at each tentative collision.
  *
  * The DDA holds no state between launches: a path that stops (budget, scatter) restarts it at
  * its current t. That is exact because free flights restart at any point where no collision is
@@ -61,20 +62,16 @@ inline int dda_min_axis(float3 t) {
 }
 
 /* ---- the adaptive hierarchy (maj_block = B > 1; docs/majorant-hierarchy.md) ----
- * Blocks of B^3 fine cells. Each block's entry (at maj_coarse_offset, x fastest) is either
- * (dmax, dmin) >= 0: the block is walked whole, as one group of B^3 cells; or (-r, pool offset):
- * the block is walked in groups of r^3 fine cells (r divides B), whose (B/r)^3 bounds lie at
- * maj_offset + pool offset (the offset's bits stored in the float), x fastest. */
-inline float2 majorant_block_entry(__constant const st_medium* m, __global const float2* maj, int3 c) {
+ * Blocks of B^3 fine cells, each with a typed entry (types.h st_maj_block) at maj_coarse_offset,
+ * x fastest: its group edge r and, for a refined block (r < B), where its (B/r)^3 group bounds
+ * lie in the pool at maj_offset. majorant_block_entry is the one place that reads entries. */
+inline st_maj_block majorant_block_entry(__constant const st_medium* m, __global const float2* maj, int3 c) {
   int B = m->maj_block;
   int3 dims = (int3)(m->maj_dims[0], m->maj_dims[1], m->maj_dims[2]);
   int3 cdims = (dims + B - 1) / B;
   int3 blk = c / B;
-  return maj[m->maj_coarse_offset + (uint)(blk.x + cdims.x * (blk.y + cdims.y * blk.z))];
-}
-
-inline int majorant_entry_group(__constant const st_medium* m, float2 e) {
-  return e.x >= 0.0f ? m->maj_block : (int)(-e.x);
+  __global const st_maj_block* entries = (__global const st_maj_block*)(maj + m->maj_coarse_offset);
+  return entries[(uint)(blk.x + cdims.x * (blk.y + cdims.y * blk.z))];
 }
 
 /* Bounds of the group of edge r holding fine cell c, in a refined block whose groups start at base. */
@@ -87,9 +84,9 @@ inline float2 majorant_group(__constant const st_medium* m, __global const float
 /* The bounds the walk uses at fine cell c: its group's. */
 inline float2 majorant_bounds_at(__constant const st_medium* m, __global const float2* maj, int3 c) {
   if (ST_HAS_COARSE_MAJORANT && m->maj_block > 1) {
-    float2 e = majorant_block_entry(m, maj, c);
-    if (e.x >= 0.0f) return e;
-    return majorant_group(m, maj, m->maj_offset + as_uint(e.y), majorant_entry_group(m, e), c);
+    st_maj_block e = majorant_block_entry(m, maj, c);
+    if (e.group == m->maj_block) return (float2)(e.dmax, e.dmin);
+    return majorant_group(m, maj, m->maj_offset + e.pool, e.group, c);
   }
   return majorant_cell(m, maj, c);
 }
@@ -129,18 +126,17 @@ inline void dda_load_cell(__constant const st_medium* m, __global const float2* 
                           float t, int axis) {
   if (ST_HAS_COARSE_MAJORANT && m->maj_block > 1) {
     if (new_block) {
-      float2 e = majorant_block_entry(m, maj, s->cell);
-      int r = majorant_entry_group(m, e);
-      if (r != s->r) {
-        s->r = r;
+      st_maj_block e = majorant_block_entry(m, maj, s->cell);
+      if (e.group != s->r) {
+        s->r = e.group;
         dda_set_group(m, s, t, axis);
       }
-      if (e.x >= 0.0f) {
-        s->dmax = e.x;
-        s->dmin = e.y;
+      if (e.group == m->maj_block) {
+        s->dmax = e.dmax;
+        s->dmin = e.dmin;
         return;
       }
-      s->pool_base = m->maj_offset + as_uint(e.y);
+      s->pool_base = m->maj_offset + e.pool;
     }
     float2 v = majorant_group(m, maj, s->pool_base, s->r, s->cell);
     s->dmax = v.x;
@@ -223,116 +219,78 @@ inline void dda_advance(__constant const st_medium* m, __global const float2* ma
   s->seg_end = fmax(s->seg_end, fmin(fmin(fmin(s->t_next.x, s->t_next.y), s->t_next.z), s->t_exit));
 }
 
-/* The merged DDA over all media: the current segment ends at `end`, the first segment end of
- * any medium (INFINITY: no medium ahead). Only the walker below uses it. */
+/* ---- the interval iterator: majorant segments through every medium at once ----
+ * (after OpenVKL's interval iterators and pbrt-v4's RayMajorantIterator). majorant_iterator_init
+ * starts it on a ray at parameter t and yields the segment holding t; each
+ * majorant_iterator_next yields the next segment [t0, t1), each with every medium's density
+ * bounds over it, which hold the hierarchy's levels and entries out of sight. A segment ends at the first cell, group,
+ * block or box boundary of any medium; t1 = INFINITY: no medium ahead (the walk is over). What
+ * a tracker makes of the bounds (its channels, a control and a residual) is its own
+ * (walker.h); majorant_segment_sigma_maj gives the plain per-channel majorant. */
+typedef struct {
+  float t0, t1;
+  float dmax[ST_KERNEL_MAX_MEDIA]; /* each medium's density majorant over [t0, t1) (0 outside it) */
+  float dmin[ST_KERNEL_MAX_MEDIA]; /* and its minorant (0 outside it) */
+} st_majorant_segment;
+
 typedef struct {
   st_dda m[ST_KERNEL_MAX_MEDIA];
-  float end;
-} st_segments;
+  float t0, end; /* the current segment: [t0, end) */
+} st_majorant_iterator;
 
-inline void segments_update_end(__constant const st_scene* scene, st_segments* s) {
+/* The iterator's current segment into *seg. */
+inline void majorant_iterator_segment(__constant const st_scene* scene, st_majorant_iterator* it,
+                                      st_majorant_segment* seg) {
   float e = INFINITY;
   for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i)
-    if (i < scene->n_media) e = fmin(e, s->m[i].seg_end);
-  s->end = e;
+    if (i < scene->n_media) e = fmin(e, it->m[i].seg_end);
+  it->end = e;
+  seg->t0 = it->t0;
+  seg->t1 = e;
+  for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
+    const int inside = i < scene->n_media && it->m[i].state == ST_DDA_INSIDE;
+    seg->dmax[i] = inside ? it->m[i].dmax : 0.0f;
+    seg->dmin[i] = inside ? it->m[i].dmin : 0.0f;
+  }
 }
 
-inline void segments_init(__constant const st_scene* scene, __global const float2* maj, st_segments* s, float3 o, float3 d, float t) {
+/* Starts the iterator on the world ray (o, d) at parameter t; *seg: the first segment (the one
+ * holding t). */
+inline void majorant_iterator_init(__constant const st_scene* scene, __global const float2* maj,
+                                   st_majorant_iterator* it, float3 o, float3 d, float t, st_majorant_segment* seg) {
   for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i)
-    if (i < scene->n_media) dda_init(&scene->media[i], maj, &s->m[i], o, d, t);
-  segments_update_end(scene, s);
+    if (i < scene->n_media) dda_init(&scene->media[i], maj, &it->m[i], o, d, t);
+  it->t0 = t;
+  majorant_iterator_segment(scene, it, seg);
 }
 
-/* Moves to the next segment; returns the number of DDA steps taken and adds to *nonempty those
- * that entered a cell with a non-zero majorant. */
-inline uint segments_next(__constant const st_scene* scene, __global const float2* maj, st_segments* s,
-                          uint* nonempty) {
-  uint steps = 0;
-  float e = s->end;
+/* Moves every medium's DDA past the current segment's end and yields the next segment into *seg;
+ * the DDA steps are added to *steps, those that entered a cell with a non-zero majorant also to
+ * *nonempty. */
+inline void majorant_iterator_next(__constant const st_scene* scene, __global const float2* maj,
+                                   st_majorant_iterator* it, st_majorant_segment* seg, uint* steps, uint* nonempty) {
+  float e = it->end;
   for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
     if (i >= scene->n_media) continue;
     /* a medium may have several zero-length segments at e (corner crossings) */
-    for (int k = 0; k < 4 && s->m[i].seg_end <= e; ++k) {
-      dda_advance(&scene->media[i], maj, &s->m[i]);
-      ++steps;
-      if (s->m[i].dmax != 0.0f) *nonempty += 1u;
+    for (int k = 0; k < 4 && it->m[i].seg_end <= e; ++k) {
+      dda_advance(&scene->media[i], maj, &it->m[i]);
+      *steps += 1u;
+      if (it->m[i].dmax != 0.0f) *nonempty += 1u;
     }
   }
-  segments_update_end(scene, s);
-  return steps;
+  it->t0 = e;
+  majorant_iterator_segment(scene, it, seg);
 }
 
-/* Gray majorant (and minorant) coefficient of medium i over the channels in mask. */
-inline float medium_gray_sigma_t(__constant const st_medium* m, float4 mask) {
-  /* a colour grid's extinction bound (medium.h); a colour medium is always chromatic */
-  if (medium_has_color(m)) return masked_max(m->sigma_t_maj, mask);
-  /* achromatic media: every channel holds the same sum, which is the max over any mask */
-  return ST_HAS_CHROMATIC ? masked_max(m->sigma_a + m->sigma_s, mask) : m->sigma_a.x + m->sigma_s.x;
-}
-
-/* The majorant of the current segment of the merged DDA per channel (spectral-mis, tracking.h):
- * the sum over the media inside of dmax * majorant_scale * the medium's sigma_t per channel (a
- * colour medium: its extinction bound sigma_t_maj), which segments_current reduces to the gray
- * mu_bar of a path's channels. */
-inline float4 segments_sigma_maj(__constant const st_scene* scene, const st_segments* s, const float4* sigma_t_l) {
+/* The segment's majorant per channel, for each medium's extinction (bound) per unit density
+ * sigma_t[i]: the sum over the media of dmax * majorant_scale * sigma_t. */
+inline float4 majorant_segment_sigma_maj(__constant const st_scene* scene, const st_majorant_segment* seg,
+                                         const float4* sigma_t) {
   float4 sigma_maj = (float4)(0.0f);
-  for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
-    if (i >= scene->n_media || s->m[i].state != ST_DDA_INSIDE) continue;
-    __constant const st_medium* m = &scene->media[i];
-    float4 sigma_t = medium_is_spectral(m) ? sigma_t_l[i] : medium_has_color(m) ? m->sigma_t_maj : m->sigma_a + m->sigma_s;
-    sigma_maj += s->m[i].dmax * m->majorant_scale * sigma_t;
-  }
-  return sigma_maj * scene_lanes(scene);
-}
-
-/* A majorant segment [t0, t1) as the trackers see it, with its free-path components
- * (docs/estimators.md, 'Decomposition tracking'). Control: the homogeneous part dmin * minorant_scale of every medium,
- * with per-channel coefficients sigma_a_c, sigma_s_c and a gray coefficient mu_bar_c = max over
- * the path's channels of their sum (control collisions can be null for thin channels; no lookup
- * is needed to classify them). Residual: everything else, tracked with the gray coefficient
- * mu_bar_r, which bounds |residual| when the grid's bounds hold; otherwise the |.| probabilities
- * keep it exact. Without decomposition the control is empty and mu_bar_r is the ordinary
- * majorant, the sum over media of dmax * majorant_scale * gray sigma_t. t1 = INFINITY: no
- * medium ahead. */
-typedef struct {
-  float t0, t1;
-  float mu_bar_c, mu_bar_r;
-  float4 sigma_a_c, sigma_s_c;
-  float density_c[ST_KERNEL_MAX_MEDIA]; /* control density of each medium */
-} st_segment;
-
-/* The current segment of the merged DDA, entered at t0, for a path carrying the channels in mask;
- * sigma_a_l, sigma_s_l: spectral media's coefficients at the path's wavelengths (st_walker), which
- * also make their majorant: the extinction's largest value over the wavelengths the path carries. */
-inline st_segment segments_current(__constant const st_scene* scene, const st_segments* s, float t0, float4 mask,
-                                   const float4* sigma_a_l, const float4* sigma_s_l, int decompose) {
-  st_segment g;
-  g.t0 = t0;
-  g.t1 = s->end;
-  g.mu_bar_r = 0.0f;
-  g.sigma_a_c = g.sigma_s_c = (float4)(0.0f);
-  for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
-    g.density_c[i] = 0.0f;
-    if (i >= scene->n_media || s->m[i].state != ST_DDA_INSIDE) continue;
-    __constant const st_medium* m = &scene->media[i];
-    float gray = medium_is_spectral(m) ? fmax(masked_max(sigma_a_l[i] + sigma_s_l[i], mask), 0.0f)
-                                       : medium_gray_sigma_t(m, mask);
-    float dmax = s->m[i].dmax, dmin = s->m[i].dmin;
-    float dmax_s = dmax * m->majorant_scale;
-    if (decompose && !medium_has_color(m)) { /* a colour medium has no control (medium.h) */
-      float dc = dmin * m->minorant_scale;
-      g.density_c[i] = dc;
-      g.sigma_a_c += dc * (medium_is_spectral(m) ? sigma_a_l[i] : m->sigma_a);
-      g.sigma_s_c += dc * (medium_is_spectral(m) ? sigma_s_l[i] : m->sigma_s);
-      /* > 0 whenever the residual can be non-zero, even with scaled (non-bounding) bounds */
-      float r = fmax(fmax(dmax_s - dc, m->majorant_scale * (dmax - dmin)), dc - dmin);
-      g.mu_bar_r += fmax(r, 0.0f) * gray;
-    } else {
-      g.mu_bar_r += dmax_s * gray;
-    }
-  }
-  g.mu_bar_c = decompose ? fmax(masked_max(g.sigma_a_c + g.sigma_s_c, mask), 0.0f) : 0.0f;
-  return g;
+  for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i)
+    if (i < scene->n_media && seg->dmax[i] != 0.0f) sigma_maj += seg->dmax[i] * scene->media[i].majorant_scale * sigma_t[i];
+  return sigma_maj;
 }
 
 #endif

@@ -319,7 +319,7 @@ inline float4 medium_Le(__constant const st_medium* m, __global const uint* grid
  *   scattering: sigma_s = m->sigma_s * max(C(p), 0), sigma_a = m->sigma_a: the extinction per
  *               unit density is bounded by m->sigma_t_maj = sigma_a + sigma_s * max C (the host
  *               takes the maximum over the grid's values and its background).
- * A medium with a colour grid has no control component (majorant.h segments_current): its
+ * A medium with a colour grid has no control component (walker.h tracker_segment): its
  * coefficients are not constant anywhere, so every collision it takes part in is a residual one,
  * which looks C up. The colour of each medium at a collision travels with the collision (tint).
  * Transmittance needs only sigma_t, so shadow rays through an albedo grid never read it.
@@ -386,23 +386,29 @@ inline void medium_unit_coeffs(__constant const st_medium* m, __global const uin
   *sigma_s = medium_sigma_s(m, lambda);
 }
 
-/* Coefficients at a point, per channel, summed over media; the per-medium densities are kept
- * for phase-function choice and emission, with each colour medium's tint. */
+/* ---- the point sampler ----
+ * What the medium is at a point, for the trackers (pbrt-v4's SamplePoint): the coefficients per
+ * channel, summed over the media, and each medium's density and colour tint there, from which a
+ * tracker chooses the phase function of a scattering event (tracking.h choose_scattering_medium)
+ * and weighs emission, which it evaluates only where it scores it (medium_Le; emission lookups
+ * are counted apart). */
 typedef struct {
   float4 sigma_a, sigma_s;
   float density[ST_KERNEL_MAX_MEDIA];
   float4 tint[ST_KERNEL_MAX_MEDIA]; /* colour media: C at the point (else unused, 1) */
-} st_coeffs;
+} st_medium_point;
 
-/* extinction_only: the caller needs only sigma_a + sigma_s (transmittance), which an albedo grid
- * does not change, so albedo media skip their colour lookup (their sigma_a/sigma_s split is then
- * the medium's own, the tint 1). rng: for stochastic density lookups (medium_density); colour and
- * emission grids are always read trilinearly, independently of the density's voxel choice, so a
- * product such as density x colour keeps the product of the expectations. sigma_a_l, sigma_s_l:
- * spectral media's coefficients at the path's wavelengths (st_walker, evaluated once per walk). */
-inline st_coeffs scene_coeffs(__constant const st_scene* scene, __global const uint* grids, float3 p, uint* lookups,
-                              int extinction_only, st_rng* rng, const float4* sigma_a_l, const float4* sigma_s_l) {
-  st_coeffs c;
+/* The point sample at world point p. extinction_only: the caller needs only sigma_a + sigma_s
+ * (transmittance), which an albedo grid does not change, so albedo media skip their colour lookup
+ * (their sigma_a/sigma_s split is then the medium's own, the tint 1). rng: for stochastic density
+ * lookups (medium_density); colour and emission grids are always read trilinearly, independently
+ * of the density's voxel choice, so a product such as density x colour keeps the product of the
+ * expectations. sigma_a_l, sigma_s_l: spectral media's coefficients at the path's wavelengths,
+ * which the tracker caches once per walk (walker.h st_walker). */
+inline st_medium_point medium_sample_point(__constant const st_scene* scene, __global const uint* grids, float3 p,
+                                           uint* lookups, int extinction_only, st_rng* rng, const float4* sigma_a_l,
+                                           const float4* sigma_s_l) {
+  st_medium_point c;
   c.sigma_a = (float4)(0.0f);
   c.sigma_s = (float4)(0.0f);
   for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {

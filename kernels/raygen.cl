@@ -47,7 +47,7 @@ inline float camera_first_collision(__constant const st_scene* scene, __global c
     int step = walker_step(scene, maj, &w, &rng, &st.dda_steps, &st.dda_nonempty);
     if (step == ST_WALK_DONE || step == ST_WALK_BUDGET) break;
     if (step != ST_WALK_COLLISION) continue;
-    st_coeffs c = scene_coeffs(scene, grids, o + w.t * d, &st.lookups, 0, &rng, w.sigma_a_l, w.sigma_s_l);
+    st_medium_point c = medium_sample_point(scene, grids, o + w.t * d, &st.lookups, 0, &rng, w.sigma_a_l, w.sigma_s_l);
     float4 sigma_t = c.sigma_a + c.sigma_s;
     float sigma_t_mean = fmax(spectral_mode(scene) ? (sigma_t.x + sigma_t.y + sigma_t.z + sigma_t.w) * 0.25f
                                                    : (sigma_t.x + sigma_t.y + sigma_t.z) * (1.0f / 3.0f),

@@ -151,7 +151,7 @@ inline st_collision collision_component(__constant const st_scene* scene, __glob
     }
     st->control += 1u;
   } else {
-    st_coeffs k = scene_coeffs(scene, grids, p, &st->lookups, 0, rng, w->sigma_a_l, w->sigma_s_l);
+    st_medium_point k = medium_sample_point(scene, grids, p, &st->lookups, 0, rng, w->sigma_a_l, w->sigma_s_l);
     c.sigma_a = k.sigma_a - seg->sigma_a_c;
     c.sigma_s = k.sigma_s - seg->sigma_s_c;
     c.mu_bar = seg->mu_bar_r;
@@ -358,8 +358,19 @@ inline void mis_rescale(float4* beta, float4* r_u, float4 lanes) {
 /* The per-channel majorant of the walker's current segment, with the hero's entry the walker's
  * own flight rate (so that the hero's flight ratio is exactly 1). */
 inline float4 mis_sigma_maj(__constant const st_scene* scene, const st_walker* w, int hero) {
-  float4 sigma_maj = ST_HAS_CHROMATIC ? segments_sigma_maj(scene, &w->dda, w->sigma_t_l)
-                                      : select((float4)(0.0f), (float4)(w->mu_bar), isnotequal(scene_lanes(scene), (float4)(0.0f)));
+  float4 sigma_maj = select((float4)(0.0f), (float4)(w->mu_bar), isnotequal(scene_lanes(scene), (float4)(0.0f)));
+  if (ST_HAS_CHROMATIC) {
+    /* each medium's extinction per unit density: the path's wavelengths' (spectral), a colour
+     * grid's bound, else its own */
+    float4 sigma_t[ST_KERNEL_MAX_MEDIA];
+    for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
+      sigma_t[i] = (float4)(0.0f);
+      if (i >= scene->n_media) continue;
+      __constant const st_medium* m = &scene->media[i];
+      sigma_t[i] = medium_is_spectral(m) ? w->sigma_t_l[i] : medium_has_color(m) ? m->sigma_t_maj : m->sigma_a + m->sigma_s;
+    }
+    sigma_maj = majorant_segment_sigma_maj(scene, &w->maj, sigma_t) * scene_lanes(scene);
+  }
   return select(sigma_maj, (float4)(w->mu_bar), isnotequal(one_hot(hero), (float4)(0.0f)));
 }
 
@@ -369,7 +380,7 @@ inline int mis_collision(__constant const st_scene* scene, __global const uint* 
                          float4 sigma_maj, int hero, float4* beta, float4* r_u, float4* L, int* medium, st_rng* rng,
                          st_track_stats* st) {
   const float4 lanes = scene_lanes(scene); /* every lane of the scene: channels or wavelengths */
-  st_coeffs k = scene_coeffs(scene, grids, p, &st->lookups, 0, rng, w->sigma_a_l, w->sigma_s_l);
+  st_medium_point k = medium_sample_point(scene, grids, p, &st->lookups, 0, rng, w->sigma_a_l, w->sigma_s_l);
   st_collision c;
   c.sigma_a = k.sigma_a * lanes;
   c.sigma_s = k.sigma_s * lanes;

@@ -22,7 +22,7 @@
 /* The residual component's sigma_t at p: every medium's sigma_a + sigma_s less the segment's control. */
 inline float4 residual_sigma_t(__constant const st_scene* scene, __global const uint* grids, const st_walker* w,
                                float3 p, uint* lookups, st_rng* rng) {
-  st_coeffs c = scene_coeffs(scene, grids, p, lookups, 1, rng, w->sigma_a_l, w->sigma_s_l);
+  st_medium_point c = medium_sample_point(scene, grids, p, lookups, 1, rng, w->sigma_a_l, w->sigma_s_l);
   return c.sigma_a + c.sigma_s - w->seg.sigma_a_c - w->seg.sigma_s_c;
 }
 

@@ -4,7 +4,7 @@
  * layout is written down. Vectors are st_float4 (16 bytes, 16-aligned on both sides; .w is
  * padding unless a comment says otherwise); there are no float3 fields (their size differs between
  * OpenCL and C++). The end of this file checks every struct size against its ST_SIZEOF_*: the
- * host with static_assert, the device with st_check_* typedefs (a negative array size fails the
+ * host with static_assert, the device with st_check_* typedefs (ST_CHECK_SIZE; a negative array size fails the
  * kernel build), so a layout drift fails at compile time on both sides.
  *
  * Names follow the physics: sigma_a, sigma_s (per unit density), beta (path throughput weight),
@@ -247,12 +247,18 @@ enum st_feature {
 /* the wavefront's queues, counters and stage arguments */
 #include "stage_types.h"
 
+/* One block entry of the majorant hierarchy (kernels/majorant.h majorant_block_entry; two float2
+ * records of the majorant buffer): the block of maj_block^3 fine cells is walked in groups of
+ * group^3 cells; group == maj_block: the block whole, with bounds (dmax, dmin); group < maj_block:
+ * its (maj_block / group)^3 group bounds lie at maj_offset + pool (x fastest), (dmax, dmin) theirs. */
+typedef struct { float dmax, dmin; st_int group; st_uint pool; } st_maj_block;
+
 /* One participating medium as the kernels see it. Coefficients are per unit density and already
  * multiplied by density_scale. The majorant grid is in the medium's index space: cell (i,j,k)
  * spans [maj_origin + (i,j,k) * cell, maj_origin + (i,j,k,+1) * cell) and stores (dmax, dmin)
  * of the trilinearly interpolated density over that box (interpolation support included). With
- * maj_block > 1 the cells form the adaptive hierarchy (kernels/majorant.h): block entries at
- * maj_coarse_offset, the refined blocks' group bounds in a pool at maj_offset. */
+ * maj_block > 1 the cells form the adaptive hierarchy: st_maj_block entries at maj_coarse_offset,
+ * the refined blocks' group bounds in a pool at maj_offset. */
 typedef struct {
   st_float4 world_to_index[3]; /* rows of the affine map world -> grid index space */
   st_float4 sigma_a;           /* rgb, per unit density */
@@ -270,7 +276,7 @@ typedef struct {
   float minorant_scale;        /* testing: > 1 over-estimates the minorant */
   st_int emissive;             /* 1 if Le != 0 */
   st_int maj_block;            /* fine cells per block edge of the hierarchy; 0: one level */
-  st_uint maj_coarse_offset;   /* first block entry in the majorant buffer (float2, kernels/majorant.h) */
+  st_uint maj_coarse_offset;   /* first st_maj_block entry in the majorant buffer (float2 records) */
   st_int color_mode;           /* st_color_mode; ST_COLOR_NONE: no colour grid */
   st_float4 sigma_t_maj;       /* colour grid: per unit density, an upper bound of sigma_t over the medium (rgb);
                                 * spectral mode: the bound of the colour's spectrum per unit of sigma_s (medium.h) */
@@ -471,25 +477,21 @@ typedef struct {
 #define ST_SIZEOF_TRANS 128
 #define ST_SIZEOF_SHADOW 272
 #define ST_SIZEOF_ITERATION 64
+#define ST_SIZEOF_MAJ_BLOCK 16
 
 #ifdef __OPENCL_VERSION__
-typedef char st_check_medium[(sizeof(st_medium) == ST_SIZEOF_MEDIUM) ? 1 : -1];
-typedef char st_check_camera[(sizeof(st_camera) == ST_SIZEOF_CAMERA) ? 1 : -1];
-typedef char st_check_light[(sizeof(st_light) == ST_SIZEOF_LIGHT) ? 1 : -1];
-typedef char st_check_scene[(sizeof(st_scene) == ST_SIZEOF_SCENE) ? 1 : -1];
-typedef char st_check_path[(sizeof(st_path) == ST_SIZEOF_PATH) ? 1 : -1];
-typedef char st_check_trans[(sizeof(st_trans) == ST_SIZEOF_TRANS) ? 1 : -1];
-typedef char st_check_shadow[(sizeof(st_shadow) == ST_SIZEOF_SHADOW) ? 1 : -1];
-typedef char st_check_iteration[(sizeof(st_iteration) == ST_SIZEOF_ITERATION) ? 1 : -1];
+#define ST_CHECK_SIZE(T, N) typedef char st_check_##T[(sizeof(T) == (N)) ? 1 : -1];
 #else
-static_assert(sizeof(st_medium) == ST_SIZEOF_MEDIUM, "st_medium layout");
-static_assert(sizeof(st_camera) == ST_SIZEOF_CAMERA, "st_camera layout");
-static_assert(sizeof(st_light) == ST_SIZEOF_LIGHT, "st_light layout");
-static_assert(sizeof(st_scene) == ST_SIZEOF_SCENE, "st_scene layout");
-static_assert(sizeof(st_path) == ST_SIZEOF_PATH, "st_path layout");
-static_assert(sizeof(st_trans) == ST_SIZEOF_TRANS, "st_trans layout");
-static_assert(sizeof(st_shadow) == ST_SIZEOF_SHADOW, "st_shadow layout");
-static_assert(sizeof(st_iteration) == ST_SIZEOF_ITERATION, "st_iteration layout");
+#define ST_CHECK_SIZE(T, N) static_assert(sizeof(T) == (N), #T " layout");
 #endif
+ST_CHECK_SIZE(st_medium, ST_SIZEOF_MEDIUM)
+ST_CHECK_SIZE(st_camera, ST_SIZEOF_CAMERA)
+ST_CHECK_SIZE(st_light, ST_SIZEOF_LIGHT)
+ST_CHECK_SIZE(st_scene, ST_SIZEOF_SCENE)
+ST_CHECK_SIZE(st_path, ST_SIZEOF_PATH)
+ST_CHECK_SIZE(st_trans, ST_SIZEOF_TRANS)
+ST_CHECK_SIZE(st_shadow, ST_SIZEOF_SHADOW)
+ST_CHECK_SIZE(st_iteration, ST_SIZEOF_ITERATION)
+ST_CHECK_SIZE(st_maj_block, ST_SIZEOF_MAJ_BLOCK)
 
 #endif /* SPECTRACK_TYPES_H */

@@ -1,5 +1,7 @@
-/* walker.h: the segment walker, the one loop skeleton of free-path sampling (tracking.h) and
- * transmittance (transmittance.h) over the majorant segments of majorant.h. */
+/* walker.h: the trackers' side of the medium interface: their policy over the majorant segments
+ * of majorant.h's interval iterator (the gray coefficients of a path's channels, the control and
+ * residual components, the spectral coefficients cached once per walk) and the segment walker,
+ * the one loop skeleton of free-path sampling (tracking.h) and transmittance (transmittance.h). */
 #ifndef SPECTRACK_WALKER_H
 #define SPECTRACK_WALKER_H
 
@@ -11,9 +13,69 @@
 #include "medium.h"
 #include "majorant.h"
 
+/* ---- the trackers' policy over a majorant segment ---- */
+
+/* Gray extinction (bound) per unit density of medium m over the channels in mask. */
+inline float tracker_gray_sigma_t(__constant const st_medium* m, float4 mask) {
+  /* a colour grid's extinction bound (medium.h); a colour medium is always chromatic */
+  if (medium_has_color(m)) return masked_max(m->sigma_t_maj, mask);
+  /* achromatic media: every channel holds the same sum, which is the max over any mask */
+  return ST_HAS_CHROMATIC ? masked_max(m->sigma_a + m->sigma_s, mask) : m->sigma_a.x + m->sigma_s.x;
+}
+
+/* A majorant segment [t0, t1) as the trackers see it, with its free-path components
+ * (docs/estimators.md, 'Decomposition tracking'). Control: the homogeneous part dmin * minorant_scale of every medium,
+ * with per-channel coefficients sigma_a_c, sigma_s_c and a gray coefficient mu_bar_c = max over
+ * the path's channels of their sum (control collisions can be null for thin channels; no lookup
+ * is needed to classify them). Residual: everything else, tracked with the gray coefficient
+ * mu_bar_r, which bounds |residual| when the grid's bounds hold; otherwise the |.| probabilities
+ * keep it exact. Without decomposition the control is empty and mu_bar_r is the ordinary
+ * majorant, the sum over media of dmax * majorant_scale * gray sigma_t. t1 = INFINITY: no
+ * medium ahead. */
+typedef struct {
+  float t0, t1;
+  float mu_bar_c, mu_bar_r;
+  float4 sigma_a_c, sigma_s_c;
+  float density_c[ST_KERNEL_MAX_MEDIA]; /* control density of each medium */
+} st_segment;
+
+/* The tracker's view of majorant segment g for a path carrying the channels in mask; sigma_a_l,
+ * sigma_s_l: spectral media's coefficients at the path's wavelengths (st_walker), which also make
+ * their majorant: the extinction's largest value over the wavelengths the path carries. */
+inline st_segment tracker_segment(__constant const st_scene* scene, const st_majorant_segment* g, float4 mask,
+                                  const float4* sigma_a_l, const float4* sigma_s_l, int decompose) {
+  st_segment s;
+  s.t0 = g->t0;
+  s.t1 = g->t1;
+  s.mu_bar_r = 0.0f;
+  s.sigma_a_c = s.sigma_s_c = (float4)(0.0f);
+  for (int i = 0; i < ST_KERNEL_MAX_MEDIA; ++i) {
+    s.density_c[i] = 0.0f;
+    float dmax = g->dmax[i], dmin = g->dmin[i];
+    if (i >= scene->n_media || (dmax == 0.0f && dmin == 0.0f)) continue; /* outside, or nothing to add */
+    __constant const st_medium* m = &scene->media[i];
+    float gray = medium_is_spectral(m) ? fmax(masked_max(sigma_a_l[i] + sigma_s_l[i], mask), 0.0f)
+                                       : tracker_gray_sigma_t(m, mask);
+    float dmax_s = dmax * m->majorant_scale;
+    if (decompose && !medium_has_color(m)) { /* a colour medium has no control (medium.h) */
+      float dc = dmin * m->minorant_scale;
+      s.density_c[i] = dc;
+      s.sigma_a_c += dc * (medium_is_spectral(m) ? sigma_a_l[i] : m->sigma_a);
+      s.sigma_s_c += dc * (medium_is_spectral(m) ? sigma_s_l[i] : m->sigma_s);
+      /* > 0 whenever the residual can be non-zero, even with scaled (non-bounding) bounds */
+      float r = fmax(fmax(dmax_s - dc, m->majorant_scale * (dmax - dmin)), dc - dmin);
+      s.mu_bar_r += fmax(r, 0.0f) * gray;
+    } else {
+      s.mu_bar_r += dmax_s * gray;
+    }
+  }
+  s.mu_bar_c = decompose ? fmax(masked_max(s.sigma_a_c + s.sigma_s_c, mask), 0.0f) : 0.0f;
+  return s;
+}
+
 /* ---- the segment walker: the one loop skeleton of free-path sampling and transmittance ----
  *
- * Owns the merged DDA, the exponential flights and the iteration budget (after pbrt-v4's
+ * Owns the interval iterator, the exponential flights and the iteration budget (after pbrt-v4's
  * SampleT_maj; OpenCL C has no callbacks, so the caller loops on walker_step and runs its own
  * per-collision body). Each step is one iteration of the budget: a flight of rate mu_bar from
  * w->t that ends either at a tentative collision inside the current segment or past its end,
@@ -33,15 +95,16 @@
 #define ST_WALK_CONTROL_CLOSED_FORM 1
 
 typedef struct {
-  st_segments dda;  /* the merged DDA (the walker's own) */
-  st_segment seg;   /* the current segment */
+  st_majorant_iterator it; /* the majorant segments (the walker's own) */
+  st_majorant_segment maj; /* the current segment's bounds */
+  st_segment seg;          /* and the tracker's view of it */
   float t;          /* where the walk is (the float nearest to it: see walker_flight_end) */
   float carry;      /* flight length that t does not hold yet */
   float mu_bar;     /* rate of the flights in seg */
   float4 T_control; /* ST_WALK_CONTROL_CLOSED_FORM with decomposition: the last flight's control transmittance */
   float4 mask;      /* channels of the path */
   /* spectral mode: each spectral medium's coefficients at the path's wavelengths (st_rng.lambda),
-   * evaluated once per walk, and their sum (segments_current, segments_sigma_maj); a colour
+   * evaluated once per walk, and their sum (tracker_segment, tracking.h mis_sigma_maj); a colour
    * medium's sigma_s_l is its bound over the colour (walker_begin) */
   float4 sigma_a_l[ST_KERNEL_MAX_MEDIA], sigma_s_l[ST_KERNEL_MAX_MEDIA], sigma_t_l[ST_KERNEL_MAX_MEDIA];
   int decompose, mode, iter, budget;
@@ -49,11 +112,12 @@ typedef struct {
   float t_max;      /* where the ray ends (a local light; INFINITY: past every medium) */
 } st_walker;
 
-/* The segment at w->t. A ray that ends at t_max (local lights, the ground: features.h) clips its segments
- * there: the walk is over (seg.t1 = INFINITY) once it reaches t_max, so no medium beyond the
- * light attenuates it. With t_max = INFINITY nothing changes. */
+/* The tracker's view of the iterator's current segment. A ray that ends at t_max (local lights,
+ * the ground: features.h) clips its segments there: the walk is over (seg.t1 = INFINITY) once it
+ * reaches t_max, so no medium beyond the light attenuates it. With t_max = INFINITY nothing
+ * changes. */
 inline void walker_load_segment(__constant const st_scene* scene, st_walker* w) {
-  w->seg = segments_current(scene, &w->dda, w->t, w->mask, w->sigma_a_l, w->sigma_s_l, w->decompose);
+  w->seg = tracker_segment(scene, &w->maj, w->mask, w->sigma_a_l, w->sigma_s_l, w->decompose);
   w->mu_bar = w->mode == ST_WALK_CONTROL_CLOSED_FORM ? w->seg.mu_bar_r : w->seg.mu_bar_c + w->seg.mu_bar_r;
   if ((ST_HAS_LOCAL_LIGHT || ST_HAS_GROUND) && w->seg.t1 > w->t_max)
     w->seg.t1 = (w->t >= w->t_max || isinf(w->seg.t1)) ? INFINITY : w->t_max;
@@ -64,7 +128,7 @@ inline void walker_load_segment(__constant const st_scene* scene, st_walker* w) 
 inline void walker_begin(__constant const st_scene* scene, __global const float2* maj, st_walker* w, float3 o,
                          float3 d, float t, float t_max, float4 mask, float4 lambda, int decompose, int mode,
                          int budget) {
-  segments_init(scene, maj, &w->dda, o, d, t);
+  majorant_iterator_init(scene, maj, &w->it, o, d, t, &w->maj);
   w->t = t;
   w->t_max = t_max;
   w->mask = mask;
@@ -123,7 +187,7 @@ inline int walker_cross(__constant const st_scene* scene, __global const float2*
                         uint* dda_nonempty) {
   w->t = fmax(w->t, w->seg.t1);
   w->carry = 0.0f;
-  *dda_steps += segments_next(scene, maj, &w->dda, dda_nonempty);
+  majorant_iterator_next(scene, maj, &w->it, &w->maj, dda_steps, dda_nonempty);
   walker_load_segment(scene, w);
   return ST_WALK_CROSSED;
 }

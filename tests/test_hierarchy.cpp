@@ -1,5 +1,7 @@
 // test_hierarchy.cpp: the adaptive majorant/minorant hierarchy (kernels/majorant.h,
 // build_majorant_hierarchy in src/volume/majorant_grid.cpp, docs/majorant-hierarchy.md):
+//   - host: the typed block entries round-trip through the majorant buffer, and a corrupted entry
+//     (a bound 3% low, a group edge that does not divide the block, groups past the pool) fails;
 //   - host: every fine cell's bounds at its block's level contain the fine cell's own; an empty
 //     block is walked whole at zero, a uniform one whole, a block on a sharp interface at the
 //     finest level when lookups are dear and whole when they are cheap;
@@ -37,23 +39,14 @@ float step_density(int i, int, int) { return i < 16 ? 0.5f : (i < 48 ? 0.0f : (i
 const openvdb::Coord kHi(127, 63, 63);
 constexpr double kVoxel = 1.0 / 32.0;
 
-// The bounds the walk uses at fine cell (i, j, k): the host mirror of majorant_bounds_at.
-std::array<float, 2> bounds_at(const MajorantGrid& fine, const MajorantHierarchy& h, int i, int j, int k) {
-  const int B = h.block;
-  const size_t b = size_t(i / B) + size_t(h.block_dims[0]) * (size_t(j / B) + size_t(h.block_dims[1]) * (k / B));
-  const float x = h.blocks[2 * b], y = h.blocks[2 * b + 1];
-  if (x >= 0.0f) return {x, y};
-  const int r = int(-x), n = B / r;
-  uint32_t offset;
-  std::memcpy(&offset, &y, 4);
-  const size_t g = offset + size_t((i % B) / r) + size_t(n) * (size_t((j % B) / r) + size_t(n) * ((k % B) / r));
-  (void)fine;
-  return {h.pool[2 * g], h.pool[2 * g + 1]};
+// The bounds the walk uses at fine cell (i, j, k).
+std::array<float, 2> bounds_at(const MajorantGrid&, const MajorantHierarchy& h, int i, int j, int k) {
+  return majorant_hierarchy_bounds(h, i, j, k);
 }
 
 int block_level(const MajorantHierarchy& h, int bx, int by, int bz) {
   const size_t b = size_t(bx) + size_t(h.block_dims[0]) * (size_t(by) + size_t(h.block_dims[1]) * bz);
-  return h.blocks[2 * b] >= 0.0f ? h.block : int(-h.blocks[2 * b]);
+  return h.blocks[b].group;
 }
 
 json step_scene(const std::string& file) {
@@ -104,6 +97,77 @@ TEST(MajorantHierarchy, LevelsFollowTheCostModelAndBoundEveryFineCell) {
     }
   MajorantCostModel cost;
   EXPECT_THROW(build_majorant_hierarchy(fine, 1, cost), Error);
+}
+
+namespace {
+
+// Whether every fine cell's bounds at its block's level contain the fine cell's own.
+bool bounds_hold(const MajorantGrid& fine, const MajorantHierarchy& h) {
+  for (int k = 0; k < fine.dims[2]; ++k)
+    for (int j = 0; j < fine.dims[1]; ++j)
+      for (int i = 0; i < fine.dims[0]; ++i) {
+        const size_t f = size_t(i) + size_t(fine.dims[0]) * (size_t(j) + size_t(fine.dims[1]) * k);
+        const auto b = majorant_hierarchy_bounds(h, i, j, k);
+        if (!(b[0] >= fine.dmax[f] && b[1] <= fine.dmin[f])) return false;
+      }
+  return true;
+}
+
+MajorantHierarchy mixed_hierarchy(MajorantGrid* fine) {
+  std::string dir = temp_dir("hierarchy_entries");
+  write_vdb(dir + "/step.vdb", "density", openvdb::Coord(0), kHi, step_density, kVoxel);
+  *fine = build_majorant_grid(load_float_grid(dir + "/step.vdb", "density", -1, "step"), 2);
+  MajorantCostModel cost;
+  cost.lookups_per_density = 10.0;
+  cost.decompose = true;
+  return build_majorant_hierarchy(*fine, 8, cost);
+}
+
+}  // namespace
+
+// The typed block entries survive the majorant buffer's packing field for field, whole and
+// refined blocks alike, and the walk's bounds read through them contain every fine cell's.
+TEST(MajorantHierarchy, TypedEntriesRoundTripThroughTheMajorantBuffer) {
+  MajorantGrid fine;
+  MajorantHierarchy h = mixed_hierarchy(&fine);
+  ASSERT_GT(h.blocks_refined, 0u);
+  ASSERT_GT(h.blocks_whole + h.blocks_empty, 0u);
+  std::vector<float> words = {7.0f, 7.0f};  // another grid's cell before the entries
+  append_majorant_blocks(words, h.blocks);
+  ASSERT_EQ(words.size(), 2 + 4 * h.blocks.size());
+  for (size_t b = 0; b < h.blocks.size(); ++b) {
+    const st_maj_block e = packed_majorant_block(words, 1, b), &want = h.blocks[b];
+    ASSERT_EQ(e.group, want.group) << "block " << b;
+    ASSERT_EQ(e.pool, want.pool) << "block " << b;
+    ASSERT_EQ(e.dmax, want.dmax) << "block " << b;
+    ASSERT_EQ(e.dmin, want.dmin) << "block " << b;
+    ASSERT_TRUE(e.group == h.block || (e.group >= 1 && h.block % e.group == 0)) << "block " << b;
+  }
+  EXPECT_THROW(packed_majorant_block(words, 1, h.blocks.size()), Error);
+  EXPECT_TRUE(bounds_hold(fine, h));
+}
+
+// The twin: a corrupted entry is caught, by the bounds (a whole block's majorant 3% low) or by
+// the entry's check (a group edge that does not divide the block, groups past the pool).
+TEST(MajorantHierarchy, ACorruptedEntryFailsTheBoundsCheck) {
+  MajorantGrid fine;
+  const MajorantHierarchy h = mixed_hierarchy(&fine);
+  size_t whole = h.blocks.size(), refined = h.blocks.size();
+  for (size_t b = 0; b < h.blocks.size(); ++b) {
+    if (h.blocks[b].group == h.block && h.blocks[b].dmax > 0.0f && whole == h.blocks.size()) whole = b;
+    if (h.blocks[b].group < h.block && refined == h.blocks.size()) refined = b;
+  }
+  ASSERT_LT(whole, h.blocks.size());
+  ASSERT_LT(refined, h.blocks.size());
+  MajorantHierarchy low = h;
+  low.blocks[whole].dmax *= 0.97f;
+  EXPECT_FALSE(bounds_hold(fine, low));
+  MajorantHierarchy bad_group = h;
+  bad_group.blocks[refined].group = 3;
+  EXPECT_THROW(bounds_hold(fine, bad_group), Error);
+  MajorantHierarchy bad_pool = h;
+  bad_pool.blocks[refined].pool = uint32_t(h.pool.size() / 2);
+  EXPECT_THROW(bounds_hold(fine, bad_pool), Error);
 }
 
 TEST(MajorantHierarchy, SharedVolumesLookupsLieWithinTheWalksBounds) {

@@ -89,7 +89,7 @@ double mean_chord(const std::array<double, 3>& a) {
 }
 
 // The residual majorant of a majorant cell with bounds (dmax, dmin), per unit of sigma_t, as the
-// walk's segments take it (majorant.h segments_current); without decomposition the majorant.
+// walk's segments take it (kernels/walker.h tracker_segment); without decomposition the majorant.
 double residual_majorant(double dmax, double dmin, double majorant_scale, double minorant_scale, bool decompose) {
   if (!decompose) return dmax * majorant_scale;
   const double dc = dmin * minorant_scale;
@@ -264,7 +264,7 @@ void Packer::add_majorants(st_medium& m, const MediumDesc& md, const GridData& g
     MajorantHierarchy h = build_majorant_hierarchy(mg, B, cost);
     m.maj_block = B;
     m.maj_coarse_offset = uint32_t(maj_cells.size() / 2);
-    maj_cells.insert(maj_cells.end(), h.blocks.begin(), h.blocks.end());
+    append_majorant_blocks(maj_cells, h.blocks);
     m.maj_offset = uint32_t(maj_cells.size() / 2);
     maj_cells.insert(maj_cells.end(), h.pool.begin(), h.pool.end());
     info.block = B;
@@ -274,7 +274,7 @@ void Packer::add_majorants(st_medium& m, const MediumDesc& md, const GridData& g
     info.blocks_refined = h.blocks_refined;
     info.levels = h.levels;
     info.blocks_per_level = h.blocks_per_level;
-    info.bytes = (h.blocks.size() + h.pool.size()) * sizeof(float);
+    info.bytes = h.blocks.size() * sizeof(st_maj_block) + h.pool.size() * sizeof(float);
   } else {
     for (size_t c = 0; c < mg.dmax.size(); ++c) {
       maj_cells.push_back(mg.dmax[c]);

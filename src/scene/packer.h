@@ -51,7 +51,7 @@ Mat4 inverse_affine(const Mat4& a, const std::string& what);
 // (Cauchy: 4 V / S).
 double mean_chord(const std::array<double, 3>& a);
 // The residual majorant of a majorant cell with bounds (dmax, dmin), per unit of sigma_t, as the
-// walk's segments take it (majorant.h segments_current); without decomposition the majorant.
+// walk's segments take it (kernels/walker.h tracker_segment); without decomposition the majorant.
 double residual_majorant(double dmax, double dmin, double majorant_scale, double minorant_scale, bool decompose);
 // The largest channel's extinction per unit density (a colour medium's: its bound sigma_t_maj, at
 // which its flights run): the gray rate a shadow ray's lookups scale with.

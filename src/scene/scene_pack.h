@@ -19,7 +19,7 @@ namespace spectrack {
 struct PackedScene {
   st_scene st{};                    // the __constant block (batches_in_flight is set per render)
   std::vector<uint32_t> grid_words;  // NanoVDB grids, 32-bit words (never empty)
-  std::vector<float> maj_cells;      // (dmax, dmin) pairs of every majorant grid (never empty)
+  std::vector<float> maj_cells;      // (dmax, dmin) pairs of every majorant grid, hierarchy block entries (never empty)
   std::vector<float> env_data;       // environment texels and CDFs (never empty)
   uint32_t features = 0;             // st_feature mask of the scene and tracker
   std::vector<MajorantInfo> majorants;  // one per VDB medium, in scene order

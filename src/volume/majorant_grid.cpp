@@ -242,6 +242,33 @@ MajorantGrid coarsen_majorant_grid(const MajorantGrid& fine, int block) {
   return c;
 }
 
+namespace {
+
+// The entry of a block walked in groups of edge r with bounds `groups` (x fastest; one group:
+// the block whole), whose groups a refined block appends to the pool.
+st_maj_block block_entry(MajorantHierarchy& h, int r, const std::vector<std::array<float, 2>>& groups) {
+  st_maj_block e{0.0f, std::numeric_limits<float>::infinity(), r, 0u};
+  for (const auto& v : groups) {
+    e.dmax = std::max(e.dmax, v[0]);
+    e.dmin = std::min(e.dmin, v[1]);
+  }
+  if (r == h.block) {
+    ++(e.dmax > 0.0f ? h.blocks_whole : h.blocks_empty);
+    return e;
+  }
+  ++h.blocks_refined;
+  const size_t offset = h.pool.size() / 2;
+  if (offset > 0xffffffffu) throw Error("majorant hierarchy: more than 2^32 groups");
+  e.pool = uint32_t(offset);
+  for (const auto& v : groups) {
+    h.pool.push_back(v[0]);
+    h.pool.push_back(v[1]);
+  }
+  return e;
+}
+
+}  // namespace
+
 MajorantHierarchy build_majorant_hierarchy(const MajorantGrid& fine, int block, const MajorantCostModel& cost) {
   if (block < 2) throw Error("majorant hierarchy: blocks must be at least 2 cells per edge, got " + std::to_string(block));
   MajorantHierarchy h;
@@ -254,7 +281,7 @@ MajorantHierarchy build_majorant_hierarchy(const MajorantGrid& fine, int block, 
   levels.push_back(block);
   h.blocks_per_level.assign(levels.size(), 0);
   const size_t nb = size_t(h.block_dims[0]) * h.block_dims[1] * h.block_dims[2];
-  h.blocks.resize(2 * nb);
+  h.blocks.resize(nb);
   auto residual = [&](float dmax, float dmin) { return std::max(0.0, double(dmax) - (cost.decompose ? dmin : 0.0f)); };
   auto at = [&](int i, int j, int k) { return size_t(i) + size_t(fine.dims[0]) * (size_t(j) + size_t(fine.dims[1]) * k); };
   std::vector<std::vector<std::array<float, 2>>> groups(levels.size());
@@ -298,28 +325,42 @@ MajorantHierarchy build_majorant_hierarchy(const MajorantGrid& fine, int block, 
         best = L;
       }
     }
-    const int r = levels[best];
     ++h.blocks_per_level[best];
-    if (r == block) {
-      const auto& v = groups[best][0];
-      h.blocks[2 * b] = v[0];
-      h.blocks[2 * b + 1] = v[1];
-      ++(v[0] > 0.0f ? h.blocks_whole : h.blocks_empty);
-      continue;
-    }
-    ++h.blocks_refined;
-    const size_t offset = h.pool.size() / 2;
-    if (offset > 0xffffffffu) throw Error("majorant hierarchy: more than 2^32 groups");
-    const uint32_t bits = uint32_t(offset);
-    h.blocks[2 * b] = -float(r);
-    std::memcpy(&h.blocks[2 * b + 1], &bits, 4);  // the kernels read it back with as_uint
-    for (const auto& v : groups[best]) {
-      h.pool.push_back(v[0]);
-      h.pool.push_back(v[1]);
-    }
+    h.blocks[b] = block_entry(h, levels[best], groups[best]);
   }
   for (size_t L = 0; L < levels.size(); ++L) h.levels.push_back(levels[L]);
   return h;
+}
+
+std::array<float, 2> majorant_hierarchy_bounds(const MajorantHierarchy& h, int i, int j, int k) {
+  const int B = h.block;
+  const size_t b = size_t(i / B) + size_t(h.block_dims[0]) * (size_t(j / B) + size_t(h.block_dims[1]) * (k / B));
+  const st_maj_block& e = h.blocks.at(b);
+  if (e.group == B) return {e.dmax, e.dmin};
+  if (e.group < 1 || e.group > B || B % e.group != 0)
+    throw Error(fmt::format("majorant hierarchy: block {} has group edge {}, which does not divide {}", b, e.group, B));
+  const int r = e.group, n = B / r;
+  const size_t g = size_t(e.pool) + size_t((i % B) / r) + size_t(n) * (size_t((j % B) / r) + size_t(n) * ((k % B) / r));
+  if (2 * (size_t(e.pool) + size_t(n) * n * n) > h.pool.size())
+    throw Error(fmt::format("majorant hierarchy: block {}'s groups at {} lie past the pool's {} groups", b, e.pool,
+                            h.pool.size() / 2));
+  return {h.pool[2 * g], h.pool[2 * g + 1]};
+}
+
+void append_majorant_blocks(std::vector<float>& words, const std::vector<st_maj_block>& blocks) {
+  static_assert(sizeof(st_maj_block) == 4 * sizeof(float), "an entry is four words of the majorant buffer");
+  const size_t at = words.size();
+  words.resize(at + 4 * blocks.size());
+  if (!blocks.empty()) std::memcpy(words.data() + at, blocks.data(), blocks.size() * sizeof(st_maj_block));
+}
+
+st_maj_block packed_majorant_block(const std::vector<float>& words, size_t offset, size_t b) {
+  const size_t at = 2 * offset + 4 * b;
+  if (at + 4 > words.size())
+    throw Error(fmt::format("majorant buffer: block entry {} at pair {} lies past its {} words", b, offset, words.size()));
+  st_maj_block e;
+  std::memcpy(&e, words.data() + at, sizeof e);
+  return e;
 }
 
 }  // namespace spectrack

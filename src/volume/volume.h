@@ -17,6 +17,7 @@
 
 #include <nanovdb/util/GridHandle.h>
 
+#include "kernels/types.h"
 #include "util/error.h"
 
 namespace spectrack {
@@ -98,11 +99,11 @@ struct MajorantCostModel {
 struct MajorantHierarchy {
   int block = 8;                        // fine cells per block edge (>= 2)
   std::array<int, 3> block_dims{1, 1, 1};
-  // per block: (dmax, dmin) of a block walked whole; (-r, offset) of a block walked in groups of
-  // r^3 cells, the offset (in pairs, into pool; its uint32 bits in the float) of its (block/r)^3
-  // group bounds, x fastest (groups past the grid's far faces: (0, 0))
-  std::vector<float> blocks;
-  std::vector<float> pool;
+  // per block (x fastest): its entry (kernels/types.h st_maj_block): group == block, walked
+  // whole; group = r < block, walked in groups of r^3 cells whose (block/r)^3 bounds lie at pair
+  // `pool` of the pool, x fastest (groups past the grid's far faces: (0, 0))
+  std::vector<st_maj_block> blocks;
+  std::vector<float> pool;  // (dmax, dmin) pairs
   std::vector<int> levels;              // the group edges, finest first
   std::vector<size_t> blocks_per_level; // blocks walked at each level
   size_t blocks_empty = 0, blocks_whole = 0, blocks_refined = 0;
@@ -113,6 +114,16 @@ struct MajorantHierarchy {
 // fraction of non-empty groups) plus lookups_per_density times the mean residual of its groups;
 // ties go to the coarser level. Throws spectrack::Error for block < 2.
 MajorantHierarchy build_majorant_hierarchy(const MajorantGrid& fine, int block, const MajorantCostModel& cost);
+
+// The bounds (dmax, dmin) the walk uses at fine cell (i, j, k): its group's (the host mirror of
+// kernels/majorant.h majorant_bounds_at). Throws spectrack::Error naming the block when its entry
+// is not one the builder makes (a group edge that does not divide the block, groups past the pool).
+std::array<float, 2> majorant_hierarchy_bounds(const MajorantHierarchy& h, int i, int j, int k);
+
+// The block entries as the majorant buffer holds them (two float2 records each, the layout of
+// st_maj_block), appended to words; and entry b of the entries starting at pair `offset`.
+void append_majorant_blocks(std::vector<float>& words, const std::vector<st_maj_block>& blocks);
+st_maj_block packed_majorant_block(const std::vector<float>& words, size_t offset, size_t b);
 
 // Host-side trilinear density at a continuous index point (the reference for device lookups).
 float sample_index_trilinear(const GridData& grid, double x, double y, double z);
