@@ -51,11 +51,24 @@ constexpr int64_t kAdaptiveLastRoundSteps = 4;
 // costs only part of its round's samples.
 constexpr double kAdaptiveWeightMargin = 4.0;
 
+// The pilot's weight of a pixel is k_0 / N, N the samples its noisiest 3x3 neighbour (the pixel
+// itself left out: its own pilot must not set its weight) needs at the aim, times
+// kAdaptivePilotMargin, within [kAdaptivePilotMin k_0, spp]; spp when no neighbour is noisy (no
+// information: as if the pixel took every sample). A weight near the pixel's share k_0 / n keeps
+// the pilot's samples from being wasted; one far above it could leave the aim out of reach.
+constexpr double kAdaptivePilotMargin = 2.0;
+constexpr double kAdaptivePilotMin = 4.0;
+// The per-pixel cap leaves kAdaptiveCapShare of the percentile's allowance (the 5% of counted
+// pixels that may end above the target) to the pixels it stops, the rest to pixels that drift
+// above their aim.
+constexpr double kAdaptiveCapShare = 0.5;
+
 struct AdaptivePlan {
   double target = 0;      // the relative error each pixel is brought to (noise.h's r_p)
   int64_t spp = 0;        // at most this many samples per pixel
   int64_t pilot = 16;     // round 0 (kNoiseMinSpp, at most spp)
   double floor = 0;       // brightness floor of r_p (radiance); 0: from the pilot
+  double aim = kAdaptiveAim;  // each pixel aims at aim * target
 };
 
 // One pixel's rounds so far (RGB of its whole beauty).
@@ -90,6 +103,10 @@ int64_t adaptive_round_length(const AdaptivePixel& px, int64_t k, int64_t cap, d
 // of the rounds so far: the taken samples of finished pixels, taken plus needed of the others),
 // within [2 pilot, spp]: the image's error is that percentile's, so no pixel is given more.
 int64_t adaptive_cap(const std::vector<AdaptivePixel>& px, const std::vector<double>& rho, const AdaptivePlan& plan);
+// The pilot's weight of every pixel (kAdaptivePilotMargin above) from the window's pilot round
+// (row-major, width x height); each depends on the neighbours' pilots only.
+std::vector<double> adaptive_pilot_weights(const std::vector<AdaptivePixel>& pilot, int width, int height,
+                                           const AdaptivePlan& plan);
 // Adds a round of k samples taken with weight a (s1, s2: 3 sums each of the round's samples).
 void adaptive_add_round(AdaptivePixel& px, double a, int64_t k, const double* s1, const double* s2);
 
@@ -103,6 +120,10 @@ struct AdaptiveResult {
   int rounds = 0;
   int64_t round_end = 0;       // the sample count the last round ended at
   double mean_samples = 0;     // over the window's pixels
+  // Why the rounds ended with the target missed (multi_device.h MultiDeviceResult::stop_reason):
+  // "spp" when some pixel took plan.spp samples, else "pixels-finished"; "" when the target was
+  // met or the render was stopped.
+  std::string stop_reason;
 };
 
 // Renders the adaptive film of the renderer's window (settings().adaptive). `after_round` (may be
