@@ -18,12 +18,14 @@
 // rounded up to a quarter of k_r: finishing pixels of a round are rendered in up to four groups of
 // lengths; the weight of a round that is not the last is taken from a rho with a margin,
 // kAdaptiveWeightMargin). The aim is kAdaptiveAim times the target. No pixel is given more than the samples
-// the image's 95th-percentile pixel needs (adaptive_cap), since the image's error is that
-// pixel's. The pilot's weight k_0 / spp is fixed before any sample, so it can only be too small
-// (what it loses is at most its own samples). The floor is kNoiseFloor times the mean brightness
-// of the pilot's noisy pixels. Decisions use other pixels' samples (the floor, the neighbourhood,
-// the cap), which are independent of a pixel's own paths, so they bias nothing; but they tie the
-// pixels together, so an adaptive film is rendered whole: no shards, tiles, devices or ranks.
+// the image's 97.5th-percentile pixel needs (adaptive_cap): the image's error is the 95th
+// percentile's, and half of that allowance is left to pixels that drift above their aim. The
+// pilot's weight comes from the neighbours' pilots, never the pixel's own (adaptive_pilot_weights);
+// k_0 / spp where nothing is known, which can only be too small (what it loses is at most its own
+// samples). The floor is kNoiseFloor times the mean brightness of the pilot's noisy pixels.
+// Decisions use other pixels' samples (the floor, the neighbourhood, the cap, the pilot's weight),
+// which are independent of a pixel's own paths, so they bias nothing; but they tie the pixels
+// together, so an adaptive film is rendered whole: no shards, tiles, devices or ranks.
 #pragma once
 #include <cstdint>
 #include <functional>
