@@ -130,6 +130,23 @@ TEST(AdaptiveWeights, APilotWeightIgnoresThePixelsOwnPilot) {
   EXPECT_DOUBLE_EQ(adaptive_pilot_weights(calm, 3, 3, plan)[4], 16.0 / 4096.0);
 }
 
+// The per-pixel cap is the need of the 97.5th-percentile pixel: half of the 5% the image's
+// percentile allows above the target goes to the pixels it stops, half is left for drift.
+TEST(AdaptiveCap, LeavesHalfThePercentilesAllowanceToDrift) {
+  AdaptivePlan plan;
+  plan.target = 0.05;
+  plan.spp = 4096;
+  AdaptivePixel x;  // 16 samples of mean 1 and some variance: a counted pixel
+  x.n = 16;
+  for (int c = 0; c < 3; ++c) x.s1[c] = 16.0, x.s2[c] = 20.0;
+  const double e2 = std::pow(plan.target * plan.aim, 2);
+  std::vector<AdaptivePixel> px(200, x);
+  std::vector<double> rho(200);
+  for (size_t i = 0; i < rho.size(); ++i) rho[i] = double(i) * 10.0 * e2 * (1.0 - 1e-9);  // needs 10 i more
+  // nearest rank: the 195th of 200 needs (0-based 194) 16 + 1940; the 95th percentile's is 16 + 1890
+  EXPECT_EQ(adaptive_cap(px, rho, plan), 16 + 1940);
+}
+
 TEST(AdaptiveWeights, AreUnbiasedWhereAveragingAPixelsOwnStoppedSamplesIsNot) {
   const double mu = 0.98 * 1.0 + 0.02 * 40.0;
   AdaptivePlan plan;
