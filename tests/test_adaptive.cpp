@@ -145,6 +145,9 @@ TEST(AdaptiveCap, LeavesHalfThePercentilesAllowanceToDrift) {
   for (size_t i = 0; i < rho.size(); ++i) rho[i] = double(i) * 10.0 * e2 * (1.0 - 1e-9);  // needs 10 i more
   // nearest rank: the 195th of 200 needs (0-based 194) 16 + 1940; the 95th percentile's is 16 + 1890
   EXPECT_EQ(adaptive_cap(px, rho, plan), 16 + 1940);
+  // needs that grow steeply past the 95th percentile: at most twice its need
+  for (size_t i = 190; i < rho.size(); ++i) rho[i] *= 100.0;
+  EXPECT_EQ(adaptive_cap(px, rho, plan), 2 * (16 + 1890));
 }
 
 TEST(AdaptiveWeights, AreUnbiasedWhereAveragingAPixelsOwnStoppedSamplesIsNot) {

@@ -98,10 +98,14 @@ int64_t adaptive_cap(const std::vector<AdaptivePixel>& px, const std::vector<dou
     need.push_back(x.done() ? double(x.n) : double(x.n) + adaptive_samples_needed(x, rho[i], plan));
   }
   if (need.empty()) return plan.spp;
-  const double percentile = 1.0 - (1.0 - kNoisePercentile) * kAdaptiveCapShare;
-  const size_t k = std::min(need.size() - 1, size_t(std::ceil(percentile * double(need.size()))) - 1);
-  std::nth_element(need.begin(), need.begin() + std::ptrdiff_t(k), need.end());
-  return int64_t(std::min(double(plan.spp), std::max(need[k], double(2 * plan.pilot))));
+  auto rank = [&](double percentile) {  // nearest rank
+    const size_t k = std::min(need.size() - 1, size_t(std::ceil(percentile * double(need.size()))) - 1);
+    std::nth_element(need.begin(), need.begin() + std::ptrdiff_t(k), need.end());
+    return need[k];
+  };
+  const double image = rank(kNoisePercentile);
+  const double cap = std::min(rank(1.0 - (1.0 - kNoisePercentile) * kAdaptiveCapShare), kAdaptiveCapGrowth * image);
+  return int64_t(std::min(double(plan.spp), std::max(cap, double(2 * plan.pilot))));
 }
 
 

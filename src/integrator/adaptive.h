@@ -18,8 +18,9 @@
 // rounded up to a quarter of k_r: finishing pixels of a round are rendered in up to four groups of
 // lengths; the weight of a round that is not the last is taken from a rho with a margin,
 // kAdaptiveWeightMargin). The aim is kAdaptiveAim times the target. No pixel is given more than the samples
-// the image's 97.5th-percentile pixel needs (adaptive_cap): the image's error is the 95th
-// percentile's, and half of that allowance is left to pixels that drift above their aim. The
+// the image's 97.5th-percentile pixel needs, nor twice what its 95th-percentile pixel needs
+// (adaptive_cap): the image's error is the 95th percentile's, and half of that allowance is left
+// to pixels that drift above their aim. The
 // pilot's weight comes from the neighbours' pilots, never the pixel's own (adaptive_pilot_weights);
 // k_0 / spp where nothing is known, which can only be too small (what it loses is at most its own
 // samples). The floor is kNoiseFloor times the mean brightness of the pilot's noisy pixels.
@@ -62,8 +63,11 @@ constexpr double kAdaptivePilotMargin = 2.0;
 constexpr double kAdaptivePilotMin = 4.0;
 // The per-pixel cap leaves kAdaptiveCapShare of the percentile's allowance (the 5% of counted
 // pixels that may end above the target) to the pixels it stops, the rest to pixels that drift
-// above their aim.
+// above their aim; but it is never more than kAdaptiveCapGrowth times the samples the image's
+// percentile pixel needs (where the needs between the two percentiles grow steeply, a few pixels
+// would otherwise take more samples than the whole image).
 constexpr double kAdaptiveCapShare = 0.5;
+constexpr double kAdaptiveCapGrowth = 2.0;
 
 struct AdaptivePlan {
   double target = 0;      // the relative error each pixel is brought to (noise.h's r_p)
@@ -101,9 +105,10 @@ double adaptive_samples_needed(const AdaptivePixel& px, double rho, const Adapti
 double adaptive_round_weight(const AdaptivePixel& px, int64_t k, int64_t cap, double rho, const AdaptivePlan& plan);
 // The samples the pixel takes in that round: k, or fewer in its last round.
 int64_t adaptive_round_length(const AdaptivePixel& px, int64_t k, int64_t cap, double rho, const AdaptivePlan& plan);
-// The samples the image's percentile pixel needs (noise.h kNoisePercentile over the counted pixels
-// of the rounds so far: the taken samples of finished pixels, taken plus needed of the others),
-// within [2 pilot, spp]: the image's error is that percentile's, so no pixel is given more.
+// The per-pixel cap: the samples the 97.5th-percentile pixel needs (kAdaptiveCapShare) over the
+// counted pixels of the rounds so far (noise.h's; the taken samples of finished pixels, taken plus
+// needed of the others), at most kAdaptiveCapGrowth times the 95th-percentile pixel's, within
+// [2 pilot, spp].
 int64_t adaptive_cap(const std::vector<AdaptivePixel>& px, const std::vector<double>& rho, const AdaptivePlan& plan);
 // The pilot's weight of every pixel (kAdaptivePilotMargin above) from the window's pilot round
 // (row-major, width x height); each depends on the neighbours' pilots only.
