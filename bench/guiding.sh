@@ -5,7 +5,9 @@
 # variance layer; prints per run the mean over pixels and channels of the variance of the pixel
 # means, seconds_render (training included), the efficiency 1 / (variance x seconds_render), and
 # the counts that do not depend on the machine's load: scatter events and split paths per camera
-# sample. Then per scene the ratios against `off` (variance and efficiency, per seed).
+# sample (training passes included), and the process's CPU seconds over seconds_render (all threads:
+# PoCL's too) with the efficiency on them, which a loaded machine disturbs less than the wall
+# seconds. Then per scene the ratios against `off` (variance and efficiency, per seed).
 # With REF=DIR in the environment and DIR/<scene>.exr a long render of the scene with the variance
 # layer (bench/guiding_reference.sh), each run's relative MSE against it (the mean over pixels and
 # channels of (x - ref)^2 / (ref^2 + 0.01), less the reference's own share, its variance layer over
@@ -26,7 +28,7 @@ flags() {
   esac
 }
 echo "# $(date -u '+%Y-%m-%d %H:%M UTC') $(uname -n) $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg); $BIN; spp $SPP; seeds 1..$SEEDS"
-echo "# scene seed config mean_variance seconds_render seconds_training efficiency scatter_per_sample split_per_sample regions_guided records regions relmse"
+echo "# scene seed config mean_variance seconds_render seconds_training efficiency scatter_per_sample split_per_sample regions_guided records regions relmse cpu_seconds_render efficiency_cpu"
 # the mean over pixels and channels of $1 (a layer expression's image) over ref^2 + 0.01
 rel() { oiiotool "$@" "$ref" --ch R,G,B --dup --mul --addc 0.01 --div --printstats 2>/dev/null | awk '/Stats Avg/ {print ($3+$4+$5)/3}'; }
 for scene in $SCENES; do
@@ -47,7 +49,8 @@ samples = n or 1
 print(sys.argv[2], sys.argv[3], sys.argv[4], f"{v:.6g}", f"{t:.3f}", f"{j.get('seconds_guide_training', 0):.3f}",
       f"{1.0 / ((r if r > 0 else v) * t):.6g}", f"{j.get('scatter_events', 0) / samples:.4g}",
       f"{j.get('guide_split_paths', 0) / samples:.4g}", j.get("guide_regions_guided", 0), j.get("guide_training_records", 0),
-      j.get("guide_regions", 0), f"{r:.6g}")
+      j.get("guide_regions", 0), f"{r:.6g}", f"{j.get('cpu_seconds_render', 0):.3f}",
+      f"{1.0 / ((r if r > 0 else v) * max(j.get('cpu_seconds_render', 0), 1e-9)):.6g}")
 PY
     done
   done
@@ -56,16 +59,17 @@ python3 - $raw <<'PY'
 import collections, sys
 rows = [l.split() for l in open(sys.argv[1]) if l.strip()]
 by = collections.defaultdict(dict)
-for r in rows: by[(r[0], r[1])][r[2]] = (float(r[3]) if float(r[12]) <= 0 else float(r[12]), float(r[6]), float(r[7]))
+for r in rows: by[(r[0], r[1])][r[2]] = (float(r[3]) if float(r[12]) <= 0 else float(r[12]), float(r[6]), float(r[7]), float(r[14]))
 print("# Summary: per scene, per config, per seed: off/config variance, or relMSE with REF (above 1: less error) | config/off")
-print("# efficiency per second | config/off efficiency per scatter event (1 / (error x scatter events per sample))")
+print("# efficiency per second | efficiency per CPU second | config/off efficiency per scatter event (1 / (error x scatter events per sample))")
 for scene in dict.fromkeys(r[0] for r in rows):
     seeds = [k for k in by if k[0] == scene]
     for c in dict.fromkeys(r[2] for r in rows if r[2] != "off"):
         vr = [by[k]["off"][0] / by[k][c][0] for k in seeds if c in by[k] and "off" in by[k]]
         er = [by[k][c][1] / by[k]["off"][1] for k in seeds if c in by[k] and "off" in by[k]]
+        cr = [by[k][c][3] / by[k]["off"][3] for k in seeds if c in by[k] and "off" in by[k]]
         wr = [by[k]["off"][0] * by[k]["off"][2] / (by[k][c][0] * by[k][c][2]) for k in seeds if c in by[k] and "off" in by[k]]
         print(f"# {scene} {c}: error {' '.join(f'{x:.3f}' for x in vr)} | efficiency {' '.join(f'{x:.3f}' for x in er)}"
-              f" | per scatter event {' '.join(f'{x:.3f}' for x in wr)}")
+              f" | cpu {' '.join(f'{x:.3f}' for x in cr)} | per scatter event {' '.join(f'{x:.3f}' for x in wr)}")
 PY
 rm -rf $out

@@ -17,6 +17,7 @@
 #include <random>
 
 #include "cli_util.h"
+#include "guiding/guide_cache.h"
 #include "integrator/adaptive.h"
 #include "integrator/noise.h"
 #include "integrator/renderer.h"
@@ -234,7 +235,7 @@ TEST(AdaptiveRender, WithGuidingTrainsInThePilotAndAgreesWithAUniformRender) {
   const RenderResult& f = a.film;
   ASSERT_FALSE(f.interrupted);
   EXPECT_TRUE(f.guide.used);
-  EXPECT_EQ(f.guide.training_passes, 3);
+  EXPECT_EQ(f.guide.training_passes, kGuideTrainingPasses);
   EXPECT_GT(a.rounds, 1);
   expect_agrees_with_uniform_render(scene, f);
 }

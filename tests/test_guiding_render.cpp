@@ -69,7 +69,8 @@ void point_away_from_sun(GuideCache& c) {
 
 TEST(GuidingRender, GuidedAgreesWithUnguided) {
   const std::string dir = temp_dir("guided_agree");
-  const json s = guiding_scene(dir);
+  json s = guiding_scene(dir);
+  s["film"]["spp"] = 96;  // the twin's 3% must stand out of the noise by 4 standard errors
   RenderResult ref = render_guided(s, dir, ST_TRACKER_DELTA_PER_CHANNEL, ST_ABSORPTION_EVENT, 100, false);
   for (int t : {ST_TRACKER_SPECTRAL, ST_TRACKER_SPECTRAL_DECOMPOSITION, ST_TRACKER_DELTA_PER_CHANNEL})
     for (int a : {ST_ABSORPTION_WEIGHT, ST_ABSORPTION_EVENT}) {
@@ -99,7 +100,7 @@ TEST(GuidingRender, CachePointingAwayFromTheSunStaysUnbiased) {
 TEST(GuidingRender, DeterministicAndGenericKernelsAgree) {
   const std::string dir = temp_dir("guided_bits");
   json s = guiding_scene(dir);
-  s["film"]["spp"] = 8;  // the training passes' 7 samples and one of the render
+  s["film"]["spp"] = 8;  // the training passes' samples and the render's
   RenderResult a = render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 7, true);
   RenderResult b = render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 7, true);
   RenderResult g = render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 7, true, {}, true);
@@ -112,7 +113,7 @@ TEST(GuidingRender, DeterministicAndGenericKernelsAgree) {
   EXPECT_FALSE(off.features & ST_FEATURE_GUIDING);
   EXPECT_FALSE(off.guide.used);
   EXPECT_EQ(a.guide.training_passes, kGuideTrainingPasses);
-  EXPECT_EQ(a.spp_done, 8) << "the training passes' 7 samples are part of the image";
+  EXPECT_EQ(a.spp_done, 8) << "the training passes' samples are part of the image";
   EXPECT_GT(a.guide.records, 0u);
   // the header, the regions, the kd-trees' nodes (one per cell and two per region refinement
   // added) and one pixel estimate per film pixel; a 2-cell grid along the longest axis: 1-8 cells
@@ -125,6 +126,27 @@ TEST(GuidingRender, DeterministicAndGenericKernelsAgree) {
   EXPECT_LE(size_t(a.guide.regions), kGuideMaxRegions);
   EXPECT_GT(a.guide.seconds_training, 0.0);
   EXPECT_GE(a.seconds_render, a.guide.seconds_training) << "training is part of seconds_render";
+}
+
+// The training pass leaves the render at least one sample (a render of few samples trains spp - 1),
+// and the render's statistics count the pass's paths, iterations and kernels with its own.
+TEST(GuidingRender, TrainingLeavesASampleAndItsStatisticsCount) {
+  const std::string dir = temp_dir("guided_schedule");
+  json s = guiding_scene(dir);
+  for (int spp : {2, 3, kGuideTrainingSpp[0] + 2}) {
+    s["film"]["spp"] = spp;
+    RenderResult a = render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 7, true);
+    RenderResult off = render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 7, false);
+    EXPECT_EQ(a.spp_done, spp);
+    EXPECT_EQ(a.guide.training_passes, 1) << spp << " spp";
+    EXPECT_EQ(a.stats.paths, off.stats.paths) << spp << " spp: every sample's paths, the training's too";
+    EXPECT_GE(a.stats.iterations, a.guide.training_iterations + 1) << spp << " spp";
+    EXPECT_GT(a.guide.training_iterations, 0u);
+    EXPECT_GE(a.guide.drains, a.guide.training_iterations) << "one drain per training iteration";
+    ASSERT_TRUE(a.stats.kernels.count("k_scatter"));
+    EXPECT_GT(a.stats.kernels.at("k_scatter").launches, a.guide.training_kernels.at("k_scatter").launches);
+    EXPECT_GT(a.cpu_seconds_render, 0.0);
+  }
 }
 
 TEST(GuidingRender, AutoIsOffAndShardsAreRefused) {

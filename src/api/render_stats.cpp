@@ -48,6 +48,7 @@ nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_tota
   j["pixel_bounds"] = {p.x0, p.x0 + p.width, p.y0, p.y0 + p.height};
   j["scene_hash"] = p.id.scene_hash;
   j["seconds_render"] = r.seconds_render;
+  j["cpu_seconds_render"] = r.cpu_seconds_render;
   j["seconds_setup"] = r.seconds_setup;
   j["seconds_kernel_build"] = r.seconds_build;
   j["kernels_from_cache"] = r.kernels_from_cache;
@@ -63,6 +64,15 @@ nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_tota
   j["guide_training_passes"] = r.guide.training_passes;
   j["guide_training_records"] = r.guide.records;
   j["seconds_guide_training"] = r.guide.seconds_training;
+  j["seconds_guide_training_loops"] = r.guide.seconds_training_loops;
+  j["seconds_guide_drain"] = r.guide.seconds_drain;
+  j["seconds_guide_fit"] = r.guide.seconds_fit;
+  j["cpu_seconds_guide_training"] = r.guide.cpu_seconds_training;
+  j["guide_training_iterations"] = r.guide.training_iterations;
+  j["guide_drains"] = r.guide.drains;
+  j["guide_training_kernels"] = nlohmann::json::object();
+  for (auto& [name, t] : r.guide.training_kernels)
+    j["guide_training_kernels"][name] = {{"seconds", t.seconds}, {"launches", t.launches}};
   // each VDB medium's majorant structure (docs/majorant-hierarchy.md)
   nlohmann::json maj = nlohmann::json::array();
   for (const MajorantInfo& m : r.majorants)

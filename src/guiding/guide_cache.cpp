@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <map>
 #include <tuple>
 
 #include "guiding/vmf_fit.h"
@@ -108,12 +107,20 @@ void set_pixel_estimates(GuideCache& cache, const std::vector<double>& sums, dou
 namespace {
 
 using PathKey = std::tuple<uint32_t, uint32_t, uint32_t>;  // pixel, sample, channel
+using PathEnds = std::vector<std::pair<PathKey, float>>;   // every path's radiance, sorted by key
+
+// The radiance of the path `key` from its end record, or none.
+const float* path_end(const PathEnds& ends, const PathKey& key) {
+  const auto e = std::lower_bound(ends.begin(), ends.end(), key,
+                                  [](const std::pair<PathKey, float>& a, const PathKey& k) { return a.first < k; });
+  return e != ends.end() && e->first == key ? &e->second : nullptr;
+}
 
 // The region of records [begin, end) (sorted, one region): its radiance from its vertices'
 // radiance records joined with their paths' end records (`ends`: each path's radiance), its
 // mixture from the fit's records. Returns 1 when the region guides.
 int fit_region(GuideCache& cache, const std::vector<st_guide_record>& records, size_t begin, size_t end,
-               const std::map<PathKey, float>& ends) {
+               const PathEnds& ends) {
   int32_t region;
   std::memcpy(&region, &records[begin].pos.w, 4);
   st_guide_region& g = cache.regions[size_t(region)];
@@ -123,8 +130,8 @@ int fit_region(GuideCache& cache, const std::vector<st_guide_record>& records, s
   for (size_t i = begin; i < end; ++i) {
     const st_guide_record& r = records[i];
     if (r.key[3] & ST_GUIDE_RECORD_RADIANCE) {
-      const auto e = ends.find(PathKey{r.key[0], r.key[1], r.key[2]});
-      const double L = e == ends.end() ? 0.0 : std::max(0.0, double(e->second) - double(r.dir.x)) / double(r.dir.y);
+      const float* e = path_end(ends, PathKey{r.key[0], r.key[1], r.key[2]});
+      const double L = e ? std::max(0.0, double(*e) - double(r.dir.x)) / double(r.dir.y) : 0.0;
       if (std::isfinite(L)) sum_radiance += L, ++n_radiance;
     } else if (r.dir.w > 0) {
       guided_depth.push_back(i);
@@ -173,9 +180,10 @@ int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records) {
     std::memcpy(&r.pos.w, &region, 4);
   }
   std::sort(records.begin(), records.end(), order);
-  std::map<PathKey, float> ends;  // every path's radiance (lane mean), from its end record
+  PathEnds ends;  // every path's radiance (lane mean), from its one end record (region -1: sorted first, by key)
   for (const st_guide_record& r : records)
-    if (r.key[3] == ST_GUIDE_RECORD_END) ends[PathKey{r.key[0], r.key[1], r.key[2]}] = r.dir.x;
+    if (r.key[3] == ST_GUIDE_RECORD_END) ends.emplace_back(PathKey{r.key[0], r.key[1], r.key[2]}, r.dir.x);
+
   for (st_guide_region& g : cache.regions) g = st_guide_region{};
   int guided = 0;
   for (size_t begin = 0; begin < records.size();) {

@@ -31,8 +31,12 @@ constexpr int kGuideMinRecords = 32;
 constexpr int kGuideMaxRecordsPerRegion = 2048;
 // The selection probability of the guide in a region that has a fit.
 constexpr float kGuideAlpha = 0.5f;
-// Training passes: 1, 2, 4, ... samples per pixel over the full film.
-constexpr int kGuideTrainingPasses = 3;
+// Training passes: their samples per pixel over the full film, in order. One pass of 4: every pass
+// is a stage loop that ends with its own tail of the longest paths (in dense media most of its
+// iterations), and caches fitted from 1 or 2 samples per pixel guided the next passes worse than
+// the phase function alone (docs/guiding.md, "Where a guided render's time goes").
+constexpr int kGuideTrainingSpp[] = {4};
+constexpr int kGuideTrainingPasses = int(sizeof(kGuideTrainingSpp) / sizeof(kGuideTrainingSpp[0]));
 // The training passes' random streams: the render's seed xor this.
 constexpr uint32_t kGuideTrainingSeed = 0x6a09e667u;
 // Region refinement: a region that holds more than this many radiance records of a training pass

@@ -126,6 +126,7 @@ void MultiDeviceRun::add_chunk(size_t i, int64_t begin, const RenderResult& res)
     d.started = true;
   } else {
     d.run.seconds_render += res.seconds_render;
+    d.run.cpu_seconds_render += res.cpu_seconds_render;
     d.run.stats.add(res.stats);
     d.run.time_limit_reached |= res.time_limit_reached;
     d.run.noise_target_reached |= res.noise_target_reached;
@@ -205,6 +206,7 @@ MultiDeviceResult MultiDeviceRun::combine() const {
     out.seconds_setup = std::max(out.seconds_setup, r.seconds_setup);
     out.seconds_build = std::max(out.seconds_build, r.seconds_build);
     out.seconds_render = std::max(out.seconds_render, r.seconds_render);
+    out.cpu_seconds_render = std::max(out.cpu_seconds_render, r.cpu_seconds_render);
     out.kernels_from_cache = out.kernels_from_cache && r.kernels_from_cache;
     out.seconds_first_pass = out.seconds_first_pass > 0 ? std::min(out.seconds_first_pass, r.seconds_first_pass) : r.seconds_first_pass;
     static_cast<RunChoices&>(out) = static_cast<const RunChoices&>(r);
@@ -231,6 +233,7 @@ MultiDeviceResult device_result(const RenderResult& res) {
   out.seconds_setup = res.seconds_setup;
   out.seconds_build = res.seconds_build;
   out.seconds_render = res.seconds_render;
+  out.cpu_seconds_render = res.cpu_seconds_render;
   out.kernels_from_cache = res.kernels_from_cache;
   out.seconds_first_pass = res.seconds_first_pass;
   out.time_limit_reached = res.time_limit_reached;

@@ -27,6 +27,7 @@ struct MultiDeviceResult : RenderChoices, RunChoices {
   std::vector<int64_t> samples_per_device;
   double seconds_setup = 0, seconds_build = 0;  // the slowest device's
   double seconds_render = 0;                    // stage loops alone: the device with the longest sum
+  double cpu_seconds_render = 0;  // the process's CPU time over the render (one device: RenderResult's)
   bool kernels_from_cache = true;
   double seconds_first_pass = 0;  // the first device to put a batch on its film: construction to then
   int spp_requested = 0;

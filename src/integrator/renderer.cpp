@@ -18,6 +18,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <iostream>
 
 #include "guiding/guide_cache.h"
@@ -272,11 +273,13 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
     active_pixels.resize(settings.window.pixels());
     for (size_t i = 0; i < active_pixels.size(); ++i) active_pixels[i] = uint32_t(i);
   }
+  const std::clock_t cpu0 = std::clock();
   const double seconds_training = settings.guiding && !guide_trained ? train_guide(spp) : 0.0;
   // the training passes' samples are part of the image: the render adds the rest
   RenderResult res = run_stage_loop(sample_begin, spp - guide_samples.spp_done, nullptr);
-  add_guide_samples(res);
+  add_guide_samples(res);  // with their statistics
   res.seconds_render += seconds_training;  // efficiency counts the training
+  res.cpu_seconds_render = double(std::clock() - cpu0) / CLOCKS_PER_SEC;
   res.guide = guide_info;
   return res;
 }

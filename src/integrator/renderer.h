@@ -59,6 +59,13 @@ struct GuideInfo {
   int training_passes = 0;
   uint64_t records = 0;       // radiance records of the last training pass
   double seconds_training = 0;  // part of seconds_render
+  // where the training time goes: the passes' stage loops (kernels, host loop and record drains),
+  // the drains alone (host reads of the records), and the host's refinement, fit and upload
+  double seconds_training_loops = 0, seconds_drain = 0, seconds_fit = 0;
+  double cpu_seconds_training = 0;  // the process's CPU time (every thread: the device's too on a CPU) in training
+  uint64_t training_iterations = 0;  // stage-loop iterations of the passes (each a kernel sequence and a read)
+  uint64_t drains = 0;               // host reads of the record buffer
+  std::map<std::string, KernelTime> training_kernels;  // the passes' kernel profile, summed
 };
 
 // What a render ran with where its settings leave the choice to the scene or the device: recorded
@@ -98,6 +105,7 @@ struct RenderResult : RenderChoices, RunChoices {
   bool noise_target_reached = false;  // stopped by RenderOptions::watch (a noise target met: not interrupted)
   std::string device;
   double seconds_setup = 0, seconds_build = 0, seconds_render = 0;
+  double cpu_seconds_render = 0;  // the process's CPU time (all threads) over seconds_render: one device's render
   double seconds_first_pass = 0;  // Renderer construction to the first batch added to the film
   bool kernels_from_cache = false;
   RenderStats stats;

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <ctime>
 #include <iostream>
 
 namespace spectrack {
@@ -19,18 +20,27 @@ void Renderer::Impl::upload_guide() {
 
 // Appends the records of the last iteration (their order is the device's; the fit sorts them)
 // and empties the buffer. Its capacity (guide_record_capacity) is the most one iteration records.
+// Appends the records of the last iteration (their order is the device's; the fit sorts them)
+// and empties the buffer. Its capacity (guide_record_capacity) is the most one iteration records.
+// One synchronisation per iteration: the count's blocking read (which also completes the previous
+// drain's reads on the in-order queue, so `out` may grow); the records' read and the count's reset
+// are queued without waiting, and the stage loop's final finish completes the last ones.
 void Renderer::Impl::drain_records(std::vector<st_guide_record>& out) {
+  static const uint32_t zero = 0;
+  const auto t0 = Clock::now();
   uint32_t n = 0;
   ST_CL_CHECK(ds.queue.enqueueReadBuffer(b_records, CL_TRUE, 0, 4, &n), "read the guide record count");
-  if (n == 0) return;
+  guide_info.drains++;
   if (n > uint32_t(guide.header.dims[3]))
     throw Error(fmt::format("internal: {} guide records in one iteration, above the capacity {}", n, guide.header.dims[3]));
-  const size_t first = out.size();
-  out.resize(first + n);
-  ST_CL_CHECK(ds.queue.enqueueReadBuffer(b_records, CL_TRUE, 16, size_t(n) * sizeof(st_guide_record), &out[first]),
-              "read the guide records");
-  const uint32_t zero = 0;
-  ST_CL_CHECK(ds.queue.enqueueWriteBuffer(b_records, CL_TRUE, 0, 4, &zero), "reset the guide record count");
+  if (n > 0) {
+    const size_t first = out.size();
+    out.resize(first + n);
+    ST_CL_CHECK(ds.queue.enqueueReadBuffer(b_records, CL_FALSE, 16, size_t(n) * sizeof(st_guide_record), &out[first]),
+                "read the guide records");
+    ST_CL_CHECK(ds.queue.enqueueWriteBuffer(b_records, CL_FALSE, 0, 4, &zero), "reset the guide record count");
+  }
+  guide_info.seconds_drain += seconds_since(t0);
 }
 
 // Adds a training pass's pixel means (over RGB) times its spp to `sum` (guided roulette's pixel
@@ -49,6 +59,7 @@ static void keep_samples(RenderResult& kept, const RenderResult& pass) {
   for (size_t i = 0; i < kept.sum.size() && i < pass.sum.size(); ++i) kept.sum[i] += pass.sum[i];
   for (size_t i = 0; i < kept.aov_sum.size() && i < pass.aov_sum.size(); ++i) kept.aov_sum[i] += pass.aov_sum[i];
   kept.spp_done += pass.spp_done;
+  kept.stats.add(pass.stats);
 }
 
 // The first render after training adds the training passes' samples to its film (sums of samples,
@@ -63,11 +74,12 @@ void Renderer::Impl::add_guide_samples(RenderResult& res) {
   for (size_t i = 0; i < res.aov_sum.size(); ++i) res.aov_sum[i] += g.aov_sum[i];
   res.spp_done += g.spp_done;
   res.spp_requested += g.spp_done;
+  res.stats.add(g.stats);  // the passes' paths, events, iterations and kernel times
   for (size_t i = 0; i < res.rgb.size(); ++i) res.rgb[i] = float(res.sum[i] / double(res.spp_done));
   guide_samples = RenderResult{};
 }
 
-// The training passes: 1, 2, 4, ... samples per pixel (samples 0, 1-2, 3-6, ... of a seed of their
+// The training passes: kGuideTrainingSpp samples per pixel each, at most spp - 1 in all (samples 0-3 of a seed of their
 // own), each guided by the cache the previous one fitted; records are fitted once per pass.
 // With adaptive sampling the passes run in the first round (the pilot), over every pixel in film
 // order, so their film adds to that round's as in a plain render.
@@ -75,6 +87,7 @@ double Renderer::Impl::train_guide(int spp) {
   if (settings.adaptive && active_pixels.size() != size_t(settings.window.pixels()))
     throw Error("internal: guide training in an adaptive round that does not cover every pixel");
   auto t0 = Clock::now();
+  const std::clock_t cpu0 = std::clock();
   const uint32_t seed = ds.packed.st.seed;
   ds.packed.st.seed = seed ^ kGuideTrainingSeed;
   ds.write_scene_constants();
@@ -85,18 +98,29 @@ double Renderer::Impl::train_guide(int spp) {
   int64_t begin = 0;
   guide_info = GuideInfo{};
   guide_samples = RenderResult{};
-  for (int k = 0; k < kGuideTrainingPasses && begin + (1 << k) < spp; ++k) {
+  // each pass leaves at least one sample to the render (a render of few samples trains fewer)
+  for (int k = 0; k < kGuideTrainingPasses && begin + 1 < spp; ++k) {
+    const int pass_spp = int(std::min<int64_t>(kGuideTrainingSpp[k], spp - 1 - begin));
     records.clear();
-    const RenderResult pass = run_stage_loop(begin, 1 << k, &records);
-    begin += 1 << k;
-    add_pixel_estimates(pixel_sum, pass, 1 << k);
+    const auto t_loop = Clock::now();
+    const RenderResult pass = run_stage_loop(begin, pass_spp, &records);
+    guide_info.seconds_training_loops += seconds_since(t_loop);
+    guide_info.training_iterations += pass.stats.iterations;
+    for (auto& [name, t] : pass.stats.kernels) {
+      guide_info.training_kernels[name].seconds += t.seconds;
+      guide_info.training_kernels[name].launches += t.launches;
+    }
+    const auto t_fit = Clock::now();
+    begin += pass_spp;
+    add_pixel_estimates(pixel_sum, pass, pass_spp);
     keep_samples(guide_samples, pass);
     refine_guide_regions(guide, records);  // where the pass's records crowd (guide_tree.cpp)
-    guide_info.regions_guided = fit_guide_cache(guide, records);
+    guide_info.records = records.size();
+    guide_info.regions_guided = fit_guide_cache(guide, std::move(records));
     if (opt.guide_cache_hook) opt.guide_cache_hook(guide);
     guide.header.origin.w = 1.0f;  // the next passes and the render sample the guide
-    guide_info.records = records.size();
     guide_info.training_passes = k + 1;
+    guide_info.seconds_fit += seconds_since(t_fit);
     if (pass.interrupted) break;
   }
   guide.header.inv_cell.w = 0.0f;  // no records in the render
@@ -115,6 +139,7 @@ double Renderer::Impl::train_guide(int spp) {
   guide_info.bytes = guide.bytes();
   guide_info.regions = int(guide.regions.size());
   guide_info.seconds_training = seconds_since(t0);
+  guide_info.cpu_seconds_training = double(std::clock() - cpu0) / CLOCKS_PER_SEC;
   return guide_info.seconds_training;
 }
 
