@@ -11,7 +11,9 @@
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <random>
 
 #include "cli_util.h"
@@ -30,22 +32,42 @@ struct PixelRun {
   int64_t n = 0;
 };
 
-// One simulated pixel: samples 1, or 40 with probability 0.02 (mean 1.78), taken in the rounds
-// and with the weights of adaptive.h, deciding from its own samples.
-PixelRun simulate_pixel(std::mt19937_64& rng, const AdaptivePlan& plan) {
+// A round of k simulated samples: 1, or 40 with probability 0.02 (mean 1.78).
+AdaptivePixel simulate_round(std::mt19937_64& rng, int64_t k) {
   std::bernoulli_distribution rare(0.02);
+  AdaptivePixel r;
+  for (int64_t i = 0; i < k; ++i) {
+    const double y = rare(rng) ? 40.0 : 1.0;
+    r.s1[0] += y;
+    r.s2[0] += y * y;
+  }
+  r.n = k;
+  return r;
+}
+
+// How a simulated pixel's pilot is weighted: k_0 / spp, from 8 neighbours' pilots
+// (adaptive_pilot_weights), or, the twin, from its own pilot put in the neighbours' places.
+enum class PilotWeight { kFixed, kNeighbours, kOwnPilot };
+
+// One simulated pixel (simulate_round's samples), taken in the rounds and with the weights of
+// adaptive.h, deciding from its own samples.
+PixelRun simulate_pixel(std::mt19937_64& rng, const AdaptivePlan& plan, PilotWeight pilot = PilotWeight::kFixed) {
   AdaptivePixel px;
   PixelRun out;
   while (!px.done()) {
     const double rho = adaptive_relative_variance(px, 0.0);
     const int64_t round = adaptive_round_samples(px.n, plan);
-    const double a = adaptive_round_weight(px, round, plan.spp, rho, plan);
+    double a = adaptive_round_weight(px, round, plan.spp, rho, plan);
     const int64_t k = adaptive_round_length(px, round, plan.spp, rho, plan);
-    double s1 = 0, s2 = 0;
-    for (int64_t i = 0; i < k; ++i) {
-      const double y = rare(rng) ? 40.0 : 1.0;
-      s1 += y;
-      s2 += y * y;
+    const AdaptivePixel r = simulate_round(rng, k);
+    const double s1 = r.s1[0], s2 = r.s2[0];
+    if (px.n == 0 && pilot != PilotWeight::kFixed) {
+      std::vector<AdaptivePixel> grid(9);
+      for (AdaptivePixel& q : grid) {
+        q = pilot == PilotWeight::kOwnPilot ? r : simulate_round(rng, k);
+        for (int c = 1; c < 3; ++c) q.s1[c] = q.s1[0], q.s2[c] = q.s2[0];
+      }
+      a = adaptive_pilot_weights(grid, 3, 3, plan)[4];
     }
     out.weighted += a * s1 / double(k);
     const double r1[3] = {s1, s1, s1}, r2[3] = {s2, s2, s2};
@@ -54,6 +76,79 @@ PixelRun simulate_pixel(std::mt19937_64& rng, const AdaptivePlan& plan) {
   out.averaged = px.s1[0] / double(px.n);
   out.n = px.n;
   return out;
+}
+
+// The pilot's weight from the neighbours' pilots: unbiased, and it wastes fewer samples than k_0 /
+// spp; the twin takes it from the pixel's own pilot (put in its neighbours' places) and is biased.
+TEST(AdaptiveWeights, APilotWeightFromTheNeighboursIsUnbiasedWhereOneFromTheOwnPilotIsNot) {
+  const double mu = 0.98 * 1.0 + 0.02 * 40.0;
+  AdaptivePlan plan;
+  plan.target = 0.3;  // about 160 samples a pixel: the pilot is a tenth of them
+  plan.spp = 1024;
+  plan.pilot = 16;
+  const int kPixels = 100000;
+  std::mt19937_64 rng(777);
+  std::vector<double> neighbours, own;
+  int64_t samples_fixed = 0, samples_neighbours = 0;
+  for (int t = 0; t < kPixels; ++t) {
+    samples_fixed += simulate_pixel(rng, plan, PilotWeight::kFixed).n;
+    const PixelRun r = simulate_pixel(rng, plan, PilotWeight::kNeighbours);
+    neighbours.push_back(r.weighted);
+    samples_neighbours += r.n;
+    own.push_back(simulate_pixel(rng, plan, PilotWeight::kOwnPilot).weighted);
+  }
+  const st_test::Stats w = st_test::mean_se(neighbours), o = st_test::mean_se(own);
+  EXPECT_LT(std::abs(w.mean - mu) / w.se, 4.0) << "weighted mean " << w.mean << " vs " << mu;
+  EXPECT_GT(std::abs(1.03 * w.mean - mu) / w.se, 4.0) << "the twin: a 3% error must be seen";
+  EXPECT_GT(std::abs(o.mean - mu) / o.se, 4.0) << "the twin: a pilot weighted from itself is biased (" << o.mean << ")";
+  EXPECT_LT(samples_neighbours, samples_fixed) << "the neighbours' weight wastes less of the pilot";
+}
+
+TEST(AdaptiveWeights, APilotWeightIgnoresThePixelsOwnPilot) {
+  AdaptivePlan plan;
+  plan.target = 0.05;
+  plan.spp = 4096;
+  plan.pilot = 16;
+  // pilots of 16 samples of mean 1 and variance 0.25 (about 250 samples needed at the aim)
+  AdaptivePixel noisy;
+  noisy.n = 16;
+  for (int c = 0; c < 3; ++c) noisy.s1[c] = 16.0, noisy.s2[c] = 16.0 + 0.25 * 15.0;
+  std::vector<AdaptivePixel> grid(9, noisy);
+  for (int c = 0; c < 3; ++c) grid[4].s2[c] += 25.0;  // a noisier centre
+  const std::vector<double> w = adaptive_pilot_weights(grid, 3, 3, plan);
+  AdaptivePixel quiet = grid[4];
+  for (int c = 0; c < 3; ++c) quiet.s2[c] = quiet.s1[c] * quiet.s1[c] / 16.0;  // no variance
+  std::vector<AdaptivePixel> other = grid;
+  other[4] = quiet;
+  EXPECT_EQ(adaptive_pilot_weights(other, 3, 3, plan)[4], w[4]) << "the centre's own pilot sets its weight";
+  EXPECT_NE(adaptive_pilot_weights(other, 3, 3, plan)[0], w[0]) << "a neighbour's pilot does not";
+  EXPECT_GT(w[4], 16.0 / 4096.0);
+  EXPECT_LE(w[4], 1.0 / kAdaptivePilotMin);
+  EXPECT_NEAR(w[4], 16.0 / (kAdaptivePilotMargin * 0.25 / std::pow(0.05 * kAdaptiveAim, 2)), 1e-12);
+  // no noisy neighbour: k_0 / spp, as if the pixel took every sample
+  std::vector<AdaptivePixel> calm(9, quiet);
+  calm[4] = grid[4];
+  EXPECT_DOUBLE_EQ(adaptive_pilot_weights(calm, 3, 3, plan)[4], 16.0 / 4096.0);
+}
+
+// The per-pixel cap is the need of the 97.5th-percentile pixel: half of the 5% the image's
+// percentile allows above the target goes to the pixels it stops, half is left for drift.
+TEST(AdaptiveCap, LeavesHalfThePercentilesAllowanceToDrift) {
+  AdaptivePlan plan;
+  plan.target = 0.05;
+  plan.spp = 4096;
+  AdaptivePixel x;  // 16 samples of mean 1 and some variance: a counted pixel
+  x.n = 16;
+  for (int c = 0; c < 3; ++c) x.s1[c] = 16.0, x.s2[c] = 20.0;
+  const double e2 = std::pow(plan.target * plan.aim, 2);
+  std::vector<AdaptivePixel> px(200, x);
+  std::vector<double> rho(200);
+  for (size_t i = 0; i < rho.size(); ++i) rho[i] = double(i) * 10.0 * e2 * (1.0 - 1e-9);  // needs 10 i more
+  // nearest rank: the 195th of 200 needs (0-based 194) 16 + 1940; the 95th percentile's is 16 + 1890
+  EXPECT_EQ(adaptive_cap(px, rho, plan), 16 + 1940);
+  // needs that grow steeply past the 95th percentile: at most twice its need
+  for (size_t i = 190; i < rho.size(); ++i) rho[i] *= 100.0;
+  EXPECT_EQ(adaptive_cap(px, rho, plan), 2 * (16 + 1890));
 }
 
 TEST(AdaptiveWeights, AreUnbiasedWhereAveragingAPixelsOwnStoppedSamplesIsNot) {
@@ -82,7 +177,8 @@ TEST(AdaptiveWeights, AreUnbiasedWhereAveragingAPixelsOwnStoppedSamplesIsNot) {
   EXPECT_GT(std::abs(a.mean - mu) / a.se, 4.0) << "the twin: averaging the stopped samples is biased (" << a.mean << ")";
 }
 
-AdaptiveResult render_adaptive_scene(const SceneDesc& scene, double target, int spp, bool guiding = false) {
+AdaptiveResult render_adaptive_scene(const SceneDesc& scene, double target, int spp, bool guiding = false,
+                                     double aim = kAdaptiveAim) {
   RenderOptions o = st_test::quiet_options(spp);
   o.noise_target = target;
   o.adaptive = true;
@@ -94,6 +190,7 @@ AdaptiveResult render_adaptive_scene(const SceneDesc& scene, double target, int 
   AdaptivePlan plan;
   plan.target = target;
   plan.spp = spp;
+  plan.aim = aim;
   return render_adaptive(r, plan);
 }
 
@@ -143,6 +240,26 @@ TEST(AdaptiveRender, WithGuidingTrainsInThePilotAndAgreesWithAUniformRender) {
   expect_agrees_with_uniform_render(scene, f);
 }
 
+// A render that misses its target says why: every pixel finished at an aim above the target
+// (pixels-finished, no pixel at the spp), or pixels ran to the spp (spp); one that meets it says
+// nothing of the kind.
+TEST(AdaptiveRender, RecordsWhyItMissedItsTarget) {
+  const std::string dir = test_dir();
+  const SceneDesc scene = st_test::scene_from_json(small_noise_scene(dir), dir);
+  const AdaptiveResult above = render_adaptive_scene(scene, 0.04, 2048, false, 2.0);  // aimed at twice the target
+  EXPECT_FALSE(above.film.noise_target_reached);
+  EXPECT_FALSE(above.film.interrupted);
+  EXPECT_LT(*std::max_element(above.samples.begin(), above.samples.end()), 2048.0f);
+  EXPECT_EQ(above.stop_reason, "pixels-finished");
+  const AdaptiveResult capped = render_adaptive_scene(scene, 0.001, 32);
+  EXPECT_FALSE(capped.film.noise_target_reached);
+  EXPECT_EQ(*std::max_element(capped.samples.begin(), capped.samples.end()), 32.0f);
+  EXPECT_EQ(capped.stop_reason, "spp");
+  const AdaptiveResult met = render_adaptive_scene(scene, 0.5, 2048);
+  EXPECT_TRUE(met.film.noise_target_reached);
+  EXPECT_EQ(met.stop_reason, "");
+}
+
 std::string meta_text(const std::string& path, const std::string& key) {
   auto in = OIIO::ImageInput::open(path);
   return in ? in->spec().get_string_attribute("spectrack:" + key, "<missing>") : "<unreadable>";
@@ -166,6 +283,13 @@ TEST(CliAdaptive, WritesTheSamplesLayerAndRefusesWhatCannotWork) {
   EXPECT_GT(in->spec().get_float_attribute("spectrack:adaptive_mean_spp", 0.0f), 16.0f);
   EXPECT_LT(in->spec().get_float_attribute("spectrack:adaptive_mean_spp", 1e9f), 512.0f);
   EXPECT_EQ(meta_text(dir + "/a.exr", "stop_reason"), "noise-target");
+  // a target out of reach at the spp: the metadata, the statistics and the summary line say so
+  p = run({"render", scene, "-o", dir + "/s.exr", "--noise-target", "0.001", "--spp", "32", "--adaptive",
+           "--stats-json", dir + "/s.json"}, ro);
+  ASSERT_TRUE(p.exited && p.code == 0) << p.describe();
+  EXPECT_THAT(p.out, HasSubstr("noise target missed at --spp"));
+  EXPECT_EQ(meta_text(dir + "/s.exr", "stop_reason"), "spp");
+  EXPECT_EQ(json::parse(std::ifstream(dir + "/s.json")).value("stop_reason", ""), "spp");
   // an adaptive film merges with nothing: its pixels have sample counts of their own
   p = run({"merge", dir + "/m.exr", dir + "/a.exr"});
   EXPECT_EQ(p.code, 2) << p.describe();

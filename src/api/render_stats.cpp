@@ -9,7 +9,7 @@ namespace spectrack {
 
 std::string render_stop_reason(const MultiDeviceResult& r) {
   if (r.noise_target_reached) return "noise-target";
-  if (!r.piece.interrupted) return "";
+  if (!r.piece.interrupted) return r.stop_reason;
   return r.time_limit_reached ? "time-limit" : "signal";
 }
 

@@ -15,8 +15,9 @@ namespace spectrack {
 nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_total, double seconds_to_renderer,
                                  int mpi_ranks, const Metadata& meta);
 
-// Why the render stopped before its requested samples ("" when it did not): noise-target,
-// time-limit or signal.
+// Why the render stopped: noise-target, time-limit or signal before its requested samples; with a
+// noise target not met, spp or (adaptive sampling) pixels-finished (MultiDeviceResult::stop_reason);
+// "" for a render without a noise target that took its samples.
 std::string render_stop_reason(const MultiDeviceResult& r);
 
 }  // namespace spectrack

@@ -99,7 +99,10 @@ void write_render_outputs(const RenderOutputs& o, const SceneDesc& scene, const 
                                                std::get<float>(meta["adaptive_mean_spp"]), r.piece.samples()),
                              r.seconds_render, t.total,
                              noise ? fmt::format(", noise {:.3g}%", 100.0 * noise->error) : std::string(),
-                             r.noise_target_reached ? ", noise target reached"
+                             r.noise_target_reached         ? ", noise target reached"
+                             : r.stop_reason == "spp"         ? ", noise target missed at --spp"
+                             : r.stop_reason == "pixels-finished"
+                                 ? ", noise target missed: every pixel took the samples predicted for its aim"
                              : !r.piece.interrupted ? ""
                              : r.time_limit_reached ? ", stopped at the time limit"
                                                     : ", INTERRUPTED");

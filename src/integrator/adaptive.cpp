@@ -59,7 +59,7 @@ std::vector<double> adaptive_neighbourhood(const std::vector<AdaptivePixel>& px,
 
 double adaptive_samples_needed(const AdaptivePixel& px, double rho, const AdaptivePlan& plan) {
   if (!(rho > 0.0)) return 0.0;  // nothing to average out (a background every sample sees alike)
-  const double e = plan.target * kAdaptiveAim;
+  const double e = plan.target * plan.aim;
   if (!(e * e > rho * px.V)) return std::numeric_limits<double>::infinity();
   return std::ceil(px.B * px.B * rho / (e * e - rho * px.V));
 }
@@ -98,9 +98,38 @@ int64_t adaptive_cap(const std::vector<AdaptivePixel>& px, const std::vector<dou
     need.push_back(x.done() ? double(x.n) : double(x.n) + adaptive_samples_needed(x, rho[i], plan));
   }
   if (need.empty()) return plan.spp;
-  const size_t k = std::min(need.size() - 1, size_t(std::ceil(kNoisePercentile * double(need.size()))) - 1);
-  std::nth_element(need.begin(), need.begin() + std::ptrdiff_t(k), need.end());
-  return int64_t(std::min(double(plan.spp), std::max(need[k], double(2 * plan.pilot))));
+  auto rank = [&](double percentile) {  // nearest rank
+    const size_t k = std::min(need.size() - 1, size_t(std::ceil(percentile * double(need.size()))) - 1);
+    std::nth_element(need.begin(), need.begin() + std::ptrdiff_t(k), need.end());
+    return need[k];
+  };
+  const double image = rank(kNoisePercentile);
+  const double cap = std::min(rank(1.0 - (1.0 - kNoisePercentile) * kAdaptiveCapShare), kAdaptiveCapGrowth * image);
+  return int64_t(std::min(double(plan.spp), std::max(cap, double(2 * plan.pilot))));
+}
+
+
+std::vector<double> adaptive_pilot_weights(const std::vector<AdaptivePixel>& pilot, int width, int height,
+                                           const AdaptivePlan& plan) {
+  const double k0 = double(std::min(plan.pilot, plan.spp)), spp = double(plan.spp);
+  const double e = plan.target * plan.aim;
+  std::vector<double> need(pilot.size()), out(pilot.size(), k0 / spp);
+  // the samples of a uniform estimate at the aim, from the pixel's own brightness (no floor: the
+  // floor comes from every pilot)
+  for (size_t i = 0; i < pilot.size(); ++i) need[i] = adaptive_relative_variance(pilot[i], 0.0) / (e * e);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      double most = 0;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int u = x + dx, v = y + dy;
+          if ((dx || dy) && u >= 0 && v >= 0 && u < width && v < height)
+            most = std::max(most, need[size_t(v) * size_t(width) + size_t(u)]);
+        }
+      if (most > 0.0)
+        out[size_t(y) * size_t(width) + size_t(x)] = k0 / std::min(spp, std::max(kAdaptivePilotMargin * most, kAdaptivePilotMin * k0));
+    }
+  return out;
 }
 
 void adaptive_add_round(AdaptivePixel& px, double a, int64_t k, const double* s1, const double* s2) {
@@ -136,13 +165,18 @@ struct WeightedFilm {
     px.resize(s.window.pixels());
   }
 
+  // The sums and sums of squares of the whole beauty of round-pixel j of `rr`.
+  void beauty_sums(const RenderResult& rr, size_t j, double* s1, double* s2) const {
+    for (int c = 0; c < 3; ++c) {
+      s1[c] = rr.sum[j * 3 + c] + (env >= 0 ? rr.aov_sum[j * na + size_t(env) + c] : 0.0);
+      s2[c] = rr.aov_sum[j * na + size_t(m2) + c];
+    }
+  }
+
   // Adds round-pixel j of `rr` (k samples) to window pixel p with weight a.
   void add(const RenderResult& rr, size_t j, uint32_t p, double a, int64_t k) {
     double s1[3], s2[3];
-    for (int c = 0; c < 3; ++c) {
-      s1[c] = rr.sum[j * 3 + c] + (env >= 0 ? rr.aov_sum[j * na + size_t(env) + c] : 0.0);  // the whole beauty
-      s2[c] = rr.aov_sum[j * na + size_t(m2) + c];
-    }
+    beauty_sums(rr, j, s1, s2);
     double* o = &w[p * stride];
     const double f = a / double(k);
     for (int c = 0; c < 3; ++c) o[c] += f * rr.sum[j * 3 + c];
@@ -211,10 +245,26 @@ void add_round_info(RenderResult& f, const RenderResult& rr, bool first) {
 // A round's pixels by the samples they take in it, longest first.
 using RoundGroups = std::map<int64_t, std::vector<uint32_t>, std::greater<int64_t>>;
 
+// The pilot's weights (adaptive_pilot_weights) from the pilot's render `rr` of every window pixel.
+// With guiding the neighbours' pilots are drawn with a guide trained on the pixel's own training
+// samples, which are part of its pilot: the weights stay k_0 / spp.
+void set_pilot_weights(const RenderResult& rr, const WeightedFilm& film, const RenderSettings& s,
+                       const AdaptivePlan& plan, std::vector<double>& wt) {
+  std::vector<AdaptivePixel> pilot(film.px.size());
+  if (s.guiding || rr.spp_done < 2 || rr.sum.size() != 3 * pilot.size()) return;
+  for (size_t j = 0; j < pilot.size(); ++j) {
+    double s1[3], s2[3];
+    film.beauty_sums(rr, j, s1, s2);
+    adaptive_add_round(pilot[j], 1.0, rr.spp_done, s1, s2);
+  }
+  wt = adaptive_pilot_weights(pilot, s.window.width, s.window.height, plan);
+}
+
 // Renders one round, starting at sample n: each group is one render of its pixels, added with the
-// weights wt (per window pixel). Returns whether the render was stopped.
-bool render_round(Renderer& r, const RoundGroups& groups, const std::vector<double>& wt, int64_t n, WeightedFilm& film,
-                  AdaptiveResult& out) {
+// weights wt (per window pixel; the pilot's set from the pilot, n = 0). Returns whether the render
+// was stopped.
+bool render_round(Renderer& r, const RoundGroups& groups, std::vector<double>& wt, int64_t n, WeightedFilm& film,
+                  const AdaptivePlan& plan, AdaptiveResult& out) {
   static const bool trace = std::getenv("SPECTRACK_TRACE_ADAPTIVE") != nullptr;
   for (const auto& [len, pix] : groups) {
     const RenderResult rr = r.render_pixels(pix, n, int(len));
@@ -222,6 +272,7 @@ bool render_round(Renderer& r, const RoundGroups& groups, const std::vector<doub
       fmt::print(stderr, "round {}: {} samples of {} pixels from sample {}: {:.3f} s, occupancy {:.2f}, {} iterations\n",
                  out.rounds, len, pix.size(), n, rr.seconds_render, rr.stats.occupancy_mean, rr.stats.iterations);
     add_round_info(out.film, rr, out.film.width == 0);
+    if (n == 0 && rr.spp_done == int(len)) set_pilot_weights(rr, film, r.settings(), plan, wt);
     if (rr.spp_done > 0)
       for (size_t j = 0; j < pix.size(); ++j) film.add(rr, j, pix[j], wt[pix[j]], rr.spp_done);
     if (rr.interrupted) return true;
@@ -253,7 +304,7 @@ AdaptiveResult render_adaptive(Renderer& r, const AdaptivePlan& plan,
       wt[p] = adaptive_round_weight(film.px[p], k, cap, rho[p], plan);
       groups[adaptive_round_length(film.px[p], k, cap, rho[p], plan)].push_back(p);
     }
-    stopped = render_round(r, groups, wt, n, film, out);
+    stopped = render_round(r, groups, wt, n, film, plan, out);
     if (n == 0 && plan.floor <= 0) out.floor = pilot_floor(film.px);
     n += k;
     ++out.rounds;
@@ -277,8 +328,22 @@ AdaptiveResult render_adaptive(Renderer& r, const AdaptivePlan& plan,
     total += double(film.px[p].n);
   }
   out.mean_samples = film.px.empty() ? 0.0 : total / double(film.px.size());
+  if (std::getenv("SPECTRACK_TRACE_ADAPTIVE")) {  // the samples the weights waste: 1 / V is a uniform render's n
+    double taken = 0, effective = 0;
+    for (const AdaptivePixel& x : film.px)
+      if (x.V > 0 && adaptive_relative_variance(x, 0.0) > 0) {
+        taken += double(x.n);
+        effective += 1.0 / x.V;
+      }
+    fmt::print(stderr, "samples of the noisy pixels {:.0f}, as effective as {:.0f} equally weighted ({:.3f})\n", taken,
+               effective, effective / taken);
+  }
   const NoiseEstimate e = estimate_film_noise(f.sum, f.aov_sum, f.aov_channels, plan.spp);
   f.noise_target_reached = !stopped && e.error <= plan.target;
+  if (!stopped && !f.noise_target_reached)
+    out.stop_reason = std::any_of(film.px.begin(), film.px.end(), [&](const AdaptivePixel& x) { return x.n >= plan.spp; })
+                          ? "spp"
+                          : "pixels-finished";
   return out;
 }
 
@@ -308,6 +373,7 @@ MultiDeviceResult render_adaptive_film(const SceneDesc& scene, const RenderOptio
   out.piece.interrupted = f.interrupted;
   out.adaptive_rounds = a.rounds;
   out.adaptive_floor = a.floor;
+  out.stop_reason = a.stop_reason;
   return out;
 }
 

@@ -18,12 +18,15 @@
 // rounded up to a quarter of k_r: finishing pixels of a round are rendered in up to four groups of
 // lengths; the weight of a round that is not the last is taken from a rho with a margin,
 // kAdaptiveWeightMargin). The aim is kAdaptiveAim times the target. No pixel is given more than the samples
-// the image's 95th-percentile pixel needs (adaptive_cap), since the image's error is that
-// pixel's. The pilot's weight k_0 / spp is fixed before any sample, so it can only be too small
-// (what it loses is at most its own samples). The floor is kNoiseFloor times the mean brightness
-// of the pilot's noisy pixels. Decisions use other pixels' samples (the floor, the neighbourhood,
-// the cap), which are independent of a pixel's own paths, so they bias nothing; but they tie the
-// pixels together, so an adaptive film is rendered whole: no shards, tiles, devices or ranks.
+// the image's 97.5th-percentile pixel needs, nor twice what its 95th-percentile pixel needs
+// (adaptive_cap): the image's error is the 95th percentile's, and half of that allowance is left
+// to pixels that drift above their aim. The
+// pilot's weight comes from the neighbours' pilots, never the pixel's own (adaptive_pilot_weights);
+// k_0 / spp where nothing is known, which can only be too small (what it loses is at most its own
+// samples). The floor is kNoiseFloor times the mean brightness of the pilot's noisy pixels.
+// Decisions use other pixels' samples (the floor, the neighbourhood, the cap, the pilot's weight),
+// which are independent of a pixel's own paths, so they bias nothing; but they tie the pixels
+// together, so an adaptive film is rendered whole: no shards, tiles, devices or ranks.
 #pragma once
 #include <cstdint>
 #include <functional>
@@ -51,11 +54,27 @@ constexpr int64_t kAdaptiveLastRoundSteps = 4;
 // costs only part of its round's samples.
 constexpr double kAdaptiveWeightMargin = 4.0;
 
+// The pilot's weight of a pixel is k_0 / N, N the samples its noisiest 3x3 neighbour (the pixel
+// itself left out: its own pilot must not set its weight) needs at the aim, times
+// kAdaptivePilotMargin, within [kAdaptivePilotMin k_0, spp]; spp when no neighbour is noisy (no
+// information: as if the pixel took every sample). A weight near the pixel's share k_0 / n keeps
+// the pilot's samples from being wasted; one far above it could leave the aim out of reach.
+constexpr double kAdaptivePilotMargin = 2.0;
+constexpr double kAdaptivePilotMin = 4.0;
+// The per-pixel cap leaves kAdaptiveCapShare of the percentile's allowance (the 5% of counted
+// pixels that may end above the target) to the pixels it stops, the rest to pixels that drift
+// above their aim; but it is never more than kAdaptiveCapGrowth times the samples the image's
+// percentile pixel needs (where the needs between the two percentiles grow steeply, a few pixels
+// would otherwise take more samples than the whole image).
+constexpr double kAdaptiveCapShare = 0.5;
+constexpr double kAdaptiveCapGrowth = 2.0;
+
 struct AdaptivePlan {
   double target = 0;      // the relative error each pixel is brought to (noise.h's r_p)
   int64_t spp = 0;        // at most this many samples per pixel
   int64_t pilot = 16;     // round 0 (kNoiseMinSpp, at most spp)
   double floor = 0;       // brightness floor of r_p (radiance); 0: from the pilot
+  double aim = kAdaptiveAim;  // each pixel aims at aim * target
 };
 
 // One pixel's rounds so far (RGB of its whole beauty).
@@ -86,10 +105,15 @@ double adaptive_samples_needed(const AdaptivePixel& px, double rho, const Adapti
 double adaptive_round_weight(const AdaptivePixel& px, int64_t k, int64_t cap, double rho, const AdaptivePlan& plan);
 // The samples the pixel takes in that round: k, or fewer in its last round.
 int64_t adaptive_round_length(const AdaptivePixel& px, int64_t k, int64_t cap, double rho, const AdaptivePlan& plan);
-// The samples the image's percentile pixel needs (noise.h kNoisePercentile over the counted pixels
-// of the rounds so far: the taken samples of finished pixels, taken plus needed of the others),
-// within [2 pilot, spp]: the image's error is that percentile's, so no pixel is given more.
+// The per-pixel cap: the samples the 97.5th-percentile pixel needs (kAdaptiveCapShare) over the
+// counted pixels of the rounds so far (noise.h's; the taken samples of finished pixels, taken plus
+// needed of the others), at most kAdaptiveCapGrowth times the 95th-percentile pixel's, within
+// [2 pilot, spp].
 int64_t adaptive_cap(const std::vector<AdaptivePixel>& px, const std::vector<double>& rho, const AdaptivePlan& plan);
+// The pilot's weight of every pixel (kAdaptivePilotMargin above) from the window's pilot round
+// (row-major, width x height); each depends on the neighbours' pilots only.
+std::vector<double> adaptive_pilot_weights(const std::vector<AdaptivePixel>& pilot, int width, int height,
+                                           const AdaptivePlan& plan);
 // Adds a round of k samples taken with weight a (s1, s2: 3 sums each of the round's samples).
 void adaptive_add_round(AdaptivePixel& px, double a, int64_t k, const double* s1, const double* s2);
 
@@ -103,6 +127,10 @@ struct AdaptiveResult {
   int rounds = 0;
   int64_t round_end = 0;       // the sample count the last round ended at
   double mean_samples = 0;     // over the window's pixels
+  // Why the rounds ended with the target missed (multi_device.h MultiDeviceResult::stop_reason):
+  // "spp" when some pixel took plan.spp samples, else "pixels-finished"; "" when the target was
+  // met or the render was stopped.
+  std::string stop_reason;
 };
 
 // Renders the adaptive film of the renderer's window (settings().adaptive). `after_round` (may be

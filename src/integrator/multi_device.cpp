@@ -218,6 +218,7 @@ MultiDeviceResult MultiDeviceRun::combine() const {
     out.piece = with_samples.size() == 1 ? with_samples[0] : merge_pieces(with_samples);
   out.piece.source = "render";
   out.piece.interrupted = interrupted || (out.piece.samples() < spp_ && !out.noise_target_reached);
+  if (settings_.noise_target > 0 && !out.noise_target_reached && !out.piece.interrupted) out.stop_reason = "spp";
   if (base_.deadline && std::chrono::steady_clock::now() >= *base_.deadline && out.piece.samples() < spp_)
     out.time_limit_reached = true;  // also when the deadline fell between two chunks
   return out;

@@ -33,6 +33,11 @@ struct MultiDeviceResult : RenderChoices, RunChoices {
   int spp_requested = 0;
   bool time_limit_reached = false;  // some device stopped at RenderOptions::deadline
   bool noise_target_reached = false;  // the watch stopped the render at its noise target (not interrupted)
+  // Why a render with a noise target that was neither met nor interrupted ended (api/render_stats.h
+  // render_stop_reason): "spp" (--spp reached; adaptive: a pixel took every sample), or, adaptive,
+  // "pixels-finished" (every pixel took the samples predicted to bring it to its aim, or the
+  // per-pixel cap, and the error measured after is above the target); "" otherwise.
+  std::string stop_reason;
   // adaptive sampling (integrator/adaptive.h; piece.pixel_samples): its rounds and brightness floor
   int adaptive_rounds = 0;
   double adaptive_floor = 0;
