@@ -47,7 +47,9 @@ AdaptivePixel simulate_round(std::mt19937_64& rng, int64_t k) {
 
 // How a simulated pixel's pilot is weighted: k_0 / spp, from 8 neighbours' pilots
 // (adaptive_pilot_weights), or, the twin, from its own pilot put in the neighbours' places.
-enum class PilotWeight { kFixed, kNeighbours, kOwnPilot };
+// kHeavy gives the pilot an eighth of the weight, about ten times its share: pixels whose pilot
+// drew the rare path can then no longer reach their aim (rho V >= aim^2), some not the target either.
+enum class PilotWeight { kFixed, kNeighbours, kOwnPilot, kHeavy };
 
 // One simulated pixel (simulate_round's samples), taken in the rounds and with the weights of
 // adaptive.h, deciding from its own samples.
@@ -61,7 +63,8 @@ PixelRun simulate_pixel(std::mt19937_64& rng, const AdaptivePlan& plan, PilotWei
     const int64_t k = adaptive_round_length(px, round, plan.spp, rho, plan);
     const AdaptivePixel r = simulate_round(rng, k);
     const double s1 = r.s1[0], s2 = r.s2[0];
-    if (px.n == 0 && pilot != PilotWeight::kFixed) {
+    if (px.n == 0 && pilot == PilotWeight::kHeavy) a = 0.125;
+    if (px.n == 0 && (pilot == PilotWeight::kNeighbours || pilot == PilotWeight::kOwnPilot)) {
       std::vector<AdaptivePixel> grid(9);
       for (AdaptivePixel& q : grid) {
         q = pilot == PilotWeight::kOwnPilot ? r : simulate_round(rng, k);
@@ -104,6 +107,31 @@ TEST(AdaptiveWeights, APilotWeightFromTheNeighboursIsUnbiasedWhereOneFromTheOwnP
   EXPECT_LT(samples_neighbours, samples_fixed) << "the neighbours' weight wastes less of the pilot";
 }
 
+// A pixel whose fixed weights already hold more variance than its aim allows aims at the target,
+// or, out of reach of that too, finishes with its next round, instead of running to the cap: the
+// decision is made before the round from the rounds so far, so the estimate stays unbiased.
+TEST(AdaptiveWeights, PixelsThatCannotReachTheirAimStopWithoutBias) {
+  const double mu = 0.98 * 1.0 + 0.02 * 40.0;
+  AdaptivePlan plan;
+  plan.target = 0.1;
+  plan.spp = 4096;
+  plan.pilot = 16;
+  const int kPixels = 100000;
+  std::mt19937_64 rng(4242);
+  std::vector<double> heavy;
+  int64_t at_spp = 0;
+  for (int t = 0; t < kPixels; ++t) {
+    const PixelRun r = simulate_pixel(rng, plan, PilotWeight::kHeavy);
+    heavy.push_back(r.weighted);
+    at_spp += r.n >= plan.spp;
+  }
+  // about 1160 samples at the aim (rho about 9.4): with the heavy pilot many pixels are out of reach
+  EXPECT_EQ(at_spp, 0) << "pixels out of reach of their aim ran to the spp";
+  const st_test::Stats w = st_test::mean_se(heavy);
+  EXPECT_LT(std::abs(w.mean - mu) / w.se, 4.0) << "weighted mean " << w.mean << " vs " << mu;
+  EXPECT_GT(std::abs(1.03 * w.mean - mu) / w.se, 4.0) << "the twin: a 3% error must be seen";
+}
+
 TEST(AdaptiveWeights, APilotWeightIgnoresThePixelsOwnPilot) {
   AdaptivePlan plan;
   plan.target = 0.05;
@@ -140,7 +168,7 @@ TEST(AdaptiveCap, LeavesHalfThePercentilesAllowanceToDrift) {
   AdaptivePixel x;  // 16 samples of mean 1 and some variance: a counted pixel
   x.n = 16;
   for (int c = 0; c < 3; ++c) x.s1[c] = 16.0, x.s2[c] = 20.0;
-  const double e2 = std::pow(plan.target * plan.aim, 2);
+  const double e2 = std::pow(plan.target, 2);  // the cap counts needs at the target, not the aim
   std::vector<AdaptivePixel> px(200, x);
   std::vector<double> rho(200);
   for (size_t i = 0; i < rho.size(); ++i) rho[i] = double(i) * 10.0 * e2 * (1.0 - 1e-9);  // needs 10 i more

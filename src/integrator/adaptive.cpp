@@ -57,11 +57,21 @@ std::vector<double> adaptive_neighbourhood(const std::vector<AdaptivePixel>& px,
   return out;
 }
 
-double adaptive_samples_needed(const AdaptivePixel& px, double rho, const AdaptivePlan& plan) {
-  if (!(rho > 0.0)) return 0.0;  // nothing to average out (a background every sample sees alike)
-  const double e = plan.target * plan.aim;
+namespace {
+// The samples to come that bring rho (V + B^2 / T) down to e^2 (inf: out of reach).
+double samples_to_reach(const AdaptivePixel& px, double rho, double e) {
   if (!(e * e > rho * px.V)) return std::numeric_limits<double>::infinity();
   return std::ceil(px.B * px.B * rho / (e * e - rho * px.V));
+}
+}  // namespace
+
+double adaptive_samples_needed(const AdaptivePixel& px, double rho, const AdaptivePlan& plan) {
+  if (!(rho > 0.0)) return 0.0;  // nothing to average out (a background every sample sees alike)
+  const double T = samples_to_reach(px, rho, plan.target * plan.aim);
+  if (std::isfinite(T) || px.n == 0) return T;
+  // the aim is out of reach: the target itself, else nothing more (the next round is the last)
+  const double T_target = samples_to_reach(px, rho, plan.target);
+  return std::isfinite(T_target) ? T_target : 0.0;
 }
 
 double adaptive_round_weight(const AdaptivePixel& px, int64_t k, int64_t cap, double rho, const AdaptivePlan& plan) {
@@ -91,11 +101,15 @@ int64_t adaptive_round_length(const AdaptivePixel& px, int64_t k, int64_t cap, d
 }
 
 int64_t adaptive_cap(const std::vector<AdaptivePixel>& px, const std::vector<double>& rho, const AdaptivePlan& plan) {
+  // a capped pixel uses the allowance only if it ends above the target, not above its aim: the
+  // needs are counted at the target itself
+  AdaptivePlan at_target = plan;
+  at_target.aim = 1.0;
   std::vector<double> need;
   for (size_t i = 0; i < px.size(); ++i) {
     const AdaptivePixel& x = px[i];
     if (!(x.brightness() > 0.0 && adaptive_relative_variance(x, 0.0) > 0.0)) continue;  // noise.h's counted pixels
-    need.push_back(x.done() ? double(x.n) : double(x.n) + adaptive_samples_needed(x, rho[i], plan));
+    need.push_back(x.done() ? double(x.n) : double(x.n) + adaptive_samples_needed(x, rho[i], at_target));
   }
   if (need.empty()) return plan.spp;
   auto rank = [&](double percentile) {  // nearest rank
