@@ -173,7 +173,7 @@ TEST(AdaptiveCap, LeavesHalfThePercentilesAllowanceToDrift) {
   AdaptivePixel x;  // 16 samples of mean 1 and some variance: a counted pixel
   x.n = 16;
   for (int c = 0; c < 3; ++c) x.s1[c] = 16.0, x.s2[c] = 20.0;
-  const double e2 = std::pow(plan.target, 2);  // the cap counts needs at the target, not the aim
+  const double e2 = std::pow(plan.target * plan.aim, 2);
   std::vector<AdaptivePixel> px(200, x);
   std::vector<double> rho(200);
   for (size_t i = 0; i < rho.size(); ++i) rho[i] = double(i) * 10.0 * e2 * (1.0 - 1e-9);  // needs 10 i more

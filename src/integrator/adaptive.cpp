@@ -101,15 +101,11 @@ int64_t adaptive_round_length(const AdaptivePixel& px, int64_t k, int64_t cap, d
 }
 
 int64_t adaptive_cap(const std::vector<AdaptivePixel>& px, const std::vector<double>& rho, const AdaptivePlan& plan) {
-  // a capped pixel uses the allowance only if it ends above the target, not above its aim: the
-  // needs are counted at the target itself
-  AdaptivePlan at_target = plan;
-  at_target.aim = 1.0;
   std::vector<double> need;
   for (size_t i = 0; i < px.size(); ++i) {
     const AdaptivePixel& x = px[i];
     if (!(x.brightness() > 0.0 && adaptive_relative_variance(x, 0.0) > 0.0)) continue;  // noise.h's counted pixels
-    need.push_back(x.done() ? double(x.n) : double(x.n) + adaptive_samples_needed(x, rho[i], at_target));
+    need.push_back(x.done() ? double(x.n) : double(x.n) + adaptive_samples_needed(x, rho[i], plan));
   }
   if (need.empty()) return plan.spp;
   auto rank = [&](double percentile) {  // nearest rank

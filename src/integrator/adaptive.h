@@ -19,10 +19,9 @@
 // lengths; the weight of a round that is not the last is taken from a rho with a margin,
 // kAdaptiveWeightMargin). The aim is kAdaptiveAim times the target; a pixel out of reach of its
 // aim (rho V >= aim^2) aims at the target, or, out of reach of that too, finishes with its next
-// round. No pixel is given more than the samples the image's 97.5th-percentile pixel needs to
-// reach the target, nor twice what its 95th-percentile pixel needs (adaptive_cap): the image's
-// error is the 95th percentile's, and half of that allowance is left to pixels that drift above
-// their aim. The
+// round. No pixel is given more than the samples the image's 97.5th-percentile pixel needs, nor
+// twice what its 95th-percentile pixel needs (adaptive_cap): the image's error is the 95th
+// percentile's, and half of that allowance is left to pixels that drift above their aim. The
 // pilot's weight comes from the neighbours' pilots, never the pixel's own (adaptive_pilot_weights);
 // k_0 / spp where nothing is known, which can only be too small (what it loses is at most its own
 // samples). The floor is kNoiseFloor times the mean brightness of the pilot's noisy pixels.
@@ -109,8 +108,7 @@ double adaptive_samples_needed(const AdaptivePixel& px, double rho, const Adapti
 double adaptive_round_weight(const AdaptivePixel& px, int64_t k, int64_t cap, double rho, const AdaptivePlan& plan);
 // The samples the pixel takes in that round: k, or fewer in its last round.
 int64_t adaptive_round_length(const AdaptivePixel& px, int64_t k, int64_t cap, double rho, const AdaptivePlan& plan);
-// The per-pixel cap: the samples the 97.5th-percentile pixel needs at the target (kAdaptiveCapShare; a
-// capped pixel uses the percentile's allowance only where it ends above the target) over the
+// The per-pixel cap: the samples the 97.5th-percentile pixel needs (kAdaptiveCapShare) over the
 // counted pixels of the rounds so far (noise.h's; the taken samples of finished pixels, taken plus
 // needed of the others), at most kAdaptiveCapGrowth times the 95th-percentile pixel's, within
 // [2 pilot, spp].
