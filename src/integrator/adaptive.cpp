@@ -57,11 +57,21 @@ std::vector<double> adaptive_neighbourhood(const std::vector<AdaptivePixel>& px,
   return out;
 }
 
-double adaptive_samples_needed(const AdaptivePixel& px, double rho, const AdaptivePlan& plan) {
-  if (!(rho > 0.0)) return 0.0;  // nothing to average out (a background every sample sees alike)
-  const double e = plan.target * plan.aim;
+namespace {
+// The samples to come that bring rho (V + B^2 / T) down to e^2 (inf: out of reach).
+double samples_to_reach(const AdaptivePixel& px, double rho, double e) {
   if (!(e * e > rho * px.V)) return std::numeric_limits<double>::infinity();
   return std::ceil(px.B * px.B * rho / (e * e - rho * px.V));
+}
+}  // namespace
+
+double adaptive_samples_needed(const AdaptivePixel& px, double rho, const AdaptivePlan& plan) {
+  if (!(rho > 0.0)) return 0.0;  // nothing to average out (a background every sample sees alike)
+  const double T = samples_to_reach(px, rho, plan.target * plan.aim);
+  if (std::isfinite(T) || px.n == 0) return T;
+  // the aim is out of reach: the target itself, else nothing more (the next round is the last)
+  const double T_target = samples_to_reach(px, rho, plan.target);
+  return std::isfinite(T_target) ? T_target : 0.0;
 }
 
 double adaptive_round_weight(const AdaptivePixel& px, int64_t k, int64_t cap, double rho, const AdaptivePlan& plan) {

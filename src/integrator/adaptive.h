@@ -17,10 +17,11 @@
 // larger; then a_r = B k_r / T, or B when T <= k_r (the last round, which then takes T samples
 // rounded up to a quarter of k_r: finishing pixels of a round are rendered in up to four groups of
 // lengths; the weight of a round that is not the last is taken from a rho with a margin,
-// kAdaptiveWeightMargin). The aim is kAdaptiveAim times the target. No pixel is given more than the samples
-// the image's 97.5th-percentile pixel needs, nor twice what its 95th-percentile pixel needs
-// (adaptive_cap): the image's error is the 95th percentile's, and half of that allowance is left
-// to pixels that drift above their aim. The
+// kAdaptiveWeightMargin). The aim is kAdaptiveAim times the target; a pixel out of reach of its
+// aim (rho V >= aim^2) aims at the target, or, out of reach of that too, finishes with its next
+// round. No pixel is given more than the samples the image's 97.5th-percentile pixel needs, nor
+// twice what its 95th-percentile pixel needs (adaptive_cap): the image's error is the 95th
+// percentile's, and half of that allowance is left to pixels that drift above their aim. The
 // pilot's weight comes from the neighbours' pilots, never the pixel's own (adaptive_pilot_weights);
 // k_0 / spp where nothing is known, which can only be too small (what it loses is at most its own
 // samples). The floor is kNoiseFloor times the mean brightness of the pilot's noisy pixels.
@@ -98,7 +99,9 @@ int64_t adaptive_round_samples(int64_t n, const AdaptivePlan& plan);
 // pixels are row-major, width x height.
 double adaptive_relative_variance(const AdaptivePixel& px, double floor);
 std::vector<double> adaptive_neighbourhood(const std::vector<AdaptivePixel>& px, int width, int height, double floor);
-// The samples to come that bring rho (V + B^2 / T) to the aim (0: none needed, inf: out of reach).
+// The samples to come that bring rho (V + B^2 / T) to the aim, or to the target where the aim is
+// out of reach (rho V >= aim^2); 0: none needed, or the target out of reach too (the next round is
+// the last).
 double adaptive_samples_needed(const AdaptivePixel& px, double rho, const AdaptivePlan& plan);
 // The weight of the pixel's next round of k samples, from rounds so far only: B when it is the
 // last round (the pixel reaches its aim, or `cap` samples, with it), else B k / T (above).
