@@ -8,7 +8,10 @@
 //   - the same seed gives the same image twice, and generic and specialised kernels agree bit for
 //     bit with guiding on; the cache is reported and bounded;
 //   - guiding refuses pixel windows, sample ranges and several devices (a usage error);
-//   - the training passes' vertex ring credits a path's later radiance to its first vertex exactly.
+//   - the training passes' vertex ring credits a path's later radiance to its first vertex exactly;
+//   - guiding every scatter event (RenderOptions::guide_depth), with and without guided roulette
+//     and splitting, agrees with the unguided render, and its image does not depend on the number
+//     of path slots (bit for bit).
 #include <cstring>
 
 #include "guiding/guide_cache.h"
@@ -41,7 +44,8 @@ json guiding_scene(const std::string& dir) {
 }
 
 RenderResult render_guided(const json& s, const std::string& dir, int tracker, int absorption, uint32_t seed, bool guiding,
-                           std::function<void(GuideCache&)> hook = {}, bool generic = false) {
+                           std::function<void(GuideCache&)> hook = {}, bool generic = false,
+                           std::function<void(RenderOptions&)> more = {}) {
   RenderOptions o = quiet_options();
   o.tracker = tracker;
   o.absorption = absorption;
@@ -50,6 +54,7 @@ RenderResult render_guided(const json& s, const std::string& dir, int tracker, i
   o.guide_cache_hook = std::move(hook);
   o.generic_kernels = generic;
   o.guide_grid_cells = 2;  // a 16 x 16 film trains few records: few, well-filled regions
+  if (more) more(o);
   return Renderer(scene_from_json(s, dir), o).render();
 }
 
@@ -196,4 +201,48 @@ TEST(GuidingRender, RingRecordsCreditTheEscapeToTheFirstVertex) {
       EXPECT_GT(std::abs(g.weight - 0.5 * 1.03), 1e-5) << "twin: a 3% error must be detected";
     }
   EXPECT_GE(regions, 4) << "the first pass must fill most of the 2 x 2 x 2 regions";
+}
+
+// Every scatter event guided (guide_depth < 0): the product of the guided weights over a path's
+// bounces is unbiased, with guided roulette and splitting holding it in the window and without.
+TEST(GuidingRender, EveryScatterEventGuidedAgreesWithUnguided) {
+  const std::string dir = temp_dir("guided_every");
+  json s = guiding_scene(dir);
+  s["film"]["spp"] = 96;
+  RenderResult ref = render_guided(s, dir, ST_TRACKER_DELTA_PER_CHANNEL, ST_ABSORPTION_EVENT, 100, false);
+  for (bool splitting : {true, false}) {
+    RenderResult r = render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 400, true, {}, false,
+                                   [&](RenderOptions& o) {
+                                     o.guide_depth = -1;
+                                     o.guide_splitting = splitting;
+                                   });
+    const std::string what = splitting ? "with roulette and splitting" : "without";
+    EXPECT_GT(r.guide.regions_guided, 0) << what;
+    EXPECT_EQ(r.stats.nonfinite_samples, 0u) << what;
+    EXPECT_LT(max_z(r, ref), 4.0) << what;
+    EXPECT_GT(max_z(r, ref, 1.03), 4.0) << what << ": twin, a 3% error must be detected";
+  }
+}
+
+// The image of a render that guides every scatter event and splits paths is the same, bit for bit,
+// whatever the number of path slots (the children's keys and the slot's depth-first order).
+TEST(GuidingRender, EveryScatterEventGuidedDoesNotDependOnPathSlots) {
+  const std::string dir = temp_dir("guided_every_slots");
+  json s = guiding_scene(dir);
+  s["film"]["spp"] = 8;
+  std::vector<RenderResult> r;
+  for (int slots : {0, 97, 1000})
+    r.push_back(render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 9, true, {}, false, [&](RenderOptions& o) {
+      o.guide_depth = -1;
+      if (slots > 0) o.path_slots = slots;
+    }));
+  EXPECT_GT(r[0].stats.split_paths, 0u) << "paths must split";
+  EXPECT_NE(r[0].path_slots, r[1].path_slots);
+  for (size_t k = 1; k < r.size(); ++k) {
+    ASSERT_EQ(r[0].rgb.size(), r[k].rgb.size());
+    EXPECT_EQ(std::memcmp(r[0].rgb.data(), r[k].rgb.data(), r[0].rgb.size() * 4), 0) << r[k].path_slots << " path slots";
+    EXPECT_EQ(r[0].stats.split_paths, r[k].stats.split_paths);
+  }
+  RenderResult first = render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 9, true);
+  EXPECT_NE(std::memcmp(r[0].rgb.data(), first.rgb.data(), r[0].rgb.size() * 4), 0) << "guiding every event changes the samples";
 }

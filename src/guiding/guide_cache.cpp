@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <tuple>
 
 #include "guiding/vmf_fit.h"
@@ -94,6 +96,14 @@ GuideCache make_guide_cache(const st_scene& st, int cells_longest_axis) {
   c.node_depth.assign(cells, 0);
   c.pixel_estimate.assign(size_t(std::max(st.camera.width, 0)) * size_t(std::max(st.camera.height, 0)), 0.0f);
   return c;
+}
+
+int guide_depth_setting(int option) {
+  if (option != 0) return option > 0 ? option : std::numeric_limits<int>::max();
+  const char* e = std::getenv("SPECTRACK_GUIDE_DEPTH");
+  if (!e) return kGuideDepth;
+  const int d = std::atoi(e);
+  return d > 0 ? d : std::numeric_limits<int>::max();
 }
 
 void set_pixel_estimates(GuideCache& cache, const std::vector<double>& sums, double samples) {

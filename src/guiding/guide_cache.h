@@ -15,6 +15,7 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <algorithm>
 #include <functional>
 #include <vector>
 
@@ -60,16 +61,21 @@ constexpr double kGuidePixelFloor = 0.05;
 // moves the path by a mean free path, which changes little of what it brings back, while the weights
 // f_phase / p_mix of every guided event multiply into the path's variance.
 constexpr int kGuideDepth = 1;
-static_assert(kGuideDepth >= 1 && kGuideDepth <= ST_GUIDE_RING, "records of guided vertices come from the ring");
+static_assert(kGuideDepth >= 1, "the first scatter event is guided");
+// The guided depth of a render: RenderOptions::guide_depth where set (tests), else the environment's
+// SPECTRACK_GUIDE_DEPTH (measurements; 0 or a negative value: every scatter event), else kGuideDepth.
+int guide_depth_setting(int option);
 
 // Bytes of the record buffer for Q path slots: the count, and in training passes the records of
 // one iteration (a slot records the fit's and the radiance record of the vertex that leaves its
 // ring at a scatter event; when it finishes, those of its ring and its end record), the slots'
 // guide state and the vertex rings (kernels/guiding.h); with splitting in the render, the count
 // and the slots' state.
-inline uint64_t guide_record_capacity(uint64_t Q) { return Q * uint64_t(ST_GUIDE_RING + kGuideDepth + 1); }
-inline size_t guide_record_buffer_bytes(uint64_t Q, bool training, bool splitting = false) {
-  return 16 + (training ? guide_record_capacity(Q) * sizeof(st_guide_record) +
+inline uint64_t guide_record_capacity(uint64_t Q, int guided_depth = kGuideDepth) {
+  return Q * uint64_t(ST_GUIDE_RING + std::min(guided_depth, ST_GUIDE_RING) + 1);
+}
+inline size_t guide_record_buffer_bytes(uint64_t Q, bool training, bool splitting = false, int guided_depth = kGuideDepth) {
+  return 16 + (training ? guide_record_capacity(Q, guided_depth) * sizeof(st_guide_record) +
                               Q * (sizeof(st_guide_slot) + ST_GUIDE_RING * sizeof(st_guide_vertex))
                         : splitting ? Q * sizeof(st_guide_slot) : 0);
 }

@@ -74,7 +74,7 @@ MemoryNeed Renderer::Impl::memory_need(const BatchPlan& p) const {
   r.film_layers = p.film_layers();
   r.aov_channels = aov_sum_channels(settings.aovs).size();
   r.path_slots = p.Q;
-  r.path_bytes = sizeof(st_path) + p.NL * sizeof(st_shadow) + (settings.guiding ? guide_record_buffer_bytes(1, true) : 0);
+  r.path_bytes = sizeof(st_path) + p.NL * sizeof(st_shadow) + (settings.guiding ? guide_record_buffer_bytes(1, true, false, guide.header.guided_depth) : 0);
   r.queue_words = queue_words_per_slot(p.NL);
   r.result_values = p.ring * p.batch_paths * p.L;
   r.scene_bytes = ds.scene_bytes + (settings.guiding ? double(guide.bytes()) : 0.0);

@@ -46,7 +46,10 @@ void Renderer::Impl::setup() {
   ds = upload_scene(opt.device, std::move(packed), std::move(defines));
   // guiding off: a header of zeros (nothing guides, nothing records); the kernels compiled without
   // ST_FEATURE_GUIDING never read it
-  if (settings.guiding) guide = make_guide_cache(ds.packed.st, opt.guide_grid_cells > 0 ? opt.guide_grid_cells : kGuideGridCells);
+  if (settings.guiding) {
+    guide = make_guide_cache(ds.packed.st, opt.guide_grid_cells > 0 ? opt.guide_grid_cells : kGuideGridCells);
+    guide.header.guided_depth = guide_depth_setting(opt.guide_depth);
+  }
   std::vector<unsigned char> g = guide.serialize();
   if (settings.guiding) g.resize(guide.capacity_bytes(), 0);  // room for the regions refinement adds
   b_guide = ds.buffer(CL_MEM_READ_ONLY, g.size(), g.data(), "guide cache");
@@ -231,9 +234,10 @@ RenderResult Renderer::Impl::run_stage_loop(int64_t sample_begin, int spp, std::
   set_ring_size(plan.ring);
   RenderBuffers buf = allocate(plan);
   if (settings.guiding) {  // training: records on, vertex rings, one iteration's records
-    const uint64_t capacity = records ? guide_record_capacity(plan.Q) : 0;
+    const uint64_t capacity = records ? guide_record_capacity(plan.Q, guide.header.guided_depth) : 0;
     const uint32_t head[4] = {0, 0, 0, 0};
-    b_records = ds.buffer(CL_MEM_READ_WRITE, guide_record_buffer_bytes(plan.Q, records != nullptr, guide.header.split_max > 0),
+    b_records = ds.buffer(CL_MEM_READ_WRITE, guide_record_buffer_bytes(plan.Q, records != nullptr, guide.header.split_max > 0,
+                                                                    guide.header.guided_depth),
                           nullptr, "guide records");
     ST_CL_CHECK(ds.queue.enqueueWriteBuffer(b_records, CL_TRUE, 0, sizeof(head), head), "clear the guide record count");
     guide.header.dims[3] = int(capacity);
