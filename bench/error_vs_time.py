@@ -203,10 +203,10 @@ def run_mitsuba(sc, scene_path, ref, var_ref, ref_halves, ladder, seeds, args, c
     rows = {}
     for seed in seeds:
         for spp in ladder:
-            img = np.load(os.path.join(out, f"mi_{spp}_{seed}.npy")).astype(np.float64)
+            img = read_exr(os.path.join(out, f"mi_{spp}_{seed}.exr"))
             rows.setdefault(spp, []).append((mse_against(img, ref, var_ref), timings[f"{spp}:{seed}"]))
-    a = np.load(os.path.join(out, f"mi_{hi}_2000.npy")).astype(np.float64)
-    b = np.load(os.path.join(out, f"mi_{hi}_2001.npy")).astype(np.float64)
+    a = read_exr(os.path.join(out, f"mi_{hi}_2000.exr"))
+    b = read_exr(os.path.join(out, f"mi_{hi}_2001.exr"))
     mi_mean = 0.5 * (a + b)
     var_mi = float(np.mean((a - b) ** 2) / 4.0)
     diff = mi_mean - ref
@@ -260,7 +260,7 @@ def run_furnace(sc, scene, scene_path, prefix, args, work):
     p = subprocess.run([args.mitsuba_python, os.path.join(ROOT, "bench", "mitsuba_side.py"), fpath, prefix,
                         args.mitsuba_variant, out] + [f"16:{s}" for s in seeds], capture_output=True, text=True)
     if p.returncode == 0:
-        res[f"Mitsuba 3 ({args.mitsuba_variant})"] = [np.load(os.path.join(out, f"mi_16_{s}.npy")).astype(np.float64)
+        res[f"Mitsuba 3 ({args.mitsuba_variant})"] = [read_exr(os.path.join(out, f"mi_16_{s}.exr"))
                                                       for s in seeds]
     summary = {}
     for k, imgs in res.items():

@@ -32,6 +32,12 @@
 #      SPECTRACK_STATE_LAYOUT=aos), whose soa/aos paths/s ratio per scene decides the default;
 #      STEPS="0 2 7 8" is this check alone (about 4 minutes); OUT_DIR=$OUT on the device machine
 #      brings gpu.log, wavefront.tsv and registers.txt back for bench/results/;
+#   9. the GPU peer: Mitsuba 3's cuda_ad_rgb (PEER_VARIANT) from .gpu/mitsuba.tar.xz
+#      (bench/gpu_mitsuba_pack.py) beside spectrack on the bench scenes Mitsuba can express
+#      (bench/gpu_peer.py render: a reference, then 64 and 256 spp x 2 seeds each, interleaved;
+#      PEER_ARGS adds options); the images come back in peer_images.tar, and
+#      `bench/gpu_peer.py score DIR` on this side prints the efficiency ratios;
+#      STEPS="0 2 9" is the peer alone;
 #   3. the test suite on it, last (the longest): ctest with SPECTRACK_DEVICE set, or, from a
 #      bundle, spectrack_tests itself in TEST_SHARDS (8) parallel gtest shards (ctest.log).
 # Everything goes to OUT_DIR (default out/gpu-<UTC date>): gpu.log (all output), devices.txt,
@@ -44,7 +50,7 @@ cd "$(dirname "$0")/.."
 OUT=${1:-out/gpu-$(date -u +%Y%m%dT%H%M%S)}
 mkdir -p "$OUT"
 OUT=$(cd "$OUT" && pwd)
-STEPS=${STEPS:-"0 1 2 3 4 5 6 7 8"}
+STEPS=${STEPS:-"0 1 2 3 4 5 6 7 8 9"}
 exec > >(tee "$OUT/gpu.log") 2>&1
 status=0
 step() { case " $STEPS " in *" $1 "*) return 0 ;; *) return 1 ;; esac; }
@@ -260,6 +266,23 @@ if os.path.exists(grid):
             print(f"wavefront grid {mode}: new/old paths/s {statistics.median(new) / statistics.median(old):.2f}x "
                   f"({g[0]['spp']} spp)")
 PY
+fi
+
+if step 9; then
+  # Mitsuba 3 on the same GPU: .gpu/mitsuba.tar.xz (bench/gpu_mitsuba_pack.py) unpacked onto PYTHONPATH
+  M=/opt/mitsuba-gpu py=${PEER_PYTHON:-python3} variant=${PEER_VARIANT:-cuda_ad_rgb}
+  if [ -f .gpu/mitsuba.tar.xz ] && [ ! -d "$M/mitsuba" ]; then
+    mkdir -p "$M" && tar -xJf .gpu/mitsuba.tar.xz -C "$M" || fail "peer: cannot unpack .gpu/mitsuba.tar.xz"
+  fi
+  export PYTHONPATH=$M${PYTHONPATH:+:$PYTHONPATH}
+  if "$py" -c "import mitsuba as mi; mi.set_variant('$variant')"; then
+    # shellcheck disable=SC2086 # PEER_ARGS: more options, word-split on purpose
+    timeout "${TIMEOUT_PEER:-300}" "$py" bench/gpu_peer.py render "$OUT/peer" --device "$DEV" --variant "$variant" \
+      --mitsuba-python "$py" ${PEER_ARGS:-} || fail "peer (bench/gpu_peer.py render)"
+    tar -cf "$OUT/peer_images.tar" -C "$OUT" peer && rm -rf "$OUT/peer"
+  else
+    fail "peer: $py cannot load Mitsuba's $variant (carry .gpu/mitsuba.tar.xz: bench/gpu_mitsuba_pack.py)"
+  fi
 fi
 
 echo "gpu.sh: done, status $status, results in $OUT"

@@ -4,7 +4,7 @@
 Design: the `device` tool's GPU machines (docs/benchmarks.md, GPU check) run a CUDA image with no package
 registry reachable, so bench/gpu.sh cannot run scripts/setup.sh there. This packs what the built
 programs need to run there into one .tar.xz: the programs (build/spectrack, spectrack_tests,
-kernel_throughput), pbrt-v4's grid as bench/pbrt_grid.py
+kernel_throughput, grid_export), pbrt-v4's grid as bench/pbrt_grid.py
 generated it (when it has), every shared library they load (the whole closure, glibc and its loader
 included, so the bundle does not depend on the target's libraries) and the generated volumes of
 data/volumes. The programs' interpreter and RPATH are rewritten (patchelf) to PREFIX/lib, where
@@ -35,7 +35,7 @@ import tarfile
 import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-PROGRAMS = ["spectrack", "spectrack_tests", "kernel_throughput"]
+PROGRAMS = ["spectrack", "spectrack_tests", "kernel_throughput", "grid_export"]
 # SONAME patterns replaced by stubs (see the design note)
 STUB = re.compile(r"^lib(opencv_|av(codec|format|util|device|filter)|sw(scale|resample)|dcm|oflog|ofstd|heif|"
                   r"mpi|open-(pal|rte)|hwloc|pmix|event)")

@@ -74,7 +74,7 @@ def main():
                 if p.returncode != 0:
                     raise SystemExit(f"mitsuba {integ} failed on {name}: {p.stderr[-1500:]}")
                 t = json.load(open(os.path.join(out, "timings.json")))[f"{a.spp}:{seed}"]
-                return np.load(os.path.join(out, f"mi_{a.spp}_{seed}.npy")).astype(np.float64), t
+                return read_exr(os.path.join(out, f"mi_{a.spp}_{seed}.exr")), t
 
             for label in ours:
                 run_ours(label, 999)  # warm the kernel cache

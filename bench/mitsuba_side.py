@@ -18,9 +18,12 @@ grid_export's dense dump of the grid as spectrack loads it:
   (fov_axis 'smaller', our convention) and look_at; the pixel filter is a box (ours: uniform
   jitter in the pixel); max_depth -1 (Russian roulette only), as ours.
 The integrator is `volpath`, or $MITSUBA_INTEGRATOR (`volpathmis`: spectral MIS, bench/mitsuba_mis.py).
-Each SPP:SEED render writes OUT_DIR/mi_<spp>_<seed>.npy (H x W x 3 float32, row 0 at the top) and
-the render seconds (wall clock around mi.render and the read-back) into OUT_DIR/timings.json.
+Each SPP:SEED render writes OUT_DIR/mi_<spp>_<seed>.exr (RGB float32, Mitsuba's Bitmap) and the
+render seconds (wall clock around mi.render and the read-back to the host) into
+OUT_DIR/timings.json. It needs Mitsuba and Dr.Jit alone, not numpy (the GPU machine's Python has
+no registry): the grid is read with `array` and multiplied out with Dr.Jit.
 """
+import array
 import json
 import math
 import os
@@ -29,7 +32,7 @@ import subprocess
 import sys
 import time
 
-import numpy as np
+import drjit as dr
 import mitsuba as mi
 
 
@@ -54,16 +57,26 @@ def scene_transform(t):
     return matmul(tm, m)
 
 
+def sigma_t_grid(path, dims, sigma_t):
+    """The dense density dump times sigma_t per channel: a (nz, ny, nx, 3) tensor, channels last."""
+    density = array.array("f")
+    with open(path, "rb") as f:
+        density.frombytes(f.read())
+    n = dims[0] * dims[1] * dims[2]
+    if len(density) != n:
+        raise SystemExit(f"mitsuba_side: {path}: {len(density)} values, the dims say {n}")
+    k = dr.arange(mi.UInt32, 3 * n)
+    grid = dr.gather(mi.Float, mi.Float(density), k // 3) * dr.gather(mi.Float, mi.Float(sigma_t), k % 3)
+    return mi.TensorXf(grid, shape=(*dims, 3))
+
+
 def build_scene(scene, grid_prefix, spp):
     meta = json.load(open(grid_prefix + ".json"))
     nx, ny, nz = meta["dims"]
-    density = np.fromfile(grid_prefix + ".f32", dtype=np.float32).reshape(nz, ny, nx)
     med = scene["media"][0]
-    sigma_s = np.array(med["sigma_s"], dtype=np.float64)
-    sigma_a = np.array(med["sigma_a"], dtype=np.float64)
-    sigma_t = sigma_s + sigma_a
-    albedo = np.where(sigma_t > 0, sigma_s / np.maximum(sigma_t, 1e-30), 0.0)
-    grid = (density[..., None] * sigma_t[None, None, None, :].astype(np.float32)).astype(np.float32)
+    sigma_t = [s + a for s, a in zip(med["sigma_s"], med["sigma_a"])]
+    albedo = [s / t if t > 0 else 0.0 for s, t in zip(med["sigma_s"], sigma_t)]
+    grid = sigma_t_grid(grid_prefix + ".f32", (nz, ny, nx), sigma_t)
     i2w = meta["index_to_world"] + [[0, 0, 0, 1]]
     o = meta["index_origin"]
     unit_to_index = [[nx, 0, 0, o[0] - 0.5], [0, ny, 0, o[1] - 0.5], [0, 0, nz, o[2] - 0.5], [0, 0, 0, 1]]
@@ -91,8 +104,8 @@ def build_scene(scene, grid_prefix, spp):
             "bsdf": {"type": "null"},
             "interior": {
                 "type": "heterogeneous",
-                "albedo": {"type": "rgb", "value": albedo.tolist()},
-                "sigma_t": {"type": "gridvolume", "grid": mi.VolumeGrid(grid), "filter_type": "trilinear",
+                "albedo": {"type": "rgb", "value": albedo},
+                "sigma_t": {"type": "gridvolume", "data": grid, "filter_type": "trilinear",
                             "wrap_mode": "clamp", "to_world": mi.ScalarTransform4f(to_world)},
                 "scale": med.get("density_scale", 1.0),
                 "phase": mi_phase,
@@ -105,8 +118,8 @@ def build_scene(scene, grid_prefix, spp):
         elif light["type"] == "directional":
             if light.get("angle_deg", 0) != 0:
                 raise SystemExit("mitsuba_side: directional lights must have angle_deg 0 in benchmark scenes")
-            tl = np.array(light["to_light"], dtype=np.float64)
-            d[f"light{k}"] = {"type": "directional", "direction": (-tl / np.linalg.norm(tl)).tolist(),
+            norm = math.sqrt(sum(c * c for c in light["to_light"]))
+            d[f"light{k}"] = {"type": "directional", "direction": [-c / norm for c in light["to_light"]],
                               "irradiance": {"type": "rgb", "value": light["irradiance"]}}
     return mi.load_dict(d)
 
@@ -142,9 +155,9 @@ def main():
         if spp not in loaded:
             loaded[spp] = build_scene(scene, grid_prefix, spp)
         t0 = time.perf_counter()
-        img = np.array(mi.render(loaded[spp], spp=spp, seed=seed), dtype=np.float32)
+        img = mi.Bitmap(mi.render(loaded[spp], spp=spp, seed=seed))
         secs = time.perf_counter() - t0
-        np.save(os.path.join(out_dir, f"mi_{spp}_{seed}.npy"), img[..., :3])
+        img.write(os.path.join(out_dir, f"mi_{spp}_{seed}.exr"))
         timings[f"{spp}:{seed}"] = secs
         json.dump(timings, open(tpath, "w"), indent=1)
         print(f"mitsuba {variant} {spp} spp seed {seed}: {secs:.2f} s", flush=True)
