@@ -117,7 +117,7 @@ TEST(StateLayout, DeviceStoresWhereTheHostLayoutSays) {
   for (bool soa : {false, true}) {
     const std::vector<uint32_t> all = device_store(soa, Q, ST_PATH_ALL);
     EXPECT_EQ(layout_mismatches(all, soa, Q, ST_PATH_ALL), 0) << (soa ? "soa" : "aos");
-    for (uint32_t g : {ST_PATH_TRACK, ST_PATH_KEY | ST_PATH_SPECTRUM, ST_PATH_RADIANCE | ST_PATH_VERTEX})
+    for (uint32_t g : {uint32_t(ST_PATH_TRACK), uint32_t(ST_PATH_KEY | ST_PATH_SPECTRUM), uint32_t(ST_PATH_RADIANCE | ST_PATH_VERTEX)})
       EXPECT_EQ(layout_mismatches(device_store(soa, Q, g), soa, Q, g), 0) << (soa ? "soa" : "aos") << " groups " << g;
     // twin: the other layout's reading does not match
     EXPECT_GT(layout_mismatches(all, !soa, Q, ST_PATH_ALL), 0) << (soa ? "soa" : "aos");
@@ -165,7 +165,7 @@ TEST(StateLayout, AosAndSoaRenderTheSameFilm) {
       EXPECT_EQ(aos.stats[k], soa.stats[k]) << tag << " " << k;
     // twin: another seed changes the film, so the comparison above can fail
     std::vector<std::string> seeded = cases[c];
-    seeded.insert(seeded.end(), {"--seed", "7"});
+    seeded.insert(seeded.end(), {"--seed", "8"});  // the scene's is 7
     const Render other = render(dir, tag + "_seed", "soa", seeded);
     EXPECT_NE(other.pixels, soa.pixels) << tag;
   }
