@@ -19,12 +19,6 @@ namespace {
 
 using namespace st_cli;
 
-struct ScopedEnv {
-  std::string name;
-  ScopedEnv(const char* n, const char* v) : name(n) { ::setenv(n, v, 1); }
-  ~ScopedEnv() { ::unsetenv(name.c_str()); }
-};
-
 struct FieldInfo {
   const char* name;
   size_t size, aos_offset, soa_offset;
@@ -124,30 +118,30 @@ TEST(StateLayout, DeviceStoresWhereTheHostLayoutSays) {
   }
 }
 
-struct Render {
+// A render of the lumpy sky scene under `env` (`env NAME=VALUE spectrack render ...`): its film and statistics.
+struct LayoutRender {
   std::vector<float> pixels;
   json stats;
 };
 
-Render render(const std::string& dir, const std::string& tag, const char* layout, const std::vector<std::string>& extra) {
+LayoutRender render(const std::string& dir, const std::string& tag, const std::string& layout,
+                    const std::vector<std::string>& extra) {
   const std::string vdb = dir + "/lumpy.vdb";
   if (!fs::exists(vdb)) st_test::write_lumpy(vdb);
   json scene = lumpy_sky_scene(vdb);
   scene["film"]["width"] = 20;
   scene["film"]["height"] = 16;
   const std::string path = write_scene(dir, "scene.json", scene);
-  std::vector<std::string> args = {"render", path, "--spp", "6", "--path-slots", "700", "-o", dir + "/" + tag + ".exr",
-                                   "--stats-json", dir + "/" + tag + ".json", "--quiet"};
+  std::vector<std::string> args = {"SPECTRACK_STATE_LAYOUT=" + layout, SPECTRACK_BINARY, "render", path, "--spp", "6",
+                                   "--path-slots", "700", "-o", dir + "/" + tag + ".exr", "--stats-json",
+                                   dir + "/" + tag + ".json", "--quiet"};
   args.insert(args.end(), extra.begin(), extra.end());
-  ScopedEnv env("SPECTRACK_STATE_LAYOUT", layout);
   RunOptions o;
   o.timeout_s = 600;
-  Proc p = run(args, o);
+  o.binary = "/usr/bin/env";
+  const Proc p = run(args, o);
   EXPECT_TRUE(p.exited && p.code == 0) << p.describe();
-  Render r;
-  r.pixels = image_pixels(dir + "/" + tag + ".exr");
-  r.stats = json::parse(std::ifstream(dir + "/" + tag + ".json"));
-  return r;
+  return {image_pixels(dir + "/" + tag + ".exr"), json::parse(std::ifstream(dir + "/" + tag + ".json"))};
 }
 
 TEST(StateLayout, AosAndSoaRenderTheSameFilm) {
@@ -155,8 +149,8 @@ TEST(StateLayout, AosAndSoaRenderTheSameFilm) {
   const std::vector<std::vector<std::string>> cases = {{}, {"--spectral", "--aov", "emission,direct,depth"}};
   for (size_t c = 0; c < cases.size(); ++c) {
     const std::string tag = "case" + std::to_string(c);
-    const Render aos = render(dir, tag + "_aos", "aos", cases[c]);
-    const Render soa = render(dir, tag + "_soa", "soa", cases[c]);
+    const LayoutRender aos = render(dir, tag + "_aos", "aos", cases[c]);
+    const LayoutRender soa = render(dir, tag + "_soa", "soa", cases[c]);
     ASSERT_FALSE(aos.pixels.empty());
     EXPECT_EQ(aos.stats["state_layout"], "aos");
     EXPECT_EQ(soa.stats["state_layout"], "soa");
@@ -166,7 +160,7 @@ TEST(StateLayout, AosAndSoaRenderTheSameFilm) {
     // twin: another seed changes the film, so the comparison above can fail
     std::vector<std::string> seeded = cases[c];
     seeded.insert(seeded.end(), {"--seed", "8"});  // the scene's is 7
-    const Render other = render(dir, tag + "_seed", "soa", seeded);
+    const LayoutRender other = render(dir, tag + "_seed", "soa", seeded);
     EXPECT_NE(other.pixels, soa.pixels) << tag;
   }
 }
@@ -174,8 +168,9 @@ TEST(StateLayout, AosAndSoaRenderTheSameFilm) {
 TEST(StateLayout, AnUnknownLayoutIsRefusedByName) {
   const std::string dir = test_dir();
   const std::string path = write_scene(dir, "scene.json", small_noise_scene(dir));
-  ScopedEnv env("SPECTRACK_STATE_LAYOUT", "columns");
-  Proc p = run({"render", path, "--spp", "1", "-o", dir + "/x.exr", "--quiet"});
+  RunOptions o;
+  o.binary = "/usr/bin/env";
+  Proc p = run({"SPECTRACK_STATE_LAYOUT=columns", SPECTRACK_BINARY, "render", path, "--spp", "1", "-o", dir + "/x.exr", "--quiet"}, o);
   EXPECT_TRUE(p.exited && p.code != 0) << p.describe();
   EXPECT_THAT(p.out, testing::HasSubstr("SPECTRACK_STATE_LAYOUT: 'columns' is not a path state layout"));
 }
