@@ -26,7 +26,10 @@
 #      bench scene (WAVEFRONT_SPP; WAVEFRONT_SCENES picks some), interleaved, 2 rounds (wavefront.tsv, with
 #      iterations, host_waits and occupancy), their ratios, the grid's ratio from step 7
 #      (GRID_SPP, 256), and the registers of every kernel (registers.txt: the new binary's NVIDIA
-#      build log with -cl-nv-verbose, and ptxas -v on both binaries' cached PTX where ptxas is);
+#      build log with -cl-nv-verbose, and ptxas -v on both binaries' cached PTX where ptxas is;
+#      registers_per_kernel.txt: one line per binary, path state layout and kernel); the new
+#      binary runs in both path state layouts (spectrack: SoA, a GPU's default; spectrack_aos:
+#      SPECTRACK_STATE_LAYOUT=aos), whose soa/aos paths/s ratio per scene decides the default;
 #      STEPS="0 2 7 8" is this check alone (about 4 minutes); OUT_DIR=$OUT on the device machine
 #      brings gpu.log, wavefront.tsv and registers.txt back for bench/results/;
 #   9. the GPU peer: Mitsuba 3's cuda_ad_rgb (PEER_VARIANT) from .gpu/mitsuba.tar.xz
@@ -183,30 +186,42 @@ if step 8; then
   bins=(build/spectrack); [ -x build/spectrack_old ] && bins+=(build/spectrack_old)
   # registers: a build from source with NVIDIA's verbose log (the new binary), and ptxas on the
   # PTX each binary's kernel cache holds (NVIDIA's program binaries are PTX)
+  # the new binary in both path state layouts (SPECTRACK_STATE_LAYOUT; SoA is a GPU's default)
   : > "$OUT/registers.txt"
   for bin in "${bins[@]}"; do
-    kc="$OUT/kcache_$(basename "$bin")"; rm -rf "$kc"; mkdir -p "$kc"
-    for s in bench/scenes/dense_chromatic.json bench/scenes/smoke1.json; do
-      SPECTRACK_KERNEL_CACHE_DIR="$kc" SPECTRACK_CL_OPTIONS=-cl-nv-verbose SPECTRACK_CL_BUILD_LOG="$OUT/build_log.txt" \
-        $bin render "$s" --spp 1 -q --no-alpha -o "$OUT/warm.exr" >/dev/null 2>&1 || fail "registers: $bin $s"
-    done
-    if command -v ptxas >/dev/null; then
-      sm=$(nvidia-smi --query-gpu=compute_cap --format=csv,noheader 2>/dev/null | head -n 1 | tr -d .)
-      for f in "$kc"/*.bin; do
-        echo "== $(basename "$bin") $(basename "$f") (ptxas -v, sm_${sm:-90})" >> "$OUT/registers.txt"
-        ptxas -v --gpu-name "sm_${sm:-90}" "$f" -o /dev/null 2>&1 | grep -E "Compiling entry|registers" >> "$OUT/registers.txt"
+    layouts=(default); [ "$bin" = build/spectrack ] && layouts=(soa aos)
+    for layout in "${layouts[@]}"; do
+      tag=$(basename "$bin")_$layout
+      kc="$OUT/kcache_$tag"; rm -rf "$kc"; mkdir -p "$kc"
+      for s in bench/scenes/dense_chromatic.json bench/scenes/smoke1.json; do
+        env $([ $layout != default ] && echo SPECTRACK_STATE_LAYOUT=$layout) SPECTRACK_KERNEL_CACHE_DIR="$kc" \
+          SPECTRACK_CL_OPTIONS=-cl-nv-verbose SPECTRACK_CL_BUILD_LOG="$OUT/build_log_$tag.txt" \
+          $bin render "$s" --spp 1 -q --no-alpha -o "$OUT/warm.exr" >/dev/null 2>&1 || fail "registers: $tag $s"
       done
-    fi
+      if command -v ptxas >/dev/null; then
+        sm=$(nvidia-smi --query-gpu=compute_cap --format=csv,noheader 2>/dev/null | head -n 1 | tr -d .)
+        for f in "$kc"/*.bin; do
+          echo "== $tag $(basename "$f") (ptxas -v, sm_${sm:-90})" >> "$OUT/registers.txt"
+          ptxas -v --gpu-name "sm_${sm:-90}" "$f" -o /dev/null 2>&1 | grep -E "Compiling entry|registers" >> "$OUT/registers.txt"
+        done
+      fi
+      [ -f "$OUT/build_log_$tag.txt" ] &&
+        { echo "== $tag, NVIDIA build log"; grep -E "Compiling entry|registers" "$OUT/build_log_$tag.txt"; } >> "$OUT/registers.txt"
+    done
   done
-  [ -f "$OUT/build_log.txt" ] && { echo "== build/spectrack, NVIDIA build log"; grep -E "Compiling entry|registers" "$OUT/build_log.txt"; } >> "$OUT/registers.txt"
-  grep -A1 -E "k_(track|shadow)" "$OUT/registers.txt" | head -n 40
+  # registers of every kernel per layout (the build log's "Compiling entry" / "Used N registers" pairs)
+  awk '/^== /{tag=$2; sub(/,$/, "", tag)} /Compiling entry/{match($0, /k_[a-z_]+/); k=substr($0, RSTART, RLENGTH)}
+       /Used [0-9]+ registers/ && k != "" {match($0, /Used [0-9]+/); print "registers", tag, k, substr($0, RSTART + 5, RLENGTH - 5); k=""}' \
+    "$OUT/registers.txt" | sort -u | tee "$OUT/registers_per_kernel.txt" | grep -E "k_(track|shadow|scatter|raygen|finish|escape) "
   printf 'binary\tscene\tround\tpaths_per_second\tseconds_render\titerations\thost_waits\toccupancy_mean\n' > "$OUT/wavefront.tsv"
   # variants: the new binary (chunked on a GPU), f9c773d's, and the new one's sized loop (a CPU's)
-  variants=(spectrack); [ -x build/spectrack_old ] && variants+=(spectrack_old); variants+=(spectrack_sized)
+  # and the new one with the AoS path state (spectrack_aos; the default on a GPU is SoA)
+  variants=(spectrack); [ -x build/spectrack_old ] && variants+=(spectrack_old); variants+=(spectrack_sized spectrack_aos)
   run_variant() {  # variant args...
     local v=$1; shift
     case $v in
       spectrack_sized) SPECTRACK_LOOP=sized build/spectrack "$@" ;;
+      spectrack_aos) SPECTRACK_STATE_LAYOUT=aos build/spectrack "$@" ;;
       *) build/$v "$@" ;;
     esac
   }
@@ -233,6 +248,10 @@ def pps(rows, binary, key):
 for scene in sorted({r["scene"] for r in rows}):
     new, old = pps(rows, "spectrack", ("scene", scene)), pps(rows, "spectrack_old", ("scene", scene))
     sized = pps(rows, "spectrack_sized", ("scene", scene))
+    aos = pps(rows, "spectrack_aos", ("scene", scene))
+    if new and aos:
+        print(f"state layout {scene}: soa/aos paths/s {statistics.median(new) / statistics.median(aos):.2f}x "
+              f"(soa {statistics.median(new):.0f}, aos {statistics.median(aos):.0f})")
     if new and old:
         print(f"wavefront {scene}: new/old paths/s {statistics.median(new) / statistics.median(old):.2f}x "
               f"(new {statistics.median(new):.0f}, old {statistics.median(old):.0f})"

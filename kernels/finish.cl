@@ -30,7 +30,8 @@ inline void spectral_layers_to_rgb(__global float4* out, uint L, float4 lambda, 
 ST_STAGE_FUNCTION(finish) {
   const uint cur = it.cur;
   uint slot = queue_item(queues, Q, NL, cur, ST_Q_FINISH, gid);
-  st_path p = paths[slot];
+  st_path p;
+  path_load(paths, Q, slot, ST_PATH_ALL, &p);
   if (p.pending > 0) {
     atomic_inc(&counters[ST_C_WAITS]);
     queue_push(queues, counters, Q, NL, cur, ST_Q_FINISH, slot);
@@ -59,7 +60,7 @@ ST_STAGE_FUNCTION(finish) {
   /* splitting: a waiting child of the family takes the slot; the last path writes the sample */
   if (ST_HAS_GUIDING && guide_next_child(guide, guide_records, slot, &p)) {
     atomic_inc(&counters[ST_C_SPLIT_PATHS]);
-    paths[slot] = p;
+    path_store(paths, Q, slot, ST_PATH_ALL, &p);
     queue_push(queues, counters, Q, NL, cur, ST_Q_SCATTER, slot);
     return;
   }

@@ -183,6 +183,17 @@ inline float4 path_mask(__constant const st_scene* scene, const st_path* p) {
   return scene->n_channels_per_sample > 1 ? one_hot((int)p->channel) : scene_lanes(scene);
 }
 
+/* The groups of the path state (path_state.h) that the tracking and shadow kernels read besides
+ * their own, each only where the kernel's features read it: the wavelengths in spectral mode (rgb
+ * mode reads none), what the path gathered where emission or a sphere light adds to it, and the
+ * vertex (depth, result index) where the layers, a ground or a sphere light read it. */
+#define ST_PATH_SPECTRUM_READ (ST_HAS_SPECTRAL ? ST_PATH_SPECTRUM : 0)
+#define ST_PATH_TRACK_GATHERS (ST_HAS_EMISSION || ST_HAS_SPHERE_LIGHT ? ST_PATH_RADIANCE : 0)
+#define ST_PATH_TRACK_READS                                                  \
+  (ST_PATH_TRACK | ST_PATH_KEY | ST_PATH_SPECTRUM_READ | ST_PATH_TRACK_GATHERS | \
+   (ST_HAS_AOV || ST_HAS_GROUND || ST_HAS_SPHERE_LIGHT ? ST_PATH_VERTEX : 0))
+#define ST_PATH_SHADOW_READS (ST_PATH_KEY | ST_PATH_SPECTRUM_READ)
+
 /* The random stream of a path (stream 0) or of one of its shadow rays. */
 inline st_rng path_rng(__constant const st_scene* scene, const st_path* p, uint stream, uint draw) {
   st_rng r = rng_make(scene->seed, p->pixel, p->sample, p->channel, stream, draw);

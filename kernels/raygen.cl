@@ -227,7 +227,7 @@ ST_STAGE_FUNCTION(raygen) {
   p.medium = 0;
   p.r_u = scene_lanes(scene);
   if (ea_on(scene)) ea_begin(scene, grids, env, shadows, queues, counters, Q, NL, cur, slot, &p);
-  paths[slot] = p;
+  path_store(paths, Q, slot, ST_PATH_ALL, &p);
   if (ST_HAS_AOV && scene->result_layers > 1) camera_layers_begin(scene, grids, maj, counters, results, &p);
   for (uint l = 0; l < (uint)shadow_lights(scene); ++l) shadows[slot * NL + l].Ls = (float4)(0.0f);
   if (ST_HAS_GUIDING) guide_split_begin(guide, guide_records, slot);

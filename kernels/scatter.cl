@@ -181,11 +181,12 @@ inline int path_roulette(st_path* p, float4 mask, st_rng* rng) {
 ST_STAGE_FUNCTION(scatter) {
   const uint cur = it.cur;
   uint slot = queue_item(queues, Q, NL, cur, ST_Q_SCATTER, gid);
-  st_path p = paths[slot];
+  st_path p;
+  path_load(paths, Q, slot, ST_PATH_ALL, &p);
   const int ground = ST_HAS_GROUND && p.medium == ST_MEDIUM_GROUND;
   if (ground && scene->ground.mode == ST_GROUND_SHADOW_CATCHER) {
     shadow_catcher_event(scene, env, shadows, queues, counters, results, Q, NL, cur, slot, &p);
-    paths[slot] = p;
+    path_store(paths, Q, slot, ST_PATH_ALL, &p);
     return;
   }
   /* splitting (guiding.h): a waiting child resumes its parent's event at the choice of direction */
@@ -227,7 +228,7 @@ ST_STAGE_FUNCTION(scatter) {
   if (split == 0) { /* the path ends after this event's next-event estimation (its bounce: depth + 1 folds it) */
     p.depth += 1;
     p.rng_draw = rng_draw_index(&rng);
-    paths[slot] = p;
+    path_store(paths, Q, slot, ST_PATH_ALL, &p);
     queue_push(queues, counters, Q, NL, cur, ST_Q_FINISH, slot);
     return;
   }
@@ -243,6 +244,6 @@ ST_STAGE_FUNCTION(scatter) {
   const int q = split < 0 && !child ? path_roulette(&p, mask, &rng) : ST_Q_TRACK;
   p.rng_draw = rng_draw_index(&rng);
   if (ea_on(scene) && q == ST_Q_TRACK) ea_begin(scene, grids, env, shadows, queues, counters, Q, NL, cur, slot, &p);
-  paths[slot] = p;
+  path_store(paths, Q, slot, ST_PATH_ALL, &p);
   queue_push(queues, counters, Q, NL, cur, q, slot);
 }

@@ -13,7 +13,8 @@
 ST_STAGE_FUNCTION(escape) {
   const uint cur = it.cur;
   uint slot = queue_item(queues, Q, NL, cur, ST_Q_ESCAPE, gid);
-  st_path p = paths[slot];
+  st_path p;
+  path_load(paths, Q, slot, ST_PATH_ALL, &p);
   float3 d = p.d.xyz;
   float pdf_phase = p.d.w;
   float4 L = (float4)(0.0f);
@@ -32,7 +33,7 @@ ST_STAGE_FUNCTION(escape) {
     results[p.result_index * (uint)scene->result_layers + ST_RESULT_ENVIRONMENT] = p.beta * mask * L;
   } else {
     p.L += p.beta * mask * L;
-    paths[slot].L = p.L;
+    path_store(paths, Q, slot, ST_PATH_RADIANCE, &p);
     /* the direct pass: the lights that the first scattering event's phase-sampled ray reaches */
     if (ST_HAS_AOV && scene->result_layers > ST_RESULT_LAYERS_AOV && p.depth == 1)
       results[p.result_index * (uint)scene->result_layers + ST_RESULT_DIRECT] += p.beta * mask * L;

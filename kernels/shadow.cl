@@ -16,7 +16,8 @@ ST_STAGE_FUNCTION(shadow) {
   const uint cur = it.cur;
   uint id = queue_item(queues, Q, NL, cur, ST_Q_SHADOW, gid);
   st_shadow sh = shadows[id];
-  st_path p = paths[sh.slot];
+  st_path p;
+  path_load(paths, Q, sh.slot, ST_PATH_SHADOW_READS, &p);
   st_rng rng = path_rng(scene, &p, sh.stream, sh.rng_draw);
   if (ST_HAS_GUIDING) guide_rng_key(&rng, guide, guide_records, sh.slot); /* a split path's streams */
   st_track_stats st;
@@ -37,7 +38,7 @@ ST_STAGE_FUNCTION(shadow) {
   if (done) {
     sh.state = ST_SHADOW_DONE;
     shadows[id] = sh;
-    atomic_dec(&paths[sh.slot].pending);
+    atomic_dec(path_pending(paths, Q, sh.slot));
   } else {
     sh.o.w = t;
     shadows[id] = sh;

@@ -75,7 +75,7 @@ enum st_counter {
   X(GRIDS, __global const uint*, grids)                                               \
   X(MAJORANTS, __global const float2*, maj)                                           \
   X(ENV, __global const float*, env)                                                  \
-  X(PATHS, __global st_path*, paths)                                                  \
+  X(PATHS, ST_PATH_STATE, paths) /* path_state.h: AoS or SoA */                      \
   X(SHADOWS, __global st_shadow*, shadows)                                            \
   X(QUEUES, __global uint*, queues)                                                   \
   X(COUNTERS, __global uint*, counters)                                               \

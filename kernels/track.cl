@@ -32,14 +32,15 @@ inline int sphere_light_hit(__constant const st_scene* scene, st_path* p, int l,
 ST_STAGE_FUNCTION(track) {
   const uint cur = it.cur;
   uint slot = queue_item(queues, Q, NL, cur, ST_Q_TRACK, gid);
-  st_path p = paths[slot];
+  st_path p;
+  path_load(paths, Q, slot, ST_PATH_TRACK_READS, &p);
   st_rng rng = path_rng(scene, &p, 0u, p.rng_draw);
   if (ST_HAS_GUIDING) guide_rng_key(&rng, guide, guide_records, slot); /* a split path's streams */
   st_track_stats st;
   track_stats_clear(&st);
   float t = p.o.w;
   int medium = 0;
-  float4 beta = p.beta, L = p.L;
+  float4 beta = p.beta, L = ST_PATH_TRACK_GATHERS ? p.L : (float4)(0.0f);
   float4 r_u = p.r_u;
   if (!spectral_mode(scene)) r_u.w = 0.0f; /* an unused lane: whatever the last launch left there */
   int sphere;
@@ -70,7 +71,7 @@ ST_STAGE_FUNCTION(track) {
     q = ST_Q_TRACK;
     atomic_inc(&counters[ST_C_REQUEUES]);
   }
-  paths[slot] = p;
+  path_store(paths, Q, slot, ST_PATH_TRACK | ST_PATH_TRACK_GATHERS, &p);
   flush_track_stats(counters, &st, ST_C_LOOKUPS_TRACK);
   queue_push(queues, counters, Q, NL, cur, q, slot);
 }

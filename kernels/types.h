@@ -20,6 +20,7 @@ typedef int st_int;
 typedef ulong st_ulong;
 #define ST_ALIGN16
 #else
+#include <cstddef>
 #include <cstdint>
 struct alignas(16) st_float4 {
   float x, y, z, w;
@@ -394,26 +395,8 @@ typedef struct {
   } equiangular;
 } st_scene;
 
-/* Path state, one slot per path in flight. */
-typedef struct {
-  st_float4 o;        /* xyz: ray origin; w: t reached along the ray (resume point) */
-  st_float4 d;        /* xyz: unit direction; w: pdf of the phase sample that made d (0: camera ray) */
-  st_float4 beta;     /* throughput weight per channel */
-  st_float4 L;        /* radiance gathered by this path (emission, escape) */
-  st_float4 r_u;      /* spectral-mis: each channel's path pdf over the hero's, scaled to mean 1 (tracking.h) */
-  st_uint pixel;      /* pixel index in the film window */
-  st_uint sample;     /* sample index in the full sequence */
-  st_uint channel;    /* delta-per-channel: the lane it carries (0..2, spectral mode 0..3); spectral-mis: the hero lane; 0 otherwise */
-  st_uint result_index; /* slot in the batch result buffer */
-  st_uint rng_draw;   /* next draw of the path's random stream */
-  st_int depth;       /* real scattering events so far */
-  st_int pending;     /* shadow rays of this path not finished yet */
-  st_int medium;      /* medium whose phase function applies at the scatter point */
-  /* (its batch's ring slot is result_index / st_iteration.batch_paths; the lanes it carries are
-   * not stored either: queues.h path_mask) */
-  st_float4 lambda;   /* spectral mode: the sample's four wavelengths (nm), drawn once by raygen
-                       * (queues.h path_wavelengths) and read by every later kernel; rgb: 0 */
-} st_path;
+/* Path state, one slot per path in flight: st_path and its layouts (AoS, SoA) and groups. */
+#include "path_state.h"
 
 /* A transmittance estimate in progress, resumable across launches (transmittance.h). Ratio tracking
  * uses T only; ray marching (docs/transmittance.md) walks the ray once for the pilot and the
@@ -489,6 +472,7 @@ ST_CHECK_SIZE(st_camera, ST_SIZEOF_CAMERA)
 ST_CHECK_SIZE(st_light, ST_SIZEOF_LIGHT)
 ST_CHECK_SIZE(st_scene, ST_SIZEOF_SCENE)
 ST_CHECK_SIZE(st_path, ST_SIZEOF_PATH)
+ST_CHECK_PATH_LAYOUT
 ST_CHECK_SIZE(st_trans, ST_SIZEOF_TRANS)
 ST_CHECK_SIZE(st_shadow, ST_SIZEOF_SHADOW)
 ST_CHECK_SIZE(st_iteration, ST_SIZEOF_ITERATION)

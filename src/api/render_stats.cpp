@@ -32,6 +32,7 @@ nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_tota
   // the run's automatic choices as used (renderer.h RunChoices; the first device's)
   j["path_slots"] = r.path_slots;
   j["shadow_ring"] = r.shadow_ring;
+  j["state_layout"] = r.state_layout;
   j["batches_in_flight"] = r.batches_in_flight;
   j["iteration_budget"] = r.iteration_budget;
   j["film_layers"] = nlohmann::json::array();

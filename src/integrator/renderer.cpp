@@ -26,6 +26,7 @@
 #include "device/device_scene.h"
 #include "integrator/film_watch.h"
 #include "integrator/memory_budget.h"
+#include "integrator/state_layout.h"
 #include "util/phase.h"
 
 namespace spectrack {
@@ -44,6 +45,8 @@ void Renderer::Impl::setup() {
       {"ST_KERNEL_MAX_MEDIA", std::to_string(max_media)}, {"ST_FEATURES", fmt::format("0x{:x}u", packed.features)}};
   set_phase("device upload and kernel build");
   ds = upload_scene(opt.device, std::move(packed), std::move(defines));
+  state_layout = choose_state_layout(ds.dev.type);  // the path state's layout (kernel define)
+  add_state_layout_define(state_layout, ds.defines);
   // guiding off: a header of zeros (nothing guides, nothing records); the kernels compiled without
   // ST_FEATURE_GUIDING never read it
   if (settings.guiding) {
@@ -229,6 +232,7 @@ RenderResult Renderer::Impl::run_stage_loop(int64_t sample_begin, int spp, std::
   check_memory(plan);  // refuse what cannot fit before allocating anything
   res.path_slots = plan.Q;
   res.shadow_ring = plan.shadow_ring;
+  res.state_layout = state_layout_name(state_layout);
   res.batches_in_flight = plan.ring;
   set_phase("film allocation");
   set_ring_size(plan.ring);

@@ -80,6 +80,7 @@ struct RunChoices {
   GuideInfo guide;                // volume path guiding (its training time is in seconds_render)
   uint64_t path_slots = 0;        // paths in flight (--path-slots, else by device type: batch_plan.cpp)
   uint64_t shadow_ring = 0;       // shadow-ray entries per (path, light) (1 where the default 2 would not fit)
+  std::string state_layout;       // the path state's layout: "aos" or "soa" (state_layout.h)
   uint64_t batches_in_flight = 0;  // result buffers in the ring (capped by the batch count and the device)
   int iteration_budget = 0;       // tracking iterations per path and launch
 };
