@@ -20,16 +20,9 @@ import subprocess
 import tempfile
 
 import numpy as np
-import OpenImageIO as oiio
+from error_vs_time import read_exr
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-def read_exr(path):
-    inp = oiio.ImageInput.open(path)
-    px = inp.read_image(oiio.FLOAT)
-    inp.close()
-    return np.asarray(px, dtype=np.float64)[..., :3]
 
 
 def main():
