@@ -9,11 +9,17 @@
 //   - the one-sample mixture of Henyey-Greenstein and a guide, weighed by
 //     f_phase / (alpha p_guide + (1 - alpha) p_phase), estimates the integral of f_phase g within
 //     4 standard errors for a good guide, a guide pointing away from g and an empty one; twin: the
-//     pdf 3% off is detected.
+//     pdf 3% off is detected;
+//   - SPECTRACK_GUIDE_DEPTH is read strictly (a count, or 0 for every event; anything else is an
+//     error naming the variable).
 #include <algorithm>
+#include <cstdlib>
+#include <limits>
 #include <map>
 
+#include "guiding/guide_cache.h"
 #include "guiding_util.h"
+#include "util/error.h"
 
 using namespace guiding_test;
 
@@ -279,4 +285,23 @@ TEST(GuidingMixture, OneSampleEstimatorIsUnbiasedForAnyGuide) {
       EXPECT_NEAR(e.mean, reference, 4 * e.se) << "SE " << e.se;
       EXPECT_GT(std::fabs(e.mean_twin - reference), 4 * e.se) << "twin: the pdf 3% off must be detected";
     }
+}
+
+// The guided depth for measurements (SPECTRACK_GUIDE_DEPTH): a count, 0 for every event, and
+// anything else refused by name rather than read as a depth.
+TEST(GuidingDepthSetting, ReadsTheEnvironmentStrictly) {
+  using spectrack::guide_depth_setting;
+  ::unsetenv("SPECTRACK_GUIDE_DEPTH");
+  EXPECT_EQ(guide_depth_setting(0), spectrack::kGuideDepth);
+  EXPECT_EQ(guide_depth_setting(3), 3);
+  EXPECT_EQ(guide_depth_setting(-1), std::numeric_limits<int>::max());
+  ::setenv("SPECTRACK_GUIDE_DEPTH", "2", 1);
+  EXPECT_EQ(guide_depth_setting(0), 2);
+  ::setenv("SPECTRACK_GUIDE_DEPTH", "0", 1);
+  EXPECT_EQ(guide_depth_setting(0), std::numeric_limits<int>::max());
+  for (const char* bad : {"abc", "2x", "-1", "99999999999"}) {
+    ::setenv("SPECTRACK_GUIDE_DEPTH", bad, 1);
+    EXPECT_THROW(guide_depth_setting(0), spectrack::Error) << bad;
+  }
+  ::unsetenv("SPECTRACK_GUIDE_DEPTH");
 }

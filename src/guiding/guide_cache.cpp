@@ -2,6 +2,8 @@
 // cells' kd-trees are guide_tree.cpp.
 #include "guiding/guide_cache.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -10,6 +12,7 @@
 #include <tuple>
 
 #include "guiding/vmf_fit.h"
+#include "util/error.h"
 
 namespace spectrack {
 
@@ -101,9 +104,13 @@ GuideCache make_guide_cache(const st_scene& st, int cells_longest_axis) {
 int guide_depth_setting(int option) {
   if (option != 0) return option > 0 ? option : std::numeric_limits<int>::max();
   const char* e = std::getenv("SPECTRACK_GUIDE_DEPTH");
-  if (!e) return kGuideDepth;
-  const int d = std::atoi(e);
-  return d > 0 ? d : std::numeric_limits<int>::max();
+  if (!e || !*e) return kGuideDepth;
+  char* end = nullptr;
+  const long d = std::strtol(e, &end, 10);
+  if (*end != '\0' || d < 0 || d > std::numeric_limits<int>::max())
+    throw Error(fmt::format("SPECTRACK_GUIDE_DEPTH: '{}' is not a guided depth (0: every scatter event, or a "
+                            "positive count of events)", e));
+  return d > 0 ? int(d) : std::numeric_limits<int>::max();
 }
 
 void set_pixel_estimates(GuideCache& cache, const std::vector<double>& sums, double samples) {
