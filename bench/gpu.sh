@@ -27,7 +27,8 @@
 #      iterations, host_waits and occupancy), their ratios, the grid's ratio from step 7
 #      (GRID_SPP, 256), and the registers of every kernel (registers.txt: the new binary's NVIDIA
 #      build log with -cl-nv-verbose, and ptxas -v on both binaries' cached PTX where ptxas is;
-#      registers_per_kernel.txt: one line per binary, path state layout and kernel); the new
+#      registers_per_kernel.txt: one line per binary, path state layout, kernel and register count:
+#      dense_chromatic, smoke1 and smoke1 with ray marching, whose k_shadow carries its fields); the new
 #      binary runs in both path state layouts (spectrack: SoA, a GPU's default; spectrack_aos:
 #      SPECTRACK_STATE_LAYOUT=aos), whose soa/aos paths/s ratio per scene decides the default;
 #      STEPS="0 2 7 8" is this check alone (about 4 minutes); OUT_DIR=$OUT on the device machine
@@ -193,10 +194,11 @@ if step 8; then
     for layout in "${layouts[@]}"; do
       tag=$(basename "$bin")_$layout
       kc="$OUT/kcache_$tag"; rm -rf "$kc"; mkdir -p "$kc"
-      for s in bench/scenes/dense_chromatic.json bench/scenes/smoke1.json; do
+      # k_shadow with ray marching's fields (a feature of its own) and without them
+      for s in bench/scenes/dense_chromatic.json bench/scenes/smoke1.json "bench/scenes/smoke1.json --transmittance ray-marching"; do
         env $([ $layout != default ] && echo SPECTRACK_STATE_LAYOUT=$layout) SPECTRACK_KERNEL_CACHE_DIR="$kc" \
           SPECTRACK_CL_OPTIONS=-cl-nv-verbose SPECTRACK_CL_BUILD_LOG="$OUT/build_log_$tag.txt" \
-          $bin render "$s" --spp 1 -q --no-alpha -o "$OUT/warm.exr" >/dev/null 2>&1 || fail "registers: $tag $s"
+          $bin render $s --spp 1 -q --no-alpha -o "$OUT/warm.exr" >/dev/null 2>&1 || fail "registers: $tag $s"
       done
       if command -v ptxas >/dev/null; then
         sm=$(nvidia-smi --query-gpu=compute_cap --format=csv,noheader 2>/dev/null | head -n 1 | tr -d .)

@@ -33,9 +33,8 @@
 
 inline int ea_on(__constant const st_scene* scene) { return ST_HAS_EQUIANGULAR && scene->equiangular.n_local > 0; }
 /* The equi-angular entry of segment s of the path in slot `slot` (its place in the shadow ring). */
-inline __global st_shadow* ea_entry(__constant const st_scene* scene, __global st_shadow* shadows, uint NL, uint slot,
-                                    int s) {
-  return &shadows[shadow_entry(slot, NL, shadow_lights(scene), s, scene->n_lights)];
+inline uint ea_entry(__constant const st_scene* scene, uint NL, uint slot, int s) {
+  return shadow_entry(slot, NL, shadow_lights(scene), s, scene->n_lights);
 }
 inline int ea_light_is_target(__constant const st_light* l) { return l->type >= ST_LIGHT_POINT; }
 
@@ -105,12 +104,16 @@ inline float ea_flight_density(__constant const st_scene* scene, float t0, float
 }
 
 /* The tracker's MIS weight for its light-l sample at a real scattering event at x on the segment
- * of equi-angular entry e: p_ff / (p_ff + q p_ea) (1 for lights the technique never samples). */
-inline float ea_flight_weight(__constant const st_scene* scene, __global const st_shadow* e, int l, float3 x) {
+ * of equi-angular entry e (of the n shadow entries): p_ff / (p_ff + q p_ea) (1 for lights the
+ * technique never samples). */
+inline float ea_flight_weight(__constant const st_scene* scene, ST_SHADOW_STATE shadows, uint n, uint e, int l,
+                              float3 x) {
   if (!ea_light_is_target(&scene->lights[l])) return 1.0f;
-  const float t = dot(x - e->seg_o.xyz, e->seg_d.xyz);
-  const float q_pea = ea_density(scene, l, e->seg_o, e->seg_d, t);
-  const float p_ff = ea_flight_density(scene, e->seg_o.w, t);
+  st_shadow s;
+  shadow_load(shadows, n, e, ST_SHADOW_SEGMENT, &s);
+  const float t = dot(x - s.seg_o.xyz, s.seg_d.xyz);
+  const float q_pea = ea_density(scene, l, s.seg_o, s.seg_d, t);
+  const float p_ff = ea_flight_density(scene, s.seg_o.w, t);
   return q_pea > 0.0f ? p_ff / (p_ff + q_pea) : 1.0f;
 }
 
@@ -165,23 +168,24 @@ inline float4 ea_unoccluded(__constant const st_scene* scene, __global const uin
  * sample's unoccluded contribution (one density lookup per medium at x) and queues leg 1 unless it
  * is 0 (outside a spot's cone, nothing scattering at x, a surface in the way). */
 inline void ea_begin(__constant const st_scene* scene, __global const uint* grids, __global const float* env,
-                     __global st_shadow* shadows, __global uint* queues, __global uint* counters, uint Q, uint NL,
+                     ST_SHADOW_STATE shadows, __global uint* queues, __global uint* counters, uint Q, uint NL,
                      uint cur, uint slot, st_path* p) {
-  const uint id = shadow_entry(slot, NL, shadow_lights(scene), p->depth, scene->n_lights);
-  __global st_shadow* e = &shadows[id];
+  const uint id = ea_entry(scene, NL, slot, p->depth);
+  st_shadow e;
   float t0, t1;
   ea_interval(scene, p->o.xyz, p->d.xyz, &t0, &t1);
-  e->seg_o = (float4)(p->o.xyz, t0);
-  e->seg_d = (float4)(p->d.xyz, t1);
+  e.seg_o = (float4)(p->o.xyz, t0);
+  e.seg_d = (float4)(p->d.xyz, t1);
+  shadow_store(shadows, Q * NL, id, ST_SHADOW_SEGMENT, &e);
   if (!(t1 > t0) || (scene->max_depth >= 0 && p->depth >= scene->max_depth)) return;
   const uint stream = ST_STREAM_EQUIANGULAR + (uint)p->depth;
   st_rng rng = path_rng(scene, p, stream, 0u);
   const int l = ea_pick(scene, rng_uniform(&rng));
   st_ea_geom g;
   const float u = rng_uniform(&rng);
-  if (l < 0 || !ea_geometry(scene->lights[l].position.xyz, e->seg_o, e->seg_d, &g)) return;
+  if (l < 0 || !ea_geometry(scene->lights[l].position.xyz, e.seg_o, e.seg_d, &g)) return;
   const float t = clamp(g.delta + g.D * tan(mix(g.theta_a, g.theta_b, u)), t0, t1);
-  const float q_pea = ea_density(scene, l, e->seg_o, e->seg_d, t);
+  const float q_pea = ea_density(scene, l, e.seg_o, e.seg_d, t);
   if (!(q_pea > 0.0f)) return;
   rng = path_rng(scene, p, stream, 4u); /* draws 2 and 3: the light sample (ea_light_sample) */
   const float4 mask = path_mask(scene, p);
@@ -189,26 +193,27 @@ inline void ea_begin(__constant const st_scene* scene, __global const uint* grid
   const float4 weight = ea_unoccluded(scene, grids, env, p, stream, l, t, q_pea, t0, &rng, &lookups);
   counter_add(counters, ST_C_LOOKUPS_SHADOW, lookups);
   if (!(masked_max(fabs(weight), mask) > 0.0f)) return;
-  shadow_begin(e, p->o.xyz, p->d.xyz, t, weight, mask, stream, slot);
-  e->rng_draw = rng_draw_index(&rng);
-  e->ea[0] = 1u;
-  e->ea[1] = (uint)l;
-  e->ea[2] = (uint)p->depth;
+  shadow_begin(&e, p->o.xyz, p->d.xyz, t, weight, mask, stream, slot, 0u);
+  e.rng_draw = rng_draw_index(&rng);
+  e.ea_leg = 1u;
+  e.ea_light = (uint)l;
+  e.ea_segment = (uint)p->depth;
+  shadow_store(shadows, Q * NL, id, ST_SHADOW_BEGUN | ST_SHADOW_EA, &e);
   p->pending += 1;
   queue_push(queues, counters, Q, NL, cur, ST_Q_SHADOW, id);
 }
 
-/* Leg 1 of equi-angular entry sh is done (sh->tr.T: the transmittance from the segment's origin
- * to x): the weight takes it and the entry becomes leg 2, the shadow ray from x to the light along
- * the light sample ea_begin evaluated. Returns 1 when nothing is left to trace (T = 0). */
+/* Leg 1 of equi-angular entry sh (k_shadow's copy) is done (sh->tr.T: the transmittance from the
+ * segment's origin to x): the weight takes it and the entry becomes leg 2, the shadow ray from x to
+ * the light along the light sample ea_begin evaluated. Returns 1 when nothing is left to trace (T = 0). */
 inline int ea_second_leg(__constant const st_scene* scene, __global const float* env, st_shadow* sh, const st_path* p,
                          float4 mask) {
   const float3 x = sh->o.xyz + sh->t_max * sh->d.xyz;
   float3 wi;
   float pdf_l, t_max;
-  ea_light_sample(scene, env, p, sh->stream, (int)sh->ea[1], x, &wi, &pdf_l, &t_max);
+  ea_light_sample(scene, env, p, sh->stream, (int)sh->ea_light, x, &wi, &pdf_l, &t_max);
   sh->weight *= sh->tr.T;
-  sh->ea[0] = 2u;
+  sh->ea_leg = 2u;
   if (!(masked_max(fabs(sh->weight), mask) > 0.0f)) {
     sh->tr.T = (float4)(0.0f);
     return 1;
@@ -216,21 +221,21 @@ inline int ea_second_leg(__constant const st_scene* scene, __global const float*
   sh->o = (float4)(x, 0.0f);
   sh->d = (float4)(wi, 0.0f);
   sh->t_max = t_max;
-  st_trans tr;
-  transmittance_begin(&tr, mask);
-  sh->tr = tr;
+  transmittance_begin(&sh->tr, mask);
   return 0;
 }
 
 /* Folds the equi-angular entry of segment s (its place in the ring) into its accumulator (the Ls
  * of the slot's entry n_lights) when it is done; returns 1 while it is still running. */
-inline int ea_fold(__constant const st_scene* scene, __global st_shadow* shadows, __global float4* results, uint NL,
-                   uint slot, const st_path* p, int s) {
+inline int ea_fold(__constant const st_scene* scene, ST_SHADOW_STATE shadows, __global float4* results, uint Q,
+                   uint NL, uint slot, const st_path* p, int s) {
   if (s < 0) return 0;
-  __global st_shadow* e = ea_entry(scene, shadows, NL, slot, s);
-  if (e->state == ST_SHADOW_PENDING) return 1;
-  if (e->state == ST_SHADOW_DONE)
-    shadow_fold(scene, &shadows[slot * NL + (uint)scene->n_lights], e, (int)e->ea[2],
+  const uint id = ea_entry(scene, NL, slot, s), n = Q * NL;
+  st_shadow e;
+  shadow_load(shadows, n, id, ST_SHADOW_STATUS | ST_SHADOW_EA, &e);
+  if (e.state == ST_SHADOW_PENDING) return 1;
+  if (e.state == ST_SHADOW_DONE)
+    shadow_fold(scene, shadows, n, slot * NL + (uint)scene->n_lights, id, (int)e.ea_segment,
                 &results[p->result_index * (uint)scene->result_layers]);
   return 0;
 }

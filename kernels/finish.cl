@@ -43,20 +43,22 @@ ST_STAGE_FUNCTION(finish) {
   const int training = ST_HAS_GUIDING && guide->inv_cell.w > 0.0f;
   __global st_guide_vertex* ring = training ? guide_ring(guide_records, (uint)guide->dims[3], Q, slot) : 0;
   const float4 mask = path_mask(scene, &p);
+  const uint n = Q * NL;
   for (int k = shadow_ring(NL, shadow_lights(scene)); k >= 1; --k) {
     int bounce = p.depth - k;
-    if (ea_on(scene)) ea_fold(scene, shadows, results, NL, slot, &p, bounce + 1); /* the segment after it */
+    if (ea_on(scene)) ea_fold(scene, shadows, results, Q, NL, slot, &p, bounce + 1); /* the segment after it */
     if (bounce < 0) continue;
     for (int l = 0; l < scene->n_lights; ++l) {
-      __global st_shadow* e = &shadows[shadow_entry(slot, NL, shadow_lights(scene), bounce, l)];
-      if (e->state != ST_SHADOW_DONE) continue;
-      if (training) guide_credit(ring, 0, bounce - 1, p.depth, e->weight * e->tr.T, mask);
-      shadow_fold(scene, &shadows[slot * NL + (uint)l], e, bounce, &results[p.result_index * (uint)scene->result_layers]);
+      const uint e = shadow_entry(slot, NL, shadow_lights(scene), bounce, l);
+      if (shadow_status(shadows, n, e) != ST_SHADOW_DONE) continue;
+      const float4 c = shadow_fold(scene, shadows, n, slot * NL + (uint)l, e, bounce,
+                                   &results[p.result_index * (uint)scene->result_layers]);
+      if (training) guide_credit(ring, 0, bounce - 1, p.depth, c, mask);
     }
   }
   if (training)
     guide_training_finish(guide, guide_records, ring, slot, &p, mask,
-                          guide_path_total(shadows, NL, shadow_lights(scene), slot, &p, mask));
+                          guide_path_total(shadows, n, NL, shadow_lights(scene), slot, &p, mask));
   /* splitting: a waiting child of the family takes the slot; the last path writes the sample */
   if (ST_HAS_GUIDING && guide_next_child(guide, guide_records, slot, &p)) {
     atomic_inc(&counters[ST_C_SPLIT_PATHS]);
@@ -64,8 +66,7 @@ ST_STAGE_FUNCTION(finish) {
     queue_push(queues, counters, Q, NL, cur, ST_Q_SCATTER, slot);
     return;
   }
-  float4 r = p.L;
-  for (uint l = 0; l < (uint)shadow_lights(scene); ++l) r += shadows[slot * NL + l].Ls;
+  float4 r = shadow_gathered(shadows, n, NL, shadow_lights(scene), slot, p.L);
   const uint L = (uint)scene->result_layers;
   __global float4* out = &results[p.result_index * L];
   if (spectral_mode(scene)) { /* the radiance at the path's four wavelengths becomes linear sRGB (w = 0) */

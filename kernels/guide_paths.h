@@ -97,11 +97,9 @@ inline void guide_training_scatter(__global const st_guide_header* h, __global u
 
 /* The radiance a path has gathered so far, its lanes' mean: its L and its lights' accumulators
  * (the folded shadow rays). */
-inline float guide_path_total(__global const st_shadow* shadows, uint NL, int n_lights, uint slot, const st_path* p,
+inline float guide_path_total(ST_SHADOW_STATE shadows, uint n, uint NL, int n_lights, uint slot, const st_path* p,
                               float4 mask) {
-  float4 r = p->L;
-  for (int l = 0; l < n_lights; ++l) r += shadows[slot * NL + (uint)l].Ls;
-  return masked_avg(r, mask);
+  return masked_avg(shadow_gathered(shadows, n, NL, n_lights, slot, p->L), mask);
 }
 
 /* A finished training path (its shadow rays folded): credits what it gathered since its last

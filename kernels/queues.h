@@ -107,40 +107,51 @@ inline uint shadow_entry(uint slot, uint NL, int n_lights, int bounce, int light
   return slot * NL + (uint)(bounce % shadow_ring(NL, n_lights)) * (uint)n_lights + (uint)light;
 }
 
-/* Adds finished entry e, of bounce `bounce`, to its light's accumulator acc and empties it; the
- * first scattering event's shadow rays also go to the direct pass (types.h ST_AOVS) of the path's
- * result `r` (its first float4 in the batch result buffer). A shadow catcher's entry (ground.h)
- * goes to the shadow layer only. */
-inline void shadow_fold(__constant const st_scene* scene, __global st_shadow* acc, __global st_shadow* e, int bounce,
-                        __global float4* r) {
-  const float4 c = e->weight * e->tr.T;
-  if (ST_HAS_GROUND && e->catcher) {
+/* The groups of a shadow entry's transmittance estimate (shadow_state.h): T, and ray marching's
+ * other fields where the feature mask compiles ray marching in. */
+#define ST_SHADOW_TRANS (ST_SHADOW_T | (ST_HAS_RAY_MARCHING ? ST_SHADOW_MARCH : 0))
+/* What shadow_begin sets: an entry's ray, weight, estimate, stream and owner, and its state. */
+#define ST_SHADOW_BEGUN (ST_SHADOW_RAY | ST_SHADOW_WEIGHT | ST_SHADOW_TRANS | ST_SHADOW_KEY | ST_SHADOW_STATUS)
+
+/* Adds finished entry e, of bounce `bounce`, to its light's accumulator (the Ls of entry acc) and
+ * empties it; the first scattering event's shadow rays also go to the direct pass (types.h
+ * ST_AOVS) of the path's result `r` (its first float4 in the batch result buffer). A shadow
+ * catcher's entry (ground.h) goes to the shadow layer only. Returns the entry's weight * T. */
+inline float4 shadow_fold(__constant const st_scene* scene, ST_SHADOW_STATE shadows, uint n, uint acc, uint e,
+                          int bounce, __global float4* r) {
+  st_shadow s;
+  shadow_load(shadows, n, e, ST_SHADOW_WEIGHT | ST_SHADOW_T, &s);
+  const float4 c = s.weight * s.tr.T;
+  s.state = ST_SHADOW_EMPTY;
+  shadow_store(shadows, n, e, ST_SHADOW_STATUS, &s);
+  if (ST_HAS_GROUND && s.catcher) {
     r[ST_RESULT_SHADOW] += c;
-    e->state = ST_SHADOW_EMPTY;
-    return;
+    return c;
   }
-  acc->Ls += c;
+  st_shadow a;
+  shadow_load(shadows, n, acc, ST_SHADOW_LS, &a);
+  a.Ls += c;
+  shadow_store(shadows, n, acc, ST_SHADOW_LS, &a);
   if (ST_HAS_AOV && scene->result_layers > ST_RESULT_LAYERS_AOV && bounce == 0) r[ST_RESULT_DIRECT] += c;
-  e->state = ST_SHADOW_EMPTY;
+  return c;
 }
 
-/* A shadow entry's start: the ray from o along wi up to t_max (a local light's distance, else
- * INFINITY), its weight, an empty transmittance estimate of the carried channels and its own
- * random stream. */
-inline void shadow_begin(__global st_shadow* sh, float3 o, float3 wi, float t_max, float4 weight, float4 mask,
-                         uint stream, uint slot) {
+/* A shadow entry's start (ST_SHADOW_BEGUN, stored by the caller): the ray from o along wi up to
+ * t_max (a local light's distance, else INFINITY), its weight, an empty transmittance estimate of
+ * the carried channels, its own random stream, its path's slot and whether it is the shadow
+ * catcher's (ground.h). */
+inline void shadow_begin(st_shadow* sh, float3 o, float3 wi, float t_max, float4 weight, float4 mask, uint stream,
+                         uint slot, uint catcher) {
   sh->o = (float4)(o, 0.0f);
   sh->d = (float4)(wi, 0.0f);
   sh->t_max = t_max;
   sh->weight = weight;
-  st_trans tr;
-  transmittance_begin(&tr, mask);
-  sh->tr = tr;
+  sh->catcher = catcher;
+  transmittance_begin(&sh->tr, mask);
   sh->rng_draw = 0u;
   sh->stream = stream;
   sh->slot = slot;
   sh->state = ST_SHADOW_PENDING;
-  if (ST_HAS_GROUND) sh->catcher = 0u;
 }
 
 /* Spectral mode (st_film_color): the four wavelengths of sample (pixel, sample), shared by the

@@ -229,7 +229,9 @@ ST_STAGE_FUNCTION(raygen) {
   if (ea_on(scene)) ea_begin(scene, grids, env, shadows, queues, counters, Q, NL, cur, slot, &p);
   path_store(paths, Q, slot, ST_PATH_ALL, &p);
   if (ST_HAS_AOV && scene->result_layers > 1) camera_layers_begin(scene, grids, maj, counters, results, &p);
-  for (uint l = 0; l < (uint)shadow_lights(scene); ++l) shadows[slot * NL + l].Ls = (float4)(0.0f);
+  st_shadow acc; /* the lights' accumulators start empty */
+  acc.Ls = (float4)(0.0f);
+  for (uint l = 0; l < (uint)shadow_lights(scene); ++l) shadow_store(shadows, Q * NL, slot * NL + l, ST_SHADOW_LS, &acc);
   if (ST_HAS_GUIDING) guide_split_begin(guide, guide_records, slot);
   queue_push(queues, counters, Q, NL, cur, ST_Q_TRACK, slot);
 }

@@ -33,21 +33,24 @@
 /* Folds the finished shadow entries of bounce depth - R (R: the shadow ring) into their lights'
  * accumulators, in a guide training pass crediting them to the ring's earlier vertices (ring not
  * 0); returns 1 while one of them is still running (the path then waits). */
-inline int shadows_busy(__constant const st_scene* scene, __global st_shadow* shadows, __global float4* results,
+inline int shadows_busy(__constant const st_scene* scene, ST_SHADOW_STATE shadows, __global float4* results, uint Q,
                         uint NL, uint slot, const st_path* p, __global st_guide_vertex* ring) {
   int busy = 0;
+  const uint n = Q * NL;
   const int bounce = p->depth - shadow_ring(NL, shadow_lights(scene));
   for (int l = 0; l < scene->n_lights; ++l) {
-    __global st_shadow* e = &shadows[shadow_entry(slot, NL, shadow_lights(scene), p->depth, l)];
-    if (e->state == ST_SHADOW_PENDING) {
+    const uint e = shadow_entry(slot, NL, shadow_lights(scene), p->depth, l);
+    const uint state = shadow_status(shadows, n, e);
+    if (state == ST_SHADOW_PENDING) {
       busy = 1;
-    } else if (e->state == ST_SHADOW_DONE) { /* the entry of bounce depth - R (R: the shadow ring) */
-      if (ST_HAS_GUIDING && ring) guide_credit(ring, 0, bounce - 1, p->depth, e->weight * e->tr.T, path_mask(scene, p));
-      shadow_fold(scene, &shadows[slot * NL + (uint)l], e, bounce, &results[p->result_index * (uint)scene->result_layers]);
+    } else if (state == ST_SHADOW_DONE) { /* the entry of bounce depth - R (R: the shadow ring) */
+      const float4 c = shadow_fold(scene, shadows, n, slot * NL + (uint)l, e, bounce,
+                                   &results[p->result_index * (uint)scene->result_layers]);
+      if (ST_HAS_GUIDING && ring) guide_credit(ring, 0, bounce - 1, p->depth, c, path_mask(scene, p));
     }
   }
   /* equi-angular sampling: the entry whose place the next segment's takes (equiangular.h) */
-  if (ea_on(scene)) busy |= ea_fold(scene, shadows, results, NL, slot, p, bounce + 1);
+  if (ea_on(scene)) busy |= ea_fold(scene, shadows, results, Q, NL, slot, p, bounce + 1);
   return busy;
 }
 
@@ -77,7 +80,7 @@ inline int lights_to_sample(__constant const st_scene* scene, __constant const s
  * its unshadowed estimate E = f Le / pdf (no beta, MIS or albedo) added to ST_RESULT_UNSHADOWED now
  * and a shadow ray that adds E T to ST_RESULT_SHADOW (queues.h shadow_fold); then the path ends. */
 inline void shadow_catcher_event(__constant const st_scene* scene, __global const float* env,
-                                 __global st_shadow* shadows, __global uint* queues, __global uint* counters,
+                                 ST_SHADOW_STATE shadows, __global uint* queues, __global uint* counters,
                                  __global float4* results, uint Q, uint NL, uint cur, uint slot, st_path* p) {
   if (scene->result_layers > ST_RESULT_UNSHADOWED) {
     st_rng rng = path_rng(scene, p, 0u, p->rng_draw);
@@ -93,8 +96,9 @@ inline void shadow_catcher_event(__constant const st_scene* scene, __global cons
       r[ST_RESULT_UNSHADOWED] += E;
       if (surface_blocks(scene, p->o.xyz, wi, t_max, 1, l)) continue; /* a sphere light's shadow: T = 0 */
       uint id = shadow_entry(slot, NL, shadow_lights(scene), 0, l);
-      shadow_begin(&shadows[id], p->o.xyz, wi, t_max, E, mask, 1u + (uint)l, slot);
-      shadows[id].catcher = 1u;
+      st_shadow e;
+      shadow_begin(&e, p->o.xyz, wi, t_max, E, mask, 1u + (uint)l, slot, 1u);
+      shadow_store(shadows, Q * NL, id, ST_SHADOW_BEGUN, &e);
       p->pending += 1;
       queue_push(queues, counters, Q, NL, cur, ST_Q_SHADOW, id);
     }
@@ -107,7 +111,7 @@ inline void shadow_catcher_event(__constant const st_scene* scene, __global cons
 /* Next-event estimation at the scatter event of *p: one shadow ray per sampled light, weighted by the
  * power heuristic against the density of the scattered direction's sampler (the one-sample mixture
  * where the region guides, alpha > 0; else the phase function, or the ground's cosine lobe). */
-inline void scatter_nee(__constant const st_scene* scene, __global const float* env, __global st_shadow* shadows,
+inline void scatter_nee(__constant const st_scene* scene, __global const float* env, ST_SHADOW_STATE shadows,
                         __global uint* queues, __global uint* counters, uint Q, uint NL, uint cur, uint slot,
                         st_path* p, st_rng* rng, int ground, float4 albedo, __global const st_guide_region* region,
                         float alpha) {
@@ -131,13 +135,15 @@ inline void scatter_nee(__constant const st_scene* scene, __global const float* 
     float w = pdf_l > 0.0f ? power_heuristic(light->select_pmf * pdf_l, p_dir) : 1.0f;
     /* in a medium: MIS against the segment's equi-angular sample (equiangular.h) */
     if (ea_on(scene) && p->medium != ST_MEDIUM_GROUND)
-      w *= ea_flight_weight(scene, ea_entry(scene, shadows, NL, slot, p->depth), l, p->o.xyz);
+      w *= ea_flight_weight(scene, shadows, Q * NL, ea_entry(scene, NL, slot, p->depth), l, p->o.xyz);
     float4 weight = p->beta * mask * Le_over_pdf * (f * w / pick_pmf);
     if (ground) weight *= albedo;
     if (!(masked_max(fabs(weight), mask) > 0.0f)) continue;
     if (surface_blocks(scene, p->o.xyz, wi, t_max, ground, l)) continue;
     uint id = shadow_entry(slot, NL, shadow_lights(scene), p->depth, l);
-    shadow_begin(&shadows[id], p->o.xyz, wi, t_max, weight, mask, 1u + (uint)p->depth * ST_MAX_LIGHTS + (uint)l, slot);
+    st_shadow e;
+    shadow_begin(&e, p->o.xyz, wi, t_max, weight, mask, 1u + (uint)p->depth * ST_MAX_LIGHTS + (uint)l, slot, 0u);
+    shadow_store(shadows, Q * NL, id, ST_SHADOW_BEGUN, &e);
     p->pending += 1;
     queue_push(queues, counters, Q, NL, cur, ST_Q_SHADOW, id);
   }
@@ -198,7 +204,7 @@ ST_STAGE_FUNCTION(scatter) {
   }
   const int training = ST_HAS_GUIDING && guide->inv_cell.w > 0.0f;
   __global st_guide_vertex* ring = training ? guide_ring(guide_records, (uint)guide->dims[3], Q, slot) : 0;
-  if (!child && shadows_busy(scene, shadows, results, NL, slot, &p, ring)) {
+  if (!child && shadows_busy(scene, shadows, results, Q, NL, slot, &p, ring)) {
     atomic_inc(&counters[ST_C_WAITS]);
     queue_push(queues, counters, Q, NL, cur, ST_Q_SCATTER, slot);
     return;
@@ -236,7 +242,8 @@ ST_STAGE_FUNCTION(scatter) {
   const float4 beta_in = p.beta;
   const float3 wi = scatter_direction(m, region, alpha, ground, albedo, wo, &p, &rng, &pdf, &f);
   if (training)
-    guide_ring_enter(ring, p.depth, p.o.xyz, wi, f, beta_in, guide_path_total(shadows, NL, shadow_lights(scene), slot, &p, mask));
+    guide_ring_enter(ring, p.depth, p.o.xyz, wi, f, beta_in,
+                     guide_path_total(shadows, Q * NL, NL, shadow_lights(scene), slot, &p, mask));
   p.d = (float4)(wi, pdf);
   p.o.w = 0.0f;
   p.depth += 1;

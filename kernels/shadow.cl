@@ -12,10 +12,22 @@
 #include "queues.h"
 #include "equiangular.h"
 
+/* The groups of its entry (shadow_state.h) that k_shadow reads: the ray, the weight (roulette's
+ * importance), the estimate, the stream and owner, and with equi-angular sampling the leg and
+ * light. It writes back what changed: a finished estimate its T and the state; a resumed one the
+ * ray's t, the estimate and the draw; leg 2 of an equi-angular entry also the new ray, the weight
+ * and the leg. */
+#define ST_SHADOW_EA_LEGS (ST_HAS_EQUIANGULAR ? ST_SHADOW_WEIGHT | ST_SHADOW_EA : 0)
+#define ST_SHADOW_TRACE_READS \
+  (ST_SHADOW_RAY | ST_SHADOW_WEIGHT | ST_SHADOW_TRANS | ST_SHADOW_KEY | (ST_HAS_EQUIANGULAR ? ST_SHADOW_EA : 0))
+#define ST_SHADOW_TRACE_DONE (ST_SHADOW_T | ST_SHADOW_STATUS | ST_SHADOW_EA_LEGS)
+#define ST_SHADOW_TRACE_RESUME (ST_SHADOW_RAY | ST_SHADOW_TRANS | ST_SHADOW_KEY | ST_SHADOW_EA_LEGS)
+
 ST_STAGE_FUNCTION(shadow) {
-  const uint cur = it.cur;
+  const uint cur = it.cur, n = Q * NL;
   uint id = queue_item(queues, Q, NL, cur, ST_Q_SHADOW, gid);
-  st_shadow sh = shadows[id];
+  st_shadow sh;
+  shadow_load(shadows, n, id, ST_SHADOW_TRACE_READS, &sh);
   st_path p;
   path_load(paths, Q, sh.slot, ST_PATH_SHADOW_READS, &p);
   st_rng rng = path_rng(scene, &p, sh.stream, sh.rng_draw);
@@ -30,18 +42,18 @@ ST_STAGE_FUNCTION(shadow) {
   const float4 importance = w_max > 0.0f ? w / w_max : mask;
   int done = transmittance_estimate(scene, grids, maj, sh.o.xyz, sh.d.xyz, sh.t_max, &t, &sh.tr, mask, importance, &rng,
                                     scene->iteration_budget, &st);
-  if (done && ST_HAS_EQUIANGULAR && sh.ea[0] == 1u) { /* an equi-angular entry's leg 1 (equiangular.h) */
+  if (done && ST_HAS_EQUIANGULAR && sh.ea_leg == 1u) { /* an equi-angular entry's leg 1 (equiangular.h) */
     done = ea_second_leg(scene, env, &sh, &p, mask);
     t = 0.0f;
   }
   sh.rng_draw = rng_draw_index(&rng);
   if (done) {
     sh.state = ST_SHADOW_DONE;
-    shadows[id] = sh;
+    shadow_store(shadows, n, id, ST_SHADOW_TRACE_DONE, &sh);
     atomic_dec(path_pending(paths, Q, sh.slot));
   } else {
     sh.o.w = t;
-    shadows[id] = sh;
+    shadow_store(shadows, n, id, ST_SHADOW_TRACE_RESUME, &sh);
     atomic_inc(&counters[ST_C_REQUEUES]);
     queue_push(queues, counters, Q, NL, cur, ST_Q_SHADOW, id);
   }

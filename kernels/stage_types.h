@@ -76,7 +76,7 @@ enum st_counter {
   X(MAJORANTS, __global const float2*, maj)                                           \
   X(ENV, __global const float*, env)                                                  \
   X(PATHS, ST_PATH_STATE, paths) /* path_state.h: AoS or SoA */                      \
-  X(SHADOWS, __global st_shadow*, shadows)                                            \
+  X(SHADOWS, ST_SHADOW_STATE, shadows) /* shadow_state.h: AoS or SoA */              \
   X(QUEUES, __global uint*, queues)                                                   \
   X(COUNTERS, __global uint*, counters)                                               \
   X(RESULTS, __global float4*, results)                                               \

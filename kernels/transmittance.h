@@ -109,7 +109,7 @@ inline void transmittance_begin(st_trans* tr, float4 mask) {
   tr->tau_maj = 0.0f;
   tr->count = tr->count1 = 0u;
   tr->pass = 0;
-  tr->pad[0] = tr->pad[1] = 0; /* pad[0]: the pilot's first non-empty segment was met */
+  tr->pilot_met = tr->pad0 = 0;
 }
 
 /* f = residual sigma_t / mu_bar_r at p, per carried channel. */
@@ -178,10 +178,10 @@ inline int ray_march_transmittance(__constant const st_scene* scene, __global co
                  ST_WALK_CONTROL_CLOSED_FORM, left);
     float4 tau_none = (float4)(0.0f);
     for (;;) {
-      if (first && !tr->pad[0] && w.mu_bar > 0.0f) { /* the first non-empty segment: the pilot samples it */
+      if (first && !tr->pilot_met && w.mu_bar > 0.0f) { /* the first non-empty segment: the pilot samples it */
         float rest = (w.seg.t1 - w.t) * w.mu_bar;
         if (tr->s_left > rest) tr->s_left = rng_uniform(rng) * rest;
-        tr->pad[0] = 1; /* decided once (saved across launches) */
+        tr->pilot_met = 1; /* decided once (saved across launches) */
       }
       float s = first ? fmin(tr->s_left, tr->s_left1) : tr->s_left;
       float walked;
@@ -230,7 +230,7 @@ inline int transmittance_estimate(__constant const st_scene* scene, __global con
                                   __global const float2* maj, float3 o, float3 d, float t_max, float* t,
                                   st_trans* tr, float4 mask, float4 importance, st_rng* rng, int budget,
                                   st_track_stats* st) {
-  if (scene->transmittance == ST_TRANSMITTANCE_RAY_MARCHING)
+  if (ST_HAS_RAY_MARCHING && scene->transmittance == ST_TRANSMITTANCE_RAY_MARCHING)
     return ray_march_transmittance(scene, grids, maj, o, d, t_max, t, tr, mask, importance, rng, budget, st);
   float4 T = tr->T;
   int done = ratio_track(scene, grids, maj, o, d, t_max, t, &T, mask, importance, rng, budget, st);

@@ -238,11 +238,12 @@ enum st_feature {
   ST_FEATURE_SPHERE_LIGHT = 1 << 17,  /* emitting spheres: rays end at them (ground.h), cone sampling (light.h) */
   ST_FEATURE_PHASE_SET = 1 << 18,     /* some medium has a Draine blend phase (draine, rayleigh, hg2, mie) */
   ST_FEATURE_EQUIANGULAR = 1 << 19,   /* equi-angular samples towards local lights, MIS with free flights (equiangular.h) */
+  ST_FEATURE_RAY_MARCHING = 1 << 20,  /* ray-marching transmittance (transmittance.h): its fields of the shadow entries */
   ST_FEATURE_THIN_LENS = 1 << 21,     /* depth of field: the camera's lens radius is > 0 (raygen.cl camera_ray) */
   ST_FEATURE_TIME = 1 << 22,          /* each path has a time in the shutter that something reads: camera motion */
   ST_FEATURE_VELOCITY = 1 << 23,      /* some medium moves during the shutter (a velocity grid; medium.h); implies TIME */
   ST_FEATURE_ADAPTIVE = 1 << 27,      /* adaptive sampling: raygen starts paths of a list of pixels (queues.h active_pixels) */
-  ST_FEATURES_ALL = ((1 << 16) - 1) | ST_FEATURE_GROUND | ST_FEATURE_SPHERE_LIGHT | ST_FEATURE_PHASE_SET | ST_FEATURE_EQUIANGULAR | ST_FEATURE_THIN_LENS | ST_FEATURE_TIME | ST_FEATURE_VELOCITY
+  ST_FEATURES_ALL = ((1 << 16) - 1) | ST_FEATURE_GROUND | ST_FEATURE_SPHERE_LIGHT | ST_FEATURE_PHASE_SET | ST_FEATURE_EQUIANGULAR | ST_FEATURE_RAY_MARCHING | ST_FEATURE_THIN_LENS | ST_FEATURE_TIME | ST_FEATURE_VELOCITY
 };
 
 /* the wavefront's queues, counters and stage arguments */
@@ -398,47 +399,9 @@ typedef struct {
 /* Path state, one slot per path in flight: st_path and its layouts (AoS, SoA) and groups. */
 #include "path_state.h"
 
-/* A transmittance estimate in progress, resumable across launches (transmittance.h). Ratio tracking
- * uses T only; ray marching (docs/transmittance.md) walks the ray once for the pilot and the
- * first estimate together (pass 0) and once more for each further term of the series. */
-typedef struct {
-  st_float4 T;        /* ratio: running estimate; ray marching: P_0 = exp(-(tau_ctrl + tau_c)), then the estimate */
-  st_float4 tau_c;    /* ray marching: the expansion point (residual optical depth from the pilot) */
-  st_float4 P;        /* ray marching: the current term, divided by the probability of reaching it (pass 0: the roulette factor) */
-  st_float4 S;        /* ray marching: the sum of the terms so far (pass 0: the control's optical depth so far) */
-  st_float4 acc;      /* ray marching: pass 0: the pilot's sum of sigma / mu_bar; later: the pass's */
-  st_float4 acc1;     /* ray marching: pass 0: the first estimate's sum of sigma / mu_bar */
-  float s_left;       /* ray marching: majorant optical depth to the next pilot (later: pass) sample; < 0: not started */
-  float s_left1;      /* ray marching: pass 0: the same for the first estimate's samples */
-  float tau_maj;      /* ray marching: the residual majorant's optical depth along the ray (pass 0) */
-  st_uint count;      /* ray marching: pass 0: pilot samples */
-  st_uint count1;     /* ray marching: pass 0: first-estimate samples */
-  st_int pass;        /* ray marching: 0 the pilot and term 1, k >= 2 term k */
-  st_int pad[2];      /* pad[0]: ray marching, pass 0: the first non-empty segment was met; pad[1]: 0 */
-} st_trans;
-
-/* Shadow-ray entry slot * NL + ring * n_lights + light, ring = bounce % R (NL = n_lights * R
- * entries per path slot, R the shadow ring). The ring-0 entries' Ls also hold each light's
- * accumulator: the finished entries' weight * T, added in bounce order (scatter.cl, finish.cl). */
-typedef struct {
-  st_float4 o;        /* xyz origin; w: t reached */
-  st_float4 d;        /* xyz unit direction */
-  st_float4 weight;   /* contribution if the transmittance were 1 */
-  st_float4 Ls;       /* ring-0 entries: this light's contributions gathered over the path's bounces */
-  st_trans tr;        /* the transmittance estimate (done: its T) */
-  st_uint rng_draw;
-  st_uint stream;     /* random stream id (bounce, light) */
-  st_uint slot;       /* owning path slot */
-  st_uint state;      /* st_shadow_state */
-  float t_max; st_uint catcher, pad[2]; /* t_max: where the ray ends (a local light's distance; else INFINITY);
-                                         * catcher: 1 when it is the shadow catcher's (ground.h) */
-  /* equi-angular entries (equiangular.h; the entry after the lights'): the path's segment, its
-   * origin and t0 (w), its unit direction and t1 (w), which the tracker's MIS weights read too;
-   * ea: x the leg (0: not an equi-angular sample, 1: along the segment, 2: to the light), y the
-   * light, z the segment (the depth of the scatter events on it), w unused */
-  st_float4 seg_o, seg_d;
-  st_uint ea[4];
-} st_shadow;
+/* Shadow-ray entries, NL per path slot: st_shadow (with its transmittance estimate st_trans) and
+ * its layouts and groups. */
+#include "shadow_state.h"
 
 /* What changes from one iteration of the stage loop to the next (one by-value kernel argument). */
 typedef struct {
@@ -475,6 +438,7 @@ ST_CHECK_SIZE(st_path, ST_SIZEOF_PATH)
 ST_CHECK_PATH_LAYOUT
 ST_CHECK_SIZE(st_trans, ST_SIZEOF_TRANS)
 ST_CHECK_SIZE(st_shadow, ST_SIZEOF_SHADOW)
+ST_CHECK_SHADOW_LAYOUT
 ST_CHECK_SIZE(st_iteration, ST_SIZEOF_ITERATION)
 ST_CHECK_SIZE(st_maj_block, ST_SIZEOF_MAJ_BLOCK)
 

@@ -115,11 +115,14 @@ RenderBuffers Renderer::Impl::allocate(const BatchPlan& p) {
   RenderBuffers b;
   b.paths = ds.buffer(CL_MEM_READ_WRITE, p.Q * sizeof(st_path), nullptr,
                       fmt::format("path states ({})", slot_cause(opt, p, false)).c_str());
+  // Q * NL shadow-ray entries of sizeof(st_shadow) bytes, AoS or SoA (kernels/shadow_state.h)
   b.shadows = ds.buffer(CL_MEM_READ_WRITE, p.Q * p.NL * sizeof(st_shadow), nullptr,
                         fmt::format("shadow rays ({})", slot_cause(opt, p, true)).c_str());
-  // every entry starts empty (st_shadow.state 0); a path leaves its entries empty when it finishes
+  // every entry starts empty: every byte 0, so every entry's state is ST_SHADOW_EMPTY (and its
+  // equi-angular leg 0) in either layout; a path leaves its entries empty when it finishes
+  static_assert(ST_SHADOW_EMPTY == 0, "the zero fill empties every shadow entry");
   if (p.Q * p.NL > 0)
-    ST_CL_CHECK(ds.queue.enqueueFillBuffer(b.shadows, cl_uint(ST_SHADOW_EMPTY), 0, p.Q * p.NL * sizeof(st_shadow)),
+    ST_CL_CHECK(ds.queue.enqueueFillBuffer(b.shadows, cl_uint(0), 0, p.Q * p.NL * sizeof(st_shadow)),
                 "clear the shadow-ray entries");
   ST_CL_CHECK(ds.queue.finish(), "allocate render buffers");  // set-up, not seconds_render
   // two parities of every queue in table order (stage_table.h): Q path slots or Q * NL shadow rays

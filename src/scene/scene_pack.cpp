@@ -56,6 +56,7 @@ uint32_t Packer::scene_features() const {
   }
   if (st_tracker_decomposes(st.tracker)) f |= ST_FEATURE_DECOMPOSITION;
   if (st.tracker == ST_TRACKER_SPECTRAL_MIS) f |= ST_FEATURE_SPECTRAL_MIS;
+  if (st.transmittance == ST_TRANSMITTANCE_RAY_MARCHING) f |= ST_FEATURE_RAY_MARCHING;
   if (st.lookup == ST_LOOKUP_STOCHASTIC && (f & ST_FEATURE_VDB)) f |= ST_FEATURE_STOCHASTIC_LOOKUP;
   if (st.result_layers > 1) f |= ST_FEATURE_AOV;
   if (st.ground.present) f |= ST_FEATURE_GROUND;
