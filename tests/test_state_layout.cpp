@@ -218,7 +218,7 @@ struct LayoutRender {
 
 LayoutRender render(const std::string& dir, const json& scene, const std::string& tag, const std::string& layout,
                     const std::vector<std::string>& extra) {
-  const std::string path = write_scene(dir, tag + ".json", scene);
+  const std::string path = write_scene(dir, tag + "_scene.json", scene);
   std::vector<std::string> args = {"SPECTRACK_STATE_LAYOUT=" + layout, SPECTRACK_BINARY, "render", path, "--spp", "6",
                                    "--path-slots", "700", "-o", dir + "/" + tag + ".exr", "--stats-json",
                                    dir + "/" + tag + ".json", "--quiet"};
