@@ -73,6 +73,19 @@ inline void free_push(__global uint* queues, __global uint* counters, uint Q, ui
  * whole samples of these pixels, in list order. */
 inline uint active_pixels_offset(uint Q, uint NL) { return 2u * queue_parity_words(Q, NL); }
 
+/* Per-pixel work (ST_FEATURE_PIXEL_WORK): after the pixel list, padded to the window's pixels, one
+ * counter per window pixel of the density lookups and majorant (DDA) steps that its paths'
+ * tracking, their shadow rays and their camera rays' alpha estimates took in this render: the
+ * cost of a pixel's samples, for the trace of an adaptive render (docs/adaptive.md "Measured").
+ * Counts only: no image value reads it. */
+inline void pixel_work_add(__constant const st_scene* scene, __global uint* queues, uint Q, uint NL, uint pixel,
+                           uint work) {
+  const uint w = (uint)scene->window_width, npix = w * (uint)scene->window_height;
+  const uint cw = (uint)scene->camera.width;
+  const uint x = pixel % cw - (uint)scene->pixel_x0, y = pixel / cw - (uint)scene->pixel_y0;
+  if (work) atomic_add(&queues[active_pixels_offset(Q, NL) + npix + y * w + x], work);
+}
+
 inline void counter_add(__global uint* counters, int c, uint v) {
   if (v) atomic_add(&counters[c], v);
 }

@@ -82,7 +82,7 @@ inline float camera_first_collision(__constant const st_scene* scene, __global c
  * the nearest surface (ground.h); a diffuse ground or a sphere light there is opaque: alpha 1. */
 inline void camera_layers_begin(__constant const st_scene* scene, __global const uint* grids,
                                 __global const float2* maj, __global uint* counters, __global float4* results,
-                                const st_path* p) {
+                                __global uint* queues, uint Q, uint NL, const st_path* p) {
   const uint L = (uint)scene->result_layers;
   __global float4* r = &results[p->result_index * L];
   r[ST_RESULT_ENVIRONMENT] = (float4)(0.0f);
@@ -113,6 +113,7 @@ inline void camera_layers_begin(__constant const st_scene* scene, __global const
       alpha = film_rgb(alpha * d65_at(rng.lambda), rng.lambda, wavelength_pdfs(rng.lambda), 4);
     alpha.w = 0.0f;
     counter_add(counters, ST_C_LOOKUPS_ALPHA, st.lookups);
+    if (ST_HAS_PIXEL_WORK) pixel_work_add(scene, queues, Q, NL, p->pixel, st.lookups + st.dda_steps);
   }
   /* albedo and depth: one free flight of the channel-mean extinction along the camera ray, scored
    * at its first real collision (camera_first_collision); its weight goes to alpha's w */
@@ -228,7 +229,7 @@ ST_STAGE_FUNCTION(raygen) {
   p.r_u = scene_lanes(scene);
   if (ea_on(scene)) ea_begin(scene, grids, env, shadows, queues, counters, Q, NL, cur, slot, &p);
   path_store(paths, Q, slot, ST_PATH_ALL, &p);
-  if (ST_HAS_AOV && scene->result_layers > 1) camera_layers_begin(scene, grids, maj, counters, results, &p);
+  if (ST_HAS_AOV && scene->result_layers > 1) camera_layers_begin(scene, grids, maj, counters, results, queues, Q, NL, &p);
   st_shadow acc; /* the lights' accumulators start empty */
   acc.Ls = (float4)(0.0f);
   for (uint l = 0; l < (uint)shadow_lights(scene); ++l) shadow_store(shadows, Q * NL, slot * NL + l, ST_SHADOW_LS, &acc);

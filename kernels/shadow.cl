@@ -58,4 +58,5 @@ ST_STAGE_FUNCTION(shadow) {
     queue_push(queues, counters, Q, NL, cur, ST_Q_SHADOW, id);
   }
   flush_track_stats(counters, &st, ST_C_LOOKUPS_SHADOW);
+  if (ST_HAS_PIXEL_WORK) pixel_work_add(scene, queues, Q, NL, p.pixel, st.lookups + st.dda_steps);
 }

@@ -73,5 +73,6 @@ ST_STAGE_FUNCTION(track) {
   }
   path_store(paths, Q, slot, ST_PATH_TRACK | ST_PATH_TRACK_GATHERS, &p);
   flush_track_stats(counters, &st, ST_C_LOOKUPS_TRACK);
+  if (ST_HAS_PIXEL_WORK) pixel_work_add(scene, queues, Q, NL, p.pixel, st.lookups + st.dda_steps);
   queue_push(queues, counters, Q, NL, cur, q, slot);
 }

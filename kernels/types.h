@@ -242,6 +242,7 @@ enum st_feature {
   ST_FEATURE_THIN_LENS = 1 << 21,     /* depth of field: the camera's lens radius is > 0 (raygen.cl camera_ray) */
   ST_FEATURE_TIME = 1 << 22,          /* each path has a time in the shutter that something reads: camera motion */
   ST_FEATURE_VELOCITY = 1 << 23,      /* some medium moves during the shutter (a velocity grid; medium.h); implies TIME */
+  ST_FEATURE_PIXEL_WORK = 1 << 24,    /* adaptive sampling's trace: each window pixel's tracking work (queues.h pixel_work_add) */
   ST_FEATURE_ADAPTIVE = 1 << 27,      /* adaptive sampling: raygen starts paths of a list of pixels (queues.h active_pixels) */
   ST_FEATURES_ALL = ((1 << 16) - 1) | ST_FEATURE_GROUND | ST_FEATURE_SPHERE_LIGHT | ST_FEATURE_PHASE_SET | ST_FEATURE_EQUIANGULAR | ST_FEATURE_RAY_MARCHING | ST_FEATURE_THIN_LENS | ST_FEATURE_TIME | ST_FEATURE_VELOCITY
 };

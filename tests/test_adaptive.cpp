@@ -184,6 +184,110 @@ TEST(AdaptiveCap, LeavesHalfThePercentilesAllowanceToDrift) {
   EXPECT_EQ(adaptive_cap(px, rho, plan), 2 * (16 + 1890));
 }
 
+// The aim follows the measured drift: plan.aim until kAdaptiveDriftMin pixels have finished at an
+// aim; then higher where they ended close to their predicted errors, and plan.aim where many
+// drifted far above them.
+TEST(AdaptiveAim, RisesOnlyAsFarAsTheMeasuredDriftAllows) {
+  AdaptivePlan plan;
+  plan.target = 0.05;
+  plan.spp = 4096;
+  // a counted pixel of 100 samples, relative variance 0.25 per sample (sigma 0.5, mean 1)
+  auto pixel = [](double predicted, double variance_scale) {
+    AdaptivePixel x;
+    x.n = 100;
+    for (int c = 0; c < 3; ++c) x.s1[c] = 100.0, x.s2[c] = 100.0 + 99.0 * 0.25 * variance_scale;
+    x.V = 1.0 / 100.0;
+    x.predicted = predicted;
+    return x;
+  };
+  const double measured = std::sqrt(0.25 * (1.0 / 100.0));  // as adaptive_aim measures it
+  std::vector<AdaptivePixel> px(400, pixel(0.0, 1.0));
+  for (AdaptivePixel& x : px) x.B = 0.5;  // active
+  EXPECT_EQ(adaptive_aim(px, 0.0, plan), plan.aim) << "no pixel has finished";
+  // 100 pixels finished exactly at their predicted error: no drift, the aim rises to 1
+  for (size_t i = 0; i < 100; ++i) px[i] = pixel(measured, 1.0), px[i].B = 0;
+  EXPECT_EQ(adaptive_aim(px, 0.0, plan), 1.0);
+  // too few finished pixels to go on
+  std::vector<AdaptivePixel> few(px.begin() + 100 - std::ptrdiff_t(kAdaptiveDriftMin) + 1, px.end());
+  EXPECT_EQ(adaptive_aim(few, 0.0, plan), plan.aim);
+  // a third of them ended 20% above their prediction: the aim stays where it was
+  for (size_t i = 0; i < 100; i += 3) px[i] = pixel(measured / 1.2, 1.0), px[i].B = 0;
+  EXPECT_EQ(adaptive_aim(px, 0.0, plan), plan.aim);
+  // 5% of them 4% above: an aim below 1 that leaves those above the target
+  for (size_t i = 0; i < 100; ++i) px[i] = pixel(i % 20 == 0 ? measured / 1.04 : measured, 1.0), px[i].B = 0;
+  const double aim = adaptive_aim(px, 0.0, plan);
+  EXPECT_GT(aim, plan.aim);
+  EXPECT_LE(aim, 1.0 / 1.04);
+}
+
+// A round of k samples of a light-tailed pixel: mean 1, standard deviation `sigma` (uniform).
+AdaptivePixel simulate_calm_round(std::mt19937_64& rng, int64_t k, double sigma) {
+  std::uniform_real_distribution<double> u(-0.5, 0.5);
+  AdaptivePixel r;
+  for (int64_t i = 0; i < k; ++i) {
+    const double y = 1.0 + sigma * std::sqrt(12.0) * u(rng);
+    r.s1[0] += y;
+    r.s2[0] += y * y;
+  }
+  r.n = k;
+  return r;
+}
+
+// The rule as a render runs it, on simulated films: the aim from the drift of the pixels that
+// finished, the cap from every pixel's need, a pixel's rounds from its own samples, all decided
+// before the round they shape. Most pixels are light-tailed with needs from 4 to 900 samples, so
+// they finish over many rounds and the aim rises; every 4th is the rare-event pixel. The weighted
+// estimates of both kinds stay unbiased (4 SE, and a 3% error is seen), while the plain average of
+// the rare-event pixels' stopped samples is biased.
+TEST(AdaptiveWeights, TheDriftAwareAimAndTheCapAreUnbiased) {
+  const double mu = 0.98 * 1.0 + 0.02 * 40.0;
+  AdaptivePlan plan;
+  plan.target = 0.1;
+  plan.spp = 1024;
+  std::mt19937_64 rng(4242);
+  const int kFilms = 40, kPixels = 2000;
+  std::vector<double> calm, rare, rare_averaged;
+  double aim_most = 0;
+  for (int f = 0; f < kFilms; ++f) {
+    std::vector<AdaptivePixel> px(kPixels);
+    std::vector<double> est(kPixels, 0.0);
+    auto sigma = [](int i) { return 0.2 + 2.8 * double(i % 97) / 96.0; };
+    for (int64_t n = 0; n < plan.spp;) {
+      const int64_t k = adaptive_round_samples(n, plan);
+      std::vector<double> rho(kPixels);
+      for (int i = 0; i < kPixels; ++i) rho[size_t(i)] = adaptive_relative_variance(px[size_t(i)], 0.0);
+      AdaptivePlan round = plan;
+      if (n > 0) round.aim = adaptive_aim(px, 0.0, plan);
+      aim_most = std::max(aim_most, round.aim);
+      const int64_t cap = n == 0 ? plan.spp : adaptive_cap(px, rho, round);
+      for (int i = 0; i < kPixels; ++i) {
+        AdaptivePixel& p = px[size_t(i)];
+        if (p.done() || p.n != n) continue;
+        const double a = adaptive_round_weight(p, k, cap, rho[size_t(i)], round);
+        const int64_t len = adaptive_round_length(p, k, cap, rho[size_t(i)], round);
+        if (a >= p.B && n > 0) p.predicted = std::sqrt(rho[size_t(i)] * (p.V + p.B * p.B / double(len)));
+        AdaptivePixel r = i % 4 == 0 ? simulate_round(rng, len) : simulate_calm_round(rng, len, sigma(i));
+        for (int c = 1; c < 3; ++c) r.s1[c] = r.s1[0], r.s2[c] = r.s2[0];
+        est[size_t(i)] += a * r.s1[0] / double(len);
+        adaptive_add_round(p, a, len, r.s1, r.s2);
+      }
+      n += k;
+    }
+    for (int i = 0; i < kPixels; ++i) {
+      (i % 4 == 0 ? rare : calm).push_back(est[size_t(i)]);
+      if (i % 4 == 0) rare_averaged.push_back(px[size_t(i)].s1[0] / double(px[size_t(i)].n));
+    }
+  }
+  EXPECT_GT(aim_most, plan.aim) << "the aim rose";
+  for (const auto& [v, mean] : {std::pair{calm, 1.0}, std::pair{rare, mu}}) {
+    const st_test::Stats w = st_test::mean_se(v);
+    EXPECT_LT(std::abs(w.mean - mean) / w.se, 4.0) << "weighted mean " << w.mean << " vs " << mean;
+    EXPECT_GT(std::abs(1.03 * w.mean - mean) / w.se, 4.0) << "the twin: a 3% error must be seen";
+  }
+  const st_test::Stats a = st_test::mean_se(rare_averaged);
+  EXPECT_GT(std::abs(a.mean - mu) / a.se, 4.0) << "the twin: averaging the stopped samples is biased (" << a.mean << ")";
+}
+
 TEST(AdaptiveWeights, AreUnbiasedWhereAveragingAPixelsOwnStoppedSamplesIsNot) {
   const double mu = 0.98 * 1.0 + 0.02 * 40.0;
   AdaptivePlan plan;

@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 #include <limits>
 #include <map>
@@ -119,6 +120,39 @@ int64_t adaptive_cap(const std::vector<AdaptivePixel>& px, const std::vector<dou
 }
 
 
+double adaptive_aim(const std::vector<AdaptivePixel>& px, double floor, const AdaptivePlan& plan) {
+  std::vector<double> drift;  // measured over predicted error of the pixels that finished at an aim
+  double counted = 0, active = 0, drifted = 0;
+  for (const AdaptivePixel& x : px) {
+    if (!(x.brightness() > 0.0 && adaptive_relative_variance(x, 0.0) > 0.0)) continue;  // noise.h's counted pixels
+    ++counted;
+    if (!x.done()) {
+      ++active;
+      continue;
+    }
+    if (!(x.predicted >= kAdaptiveDriftFrom * plan.aim * plan.target && x.predicted <= plan.target)) continue;
+    const double measured = std::sqrt(adaptive_relative_variance(x, floor) * x.V);
+    drift.push_back(measured / x.predicted);
+    if (measured > plan.target) ++drifted;
+  }
+  if (drift.size() < kAdaptiveDriftMin) return plan.aim;
+  // the allowance (noise.h's percentile), its share left to drift, and the active pixels that will
+  // finish at the aim (the cap stops its share of the allowance)
+  const double allowance = counted - std::ceil(kNoisePercentile * counted);
+  const double budget = allowance * (1.0 - kAdaptiveCapShare) - drifted;
+  const double aimed = std::max(0.0, active - allowance * kAdaptiveCapShare);
+  std::sort(drift.begin(), drift.end());
+  const int steps = int(std::floor((1.0 - plan.aim) / kAdaptiveAimStep + 1e-9));
+  for (int i = 0; i < steps; ++i) {
+    const double aim = 1.0 - double(i) * kAdaptiveAimStep;
+    // the share of finished pixels whose drift would have put them above the target at this aim
+    const double above = double(drift.end() - std::upper_bound(drift.begin(), drift.end(), 1.0 / aim));
+    const double expected = aimed * above / double(drift.size());
+    if (expected + kAdaptiveDriftSpread * std::sqrt(expected) <= budget) return aim;
+  }
+  return plan.aim;
+}
+
 std::vector<double> adaptive_pilot_weights(const std::vector<AdaptivePixel>& pilot, int width, int height,
                                            const AdaptivePlan& plan) {
   const double k0 = double(std::min(plan.pilot, plan.spp)), spp = double(plan.spp);
@@ -192,6 +226,7 @@ struct WeightedFilm {
     for (int c = 0; c < 3; ++c) o[c] += f * rr.sum[j * 3 + c];
     for (size_t q = 0; q < na; ++q) o[3 + q] += f * rr.aov_sum[j * na + q];
     adaptive_add_round(px[p], a, k, s1, s2);
+    if (j < rr.pixel_work.size()) px[p].work += rr.pixel_work[j];
   }
 
   // The film as a render of spp samples (adaptive.h AdaptiveResult::film).
@@ -279,8 +314,8 @@ bool render_round(Renderer& r, const RoundGroups& groups, std::vector<double>& w
   for (const auto& [len, pix] : groups) {
     const RenderResult rr = r.render_pixels(pix, n, int(len));
     if (trace)
-      fmt::print(stderr, "round {}: {} samples of {} pixels from sample {}: {:.3f} s, occupancy {:.2f}, {} iterations\n",
-                 out.rounds, len, pix.size(), n, rr.seconds_render, rr.stats.occupancy_mean, rr.stats.iterations);
+      fmt::print(stderr, "round {} (aim {:.2f}): {} samples of {} pixels from sample {}: {:.3f} s, occupancy {:.2f}, {} iterations\n",
+                 out.rounds, out.aim, len, pix.size(), n, rr.seconds_render, rr.stats.occupancy_mean, rr.stats.iterations);
     add_round_info(out.film, rr, out.film.width == 0);
     if (n == 0 && rr.spp_done == int(len)) set_pilot_weights(rr, film, r.settings(), plan, wt);
     if (rr.spp_done > 0)
@@ -288,6 +323,22 @@ bool render_round(Renderer& r, const RoundGroups& groups, std::vector<double>& w
     if (rr.interrupted) return true;
   }
   return false;
+}
+
+// SPECTRACK_ADAPTIVE_PIXELS=FILE: each pixel's samples, work and unweighted sums, one line each
+// (bench/adaptive_oracle.py reads it).
+void write_pixel_trace(const std::vector<AdaptivePixel>& px) {
+  const char* path = std::getenv("SPECTRACK_ADAPTIVE_PIXELS");
+  if (!path || !*path) return;
+  std::FILE* f = std::fopen(path, "w");
+  if (!f) throw Error(fmt::format("cannot write SPECTRACK_ADAPTIVE_PIXELS file '{}'", path));
+  fmt::print(f, "# pixel n work B V s1R s1G s1B s2R s2G s2B\n");
+  for (size_t p = 0; p < px.size(); ++p) {
+    const AdaptivePixel& x = px[p];
+    fmt::print(f, "{} {} {} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g}\n", p, x.n, x.work, x.B, x.V,
+               x.s1[0], x.s1[1], x.s1[2], x.s2[0], x.s2[1], x.s2[2]);
+  }
+  std::fclose(f);
 }
 
 }  // namespace
@@ -307,13 +358,19 @@ AdaptiveResult render_adaptive(Renderer& r, const AdaptivePlan& plan,
   while (!active.empty() && n < plan.spp && !stopped) {
     const int64_t k = adaptive_round_samples(n, plan);
     const std::vector<double> rho = adaptive_neighbourhood(film.px, s.window.width, s.window.height, out.floor);
-    const int64_t cap = n == 0 ? plan.spp : adaptive_cap(film.px, rho, plan);
+    AdaptivePlan round = plan;  // this round's aim: from the drift so far
+    if (n > 0) round.aim = adaptive_aim(film.px, out.floor, plan);
+    const int64_t cap = n == 0 ? plan.spp : adaptive_cap(film.px, rho, round);
     RoundGroups groups;
     std::vector<double> wt(film.px.size());
     for (const uint32_t p : active) {
-      wt[p] = adaptive_round_weight(film.px[p], k, cap, rho[p], plan);
-      groups[adaptive_round_length(film.px[p], k, cap, rho[p], plan)].push_back(p);
+      AdaptivePixel& x = film.px[p];
+      wt[p] = adaptive_round_weight(x, k, cap, rho[p], round);
+      const int64_t len = adaptive_round_length(x, k, cap, rho[p], round);
+      groups[len].push_back(p);
+      if (wt[p] >= x.B && n > 0) x.predicted = std::sqrt(rho[p] * (x.V + x.B * x.B / double(len)));
     }
+    out.aim = round.aim;
     stopped = render_round(r, groups, wt, n, film, plan, out);
     if (n == 0 && plan.floor <= 0) out.floor = pilot_floor(film.px);
     n += k;
@@ -338,6 +395,7 @@ AdaptiveResult render_adaptive(Renderer& r, const AdaptivePlan& plan,
     total += double(film.px[p].n);
   }
   out.mean_samples = film.px.empty() ? 0.0 : total / double(film.px.size());
+  write_pixel_trace(film.px);
   if (std::getenv("SPECTRACK_TRACE_ADAPTIVE")) {  // the samples the weights waste: 1 / V is a uniform render's n
     double taken = 0, effective = 0;
     for (const AdaptivePixel& x : film.px)

@@ -17,7 +17,8 @@
 // larger; then a_r = B k_r / T, or B when T <= k_r (the last round, which then takes T samples
 // rounded up to a quarter of k_r: finishing pixels of a round are rendered in up to four groups of
 // lengths; the weight of a round that is not the last is taken from a rho with a margin,
-// kAdaptiveWeightMargin). The aim is kAdaptiveAim times the target; a pixel out of reach of its
+// kAdaptiveWeightMargin). The aim is kAdaptiveAim times the target, raised towards the target as
+// far as the drift of the pixels that finished allows (adaptive_aim); a pixel out of reach of its
 // aim (rho V >= aim^2) aims at the target, or, out of reach of that too, finishes with its next
 // round. No pixel is given more than the samples the image's 97.5th-percentile pixel needs, nor
 // twice what its 95th-percentile pixel needs (adaptive_cap): the image's error is the 95th
@@ -70,6 +71,18 @@ constexpr double kAdaptivePilotMin = 4.0;
 constexpr double kAdaptiveCapShare = 0.5;
 constexpr double kAdaptiveCapGrowth = 2.0;
 
+// The aim follows the drift measured so far (adaptive_aim): once kAdaptiveDriftMin counted pixels
+// have finished at an aim (their predicted error at least kAdaptiveDriftFrom times the aim: not
+// the pixels that finished far below it), the ratios of their measured to their predicted errors
+// tell how many of the pixels still active would end above the target at each aim; the aim is the
+// largest in [kAdaptiveAim, 1] (steps of kAdaptiveAimStep) at which those, with
+// kAdaptiveDriftSpread standard deviations of their count, and the finished pixels that drifted
+// above the target fit in the drift's share of the allowance.
+constexpr size_t kAdaptiveDriftMin = 32;
+constexpr double kAdaptiveDriftFrom = 0.5;
+constexpr double kAdaptiveAimStep = 0.01;
+constexpr double kAdaptiveDriftSpread = 2.0;
+
 struct AdaptivePlan {
   double target = 0;      // the relative error each pixel is brought to (noise.h's r_p)
   int64_t spp = 0;        // at most this many samples per pixel
@@ -84,6 +97,8 @@ struct AdaptivePixel {
   double V = 0;           // sum of a_r^2 / k_r over the rounds taken
   int64_t n = 0;          // samples taken
   double s1[3] = {}, s2[3] = {};  // sums and sums of squares of its samples (unweighted)
+  double work = 0;        // its paths' work (RenderResult::pixel_work; 0 without SPECTRACK_ADAPTIVE_PIXELS)
+  double predicted = 0;   // the relative error its last round was decided to bring it to (0 before)
   bool done() const { return B == 0; }
   // The per-channel variance of one sample (0 below 2 samples) and the mean brightness.
   double sample_variance(int c) const;
@@ -113,6 +128,9 @@ int64_t adaptive_round_length(const AdaptivePixel& px, int64_t k, int64_t cap, d
 // needed of the others), at most kAdaptiveCapGrowth times the 95th-percentile pixel's, within
 // [2 pilot, spp].
 int64_t adaptive_cap(const std::vector<AdaptivePixel>& px, const std::vector<double>& rho, const AdaptivePlan& plan);
+// The aim of the next round (kAdaptiveDriftMin above), from the rounds so far: plan.aim until enough
+// pixels have finished, then the largest aim whose predicted drift fits the allowance.
+double adaptive_aim(const std::vector<AdaptivePixel>& px, double floor, const AdaptivePlan& plan);
 // The pilot's weight of every pixel (kAdaptivePilotMargin above) from the window's pilot round
 // (row-major, width x height); each depends on the neighbours' pilots only.
 std::vector<double> adaptive_pilot_weights(const std::vector<AdaptivePixel>& pilot, int width, int height,
@@ -128,6 +146,7 @@ struct AdaptiveResult {
   std::vector<float> samples;  // the samples each pixel took
   double floor = 0;            // the brightness floor used
   int rounds = 0;
+  double aim = 0;              // the last round's aim (adaptive_aim)
   int64_t round_end = 0;       // the sample count the last round ended at
   double mean_samples = 0;     // over the window's pixels
   // Why the rounds ended with the target missed (multi_device.h MultiDeviceResult::stop_reason):

@@ -40,6 +40,8 @@ void Renderer::Impl::setup() {
   packed.features |= opt.feature_floor & uint32_t(ST_FEATURES_ALL);
   if (settings.guiding) packed.features |= ST_FEATURE_GUIDING;
   if (settings.adaptive) packed.features |= ST_FEATURE_ADAPTIVE;
+  // the per-pixel work counters, for the adaptive trace only (adaptive.cpp SPECTRACK_ADAPTIVE_PIXELS)
+  if (settings.adaptive && std::getenv("SPECTRACK_ADAPTIVE_PIXELS")) packed.features |= ST_FEATURE_PIXEL_WORK;
   const int max_media = opt.generic_kernels ? ST_MAX_MEDIA : std::max(1, packed.st.n_media);
   std::vector<std::pair<std::string, std::string>> defines = {
       {"ST_KERNEL_MAX_MEDIA", std::to_string(max_media)}, {"ST_FEATURES", fmt::format("0x{:x}u", packed.features)}};
@@ -125,6 +127,16 @@ RenderResult Renderer::Impl::result_header(int64_t sample_begin, int spp) const 
   res.iteration_budget = opt.iteration_budget;
   res.majorants = ds.packed.majorants;
   return res;
+}
+
+// The work counters (queues.h pixel_work_add) of the render's pixels, in the order of its pixel list.
+void Renderer::Impl::read_pixel_work(const RenderBuffers& b, const BatchPlan& p, RenderResult& res) {
+  if (!(ds.packed.features & ST_FEATURE_PIXEL_WORK)) return;
+  const uint64_t window = settings.window.pixels(), at = p.Q * queue_words_per_slot(p.NL) + window;
+  std::vector<uint32_t> work(window);
+  ST_CL_CHECK(ds.queue.enqueueReadBuffer(b.queues, CL_TRUE, at * 4, window * 4, work.data()), "read the pixel work");
+  res.pixel_work.resize(active_pixels.size());
+  for (size_t j = 0; j < active_pixels.size(); ++j) res.pixel_work[j] = double(work[active_pixels[j]]);
 }
 
 void Renderer::Impl::read_film(const RenderBuffers& b, const BatchPlan& p, const LoopState& s, RenderResult& res) {
@@ -267,6 +279,7 @@ RenderResult Renderer::Impl::run_stage_loop(int64_t sample_begin, int spp, std::
   if (s.accumulated > 0 && res.seconds_first_pass == 0) res.seconds_first_pass = seconds_since(t_created);
   loop_stats(plan, s, res.stats);
   read_film(buf, plan, s, res);
+  read_pixel_work(buf, plan, res);
   if (watch && watch->wants_final_state()) watch->final_state(film_state(buf, plan, s, sample_begin));
   launcher->collect_profiling();
   res.stats.kernels = launcher->times();

@@ -100,6 +100,9 @@ struct RenderResult : RenderChoices, RunChoices {
   // whole beauty); without alpha they are the whole beauty.
   std::vector<std::string> aov_channels;
   std::vector<double> aov_sum;
+  // adaptive sampling (ST_FEATURE_PIXEL_WORK): per pixel of the render, the density lookups and
+  // majorant steps of its paths' tracking and shadow rays (queues.h pixel_work_add); else empty
+  std::vector<double> pixel_work;
   int64_t sample_begin = 0;            // samples sample_begin .. sample_begin + spp_done - 1
   int spp_requested = 0, spp_done = 0;
   bool interrupted = false;         // fewer samples done than requested (a stop or the time limit)

@@ -134,6 +134,7 @@ struct Renderer::Impl {
   size_t launch_items(uint64_t capacity) const;  // work-items of a launch over a queue of this capacity
   RenderResult result_header(int64_t sample_begin, int spp) const;
   void read_film(const RenderBuffers& b, const BatchPlan& plan, const LoopState& s, RenderResult& res);
+  void read_pixel_work(const RenderBuffers& b, const BatchPlan& plan, RenderResult& res);
   // The watch of the stage loop (film_watch.h; renderer_watch.cpp): the film state, the resumed
   // film, a look at the film after new batches (true: stop), the batches it lets the loop issue.
   FilmState film_state(const RenderBuffers& b, const BatchPlan& plan, const LoopState& s, int64_t sample_begin);
