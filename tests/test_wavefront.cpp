@@ -1,13 +1,12 @@
 // test_wavefront.cpp: the stage loop on the device (docs/architecture.md, 'The stage loop on the
-// device'): a render in chunks of iterations (every device's default loop, this one's included)
-// waits for the device at most once per 8 iterations (host_waits in the stats), the schedule
-// changes no pixel (one iteration per read, the queue trace, and the sized loop against chunks of
-// iterations; one work-group per stage launch, whose work-items then take many items each, in
-// runs or strided, against the default launch size), and every statistic the device folds
-// matches the lockstep render's. The loop policy (src/integrator/loop_policy.h) by device type:
-// chunked everywhere, a few work-groups per core and runs of items on a CPU device, strided items
-// over 2048 work-items per compute unit on a GPU; the overrides, and values that are refused by
-// name. The twins: the lockstep render's own host_waits, one per iteration, must fail the 1/8
+// device'): a render in chunks of iterations (a GPU's loop) waits for the device at most once per
+// 8 iterations (host_waits in the stats), the schedule changes no pixel (one iteration per read,
+// the queue trace, and the sized loop of a CPU device against chunks of iterations; one
+// work-group per stage launch, whose work-items then take many items each, in runs or strided,
+// against the default launch size), and every statistic the device folds matches the lockstep
+// render's. The loop policy (src/integrator/loop_policy.h) by device type: chunked over 2048
+// strided work-items per compute unit on a GPU, sized on a CPU device, whose chunked launches are
+// two work-groups per core taking runs of items; the overrides, and values refused by name. The twins: the lockstep render's own host_waits, one per iteration, must fail the 1/8
 // bound, so the bound can fail; and another seed must change the image, so the comparison can.
 #include "cli_util.h"
 #include "integrator/loop_policy.h"
@@ -57,12 +56,13 @@ TEST(Wavefront, ChunksOfIterationsWaitRarelyAndChangeNoPixel) {
   const std::string dir = test_dir();
   Render chunked, lockstep, sized;
   {
-    chunked = render(dir, "chunked");  // this device's default loop: chunks of iterations
+    ScopedEnv loop("SPECTRACK_LOOP", "chunked");  // the GPU's loop, on any device
+    chunked = render(dir, "chunked");
     ScopedEnv trace("SPECTRACK_TRACE_QUEUES", "1");  // one iteration per read
     lockstep = render(dir, "lockstep");
   }
   {
-    ScopedEnv loop("SPECTRACK_LOOP", "sized");  // one read per iteration, launches of the queues' sizes
+    ScopedEnv loop("SPECTRACK_LOOP", "sized");  // a CPU device's loop, on any device
     sized = render(dir, "sized");
   }
   ASSERT_FALSE(chunked.pixels.empty());
@@ -109,7 +109,7 @@ TEST(Wavefront, LoopPolicyByDeviceType) {
   using spectrack::choose_loop_policy;
   const uint64_t many = uint64_t(1) << 30;  // a queue capacity that does not limit the launch
   const spectrack::LoopPolicy cpu = choose_loop_policy(CL_DEVICE_TYPE_CPU);
-  EXPECT_FALSE(cpu.sized);
+  EXPECT_TRUE(cpu.sized);
   EXPECT_TRUE(cpu.blocked_items);
   EXPECT_EQ(chunk_launch_items(cpu, 2, 64, many), 2u * 2u * 64u);  // two work-groups per core
   const spectrack::LoopPolicy gpu = choose_loop_policy(CL_DEVICE_TYPE_GPU);
@@ -124,11 +124,15 @@ TEST(Wavefront, LoopPolicyByDeviceType) {
   spectrack::add_loop_policy_define(cpu, defines);
   EXPECT_EQ(defines, (std::vector<std::pair<std::string, std::string>>{{"ST_ITEMS_BLOCKED", "1"}}));
   {
-    ScopedEnv loop("SPECTRACK_LOOP", "sized");
+    ScopedEnv sized("SPECTRACK_LOOP", "sized");
+    EXPECT_TRUE(choose_loop_policy(CL_DEVICE_TYPE_GPU).sized);
+  }
+  {
+    ScopedEnv loop("SPECTRACK_LOOP", "chunked");
     ScopedEnv items("SPECTRACK_STAGE_ITEMS", "320");
     ScopedEnv order("SPECTRACK_ITEM_ORDER", "strided");
     const spectrack::LoopPolicy forced = choose_loop_policy(CL_DEVICE_TYPE_CPU);
-    EXPECT_TRUE(forced.sized);
+    EXPECT_FALSE(forced.sized);
     EXPECT_FALSE(forced.blocked_items);
     EXPECT_EQ(chunk_launch_items(forced, 2, 64, many), 320u);
   }

@@ -14,6 +14,13 @@ namespace {
 
 constexpr uint64_t kGpuGroupsPerCu = 32;  // 2048 work-items of 64 per compute unit
 constexpr uint64_t kCpuGroupsPerCu = 2;   // PoCL: one work-group per core at a time, and one to balance
+// A CPU device runs the sized loop unless told otherwise: on PoCL the chunked loop's eight launches
+// per iteration (about three sized, in an iteration-heavy render's tail) cost as much CPU time as
+// the sized loop's reads save, and under load each launch waits for both cores (paths/s 0.58x
+// f9c773d's against the sized loop's 0.83x on dense_subsurface at load 14; CPU seconds equal;
+// bench/results/pocl_cost_2026-12-05c.txt). One read per iteration, where the GPU's waits per
+// iteration are below 1/8.
+constexpr bool kCpuSized = true;
 
 const char* env(const char* name) {
   const char* e = std::getenv(name);
@@ -27,6 +34,7 @@ LoopPolicy choose_loop_policy(cl_device_type type) {
   LoopPolicy p;
   p.groups_per_cu = gpu ? kGpuGroupsPerCu : kCpuGroupsPerCu;
   p.blocked_items = !gpu;
+  p.sized = !gpu && kCpuSized;
   if (const char* e = env("SPECTRACK_LOOP")) {
     const std::string v = e;
     if (v != "chunked" && v != "sized")

@@ -1,14 +1,14 @@
 // loop_policy.h: how the stage loop runs on a device type (docs/architecture.md, 'The stage loop
-// on the device'). Every device runs it in chunks of iterations, one host wait per chunk; the
-// device type chooses the launch geometry. A GPU launches each stage over 2048 work-items per
-// compute unit, and a work-item takes every G-th item of its queue (G the launch's work-items), so
-// that neighbouring work-items read neighbouring entries. A CPU device (PoCL runs a work-group on
-// one core, its work-items one after another) launches a few work-groups per core, so that the
-// many near-empty launches of an iteration-heavy render's tail cost microseconds, and a work-item
-// takes a contiguous run of its queue's items (kernel define ST_ITEMS_BLOCKED), so that a core
-// goes through a queue in queue order, as a launch of one item per work-item does.
-// SPECTRACK_LOOP=chunked|sized (sized: one read per iteration, each stage launched over its
-// queue's items), SPECTRACK_STAGE_ITEMS=N (every chunked launch's work-items) and
+// on the device'). A GPU runs it in chunks of iterations, one host wait per chunk, each stage
+// launched over 2048 work-items per compute unit, a work-item taking every G-th item of its queue
+// (G the launch's work-items), so that neighbouring work-items read neighbouring entries. A CPU
+// device runs it sized (one read per iteration, each stage launched over its queue's items, none
+// when empty: loop_policy.cpp says why); in chunks it launches two work-groups per core (PoCL
+// runs a work-group on one core, its work-items one after another), so that the many near-empty
+// launches of an iteration-heavy render's tail cost microseconds, and a work-item takes a
+// contiguous run of its queue's items (kernel define ST_ITEMS_BLOCKED), so that a core goes
+// through a queue in queue order, as a launch of one item per work-item does.
+// SPECTRACK_LOOP=chunked|sized, SPECTRACK_STAGE_ITEMS=N (every chunked launch's work-items) and
 // SPECTRACK_ITEM_ORDER=blocked|strided override the choice, for measurements; any other value is
 // an Error naming the variable.
 #pragma once
