@@ -216,7 +216,7 @@ if step 8; then
        /Used [0-9]+ registers/ && k != "" {match($0, /Used [0-9]+/); print "registers", tag, k, substr($0, RSTART + 5, RLENGTH - 5); k=""}' \
     "$OUT/registers.txt" | sort -u | tee "$OUT/registers_per_kernel.txt" | grep -E "k_(track|shadow|scatter|raygen|finish|escape) "
   printf 'binary\tscene\tround\tpaths_per_second\tseconds_render\titerations\thost_waits\toccupancy_mean\n' > "$OUT/wavefront.tsv"
-  # variants: the new binary (chunked on a GPU), f9c773d's, and the new one's sized loop (a CPU's)
+  # variants: the new binary (chunked), f9c773d's, and the new one's sized loop (a CPU's)
   # and the new one with the AoS path state (spectrack_aos; the default on a GPU is SoA)
   variants=(spectrack); [ -x build/spectrack_old ] && variants+=(spectrack_old); variants+=(spectrack_sized spectrack_aos)
   run_variant() {  # variant args...

@@ -2,7 +2,9 @@
 # bench/host_waits.sh OLD NEW: paths/s of two spectrack binaries on every bench scene and
 # data/scenes/cloud.json, interleaved (A B, then B A, per round and seed) after a warm-up render of
 # each (kernel caches), with the NEW binary's host waits (blocking reads and finishes in the stage
-# loop, --stats-json host_waits) per iteration. SPP (4), ROUNDS (2), SEEDS ("0 1"), SCENES override.
+# loop, --stats-json host_waits) per iteration. SPP (4), ROUNDS (2), SEEDS ("0 1"), SCENES override;
+# OLD_ENV and NEW_ENV ("VAR=VALUE ...") set variables for one binary's renders only, so one binary
+# can run against itself (NEW_ENV=SPECTRACK_LOOP=sized: the sized loop against the default).
 # Prints one line per render (paths/s from seconds_render, the process's wall and CPU seconds:
 # user + sys, of every thread, PoCL's included), then per scene the NEW/OLD ratio of paths/s and
 # of CPU seconds (min, median over the pairs) and host_waits / iterations; the last lines are the
@@ -13,7 +15,7 @@ OLD=${1:?OLD binary}; NEW=${2:?NEW binary}
 cd "$(dirname "$0")/.."
 echo "machine: $(nproc) cores, $(uptime)"
 echo "commit: $(git rev-parse --short HEAD)$(git diff --quiet || echo ' (dirty)')  date: $(date -u +%FT%TZ)"
-echo "OLD=$OLD NEW=$NEW SPP=${SPP:-4} ROUNDS=${ROUNDS:-2} SEEDS=${SEEDS:-0 1}"
+echo "OLD=$OLD NEW=$NEW SPP=${SPP:-4} ROUNDS=${ROUNDS:-2} SEEDS=${SEEDS:-0 1} OLD_ENV=${OLD_ENV:-} NEW_ENV=${NEW_ENV:-}"
 python3 - "$OLD" "$NEW" <<'PY'
 import json, os, resource, statistics, subprocess, sys, tempfile, time
 old, new = sys.argv[1], sys.argv[2]
@@ -23,12 +25,16 @@ scenes = os.environ.get("SCENES", " ".join(sorted(f"bench/scenes/{f}" for f in o
                                                   if f.endswith(".json")) + ["data/scenes/cloud.json"])).split()
 tmp = tempfile.mkdtemp(prefix="spectrack-waits-")
 
-def render(binary, scene, seed, n_spp):
+def binary_env(name):  # "VAR=VALUE ..." from OLD_ENV or NEW_ENV
+    return dict(kv.split("=", 1) for kv in os.environ.get(name, "").split())
+
+def render(binary, scene, seed, n_spp, tag="OLD"):
+    env = {**os.environ, **binary_env(tag + "_ENV")}
     out = os.path.join(tmp, "stats.json")
     cmd = [binary, "render", scene, "--spp", str(n_spp), "--seed", seed, "-o", os.path.join(tmp, "out.exr"),
            "--stats-json", out, "--quiet", "--no-alpha"]
     r0, t0 = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
-    p = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    p = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
     wall, r1 = time.perf_counter() - t0, resource.getrusage(resource.RUSAGE_CHILDREN)
     if p.returncode != 0:
         sys.exit(f"{' '.join(cmd)} failed ({p.returncode}):\n{p.stderr}")
@@ -41,14 +47,14 @@ all_ratios, all_cpu = [], []
 summary = []
 for scene in scenes:
     name = os.path.basename(scene)[:-5]
-    render(old, scene, "0", 1); render(new, scene, "0", 1)
+    render(old, scene, "0", 1, "OLD"); render(new, scene, "0", 1, "NEW")
     ratios, cpu_ratios, waits = [], [], []
     for r in range(rounds):
         for seed in seeds:
             order = [("OLD", old), ("NEW", new)] if (r + seeds.index(seed)) % 2 == 0 else [("NEW", new), ("OLD", old)]
             pps, cpu = {}, {}
             for tag, binary in order:
-                j = render(binary, scene, seed, spp)
+                j = render(binary, scene, seed, spp, tag)
                 pps[tag] = j["paths_per_second"]
                 cpu[tag] = j["cpu_s"]
                 w = j.get("host_waits", "-")

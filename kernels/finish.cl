@@ -107,13 +107,13 @@ inline void kahan_add(float4* f, float4* c, float4 y) {
  * double) then agree with one long render to float precision. Layers 0 .. L - 1 are the batch
  * results' layers (st_result_layer); with `moments`, layer L sums the square of each sample's
  * whole beauty (the beauty and environment layers, over its channels' paths): the variance layer.
- * Work-item i adds pixels i, i + G, ... (G the launch's work-items). */
+ * A work-item adds the pixels ST_FOR_ITEMS gives it (wavefront.h: every G-th, or a run). */
 __kernel void k_accumulate(__global const float4* results, __global float4* film, __global const st_loop* loop,
                            uint npix, uint nch, uint L, uint moments) {
   const uint first = loop->acc_first, end = loop->acc_end;
   if (first == end) return;
   const st_loop s = *loop;
-  for (uint pix = get_global_id(0); pix < npix; pix += get_global_size(0)) {
+  ST_FOR_ITEMS(pix, npix) {
     /* one sample at a time, in sample order: the sum does not depend on how samples were batched */
     for (uint l = 0; l < L + moments; ++l) {
       float4 f = film[2u * l * npix + pix];

@@ -1,9 +1,10 @@
 /* stages.cl: the stage kernels, one per row of ST_STAGES (stage_types.h), each a short wrapper
  * around its stage function, and k_advance, which ends every iteration on the device (wavefront.h).
  * A stage kernel reads `it` from the loop state and runs its stage function on every item of its
- * queue, work-item i taking items i, i + G, i + 2G, ... (G the launch's work-items): the host
- * launches every stage over a fixed number of work-items (at most the queue's capacity) without
- * knowing the queue's size. */
+ * queue, work-item i taking items i, i + G, i + 2G, ... (G the launch's work-items), or on a CPU
+ * device a run of about n / G items in queue order (ST_FOR_ITEMS, wavefront.h): the host launches
+ * every stage over a fixed number of work-items (at most the queue's capacity) without knowing
+ * the queue's size. */
 #include "types.h"
 #include "queues.h"
 #include "wavefront.h"
@@ -12,7 +13,7 @@
   __kernel void k_##stage(ST_STAGE_ARGS) {                                                    \
     const st_iteration it = loop->it;                                                         \
     const uint n = stage_items(&it, ST_Q_##QUEUE);                                            \
-    for (uint i = get_global_id(0); i < n; i += get_global_size(0)) stage_##stage(ST_STAGE_PASS(it, i)); \
+    ST_FOR_ITEMS(i, n) stage_##stage(ST_STAGE_PASS(it, i));                                  \
   }
 ST_STAGES(ST_X_STAGE_KERNEL)
 

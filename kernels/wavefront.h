@@ -64,6 +64,19 @@ inline st_uint stage_items(const st_iteration* it, int k) {
   return k == ST_Q_FREE ? it->n_new : it->n_queue[k];
 }
 
+/* The items a work-item of a launch over a fixed number G of work-items takes, of n: every G-th
+ * from its id (a GPU: neighbouring work-items read neighbouring entries), or with ST_ITEMS_BLOCKED
+ * (a CPU device, src/integrator/loop_policy.h) a run of ceil(n / G) in order, so that a work-group,
+ * whose work-items PoCL runs one after another, goes through its part of the queue in queue order. */
+#if ST_ITEMS_BLOCKED
+#define ST_FOR_ITEMS(i, n)                                                                          \
+  for (uint st_per_ = (n) / (uint)get_global_size(0) + ((n) % (uint)get_global_size(0) != 0u),     \
+            i = (uint)get_global_id(0) * st_per_, st_end_ = min((uint)(n), i + st_per_);           \
+       i < st_end_; ++i)
+#else
+#define ST_FOR_ITEMS(i, n) for (uint i = (uint)get_global_id(0); i < (n); i += (uint)get_global_size(0))
+#endif
+
 /* Samples per pixel of batch b (the last batch may be shorter). */
 inline st_uint loop_batch_samples(const st_loop* s, st_uint b) {
   const st_uint rest = s->spp - b * s->samples_per_batch;

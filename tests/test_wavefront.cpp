@@ -2,10 +2,15 @@
 // device'): a render in chunks of iterations (a GPU's loop) waits for the device at most once per
 // 8 iterations (host_waits in the stats), the schedule changes no pixel (one iteration per read,
 // the queue trace, and the sized loop of a CPU device against chunks of iterations; one
-// work-group per stage launch, whose work-items then stride over many items, against the default
-// launch size), and every statistic the device folds matches the lockstep render's. The twins: the lockstep render's own host_waits, one per iteration, must fail the
-// 1/8 bound, so the bound can fail; and another seed must change the image, so the comparison can.
+// work-group per stage launch, whose work-items then take many items each, in runs or strided,
+// against the default launch size), and every statistic the device folds matches the lockstep
+// render's. The loop policy (src/integrator/loop_policy.h) by device type: chunked over 2048
+// strided work-items per compute unit on a GPU, sized on a CPU device, whose chunked launches are
+// two work-groups per core taking runs of items; the overrides, and values refused by name. The twins: the lockstep render's own host_waits, one per iteration, must fail the 1/8
+// bound, so the bound can fail; and another seed must change the image, so the comparison can.
 #include "cli_util.h"
+#include "integrator/loop_policy.h"
+#include "util/error.h"
 
 namespace {
 
@@ -79,19 +84,68 @@ TEST(Wavefront, ChunksOfIterationsWaitRarelyAndChangeNoPixel) {
 
 TEST(Wavefront, StridingWorkItemsChangeNoPixel) {
   const std::string dir = test_dir();
-  Render wide, narrow;
+  Render wide, narrow, strided;
   {
     ScopedEnv loop("SPECTRACK_LOOP", "chunked");  // launches of a fixed size, whatever the queue's
     wide = render(dir, "wide");
-    ScopedEnv items("SPECTRACK_STAGE_ITEMS", "64");  // one work-group per launch strides over its queue
+    ScopedEnv items("SPECTRACK_STAGE_ITEMS", "64");  // one work-group per launch takes its whole queue
+    ScopedEnv blocked("SPECTRACK_ITEM_ORDER", "blocked");  // each work-item a run of items
     narrow = render(dir, "narrow");
+    ScopedEnv stride("SPECTRACK_ITEM_ORDER", "strided");  // each work-item every 64th item
+    strided = render(dir, "strided");
   }
   ASSERT_FALSE(wide.pixels.empty());
   EXPECT_EQ(wide.pixels, narrow.pixels);
+  EXPECT_EQ(wide.pixels, strided.pixels);
   EXPECT_EQ(wide.stats["density_lookups"], narrow.stats["density_lookups"]);
+  EXPECT_EQ(wide.stats["density_lookups"], strided.stats["density_lookups"]);
   // twin: another seed changes the image, so equal images are not a blind comparison
   const Render other = render(dir, "other", {"--seed", "8"});
   EXPECT_NE(wide.pixels, other.pixels);
+}
+
+TEST(Wavefront, LoopPolicyByDeviceType) {
+  using spectrack::chunk_launch_items;
+  using spectrack::choose_loop_policy;
+  const uint64_t many = uint64_t(1) << 30;  // a queue capacity that does not limit the launch
+  const spectrack::LoopPolicy cpu = choose_loop_policy(CL_DEVICE_TYPE_CPU);
+  EXPECT_TRUE(cpu.sized);
+  EXPECT_TRUE(cpu.blocked_items);
+  EXPECT_EQ(chunk_launch_items(cpu, 2, 64, many), 2u * 2u * 64u);  // two work-groups per core
+  const spectrack::LoopPolicy gpu = choose_loop_policy(CL_DEVICE_TYPE_GPU);
+  EXPECT_FALSE(gpu.sized);
+  EXPECT_FALSE(gpu.blocked_items);
+  EXPECT_EQ(chunk_launch_items(gpu, 132, 64, many), 132u * 2048u);
+  EXPECT_EQ(chunk_launch_items(gpu, 132, 64, 1000), 1000u);  // at most the queue's capacity
+  EXPECT_EQ(chunk_launch_items(gpu, 0, 64, 0), 1u);
+  std::vector<std::pair<std::string, std::string>> defines;
+  spectrack::add_loop_policy_define(gpu, defines);
+  EXPECT_TRUE(defines.empty());
+  spectrack::add_loop_policy_define(cpu, defines);
+  EXPECT_EQ(defines, (std::vector<std::pair<std::string, std::string>>{{"ST_ITEMS_BLOCKED", "1"}}));
+  {
+    ScopedEnv sized("SPECTRACK_LOOP", "sized");
+    EXPECT_TRUE(choose_loop_policy(CL_DEVICE_TYPE_GPU).sized);
+  }
+  {
+    ScopedEnv loop("SPECTRACK_LOOP", "chunked");
+    ScopedEnv items("SPECTRACK_STAGE_ITEMS", "320");
+    ScopedEnv order("SPECTRACK_ITEM_ORDER", "strided");
+    const spectrack::LoopPolicy forced = choose_loop_policy(CL_DEVICE_TYPE_CPU);
+    EXPECT_FALSE(forced.sized);
+    EXPECT_FALSE(forced.blocked_items);
+    EXPECT_EQ(chunk_launch_items(forced, 2, 64, many), 320u);
+  }
+  for (auto [name, value] : {std::pair{"SPECTRACK_LOOP", "fast"}, std::pair{"SPECTRACK_STAGE_ITEMS", "12x"},
+                             std::pair{"SPECTRACK_ITEM_ORDER", "random"}}) {
+    ScopedEnv bad(name, value);
+    try {
+      choose_loop_policy(CL_DEVICE_TYPE_CPU);
+      ADD_FAILURE() << name << "=" << value << " was accepted";
+    } catch (const spectrack::Error& e) {
+      EXPECT_THAT(e.what(), testing::HasSubstr(std::string(name) + ": '" + value + "'"));
+    }
+  }
 }
 
 }  // namespace

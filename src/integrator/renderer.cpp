@@ -26,6 +26,7 @@
 #include "device/device_scene.h"
 #include "integrator/film_watch.h"
 #include "integrator/memory_budget.h"
+#include "integrator/loop_policy.h"
 #include "integrator/state_layout.h"
 #include "util/phase.h"
 
@@ -49,6 +50,8 @@ void Renderer::Impl::setup() {
   ds = upload_scene(opt.device, std::move(packed), std::move(defines));
   state_layout = choose_state_layout(ds.dev.type);  // the path state's layout (kernel define)
   add_state_layout_define(state_layout, ds.defines);
+  loop_policy = choose_loop_policy(ds.dev.type);  // the stage loop's launches (item order: a kernel define)
+  add_loop_policy_define(loop_policy, ds.defines);
   // guiding off: a header of zeros (nothing guides, nothing records); the kernels compiled without
   // ST_FEATURE_GUIDING never read it
   if (settings.guiding) {

@@ -15,6 +15,7 @@
 
 #include "guiding/guide_cache.h"
 #include "integrator/film_watch.h"
+#include "integrator/loop_policy.h"
 #include "integrator/state_layout.h"
 #include "device/device_scene.h"
 #include "integrator/memory_budget.h"
@@ -82,6 +83,7 @@ struct Renderer::Impl {
   double seconds_setup = 0, seconds_build = 0;
   bool from_cache = false;
   StateLayout state_layout = StateLayout::aos;  // the path state's layout on this device
+  LoopPolicy loop_policy;                       // the stage loop's launches on this device (loop_policy.h)
 
   // volume path guiding: the cache (an empty header when off) and the training passes' records
   GuideCache guide;

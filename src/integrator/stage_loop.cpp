@@ -9,7 +9,10 @@
 // within two chunks (about half a second); the guide's training passes (one iteration's records
 // at a time), the film watch (it looks after each new batch) and the queue trace run one
 // iteration per read instead. Every stage is launched over launch_items() work-items whatever its
-// queue's size; a kernel's work-items stride over the items its queue holds (kernels/stages.cl).
+// queue's size (loop_policy.h: by device type); a kernel's work-items take the items its queue
+// holds, strided or in runs (kernels/wavefront.h, ST_FOR_ITEMS). The sized loop (a CPU
+// device's) reads the state after every iteration instead and launches each stage over its
+// queue's items.
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -32,22 +35,6 @@ bool trace_queues() {
     return e && std::string(e) != "0";
   }();
   return trace;
-}
-
-// SPECTRACK_STAGE_ITEMS: work-items per stage launch (measurements); 0 or unset: by device type.
-uint64_t stage_items_override() {
-  const char* e = std::getenv("SPECTRACK_STAGE_ITEMS");
-  return e ? std::strtoull(e, nullptr, 10) : 0;
-}
-
-// SPECTRACK_LOOP: "chunked" (chunks of iterations over fixed launch sizes, one read per chunk) or
-// "sized" (one read per iteration, each stage launched over its queue's size, none when empty);
-// unset: chunked on a GPU, sized on a CPU device.
-bool loop_sized(cl_device_type type) {
-  const char* e = std::getenv("SPECTRACK_LOOP");
-  if (e && std::string(e) == "chunked") return false;
-  if (e && std::string(e) == "sized") return true;
-  return (type & CL_DEVICE_TYPE_GPU) == 0;
 }
 
 void trace_iteration(const st_loop& d) {
@@ -92,15 +79,10 @@ std::vector<const Stage*> Renderer::Impl::launched_stages() const {
   return v;
 }
 
-// A GPU: enough work-items to fill it several times over (each strides over the rest); a CPU:
-// a few work-groups per core, which PoCL runs one work-group per thread at a time.
+// The policy's work-items (loop_policy.h): a GPU filled several times over, a few work-groups per
+// core on a CPU device; each strides over or takes a run of the rest.
 size_t Renderer::Impl::launch_items(uint64_t capacity) const {
-  static const uint64_t forced = stage_items_override();
-  const uint64_t cus = std::max<cl_uint>(1, ds.dev.compute_units);
-  const uint64_t device = forced > 0                               ? forced
-                          : (ds.dev.type & CL_DEVICE_TYPE_GPU) != 0 ? cus * 2048
-                                                                    : cus * KernelLauncher::kLocalSize * 16;
-  return size_t(std::max<uint64_t>(1, std::min(capacity, device)));
+  return size_t(chunk_launch_items(loop_policy, ds.dev.compute_units, KernelLauncher::kLocalSize, capacity));
 }
 
 // The plan into the device's loop state, and the first k_advance (it issues the first paths).
@@ -122,7 +104,7 @@ void Renderer::Impl::start_loop(const RenderBuffers& b, const BatchPlan& p, Loop
   d.n_q[ST_Q_FREE] = cl_uint(p.Q);
   d.status = ST_LOOP_RUNNING;
   ST_CL_CHECK(ds.queue.enqueueWriteBuffer(b.loop, CL_TRUE, 0, sizeof(st_loop), &d), "write the loop state");
-  s.sized = loop_sized(ds.dev.type);
+  s.sized = loop_policy.sized;
   s.lockstep = s.lockstep || s.sized || trace_queues();
   s.chunk = s.lockstep ? 1 : kMinChunk;
   launcher->launch("k_advance", 1);

@@ -1,0 +1,72 @@
+// loop_policy.cpp: see loop_policy.h.
+#include "integrator/loop_policy.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cstdlib>
+
+#include "util/error.h"
+
+namespace spectrack {
+
+namespace {
+
+constexpr uint64_t kGpuGroupsPerCu = 32;  // 2048 work-items of 64 per compute unit
+constexpr uint64_t kCpuGroupsPerCu = 2;   // PoCL: one work-group per core at a time, and one to balance
+// A CPU device runs the sized loop unless told otherwise: on PoCL the chunked loop's eight launches
+// per iteration (about three sized, in an iteration-heavy render's tail) cost as much CPU time as
+// the sized loop's reads save, and under load each launch waits for both cores (paths/s 0.58x
+// f9c773d's against the sized loop's 0.83x on dense_subsurface at load 14; CPU seconds equal;
+// bench/results/pocl_cost_2026-12-05c.txt). One read per iteration, where the GPU's waits per
+// iteration are below 1/8.
+constexpr bool kCpuSized = true;
+
+const char* env(const char* name) {
+  const char* e = std::getenv(name);
+  return e && *e ? e : nullptr;
+}
+
+}  // namespace
+
+LoopPolicy choose_loop_policy(cl_device_type type) {
+  const bool gpu = (type & CL_DEVICE_TYPE_GPU) != 0;
+  LoopPolicy p;
+  p.groups_per_cu = gpu ? kGpuGroupsPerCu : kCpuGroupsPerCu;
+  p.blocked_items = !gpu;
+  p.sized = !gpu && kCpuSized;
+  if (const char* e = env("SPECTRACK_LOOP")) {
+    const std::string v = e;
+    if (v != "chunked" && v != "sized")
+      throw Error(fmt::format("SPECTRACK_LOOP: '{}' is not a stage loop (chunked or sized)", v));
+    p.sized = v == "sized";
+  }
+  if (const char* e = env("SPECTRACK_STAGE_ITEMS")) {
+    char* end = nullptr;
+    const unsigned long long n = std::strtoull(e, &end, 10);
+    if (*end != '\0' || e[0] == '-')
+      throw Error(fmt::format("SPECTRACK_STAGE_ITEMS: '{}' is not a count of work-items", e));
+    p.items_forced = n;
+  }
+  if (const char* e = env("SPECTRACK_ITEM_ORDER")) {
+    const std::string v = e;
+    if (v != "blocked" && v != "strided")
+      throw Error(fmt::format("SPECTRACK_ITEM_ORDER: '{}' is not an item order (blocked or strided)", v));
+    p.blocked_items = v == "blocked";
+  }
+  return p;
+}
+
+uint64_t chunk_launch_items(const LoopPolicy& p, uint64_t cus, uint64_t local, uint64_t capacity) {
+  const uint64_t device = p.items_forced > 0 ? p.items_forced : std::max<uint64_t>(1, cus) * p.groups_per_cu * local;
+  return std::max<uint64_t>(1, std::min(capacity, device));
+}
+
+const char* loop_name(const LoopPolicy& p) { return p.sized ? "sized" : "chunked"; }
+const char* item_order_name(const LoopPolicy& p) { return p.blocked_items ? "blocked" : "strided"; }
+
+void add_loop_policy_define(const LoopPolicy& p, std::vector<std::pair<std::string, std::string>>& defines) {
+  if (p.blocked_items) defines.emplace_back("ST_ITEMS_BLOCKED", "1");
+}
+
+}  // namespace spectrack
