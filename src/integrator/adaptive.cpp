@@ -115,42 +115,70 @@ int64_t adaptive_cap(const std::vector<AdaptivePixel>& px, const std::vector<dou
     return need[k];
   };
   const double image = rank(kNoisePercentile);
-  const double cap = std::min(rank(1.0 - (1.0 - kNoisePercentile) * kAdaptiveCapShare), kAdaptiveCapGrowth * image);
+  const double cap = std::min(rank(1.0 - (1.0 - kNoisePercentile) * plan.cap_share), kAdaptiveCapGrowth * image);
   return int64_t(std::min(double(plan.spp), std::max(cap, double(2 * plan.pilot))));
 }
 
 
-double adaptive_aim(const std::vector<AdaptivePixel>& px, double floor, const AdaptivePlan& plan) {
-  std::vector<double> drift;  // measured over predicted error of the pixels that finished at an aim
-  double counted = 0, active = 0, drifted = 0;
-  for (const AdaptivePixel& x : px) {
+double adaptive_final_error(const AdaptivePixel& px, double rho, int64_t cap, const AdaptivePlan& plan) {
+  const double left = double(std::min(cap, plan.spp) - px.n);
+  const double T = std::max(1.0, std::min(left, adaptive_samples_needed(px, rho, plan)));
+  return std::sqrt(rho * (px.V + px.B * px.B / T));
+}
+
+AdaptivePlan adaptive_aim(const std::vector<AdaptivePixel>& px, const std::vector<double>& rho, double floor,
+                          const AdaptivePlan& plan) {
+  // the drifts of the pixels that finished at an aim, log(measured / predicted error) times the
+  // square root of the samples the prediction rested on (its spread falls as 1 / sqrt(n))
+  std::vector<double> drift;
+  std::vector<size_t> active;
+  double counted = 0, above = 0;
+  for (size_t i = 0; i < px.size(); ++i) {
+    const AdaptivePixel& x = px[i];
     if (!(x.brightness() > 0.0 && adaptive_relative_variance(x, 0.0) > 0.0)) continue;  // noise.h's counted pixels
     ++counted;
     if (!x.done()) {
-      ++active;
+      active.push_back(i);
       continue;
     }
-    if (!(x.predicted >= kAdaptiveDriftFrom * plan.aim * plan.target && x.predicted <= plan.target)) continue;
     const double measured = std::sqrt(adaptive_relative_variance(x, floor) * x.V);
-    drift.push_back(measured / x.predicted);
-    if (measured > plan.target) ++drifted;
+    if (measured > plan.target) ++above;
+    if (x.predicted >= kAdaptiveDriftFrom * plan.aim * plan.target && x.predicted <= plan.target && x.decided > 0)
+      drift.push_back(std::log(measured / x.predicted) * std::sqrt(double(x.decided)));
   }
-  if (drift.size() < kAdaptiveDriftMin) return plan.aim;
-  // the allowance (noise.h's percentile), its share left to drift, and the active pixels that will
-  // finish at the aim (the cap stops its share of the allowance)
-  const double allowance = counted - std::ceil(kNoisePercentile * counted);
-  const double budget = allowance * (1.0 - kAdaptiveCapShare) - drifted;
-  const double aimed = std::max(0.0, active - allowance * kAdaptiveCapShare);
+  if (drift.size() < kAdaptiveDriftMin) return plan;
+  // the allowance (noise.h's percentile) less the finished pixels above the target
+  const double budget = counted - std::ceil(kNoisePercentile * counted) - above;
   std::sort(drift.begin(), drift.end());
+  // the aim and the cap's share that fit and leave the active pixels the fewest samples to take
+  AdaptivePlan best = plan;
+  double fewest = std::numeric_limits<double>::infinity();
   const int steps = int(std::floor((1.0 - plan.aim) / kAdaptiveAimStep + 1e-9));
-  for (int i = 0; i < steps; ++i) {
-    const double aim = 1.0 - double(i) * kAdaptiveAimStep;
-    // the share of finished pixels whose drift would have put them above the target at this aim
-    const double above = double(drift.end() - std::upper_bound(drift.begin(), drift.end(), 1.0 / aim));
-    const double expected = aimed * above / double(drift.size());
-    if (expected + kAdaptiveDriftSpread * std::sqrt(expected) <= budget) return aim;
-  }
-  return plan.aim;
+  for (int i = 0; i < steps; ++i)
+    for (int j = 0; j < kAdaptiveCapShares; ++j) {
+      AdaptivePlan at = plan;
+      at.aim = 1.0 - double(i) * kAdaptiveAimStep;
+      at.cap_share = kAdaptiveCapShare + double(j) * kAdaptiveCapShareStep;
+      const int64_t cap = adaptive_cap(px, rho, at);
+      // each active pixel ends above the target with the share of the drifts that would carry its
+      // predicted error there, scaled to its samples (the cap's pixels included: those it stops far
+      // above the target count whole, those it leaves just below count as the others)
+      double expected = 0, variance = 0, samples = 0;
+      for (const size_t p : active) {
+        const AdaptivePixel& x = px[p];
+        const double e = adaptive_final_error(x, rho[p], cap, at);
+        const double from = std::log(plan.target / e) * std::sqrt(double(x.n));
+        const double p_above = double(drift.end() - std::upper_bound(drift.begin(), drift.end(), from)) / double(drift.size());
+        expected += p_above;
+        variance += p_above * (1.0 - p_above);
+        samples += std::max(0.0, std::min(double(std::min(cap, plan.spp) - x.n), adaptive_samples_needed(x, rho[p], at)));
+      }
+      if (expected + kAdaptiveDriftSpread * std::sqrt(variance) <= budget && samples < fewest) {
+        fewest = samples;
+        best = at;
+      }
+    }
+  return best;
 }
 
 std::vector<double> adaptive_pilot_weights(const std::vector<AdaptivePixel>& pilot, int width, int height,
@@ -314,8 +342,8 @@ bool render_round(Renderer& r, const RoundGroups& groups, std::vector<double>& w
   for (const auto& [len, pix] : groups) {
     const RenderResult rr = r.render_pixels(pix, n, int(len));
     if (trace)
-      fmt::print(stderr, "round {} (aim {:.2f}): {} samples of {} pixels from sample {}: {:.3f} s, occupancy {:.2f}, {} iterations\n",
-                 out.rounds, out.aim, len, pix.size(), n, rr.seconds_render, rr.stats.occupancy_mean, rr.stats.iterations);
+      fmt::print(stderr, "round {} (aim {:.2f}, cap {}): {} samples of {} pixels from sample {}: {:.3f} s, occupancy {:.2f}, {} iterations\n",
+                 out.rounds, out.aim, out.cap, len, pix.size(), n, rr.seconds_render, rr.stats.occupancy_mean, rr.stats.iterations);
     add_round_info(out.film, rr, out.film.width == 0);
     if (n == 0 && rr.spp_done == int(len)) set_pilot_weights(rr, film, r.settings(), plan, wt);
     if (rr.spp_done > 0)
@@ -359,7 +387,7 @@ AdaptiveResult render_adaptive(Renderer& r, const AdaptivePlan& plan,
     const int64_t k = adaptive_round_samples(n, plan);
     const std::vector<double> rho = adaptive_neighbourhood(film.px, s.window.width, s.window.height, out.floor);
     AdaptivePlan round = plan;  // this round's aim: from the drift so far
-    if (n > 0) round.aim = adaptive_aim(film.px, out.floor, plan);
+    if (n > 0) round = adaptive_aim(film.px, rho, out.floor, plan);
     const int64_t cap = n == 0 ? plan.spp : adaptive_cap(film.px, rho, round);
     RoundGroups groups;
     std::vector<double> wt(film.px.size());
@@ -368,9 +396,13 @@ AdaptiveResult render_adaptive(Renderer& r, const AdaptivePlan& plan,
       wt[p] = adaptive_round_weight(x, k, cap, rho[p], round);
       const int64_t len = adaptive_round_length(x, k, cap, rho[p], round);
       groups[len].push_back(p);
-      if (wt[p] >= x.B && n > 0) x.predicted = std::sqrt(rho[p] * (x.V + x.B * x.B / double(len)));
+      if (wt[p] >= x.B && n > 0) {
+        x.predicted = std::sqrt(rho[p] * (x.V + x.B * x.B / double(len)));
+        x.decided = x.n;
+      }
     }
     out.aim = round.aim;
+    out.cap = cap;
     stopped = render_round(r, groups, wt, n, film, plan, out);
     if (n == 0 && plan.floor <= 0) out.floor = pilot_floor(film.px);
     n += k;

@@ -20,9 +20,10 @@
 // kAdaptiveWeightMargin). The aim is kAdaptiveAim times the target, raised towards the target as
 // far as the drift of the pixels that finished allows (adaptive_aim); a pixel out of reach of its
 // aim (rho V >= aim^2) aims at the target, or, out of reach of that too, finishes with its next
-// round. No pixel is given more than the samples the image's 97.5th-percentile pixel needs, nor
-// twice what its 95th-percentile pixel needs (adaptive_cap): the image's error is the 95th
-// percentile's, and half of that allowance is left to pixels that drift above their aim. The
+// round. No pixel is given more than the samples the image's 97.5th-percentile pixel needs (the
+// 96.25th once the drift measured allows, chosen with the aim), nor twice what its
+// 95th-percentile pixel needs (adaptive_cap): the image's error is the 95th percentile's, and the
+// rest of that allowance is left to pixels that drift above their aim. The
 // pilot's weight comes from the neighbours' pilots, never the pixel's own (adaptive_pilot_weights);
 // k_0 / spp where nothing is known, which can only be too small (what it loses is at most its own
 // samples). The floor is kNoiseFloor times the mean brightness of the pilot's noisy pixels.
@@ -65,19 +66,25 @@ constexpr double kAdaptivePilotMargin = 2.0;
 constexpr double kAdaptivePilotMin = 4.0;
 // The per-pixel cap leaves kAdaptiveCapShare of the percentile's allowance (the 5% of counted
 // pixels that may end above the target) to the pixels it stops, the rest to pixels that drift
-// above their aim; but it is never more than kAdaptiveCapGrowth times the samples the image's
-// percentile pixel needs (where the needs between the two percentiles grow steeply, a few pixels
-// would otherwise take more samples than the whole image).
+// above their aim, until the drift is measured: then each round's share is one of
+// kAdaptiveCapShares steps of kAdaptiveCapShareStep from it (0.5, 0.625, 0.75), chosen with the
+// aim (adaptive_aim); but the cap is never more than kAdaptiveCapGrowth times the samples the
+// image's percentile pixel needs (where the needs between the two percentiles grow steeply, a few
+// pixels would otherwise take more samples than the whole image).
 constexpr double kAdaptiveCapShare = 0.5;
+constexpr int kAdaptiveCapShares = 3;
+constexpr double kAdaptiveCapShareStep = 0.125;
 constexpr double kAdaptiveCapGrowth = 2.0;
 
 // The aim follows the drift measured so far (adaptive_aim): once kAdaptiveDriftMin counted pixels
 // have finished at an aim (their predicted error at least kAdaptiveDriftFrom times the aim: not
-// the pixels that finished far below it), the ratios of their measured to their predicted errors
-// tell how many of the pixels still active would end above the target at each aim; the aim is the
-// largest in [kAdaptiveAim, 1] (steps of kAdaptiveAimStep) at which those, with
-// kAdaptiveDriftSpread standard deviations of their count, and the finished pixels that drifted
-// above the target fit in the drift's share of the allowance.
+// the pixels that finished far below it), their drifts, log(measured / predicted error) times the
+// square root of the samples the prediction rested on, tell how likely each pixel still active is
+// to end above the target from the error it is predicted to end at (the aim, or what the cap
+// leaves it) and its samples. Of the aims in [kAdaptiveAim, 1] (steps of kAdaptiveAimStep) and the
+// cap's shares, the round takes the pair that leaves the active pixels the fewest samples to take
+// among those at which the expected count above the target, with kAdaptiveDriftSpread standard
+// deviations, and the finished pixels above it fit in the percentile's allowance.
 constexpr size_t kAdaptiveDriftMin = 32;
 constexpr double kAdaptiveDriftFrom = 0.5;
 constexpr double kAdaptiveAimStep = 0.01;
@@ -89,6 +96,7 @@ struct AdaptivePlan {
   int64_t pilot = 16;     // round 0 (kNoiseMinSpp, at most spp)
   double floor = 0;       // brightness floor of r_p (radiance); 0: from the pilot
   double aim = kAdaptiveAim;  // each pixel aims at aim * target
+  double cap_share = kAdaptiveCapShare;  // the share of the allowance the per-pixel cap stops (adaptive_cap)
 };
 
 // One pixel's rounds so far (RGB of its whole beauty).
@@ -99,6 +107,7 @@ struct AdaptivePixel {
   double s1[3] = {}, s2[3] = {};  // sums and sums of squares of its samples (unweighted)
   double work = 0;        // its paths' work (RenderResult::pixel_work; 0 without SPECTRACK_ADAPTIVE_PIXELS)
   double predicted = 0;   // the relative error its last round was decided to bring it to (0 before)
+  int64_t decided = 0;    // its samples when that round was decided
   bool done() const { return B == 0; }
   // The per-channel variance of one sample (0 below 2 samples) and the mean brightness.
   double sample_variance(int c) const;
@@ -123,14 +132,20 @@ double adaptive_samples_needed(const AdaptivePixel& px, double rho, const Adapti
 double adaptive_round_weight(const AdaptivePixel& px, int64_t k, int64_t cap, double rho, const AdaptivePlan& plan);
 // The samples the pixel takes in that round: k, or fewer in its last round.
 int64_t adaptive_round_length(const AdaptivePixel& px, int64_t k, int64_t cap, double rho, const AdaptivePlan& plan);
-// The per-pixel cap: the samples the 97.5th-percentile pixel needs (kAdaptiveCapShare) over the
+// The per-pixel cap: the samples the 97.5th-percentile pixel needs (plan.cap_share 0.5) over the
 // counted pixels of the rounds so far (noise.h's; the taken samples of finished pixels, taken plus
 // needed of the others), at most kAdaptiveCapGrowth times the 95th-percentile pixel's, within
 // [2 pilot, spp].
 int64_t adaptive_cap(const std::vector<AdaptivePixel>& px, const std::vector<double>& rho, const AdaptivePlan& plan);
-// The aim of the next round (kAdaptiveDriftMin above), from the rounds so far: plan.aim until enough
-// pixels have finished, then the largest aim whose predicted drift fits the allowance.
-double adaptive_aim(const std::vector<AdaptivePixel>& px, double floor, const AdaptivePlan& plan);
+// The relative error the pixel is predicted to end at: rho (V + B^2 / T), T the samples it is to
+// take (adaptive_samples_needed, at most those left below the cap, at least 1).
+double adaptive_final_error(const AdaptivePixel& px, double rho, int64_t cap, const AdaptivePlan& plan);
+// The plan of the next round, its aim and the cap's share (kAdaptiveDriftMin above), from the
+// rounds so far (rho: the pixels' relative variances as the rule uses them, adaptive_neighbourhood):
+// `plan` until enough pixels have finished, then the pair that fits the allowance with the fewest
+// samples.
+AdaptivePlan adaptive_aim(const std::vector<AdaptivePixel>& px, const std::vector<double>& rho, double floor,
+                          const AdaptivePlan& plan);
 // The pilot's weight of every pixel (kAdaptivePilotMargin above) from the window's pilot round
 // (row-major, width x height); each depends on the neighbours' pilots only.
 std::vector<double> adaptive_pilot_weights(const std::vector<AdaptivePixel>& pilot, int width, int height,
@@ -147,6 +162,7 @@ struct AdaptiveResult {
   double floor = 0;            // the brightness floor used
   int rounds = 0;
   double aim = 0;              // the last round's aim (adaptive_aim)
+  int64_t cap = 0;             // the last round's per-pixel cap (adaptive_cap)
   int64_t round_end = 0;       // the sample count the last round ended at
   double mean_samples = 0;     // over the window's pixels
   // Why the rounds ended with the target missed (multi_device.h MultiDeviceResult::stop_reason):
