@@ -63,7 +63,8 @@ enum st_counter {
   ST_C_SUMS_ANCHOR = ST_C_BATCH_DONE + ST_MAX_BATCHES_IN_FLIGHT - 1, /* the sums follow */
   ST_SUM_COUNTERS(ST_X_COUNTER_ENUM)
   ST_C_MAX_THROUGHPUT_BITS,                  /* float bits of the largest beta component (atomic_max) */
-  ST_C_COUNT
+  ST_C_TICKET,                               /* ST_Q_COUNT entries: items of each queue taken (ST_ITEMS_GRABBED) */
+  ST_C_COUNT = ST_C_TICKET + ST_Q_COUNT
 };
 
 /* Arguments of every stage kernel after the scene (ST_ARG_SCENE = 0), in order: X(ENUM suffix,

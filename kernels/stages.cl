@@ -2,7 +2,7 @@
  * around its stage function, and k_advance, which ends every iteration on the device (wavefront.h).
  * A stage kernel reads `it` from the loop state and runs its stage function on every item of its
  * queue, work-item i taking items i, i + G, i + 2G, ... (G the launch's work-items), or on a CPU
- * device a run of about n / G items in queue order (ST_FOR_ITEMS, wavefront.h): the host launches
+ * device runs in queue order (ST_FOR_QUEUE_ITEMS, wavefront.h): the host launches
  * every stage over a fixed number of work-items (at most the queue's capacity) without knowing
  * the queue's size. */
 #include "types.h"
@@ -13,7 +13,8 @@
   __kernel void k_##stage(ST_STAGE_ARGS) {                                                    \
     const st_iteration it = loop->it;                                                         \
     const uint n = stage_items(&it, ST_Q_##QUEUE);                                            \
-    ST_FOR_ITEMS(i, n) stage_##stage(ST_STAGE_PASS(it, i));                                  \
+    ST_FOR_QUEUE_ITEMS(i, n, &counters[ST_C_TICKET + ST_Q_##QUEUE])                          \
+      stage_##stage(ST_STAGE_PASS(it, i));                                                    \
   }
 ST_STAGES(ST_X_STAGE_KERNEL)
 

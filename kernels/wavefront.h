@@ -77,6 +77,29 @@ inline st_uint stage_items(const st_iteration* it, int k) {
 #define ST_FOR_ITEMS(i, n) for (uint i = (uint)get_global_id(0); i < (n); i += (uint)get_global_size(0))
 #endif
 
+/* The items of a stage's queue, of n, that a work-item takes. With ST_ITEMS_GRABBED
+ * (SPECTRACK_ITEM_ORDER=grabbed, src/integrator/loop_policy.h) the launch's work-items take runs in queue
+ * order from the queue's ticket counter as long as any are left, each run a 1 / (2 G) share of the
+ * items not yet taken (G the launch's work-groups; guided self-scheduling: large runs first, single
+ * items last): a launch has two work-groups per core, and a fixed share each would leave a core
+ * idle while the other finishes its share of slower paths. The ticket is a counter (stage_types.h
+ * ST_C_TICKET), cleared with the others when k_advance folds a live iteration; nothing takes a
+ * ticket when n is 0, so an iteration without work leaves it at 0. Else ST_FOR_ITEMS. */
+#if ST_ITEMS_GRABBED
+inline uint items_grab(volatile __global uint* ticket, uint n, uint* run) {
+  if (n == 0u) return 0u;
+  const uint taken = *ticket; /* a guess: the atomic add decides */
+  *run = max(1u, (n - min(n, taken)) / (2u * (uint)get_num_groups(0)));
+  return atomic_add(ticket, *run);
+}
+#define ST_FOR_QUEUE_ITEMS(i, n, ticket)                                                           \
+  for (uint st_n_ = (n), st_run_ = 0u, st_b_ = items_grab(ticket, st_n_, &st_run_); st_b_ < st_n_; \
+       st_b_ = items_grab(ticket, st_n_, &st_run_))                                                \
+    for (uint i = st_b_, st_e_ = min(st_n_, st_b_ + st_run_); i < st_e_; ++i)
+#else
+#define ST_FOR_QUEUE_ITEMS(i, n, ticket) ST_FOR_ITEMS(i, n)
+#endif
+
 /* Samples per pixel of batch b (the last batch may be shorter). */
 inline st_uint loop_batch_samples(const st_loop* s, st_uint b) {
   const st_uint rest = s->spp - b * s->samples_per_batch;

@@ -84,10 +84,14 @@ TEST(Wavefront, ChunksOfIterationsWaitRarelyAndChangeNoPixel) {
 
 TEST(Wavefront, StridingWorkItemsChangeNoPixel) {
   const std::string dir = test_dir();
-  Render wide, narrow, strided;
+  Render wide, narrow, strided, grabbed;
   {
     ScopedEnv loop("SPECTRACK_LOOP", "chunked");  // launches of a fixed size, whatever the queue's
     wide = render(dir, "wide");
+    {
+      ScopedEnv order("SPECTRACK_ITEM_ORDER", "grabbed");  // runs taken from each queue's ticket counter
+      grabbed = render(dir, "grabbed");
+    }
     ScopedEnv items("SPECTRACK_STAGE_ITEMS", "64");  // one work-group per launch takes its whole queue
     ScopedEnv blocked("SPECTRACK_ITEM_ORDER", "blocked");  // each work-item a run of items
     narrow = render(dir, "narrow");
@@ -97,6 +101,8 @@ TEST(Wavefront, StridingWorkItemsChangeNoPixel) {
   ASSERT_FALSE(wide.pixels.empty());
   EXPECT_EQ(wide.pixels, narrow.pixels);
   EXPECT_EQ(wide.pixels, strided.pixels);
+  EXPECT_EQ(wide.pixels, grabbed.pixels);
+  EXPECT_EQ(wide.stats["density_lookups"], grabbed.stats["density_lookups"]);
   EXPECT_EQ(wide.stats["density_lookups"], narrow.stats["density_lookups"]);
   EXPECT_EQ(wide.stats["density_lookups"], strided.stats["density_lookups"]);
   // twin: another seed changes the image, so equal images are not a blind comparison
@@ -123,6 +129,17 @@ TEST(Wavefront, LoopPolicyByDeviceType) {
   EXPECT_TRUE(defines.empty());
   spectrack::add_loop_policy_define(cpu, defines);
   EXPECT_EQ(defines, (std::vector<std::pair<std::string, std::string>>{{"ST_ITEMS_BLOCKED", "1"}}));
+  EXPECT_FALSE(cpu.grabbed_items);
+  EXPECT_FALSE(gpu.grabbed_items);
+  {
+    ScopedEnv order("SPECTRACK_ITEM_ORDER", "grabbed");  // runs taken from the queue's ticket counter
+    const spectrack::LoopPolicy grabbed = choose_loop_policy(CL_DEVICE_TYPE_CPU);
+    EXPECT_TRUE(grabbed.grabbed_items);
+    EXPECT_TRUE(grabbed.blocked_items);
+    std::vector<std::pair<std::string, std::string>> d;
+    spectrack::add_loop_policy_define(grabbed, d);
+    EXPECT_EQ(d, (std::vector<std::pair<std::string, std::string>>{{"ST_ITEMS_BLOCKED", "1"}, {"ST_ITEMS_GRABBED", "1"}}));
+  }
   {
     ScopedEnv sized("SPECTRACK_LOOP", "sized");
     EXPECT_TRUE(choose_loop_policy(CL_DEVICE_TYPE_GPU).sized);
@@ -134,6 +151,7 @@ TEST(Wavefront, LoopPolicyByDeviceType) {
     const spectrack::LoopPolicy forced = choose_loop_policy(CL_DEVICE_TYPE_CPU);
     EXPECT_FALSE(forced.sized);
     EXPECT_FALSE(forced.blocked_items);
+    EXPECT_FALSE(forced.grabbed_items);
     EXPECT_EQ(chunk_launch_items(forced, 2, 64, many), 320u);
   }
   for (auto [name, value] : {std::pair{"SPECTRACK_LOOP", "fast"}, std::pair{"SPECTRACK_STAGE_ITEMS", "12x"},

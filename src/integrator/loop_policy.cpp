@@ -50,9 +50,10 @@ LoopPolicy choose_loop_policy(cl_device_type type) {
   }
   if (const char* e = env("SPECTRACK_ITEM_ORDER")) {
     const std::string v = e;
-    if (v != "blocked" && v != "strided")
-      throw Error(fmt::format("SPECTRACK_ITEM_ORDER: '{}' is not an item order (blocked or strided)", v));
-    p.blocked_items = v == "blocked";
+    if (v != "grabbed" && v != "blocked" && v != "strided")
+      throw Error(fmt::format("SPECTRACK_ITEM_ORDER: '{}' is not an item order (grabbed, blocked or strided)", v));
+    p.blocked_items = v != "strided";
+    p.grabbed_items = v == "grabbed";
   }
   return p;
 }
@@ -63,10 +64,13 @@ uint64_t chunk_launch_items(const LoopPolicy& p, uint64_t cus, uint64_t local, u
 }
 
 const char* loop_name(const LoopPolicy& p) { return p.sized ? "sized" : "chunked"; }
-const char* item_order_name(const LoopPolicy& p) { return p.blocked_items ? "blocked" : "strided"; }
+const char* item_order_name(const LoopPolicy& p) {
+  return p.grabbed_items ? "grabbed" : p.blocked_items ? "blocked" : "strided";
+}
 
 void add_loop_policy_define(const LoopPolicy& p, std::vector<std::pair<std::string, std::string>>& defines) {
   if (p.blocked_items) defines.emplace_back("ST_ITEMS_BLOCKED", "1");
+  if (p.grabbed_items) defines.emplace_back("ST_ITEMS_GRABBED", "1");
 }
 
 }  // namespace spectrack

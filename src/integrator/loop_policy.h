@@ -8,9 +8,13 @@
 // launches of an iteration-heavy render's tail cost microseconds, and a work-item takes a
 // contiguous run of its queue's items (kernel define ST_ITEMS_BLOCKED), so that a core goes
 // through a queue in queue order, as a launch of one item per work-item does.
+// SPECTRACK_ITEM_ORDER=grabbed (kernel define ST_ITEMS_GRABBED, for measurements: no measured gain
+// yet, bench/results/pocl_cost_2026-12-06.txt) has a stage launch's work-items take runs from a
+// ticket counter of the queue while any are left, so that no core idles while another finishes a
+// static share of slower paths.
 // SPECTRACK_LOOP=chunked|sized, SPECTRACK_STAGE_ITEMS=N (every chunked launch's work-items) and
-// SPECTRACK_ITEM_ORDER=blocked|strided override the choice, for measurements; any other value is
-// an Error naming the variable.
+// SPECTRACK_ITEM_ORDER=grabbed|blocked|strided override the choice, for measurements; any other
+// value is an Error naming the variable.
 #pragma once
 
 #include <cstdint>
@@ -27,6 +31,7 @@ struct LoopPolicy {
   uint64_t groups_per_cu = 0;  // work-groups per compute unit of a chunked stage launch
   uint64_t items_forced = 0;   // SPECTRACK_STAGE_ITEMS: every chunked launch's work-items (0: per compute unit)
   bool blocked_items = false;  // a work-item takes a contiguous run of items (ST_ITEMS_BLOCKED)
+  bool grabbed_items = false;  // stage work-items take runs from a ticket counter (ST_ITEMS_GRABBED)
 };
 
 LoopPolicy choose_loop_policy(cl_device_type type);
