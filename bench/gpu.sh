@@ -39,6 +39,14 @@
 #      PEER_ARGS adds options); the images come back in peer_images.tar, and
 #      `bench/gpu_peer.py score DIR` on this side prints the efficiency ratios;
 #      STEPS="0 2 9" is the peer alone;
+#  10. pbrt-v4's GPU build on the same GPU: .gpu/pbrt.tar.xz or its parts .gpu/pbrt.tar.xz.part*
+#      (bench/gpu_pbrt_pack.py; the parts travel over successive runs of a warm machine), unpacked
+#      to /opt/pbrt-gpu; `pbrt --gpu` and spectrack (RGB and spectral) on the grid (g 0.6) at
+#      PBRT_SPP (256) and 4x that, PBRT_SEEDS (4) seeds, interleaved after warm-ups: pbrt_grid.tsv
+#      (wall and seconds_render) and pbrt_images.tar come back, and `bench/pbrt_grid.py --score DIR`
+#      on this side prints the efficiency from the variance over seeds and the marginal seconds
+#      (4x spp less 1x: pbrt's CUDA and OptiX start-up left out as spectrack's kernel build is);
+#      STEPS="0 2 10" is this peer alone; skipped (not a failure) without the pack;
 #   3. the test suite on it, last (the longest): ctest with SPECTRACK_DEVICE set, or, from a
 #      bundle, spectrack_tests itself in TEST_SHARDS (8) parallel gtest shards (ctest.log).
 # Everything goes to OUT_DIR (default out/gpu-<UTC date>): gpu.log (all output), devices.txt,
@@ -51,7 +59,7 @@ cd "$(dirname "$0")/.."
 OUT=${1:-out/gpu-$(date -u +%Y%m%dT%H%M%S)}
 mkdir -p "$OUT"
 OUT=$(cd "$OUT" && pwd)
-STEPS=${STEPS:-"0 1 2 3 4 5 6 7 8 9"}
+STEPS=${STEPS:-"0 1 2 3 4 5 6 7 8 9 10"}
 exec > >(tee "$OUT/gpu.log") 2>&1
 status=0
 step() { case " $STEPS " in *" $1 "*) return 0 ;; *) return 1 ;; esac; }
@@ -284,6 +292,48 @@ if step 9; then
     tar -cf "$OUT/peer_images.tar" -C "$OUT" peer && rm -rf "$OUT/peer"
   else
     fail "peer: $py cannot load Mitsuba's $variant (carry .gpu/mitsuba.tar.xz: bench/gpu_mitsuba_pack.py)"
+  fi
+fi
+
+if step 10; then
+  # pbrt-v4's GPU build: the pack's parts joined in name order (bench/gpu_pbrt_pack.py)
+  P=/opt/pbrt-gpu
+  parts=$(ls .gpu/pbrt.tar.xz .gpu/pbrt.tar.xz.part* 2>/dev/null | sort -V || true)
+  if [ ! -x "$P/bin/pbrt" ] && [ -n "$parts" ]; then
+    mkdir -p "$P" && cat $parts | tar -xJ -C "$P" || fail "pbrt: cannot unpack $parts (every part carried?)"
+  fi
+  ps=$P/grid/chromatic_grid_g0.6_independent.pbrt
+  if [ ! -x "$P/bin/pbrt" ] || [ ! -f "$g" ]; then
+    echo "gpu.sh: no pbrt-v4 GPU pack in .gpu (bench/gpu_pbrt_pack.py) or no grid scene $g: step 10 skipped"
+  else
+    mkdir -p "$OUT/pbrt"
+    n=${PBRT_SPP:-256}
+    run_peer() {  # renderer spp seed: one render, its line in pbrt_grid.tsv
+      local r=$1 spp=$2 seed=$3 tag=$1_$2_$3 t0 t1 sr=-
+      t0=$(date +%s.%N)
+      case $r in
+        pbrt) (cd "$P/grid" && LD_LIBRARY_PATH=$P/lib "$P/bin/pbrt" --gpu --spp "$spp" --seed "$seed" --quiet \
+                 --outfile "$OUT/pbrt/$tag.exr" "$ps") >/dev/null 2>"$OUT/pbrt/$tag.err" ;;
+        spectrack_rgb | spectrack_spectral)
+          build/spectrack render "$g" $([ "$r" = spectrack_spectral ] && echo --spectral) --spp "$spp" --seed "$seed" \
+            -q --no-alpha -o "$OUT/pbrt/$tag.exr" --stats-json "$OUT/pbrt/$tag.json" >/dev/null 2>"$OUT/pbrt/$tag.err" ;;
+      esac || { fail "pbrt step: $tag ($(tail -n 2 "$OUT/pbrt/$tag.err" | tr '\n' ' '))"; return; }
+      t1=$(date +%s.%N)
+      [ -f "$OUT/pbrt/$tag.json" ] && sr=$(python3 -c "import json; print(json.load(open('$OUT/pbrt/$tag.json'))['seconds_render'])")
+      printf '%s\t%s\t%s\t%s\t%s\n' "$r" "$spp" "$seed" "$(python3 -c "print(round($t1 - $t0, 4))")" "$sr" >> "$OUT/pbrt_grid.tsv"
+    }
+    printf 'renderer\tspp\tseed\twall_s\tseconds_render\n' > "$OUT/pbrt_grid.tsv"
+    renderers="pbrt spectrack_rgb spectrack_spectral"
+    for r in $renderers; do run_peer $r 16 1000; done  # warm-ups (CUDA/OptiX start, kernel caches)
+    sed -i '2,$d' "$OUT/pbrt_grid.tsv"
+    for seed in $(seq 0 $((${PBRT_SEEDS:-4} - 1))); do
+      for spp in $n $((4 * n)); do
+        for r in $renderers; do run_peer $r $spp $seed; done  # interleaved
+      done
+    done
+    rm -f "$OUT"/pbrt/*_1000.*
+    (cd "$OUT/pbrt" && tar -cf "$OUT/pbrt_images.tar" ./*.exr ./*.json ./*.err) && rm -rf "$OUT/pbrt"
+    cat "$OUT/pbrt_grid.tsv"
   fi
 fi
 

@@ -19,6 +19,7 @@ python3-openimageio from Debian):
   /usr/bin/python3 bench/pbrt_grid.py [--spectrack build/spectrack] [--g 0.6] [--spp 16] [--seeds 4]
       [--config 'LABEL=FLAGS' ...] [--old OTHER_BINARY] [--pbrt PBRT_BINARY] [--json OUT.json]
 --scene: measure another spectrack scene the same way (bench/scenes/*.json).
+  /usr/bin/python3 bench/pbrt_grid.py --score DIR: bench/gpu.sh step 10's pbrt-v4 GPU side by side
 --config: extra spectrack flags per configuration (default: the scene's own settings, i.e. the
 default tracker, and delta-per-channel as the analog baseline). --old: the same configurations with
 a second binary, interleaved (before/after comparisons).
@@ -120,7 +121,56 @@ def render_pbrt(binary, scene, spp, seed, work, tag):
     return read_rgb(out), wall, wall, {}
 
 
+def score_gpu(out_dir):
+    """bench/gpu.sh step 10's results (pbrt_grid.tsv, pbrt_images.tar): per renderer and sample
+    count the variance over seeds; the marginal seconds per sample from the two counts' mean wall
+    clocks (pbrt's CUDA and OptiX start-up, spectrack's kernel-cache load cancel out); efficiency
+    1 / (variance at the larger count x its marginal seconds), and spectrack's against pbrt's"""
+    import csv
+    import tarfile
+    rows = list(csv.DictReader(open(os.path.join(out_dir, "pbrt_grid.tsv")), delimiter="\t"))
+    if not rows:
+        sys.exit(f"pbrt_grid.py: {out_dir}/pbrt_grid.tsv has no renders")
+    work = tempfile.mkdtemp(prefix="spectrack-pbrt-gpu.")
+    try:
+        with tarfile.open(os.path.join(out_dir, "pbrt_images.tar")) as t:
+            t.extractall(work)
+        fig = {}
+        for r in rows:
+            key = (r["renderer"], int(r["spp"]))
+            f = fig.setdefault(key, {"images": [], "wall": [], "render": []})
+            f["images"].append(read_rgb(os.path.join(work, f"{r['renderer']}_{r['spp']}_{r['seed']}.exr")))
+            f["wall"].append(float(r["wall_s"]))
+            if r["seconds_render"] not in ("", "-"):
+                f["render"].append(float(r["seconds_render"]))
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    eff = {}
+    print(f"{'renderer':20s} {'spp':>5s} {'seeds':>5s} {'mean':>7s} {'variance':>10s} {'wall s':>7s} {'render s':>8s}")
+    for (r, spp), f in sorted(fig.items()):
+        if len(f["images"]) < 2:
+            sys.exit(f"pbrt_grid.py: {r} at {spp} spp has {len(f['images'])} seed(s): the variance needs 2")
+        ims = np.stack(f["images"])
+        f["var"] = float(np.mean(np.var(ims, axis=0, ddof=1)))
+        render = f"{np.mean(f['render']):8.3f}" if f["render"] else f"{'-':>8s}"
+        print(f"{r:20s} {spp:5d} {len(ims):5d} {float(np.mean(ims)):7.4f} {f['var']:10.4e} {np.mean(f['wall']):7.3f} {render}")
+    for r in sorted({k[0] for k in fig}):
+        spps = sorted(spp for (q, spp) in fig if q == r)
+        if len(spps) < 2:
+            continue
+        lo, hi = spps[0], spps[-1]
+        per_sample = (np.mean(fig[r, hi]["wall"]) - np.mean(fig[r, lo]["wall"])) / (hi - lo)
+        eff[r] = 1.0 / (fig[r, hi]["var"] * per_sample * hi)
+        print(f"{r}: marginal {per_sample * 1e3:.3f} ms per sample, efficiency {eff[r]:.4g} at {hi} spp")
+    if "pbrt" in eff:
+        for r, e in eff.items():
+            if r != "pbrt":
+                print(f"side by side on the GPU: {r}: {e / eff['pbrt']:.2f}x pbrt-v4 --gpu's efficiency")
+
+
 def main():
+    if len(sys.argv) == 3 and sys.argv[1] == "--score":
+        return score_gpu(sys.argv[2])
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--spectrack", default=os.path.join(ROOT, "build", "spectrack"))
     ap.add_argument("--old", help="a second spectrack binary, run on the same configurations")
