@@ -125,7 +125,7 @@ bool switch_setting(const char* name, bool fallback) {
 }  // namespace
 
 bool guide_phase_product_setting(int guided_depth) { return switch_setting("SPECTRACK_GUIDE_PRODUCT", guided_depth > 1); }
-bool guide_full_path_setting(bool phase_product) { return switch_setting("SPECTRACK_GUIDE_FULL_PATH", phase_product); }
+bool guide_full_path_setting(bool) { return switch_setting("SPECTRACK_GUIDE_FULL_PATH", false); }
 
 GuideTraining guide_training_setting() {
   GuideTraining t;

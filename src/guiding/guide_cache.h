@@ -77,8 +77,10 @@ int guide_depth_setting(int option);
 bool guide_phase_product_setting(int guided_depth);
 
 // Whether the fit weighs guided vertices by the whole rest of their paths (GuideCache::full_path, as
-// Open PGL's samples do) and not by the ring's last bounces: SPECTRACK_GUIDE_FULL_PATH=0|1, else
-// with the phase product.
+// Open PGL's samples do) and not by the ring's last bounces: SPECTRACK_GUIDE_FULL_PATH=0|1, else off.
+// Measurements only: the join (end - total) / beta sums the path's shadow-ray folds in an order that
+// depends on the shadow ring's lag, so its weights, and the fit, change in the last bits with the
+// path slots (GuidingRender.EveryScatterEventGuidedDoesNotDependOnPathSlots fails with it).
 bool guide_full_path_setting(bool phase_product);
 
 // The training schedule of a render, for measurements of how much training the guide needs
