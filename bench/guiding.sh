@@ -15,13 +15,19 @@
 # SCENES: names under bench/scenes (default dense_subsurface dense_chromatic cloud_chromatic smoke1
 # smoke_thin emissive_heat); CONFIGS: off, guided (--guiding on --guide-splitting off), split
 # (--guiding on), auto (--guiding auto); guided:D or split:D guide the scatter events of depth below D
-# (SPECTRACK_GUIDE_DEPTH; D = all: every scatter event).
+# (SPECTRACK_GUIDE_DEPTH; D = all: every scatter event); letters after guided or split: p samples
+# the guide's product with the phase function (SPECTRACK_GUIDE_PRODUCT=1), 0 the first-event
+# product fit (SPECTRACK_GUIDE_PRODUCT=0), f weighs the fit's records by the whole rest of their
+# paths (SPECTRACK_GUIDE_FULL_PATH=1), r by the ring (=0). SPECTRACK_GUIDE_TRAINING and
+# SPECTRACK_GUIDE_TRAINING_KEEP in the environment set the training schedule (docs/guiding.md).
 BIN=${1:?usage: bench/guiding.sh BIN [SPP] [SEEDS] [SCENES] [CONFIGS]}; SPP=${2:-8}; SEEDS=${3:-3}
 SCENES=${4:-dense_subsurface dense_chromatic cloud_chromatic smoke1 smoke_thin emissive_heat}
 CONFIGS=${5:-off guided split}
 cd "$(dirname "$0")/.."; out=$(mktemp -d); raw=$out/raw.txt
 flags() {
   case ${1%%:*} in
+    guided?*) echo "--guiding on --guide-splitting off" ;;
+    split?*) echo "--guiding on --guide-splitting on" ;;
     off) echo "--guiding off" ;;
     guided) echo "--guiding on --guide-splitting off" ;;
     split) echo "--guiding on --guide-splitting on" ;;
@@ -39,7 +45,11 @@ for scene in $SCENES; do
   for seed in $(seq 1 $SEEDS); do
     for c in $CONFIGS; do
       depth=; [[ $c == *:* ]] && depth=${c#*:} && [ "$depth" = all ] && depth=0
-      env ${depth:+SPECTRACK_GUIDE_DEPTH=$depth} $BIN render bench/scenes/$scene.json --spp $SPP --seed $seed $(flags $c) --aov variance --no-alpha \
+      mode=${c%%:*}; mode=${mode#guided}; mode=${mode#split}; product=; full=
+      [[ $mode == *p* ]] && product=1; [[ $mode == *0* ]] && product=0
+      [[ $mode == *f* ]] && full=1; [[ $mode == *r* ]] && full=0
+      env ${depth:+SPECTRACK_GUIDE_DEPTH=$depth} ${product:+SPECTRACK_GUIDE_PRODUCT=$product} \
+        ${full:+SPECTRACK_GUIDE_FULL_PATH=$full} $BIN render bench/scenes/$scene.json --spp $SPP --seed $seed $(flags $c) --aov variance --no-alpha \
         -o $out/r.exr --quiet --stats-json $out/r.json || { echo "FAIL $scene $seed $c"; continue; }
       v=$(oiiotool $out/r.exr --ch variance.R,variance.G,variance.B --printstats 2>/dev/null | awk '/Stats Avg/ {print ($3+$4+$5)/3}')
       r=-1; [ -n "$ref" ] && r=$(rel $out/r.exr --ch R,G,B "$ref" --ch R,G,B --sub --dup --mul) && r=$(python3 -c "print($r - $ref_noise)")

@@ -70,15 +70,19 @@ inline void guide_ring_enter(__global st_guide_vertex* ring, int depth, float3 x
 /* The record of ring vertex k of a path: what its scattered direction brought back per unit
  * throughput arriving at it, f_phase L / p_mix (its credited sum): the fit's density then follows
  * the product of the phase function and the incident radiance, averaged over the region's
- * vertices (at the first scatter event their propagation directions are close: the camera's). */
+ * vertices (at the first scatter event their propagation directions are close: the camera's).
+ * With the phase product (guiding.h) the record is L / p_mix (the sum over f_phase): the fit
+ * follows the incident radiance alone, and each event multiplies it with its own phase lobe. */
 inline void guide_vertex_record(__global uint* rec, __global const st_guide_header* h, __global st_guide_vertex* v,
                                 uint4 key, float4 mask) {
-  float w = v->pos.w;
-  if ((int)key.w < h->guided_depth && w > 0.0f && isfinite(w)) /* only the guided scatter events fit */
+  const float to_L = h->phase_product ? (v->dir.w > 0.0f ? 1.0f / v->dir.w : 0.0f) : 1.0f;
+  const float w = v->pos.w * to_L;
+  /* only the guided scatter events fit; a weight of 0 too (the host may weigh it by the whole path) */
+  if ((int)key.w < h->guided_depth && w >= 0.0f && isfinite(w))
     guide_record_push(rec, (uint)h->dims[3], v->pos.xyz, v->dir.xyz, w, key);
   const float b = masked_avg(fabs(v->beta), mask);
   if (b > 0.0f && isfinite(v->total.x))
-    guide_record_push(rec, (uint)h->dims[3], v->pos.xyz, (float3)(v->total.x, b, 0.0f), 0.0f,
+    guide_record_push(rec, (uint)h->dims[3], v->pos.xyz, (float3)(v->total.x, b, to_L), 0.0f,
                       (uint4)(key.xyz, key.w | ST_GUIDE_RECORD_RADIANCE));
 }
 /* A scatter event of a training path: credits what the path gathered since its last scatter

@@ -149,6 +149,85 @@ inline st_vec3 vmf_mixture_sample(ST_GUIDE_GLOBAL const st_vmf_mixture* m, float
   return vmf_sample(vmf_lobe_mean(m->lobe[k]), m->lobe[k].w, u1, u2);
 }
 
+/* ---- the product with the phase function (Herholz et al. 2019; Open PGL's volume distribution) ----
+ * Deeper than the first scatter event the paths that reach a region propagate in every direction,
+ * so a region's mixture holds the incident radiance L_i alone and the event samples its product
+ * with the phase function around the path's direction wo: the phase function as one lobe of the
+ * same mean cosine (mean nu = wo for g >= 0, -wo for g < 0; kappa from |g|), multiplied with each
+ * lobe in closed form. The product of lobes (mu1, k1) and (mu2, k2) is the lobe of mean m / |m| and
+ * concentration |m|, m = k1 mu1 + k2 mu2, times C(k1) C(k2) exp(|m| - k1 - k2) / C(|m|) (C: vmf_norm),
+ * which scales the lobe's weight. The sampler and the density read the same lobes, so the one-sample
+ * mixture's weight stays exact (and the estimator unbiased) however poorly one lobe fits the phase
+ * function. */
+
+/* The concentration of the lobe of mean cosine |g| (Banerjee's approximation, |g| clamped to 0.99):
+ * 0 for isotropic scattering, where the product is the mixture itself. */
+inline float vmf_phase_kappa(float g) {
+  const float r = fmin(fabs(g), 0.99f);
+  return r * (3.0f - r * r) / (1.0f - r * r);
+}
+
+/* Lobe `lobe` of weight `weight` times the lobe (nu, kp): writes its mean and concentration, returns
+ * its weight. */
+inline float vmf_product_lobe(st_float4 lobe, float weight, st_vec3 nu, float kp, st_vec3* mu, float* kappa) {
+  const float k1 = lobe.w;
+  const float mx = k1 * lobe.x + kp * nu.x, my = k1 * lobe.y + kp * nu.y, mz = k1 * lobe.z + kp * nu.z;
+  const float k = sqrt(mx * mx + my * my + mz * mz);
+  *kappa = k > ST_VMF_KAPPA_UNIFORM ? k : 0.0f;
+  *mu = k > ST_VMF_KAPPA_UNIFORM ? vec3_make(mx / k, my / k, mz / k) : vec3_make(0.0f, 0.0f, 1.0f);
+  return weight * (vmf_norm(k1) * vmf_norm(kp) / vmf_norm(*kappa)) * exp(fmin(k - k1 - kp, 0.0f));
+}
+
+/* The density at unit direction w of the product of the mixture with the lobe (nu, kp), normalised. */
+inline float vmf_product_pdf(ST_GUIDE_GLOBAL const st_vmf_mixture* m, st_vec3 nu, float kp, st_vec3 w) {
+  float sum = 0.0f, total = 0.0f;
+  for (int k = 0; k < ST_VMF_LOBES; ++k) {
+    if (!(m->weight[k] > 0.0f)) continue;
+    st_vec3 mu;
+    float kappa;
+    const float wk = vmf_product_lobe(m->lobe[k], m->weight[k], nu, kp, &mu, &kappa);
+    total += wk;
+    if (wk > 0.0f) sum += wk * vmf_eval(mu, kappa, w);
+  }
+  return total > 0.0f ? sum / total : ST_GUIDE_INV_4PI;
+}
+
+/* A direction of the product (vmf_product_pdf): the lobe by u_lobe over the product's weights (the
+ * last of positive weight takes what rounding leaves), u1 and u2 sample it; uniform where every
+ * product weight is 0, as the density. */
+inline st_vec3 vmf_product_sample(ST_GUIDE_GLOBAL const st_vmf_mixture* m, st_vec3 nu, float kp, float u_lobe, float u1,
+                                  float u2) {
+  float wk[ST_VMF_LOBES], total = 0.0f;
+  st_vec3 mu;
+  float kappa;
+  for (int k = 0; k < ST_VMF_LOBES; ++k) {
+    wk[k] = m->weight[k] > 0.0f ? vmf_product_lobe(m->lobe[k], m->weight[k], nu, kp, &mu, &kappa) : 0.0f;
+    total += wk[k];
+  }
+  if (!(total > 0.0f)) return vmf_sample(vec3_make(0.0f, 0.0f, 1.0f), 0.0f, u1, u2);
+  float target = u_lobe * total, cdf = 0.0f;
+  int chosen = -1, last = 0;
+  for (int k = 0; k < ST_VMF_LOBES; ++k) {
+    if (!(wk[k] > 0.0f)) continue;
+    last = k;
+    if (chosen < 0 && target < cdf + wk[k]) chosen = k;
+    cdf += wk[k];
+  }
+  const int k = chosen < 0 ? last : chosen;
+  vmf_product_lobe(m->lobe[k], m->weight[k], nu, kp, &mu, &kappa);
+  return vmf_sample(mu, kappa, u1, u2);
+}
+
+/* The guide's density at w and a direction of it for a path along wo: the region's mixture, or
+ * where kp > 0 (the phase product on, anisotropic phase) its product with the phase lobe (nu, kp). */
+inline float guide_pdf(ST_GUIDE_GLOBAL const st_vmf_mixture* m, st_vec3 nu, float kp, st_vec3 w) {
+  return kp > 0.0f ? vmf_product_pdf(m, nu, kp, w) : vmf_mixture_pdf(m, w);
+}
+inline st_vec3 guide_sample(ST_GUIDE_GLOBAL const st_vmf_mixture* m, st_vec3 nu, float kp, float u_lobe, float u1,
+                            float u2) {
+  return kp > 0.0f ? vmf_product_sample(m, nu, kp, u_lobe, u1, u2) : vmf_mixture_sample(m, u_lobe, u1, u2);
+}
+
 /* ---- the guide cache: regions refined from a uniform grid over the media, and radiance records ----
  * The cache is one buffer: an st_guide_header, its regions (st_guide_region), the nodes of its
  * kd-trees (st_guide_node), then the pixel estimates (guided roulette below). Every cell of a
@@ -169,7 +248,8 @@ typedef struct {
   st_int regions;      /* st_guide_region entries after the header (the kd-trees' leaves) */
   st_int nodes;        /* st_guide_node entries after the regions (the first dims.x * dims.y * dims.z: the cells) */
   st_int depth;        /* the deepest leaf's depth below its cell */
-  st_int pad;
+  st_int phase_product; /* 1: mixtures hold L_i (records L / p_mix) and events sample their product with the phase
+                         * function; 0: mixtures hold f_phase L_i at the first event's directions (records f L / p_mix) */
 } st_guide_header;
 
 /* A node of a cell's kd-tree: a leaf (ST_GUIDE_LEAF set in `next`) holds its region's index in the
@@ -201,7 +281,8 @@ typedef struct {
 
 /* Record kinds besides the fit's (key.w the vertex depth): a vertex's radiance record (key.w its
  * depth with ST_GUIDE_RECORD_RADIANCE set; dir.x its st_guide_vertex.total, dir.y its throughput's
- * lane mean) and the path's end (key.w ST_GUIDE_RECORD_END, region -1, dir.x the path's radiance):
+ * lane mean, dir.z the factor that turns a weight f_phase L / p_mix into the fit's: 1 / f_phase with
+ * the phase product, else 1) and the path's end (key.w ST_GUIDE_RECORD_END, region -1, dir.x the path's radiance):
  * the host joins them by (pixel, sample, channel) into the radiance that reached the vertex per
  * unit throughput over the whole rest of the path, (end - total) / beta (guide_cache.cpp). */
 #define ST_GUIDE_RECORD_RADIANCE 0x80000000u
@@ -307,17 +388,24 @@ inline float guide_mixture_pdf(float alpha, float pdf_guide, float pdf_phase) {
  * direction, so the path's weight is f_phase / pdf_mix. */
 inline float3 guided_phase_sample(__global const st_vmf_mixture* m, float alpha, int phase_type, float g, float4 phase,
                                   float3 wo, float u0, float u1, float u2, st_rng* rng, float* pdf_mix,
-                                  float* f_phase) {
+                                  float* f_phase, float kp) {
   float u_lobe, p_phase;
   float3 wi;
+  const float3 nu = g >= 0.0f ? wo : -wo;
   if (guide_choose(alpha, u0, &u_lobe)) {
-    wi = vmf_mixture_sample(m, u_lobe, u1, u2);
+    wi = guide_sample(m, nu, kp, u_lobe, u1, u2);
     *f_phase = phase_eval_any(phase_type, g, phase, dot(wo, wi));
   } else {
     wi = phase_sample_any(phase_type, g, phase, wo, u1, u2, rng, &p_phase, f_phase);
   }
-  *pdf_mix = guide_mixture_pdf(alpha, vmf_mixture_pdf(m, wi), *f_phase);
+  *pdf_mix = guide_mixture_pdf(alpha, guide_pdf(m, nu, kp, wi), *f_phase);
   return wi;
+}
+
+/* The phase lobe's concentration of the guided events of medium (phase_type, g) under header h:
+ * 0 (the mixture alone) unless the phase product is on and the phase function is Henyey-Greenstein. */
+inline float guide_phase_kappa(__global const st_guide_header* h, int phase_type, float g) {
+  return h->phase_product && phase_type == ST_PHASE_HG ? vmf_phase_kappa(g) : 0.0f;
 }
 
 /* The regions follow the header in the cache buffer, the kd-trees' nodes the regions. */

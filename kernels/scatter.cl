@@ -114,7 +114,7 @@ inline void shadow_catcher_event(__constant const st_scene* scene, __global cons
 inline void scatter_nee(__constant const st_scene* scene, __global const float* env, ST_SHADOW_STATE shadows,
                         __global uint* queues, __global uint* counters, uint Q, uint NL, uint cur, uint slot,
                         st_path* p, st_rng* rng, int ground, float4 albedo, __global const st_guide_region* region,
-                        float alpha) {
+                        float alpha, float kp) {
   __constant const st_medium* m = &scene->media[ground ? 0 : p->medium];
   const float3 wo = p->d.xyz;
   const float4 mask = path_mask(scene, p);
@@ -131,7 +131,8 @@ inline void scatter_nee(__constant const st_scene* scene, __global const float* 
     /* the direction's density under the sampler of the scattered ray: the one-sample mixture
      * with guiding (the same p_mix that k_escape reads from d.w), else the phase function */
     float p_dir = f;
-    if (ST_HAS_GUIDING && alpha > 0.0f) p_dir = guide_mixture_pdf(alpha, vmf_mixture_pdf(&region->mix, wi), f);
+    if (ST_HAS_GUIDING && alpha > 0.0f)
+      p_dir = guide_mixture_pdf(alpha, guide_pdf(&region->mix, m->g >= 0.0f ? wo : -wo, kp, wi), f);
     float w = pdf_l > 0.0f ? power_heuristic(light->select_pmf * pdf_l, p_dir) : 1.0f;
     /* in a medium: MIS against the segment's equi-angular sample (equiangular.h) */
     if (ea_on(scene) && p->medium != ST_MEDIUM_GROUND)
@@ -153,7 +154,8 @@ inline void scatter_nee(__constant const st_scene* scene, __global const float* 
  * takes the albedo), the one-sample mixture of phase function and guide (alpha > 0: beta takes
  * f_phase / p_mix, unbiased for any guide), else exact phase sampling (f / pdf = 1, beta unchanged). */
 inline float3 scatter_direction(__constant const st_medium* m, __global const st_guide_region* region, float alpha,
-                                int ground, float4 albedo, float3 wo, st_path* p, st_rng* rng, float* pdf, float* f) {
+                                float kp, int ground, float4 albedo, float3 wo, st_path* p, st_rng* rng, float* pdf,
+                                float* f) {
   float3 wi;
   if (ground) {
     float u1 = rng_uniform(rng), u2 = rng_uniform(rng);
@@ -162,7 +164,7 @@ inline float3 scatter_direction(__constant const st_medium* m, __global const st
     p->beta *= albedo;
   } else if (ST_HAS_GUIDING && alpha > 0.0f) {
     float u0 = rng_uniform(rng), u1 = rng_uniform(rng), u2 = rng_uniform(rng);
-    wi = guided_phase_sample(&region->mix, alpha, m->phase_type, m->g, m->phase, wo, u0, u1, u2, rng, pdf, f);
+    wi = guided_phase_sample(&region->mix, alpha, m->phase_type, m->g, m->phase, wo, u0, u1, u2, rng, pdf, f, kp);
     p->beta *= *pdf > 0.0f ? *f / *pdf : 0.0f;
   } else {
     float u1 = rng_uniform(rng), u2 = rng_uniform(rng);
@@ -221,14 +223,15 @@ ST_STAGE_FUNCTION(scatter) {
    * mixture and selection probability (alpha 0: plain phase sampling) */
   if (training) guide_training_scatter(guide, guide_records, ring, slot, &p, mask);
   __global const st_guide_region* region = 0;
-  float alpha = 0.0f;
+  float alpha = 0.0f, kp = 0.0f; /* kp: the phase lobe of the guide's product (guiding.h) */
   /* not at a ground vertex (the medium index test, not `ground`, which is a constant without a ground) */
   const int in_medium = p.medium != ST_MEDIUM_GROUND;
   if (ST_HAS_GUIDING && guide->origin.w > 0.0f && p.depth < guide->guided_depth && in_medium) {
     region = guide_regions(guide) + guide_region_index(guide, p.o.x, p.o.y, p.o.z);
     alpha = region->alpha;
+    kp = guide_phase_kappa(guide, m->phase_type, m->g);
   }
-  if (!child) scatter_nee(scene, env, shadows, queues, counters, Q, NL, cur, slot, &p, &rng, ground, albedo, region, alpha);
+  if (!child) scatter_nee(scene, env, shadows, queues, counters, Q, NL, cur, slot, &p, &rng, ground, albedo, region, alpha, kp);
   /* guided roulette and splitting before the direction is drawn (-1: no estimate here; media only) */
   const int split = gs && !child && in_medium ? guide_rrs(guide, gs, &p, mask, &rng) : -1;
   if (split == 0) { /* the path ends after this event's next-event estimation (its bounce: depth + 1 folds it) */
@@ -240,7 +243,7 @@ ST_STAGE_FUNCTION(scatter) {
   }
   float pdf, f;
   const float4 beta_in = p.beta;
-  const float3 wi = scatter_direction(m, region, alpha, ground, albedo, wo, &p, &rng, &pdf, &f);
+  const float3 wi = scatter_direction(m, region, alpha, kp, ground, albedo, wo, &p, &rng, &pdf, &f);
   if (training)
     guide_ring_enter(ring, p.depth, p.o.xyz, wi, f, beta_in,
                      guide_path_total(shadows, Q * NL, NL, shadow_lights(scene), slot, &p, mask));

@@ -199,13 +199,12 @@ TEST(GuidingSampling, LobeSamplesFollowItsPdf) {
     }
 }
 
-TEST(GuidingSampling, MixtureSamplesFollowItsPdf) {
-  // lobes away from the poles and kappa <= 40, so Gauss-Legendre over (z, phi) bins resolves them
-  const st_vmf_mixture m = make_mixture({{unit(1, 0, 0.2), 40, 0.5},
-                                         {unit(-0.3, 0.9, -0.4), 8, 1.1},
-                                         {unit(0.2, -0.7, 0.5), 2, 0.7},
-                                         {unit(-0.6, -0.5, -0.3), 0.01, 0.2},
-                                         {unit(0.5, 0.5, -0.6), 20, 0.0}});  // unused
+namespace {
+
+// Chi-square of n directions of `sample` (three uniforms) in equal-area (z, phi) bins against the
+// integral of `pdf` over each bin; the twin moves 3% of the mass to z > 0.
+void expect_samples_follow(const std::function<double(st_vec3)>& pdf,
+                           const std::function<st_vec3(float, float, float)>& sample) {
   const int NZ = 24, NPH = 48, n = 2000000;
   std::vector<double> p, counts(NZ * NPH, 0.0);
   std::vector<int> sign;
@@ -215,7 +214,7 @@ TEST(GuidingSampling, MixtureSamplesFollowItsPdf) {
       double pr = gauss(z0, z1, [&](double z) {
         return gauss(2 * kPi * j / NPH, 2 * kPi * (j + 1) / NPH, [&](double phi) {
           double r = std::sqrt(std::max(0.0, 1 - z * z));
-          return double(vmf_mixture_pdf(&m, to_vec3({r * std::cos(phi), r * std::sin(phi), z})));
+          return pdf(to_vec3({r * std::cos(phi), r * std::sin(phi), z}));
         });
       });
       p.push_back(pr);
@@ -224,7 +223,7 @@ TEST(GuidingSampling, MixtureSamplesFollowItsPdf) {
   Uniforms u(31);
   for (int s = 0; s < n; ++s) {
     float u0 = u.next(), u1 = u.next(), u2 = u.next();
-    D3 w = to_d3(vmf_mixture_sample(&m, u0, u1, u2));
+    D3 w = to_d3(sample(u0, u1, u2));
     double len = std::sqrt(dot(w, w)), phi = std::atan2(w[1], w[0]);
     if (phi < 0) phi += 2 * kPi;
     int i = std::clamp(int((w[2] / len + 1) / 2 * NZ), 0, NZ - 1), j = std::min(NPH - 1, int(phi / (2 * kPi) * NPH));
@@ -236,6 +235,36 @@ TEST(GuidingSampling, MixtureSamplesFollowItsPdf) {
   EXPECT_GT(twin, chi2_critical_1e4(tdof)) << "twin: 3% of the mass moved to z > 0 must be rejected";
 }
 
+// lobes away from the poles and kappa <= 40, so Gauss-Legendre over (z, phi) bins resolves them
+const st_vmf_mixture kBinnedMixture = make_mixture({{unit(1, 0, 0.2), 40, 0.5},
+                                                    {unit(-0.3, 0.9, -0.4), 8, 1.1},
+                                                    {unit(0.2, -0.7, 0.5), 2, 0.7},
+                                                    {unit(-0.6, -0.5, -0.3), 0.01, 0.2},
+                                                    {unit(0.5, 0.5, -0.6), 20, 0.0}});  // unused
+
+}  // namespace
+
+TEST(GuidingSampling, MixtureSamplesFollowItsPdf) {
+  const st_vmf_mixture& m = kBinnedMixture;
+  expect_samples_follow([&](st_vec3 w) { return double(vmf_mixture_pdf(&m, w)); },
+                        [&](float u0, float u1, float u2) { return vmf_mixture_sample(&m, u0, u1, u2); });
+}
+
+// The product of the mixture with a phase lobe (the guide of events deeper than the first,
+// kernels/guiding.h): its sampler follows its density, for the lobes of forward and backward
+// Henyey-Greenstein functions.
+TEST(GuidingSampling, PhaseProductSamplesFollowItsPdf) {
+  const st_vmf_mixture& m = kBinnedMixture;
+  const st_vec3 wo = to_vec3(unit(0.4, -0.3, 0.6));
+  for (float g : {0.3f, 0.7f, -0.5f}) {
+    SCOPED_TRACE(testing::Message() << "g " << g);
+    const float kp = vmf_phase_kappa(g);
+    const st_vec3 nu = g >= 0 ? wo : vec3_make(-wo.x, -wo.y, -wo.z);
+    expect_samples_follow([&](st_vec3 w) { return double(guide_pdf(&m, nu, kp, w)); },
+                          [&](float u0, float u1, float u2) { return guide_sample(&m, nu, kp, u0, u1, u2); });
+  }
+}
+
 namespace {
 
 struct Estimate {
@@ -245,16 +274,18 @@ struct Estimate {
 // n samples of the one-sample mixture of HG (around wo) and the guide m, weighed by
 // f_phase / p_mix; the twin divides by 1.03 p_mix.
 Estimate guided_estimate(const st_vmf_mixture& m, float alpha, double g_hg, const D3& wo,
-                         const std::function<double(const D3&)>& g, int n, uint32_t seed) {
+                         const std::function<double(const D3&)>& g, int n, uint32_t seed, bool product = false) {
   Uniforms u(seed);
+  const float kp = product ? vmf_phase_kappa(float(g_hg)) : 0.0f;
+  const st_vec3 nu = to_vec3(g_hg >= 0 ? wo : D3{-wo[0], -wo[1], -wo[2]});
   double s = 0, s2 = 0;
   for (int i = 0; i < n; ++i) {
     float u0 = u.next(), u1 = u.next(), u2 = u.next(), u_reuse;
-    st_vec3 wi = guide_choose(alpha, u0, &u_reuse) ? vmf_mixture_sample(&m, u_reuse, u1, u2)
+    st_vec3 wi = guide_choose(alpha, u0, &u_reuse) ? guide_sample(&m, nu, kp, u_reuse, u1, u2)
                                                     : to_vec3(hg_sample(g_hg, wo, u1, u2));
     D3 w = to_d3(wi);
     double f = hg(g_hg, dot(wo, w) / std::sqrt(dot(w, w)));
-    double pdf = guide_mixture_pdf(alpha, vmf_mixture_pdf(&m, wi), float(f));
+    double pdf = guide_mixture_pdf(alpha, guide_pdf(&m, nu, kp, wi), float(f));
     double x = f / pdf * g(w);
     s += x, s2 += x * x;
   }
@@ -279,12 +310,42 @@ TEST(GuidingMixture, OneSampleEstimatorIsUnbiasedForAnyGuide) {
                {"empty", make_mixture({})}};
   uint32_t seed = 500;
   for (const Case& c : cases)
-    for (float alpha : {0.1f, 0.5f, 0.9f}) {
-      SCOPED_TRACE(testing::Message() << c.name << " alpha " << alpha);
-      Estimate e = guided_estimate(c.m, alpha, g_hg, wo, g, 1000000, seed++);
+    for (float alpha : {0.1f, 0.5f, 0.9f})
+      for (bool product : {false, true}) {
+      SCOPED_TRACE(testing::Message() << c.name << " alpha " << alpha << " product " << product);
+      // the product's lobe makes a wrong guide's weights heavier: more samples for the twin's power
+      Estimate e = guided_estimate(c.m, alpha, g_hg, wo, g, product ? 2000000 : 1000000, seed++, product);
       EXPECT_NEAR(e.mean, reference, 4 * e.se) << "SE " << e.se;
       EXPECT_GT(std::fabs(e.mean_twin - reference), 4 * e.se) << "twin: the pdf 3% off must be detected";
     }
+}
+
+// Where the incident radiance does not depend on the direction (deep in a dense medium) a region's
+// fit is about uniform, and guiding cannot remove variance: the guided weight W = f_phase / p_mix
+// must then stay close to 1, or its second moment E[W^2] = E_f[f / p_mix] compounds over a random
+// walk's events (M2^n). With the phase product the uniform guide becomes the phase lobe: M2 within
+// 0.5% of 1 for g = 0.3 (and 7% for g = 0.7 where one lobe fits Henyey-Greenstein less well);
+// twin: the guide without the product (the uniform density itself) gives M2 = 1.068 and 1.378.
+TEST(GuidingMixture, UniformRadianceKeepsTheGuidedWeightNearOneWithThePhaseProduct) {
+  const st_vmf_mixture uniform = make_mixture({{unit(0, 0, 1), 1e-6f, 1.0}});
+  const D3 wo = unit(0.2, -0.4, 0.9);
+  for (double g_hg : {0.3, 0.7}) {
+    for (bool product : {true, false}) {
+      const float kp = product ? vmf_phase_kappa(float(g_hg)) : 0.0f;
+      Uniforms u(900);
+      double s = 0;
+      const int n = 400000;
+      for (int i = 0; i < n; ++i) {
+        const D3 w = hg_sample(g_hg, wo, u.next(), u.next());
+        const double f = hg(g_hg, dot(wo, w) / std::sqrt(dot(w, w)));
+        s += f / guide_mixture_pdf(0.5f, guide_pdf(&uniform, to_vec3(wo), kp, to_vec3(w)), float(f));
+      }
+      const double m2 = s / n, bound = g_hg < 0.5 ? 1.005 : 1.07;
+      SCOPED_TRACE(testing::Message() << "g " << g_hg << " product " << product << " M2 " << m2);
+      if (product) EXPECT_LT(m2, bound);
+      else EXPECT_GT(m2, bound) << "twin: the guide without the phase product must be seen to compound";
+    }
+  }
 }
 
 // The guided depth for measurements (SPECTRACK_GUIDE_DEPTH): a count, 0 for every event, and
@@ -304,4 +365,39 @@ TEST(GuidingDepthSetting, ReadsTheEnvironmentStrictly) {
     EXPECT_THROW(guide_depth_setting(0), spectrack::Error) << bad;
   }
   ::unsetenv("SPECTRACK_GUIDE_DEPTH");
+}
+
+// The measurements' training schedule (SPECTRACK_GUIDE_TRAINING, SPECTRACK_GUIDE_TRAINING_KEEP) and
+// switches (SPECTRACK_GUIDE_PRODUCT, SPECTRACK_GUIDE_FULL_PATH): read strictly, defaults without.
+TEST(GuidingDepthSetting, ReadsTheTrainingScheduleAndSwitchesStrictly) {
+  using namespace spectrack;
+  for (const char* v : {"SPECTRACK_GUIDE_TRAINING", "SPECTRACK_GUIDE_TRAINING_KEEP", "SPECTRACK_GUIDE_PRODUCT",
+                        "SPECTRACK_GUIDE_FULL_PATH"})
+    ::unsetenv(v);
+  GuideTraining t = guide_training_setting();
+  EXPECT_EQ(t.spp, std::vector<int>(kGuideTrainingSpp, kGuideTrainingSpp + kGuideTrainingPasses));
+  EXPECT_TRUE(t.keep);
+  EXPECT_FALSE(guide_phase_product_setting(1));  // the first event alone: the first-event product fit
+  EXPECT_TRUE(guide_phase_product_setting(2));   // deeper: the phase product
+  EXPECT_FALSE(guide_full_path_setting(false));
+  EXPECT_FALSE(guide_full_path_setting(true));  // measurements only (guide_cache.h)
+  ::setenv("SPECTRACK_GUIDE_TRAINING", "4,8,16", 1);
+  ::setenv("SPECTRACK_GUIDE_TRAINING_KEEP", "0", 1);
+  ::setenv("SPECTRACK_GUIDE_PRODUCT", "1", 1);
+  ::setenv("SPECTRACK_GUIDE_FULL_PATH", "0", 1);
+  t = guide_training_setting();
+  EXPECT_EQ(t.spp, (std::vector<int>{4, 8, 16}));
+  EXPECT_FALSE(t.keep);
+  EXPECT_TRUE(guide_phase_product_setting(1));
+  EXPECT_FALSE(guide_full_path_setting(true));
+  for (const char* bad : {"", "4,", "4,,8", "x", "0", "4;8"}) {
+    ::setenv("SPECTRACK_GUIDE_TRAINING", bad, 1);
+    if (*bad) EXPECT_THROW(guide_training_setting(), Error) << bad;
+    else EXPECT_NO_THROW(guide_training_setting());
+  }
+  ::setenv("SPECTRACK_GUIDE_PRODUCT", "yes", 1);
+  EXPECT_THROW(guide_phase_product_setting(1), Error);
+  for (const char* v : {"SPECTRACK_GUIDE_TRAINING", "SPECTRACK_GUIDE_TRAINING_KEEP", "SPECTRACK_GUIDE_PRODUCT",
+                        "SPECTRACK_GUIDE_FULL_PATH"})
+    ::unsetenv(v);
 }

@@ -28,7 +28,7 @@ __kernel void k_guiding_probe(__global const st_vmf_mixture* mix, __global const
   out_lobe[i] = vmf_eval(mu.xyz, d.w, d.xyz);
   out_vmf[i] = (float4)(vmf_sample(mu.xyz, d.w, u.y, u.z), 0.0f);
   float pdf, f;
-  float3 wi = guided_phase_sample(mix, alpha, ST_PHASE_HG, g, (float4)(0.0f), wo.xyz, u.x, u.y, u.z, 0, &pdf, &f);
+  float3 wi = guided_phase_sample(mix, alpha, ST_PHASE_HG, g, (float4)(0.0f), wo.xyz, u.x, u.y, u.z, 0, &pdf, &f, 0.0f);
   out_guided[i] = (float4)(wi, pdf);
   out_f[i] = f;
 }

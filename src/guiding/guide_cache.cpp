@@ -5,10 +5,12 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <string>
 #include <tuple>
 
 #include "guiding/vmf_fit.h"
@@ -113,6 +115,39 @@ int guide_depth_setting(int option) {
   return d > 0 ? int(d) : std::numeric_limits<int>::max();
 }
 
+namespace {
+bool switch_setting(const char* name, bool fallback) {
+  const char* e = std::getenv(name);
+  if (!e || !*e) return fallback;
+  if (std::string(e) != "0" && std::string(e) != "1") throw Error(fmt::format("{}: '{}' is not 0 or 1", name, e));
+  return std::string(e) == "1";
+}
+}  // namespace
+
+bool guide_phase_product_setting(int guided_depth) { return switch_setting("SPECTRACK_GUIDE_PRODUCT", guided_depth > 1); }
+bool guide_full_path_setting(bool) { return switch_setting("SPECTRACK_GUIDE_FULL_PATH", false); }
+
+GuideTraining guide_training_setting() {
+  GuideTraining t;
+  const char* e = std::getenv("SPECTRACK_GUIDE_TRAINING");
+  if (!e || !*e) {
+    t.spp.assign(kGuideTrainingSpp, kGuideTrainingSpp + kGuideTrainingPasses);
+  } else {
+    for (const char* at = e;;) {  // numbers, each followed by a comma and another, or the end
+      char* end = nullptr;
+      const long n = std::isdigit(static_cast<unsigned char>(*at)) ? std::strtol(at, &end, 10) : 0;
+      if (n < 1 || n > 65536 || (*end != ',' && *end != '\0') || t.spp.size() >= 16)
+        throw Error(fmt::format("SPECTRACK_GUIDE_TRAINING: '{}' is not a list of at most 16 passes' samples per "
+                                "pixel (1-65536, comma separated)", e));
+      t.spp.push_back(int(n));
+      if (*end == '\0') break;
+      at = end + 1;
+    }
+  }
+  t.keep = switch_setting("SPECTRACK_GUIDE_TRAINING_KEEP", true);
+  return t;
+}
+
 void set_pixel_estimates(GuideCache& cache, const std::vector<double>& sums, double samples) {
   double film = 0;
   for (double v : sums) film += v;
@@ -125,6 +160,8 @@ namespace {
 
 using PathKey = std::tuple<uint32_t, uint32_t, uint32_t>;  // pixel, sample, channel
 using PathEnds = std::vector<std::pair<PathKey, float>>;   // every path's radiance, sorted by key
+using VertexKey = std::tuple<uint32_t, uint32_t, uint32_t, uint32_t>;  // pixel, sample, channel, depth
+using VertexWeights = std::vector<std::pair<VertexKey, float>>;         // sorted by key
 
 // The radiance of the path `key` from its end record, or none.
 const float* path_end(const PathEnds& ends, const PathKey& key) {
@@ -133,26 +170,36 @@ const float* path_end(const PathEnds& ends, const PathKey& key) {
   return e != ends.end() && e->first == key ? &e->second : nullptr;
 }
 
+// The fit's weight of vertex `key` over the whole rest of its path (the full-path weights), or 0.
+float full_path_weight(const VertexWeights& full, const VertexKey& key) {
+  const auto e = std::lower_bound(full.begin(), full.end(), key,
+                                  [](const std::pair<VertexKey, float>& a, const VertexKey& k) { return a.first < k; });
+  return e != full.end() && e->first == key ? e->second : 0.0f;
+}
+
 // The region of records [begin, end) (sorted, one region): its radiance from its vertices'
 // radiance records joined with their paths' end records (`ends`: each path's radiance), its
-// mixture from the fit's records. Returns 1 when the region guides.
+// mixture from the fit's records, weighed by the ring's credit or, with `full` (not empty), by
+// the whole rest of the path. Returns 1 when the region guides.
 int fit_region(GuideCache& cache, const std::vector<st_guide_record>& records, size_t begin, size_t end,
-               const PathEnds& ends) {
+               const PathEnds& ends, const VertexWeights* full) {
   int32_t region;
   std::memcpy(&region, &records[begin].pos.w, 4);
   st_guide_region& g = cache.regions[size_t(region)];
   double sum_radiance = 0;
   size_t n_radiance = 0;
   std::vector<size_t> guided_depth;
+  std::vector<float> weights;
   for (size_t i = begin; i < end; ++i) {
     const st_guide_record& r = records[i];
     if (r.key[3] & ST_GUIDE_RECORD_RADIANCE) {
       const float* e = path_end(ends, PathKey{r.key[0], r.key[1], r.key[2]});
       const double L = e ? std::max(0.0, double(*e) - double(r.dir.x)) / double(r.dir.y) : 0.0;
       if (std::isfinite(L)) sum_radiance += L, ++n_radiance;
-    } else if (r.dir.w > 0) {
-      guided_depth.push_back(i);
+      continue;
     }
+    const float w = full ? full_path_weight(*full, VertexKey{r.key[0], r.key[1], r.key[2], r.key[3]}) : r.dir.w;
+    if (w > 0 && std::isfinite(w)) guided_depth.push_back(i), weights.push_back(w);
   }
   if (n_radiance >= size_t(kGuideMinRecords)) {
     g.records = float(n_radiance);
@@ -165,8 +212,8 @@ int fit_region(GuideCache& cache, const std::vector<st_guide_record>& records, s
   double sum = 0;
   for (size_t k = 0; k < n; k += stride) {
     const st_guide_record& r = records[guided_depth[k]];
-    samples.push_back(DirectionalSample{{r.dir.x, r.dir.y, r.dir.z}, r.dir.w});
-    sum += r.dir.w;
+    samples.push_back(DirectionalSample{{r.dir.x, r.dir.y, r.dir.z}, weights[k]});
+    sum += weights[k];
   }
   VmfFitOptions options;
   options.max_iterations = 40;
@@ -201,13 +248,25 @@ int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records) {
   for (const st_guide_record& r : records)
     if (r.key[3] == ST_GUIDE_RECORD_END) ends.emplace_back(PathKey{r.key[0], r.key[1], r.key[2]}, r.dir.x);
 
+  VertexWeights full;  // with cache.full_path: each guided vertex's weight over the rest of its path
+  if (cache.full_path)
+    for (const st_guide_record& r : records) {
+      const uint32_t depth = r.key[3] & ~ST_GUIDE_RECORD_RADIANCE;
+      if (r.key[3] == ST_GUIDE_RECORD_END || !(r.key[3] & ST_GUIDE_RECORD_RADIANCE) ||
+          int64_t(depth) >= int64_t(cache.header.guided_depth))
+        continue;
+      const float* e = path_end(ends, PathKey{r.key[0], r.key[1], r.key[2]});
+      const double w = e ? std::max(0.0, double(*e) - double(r.dir.x)) / double(r.dir.y) * double(r.dir.z) : 0.0;
+      full.emplace_back(VertexKey{r.key[0], r.key[1], r.key[2], depth}, float(w));
+    }
+  std::sort(full.begin(), full.end());
   for (st_guide_region& g : cache.regions) g = st_guide_region{};
   int guided = 0;
   for (size_t begin = 0; begin < records.size();) {
     const int region = region_of(records[begin]);
     size_t end = begin;
     while (end < records.size() && region_of(records[end]) == region) ++end;
-    if (region >= 0 && size_t(region) < cache.regions.size()) guided += fit_region(cache, records, begin, end, ends);
+    if (region >= 0 && size_t(region) < cache.regions.size()) guided += fit_region(cache, records, begin, end, ends, cache.full_path ? &full : nullptr);
     begin = end;
   }
   return guided;

@@ -66,6 +66,35 @@ static_assert(kGuideDepth >= 1, "the first scatter event is guided");
 // SPECTRACK_GUIDE_DEPTH (measurements; 0 or a negative value: every scatter event), else kGuideDepth.
 int guide_depth_setting(int option);
 
+// Whether the mixtures hold the incident radiance and guided events sample its product with the
+// phase function (st_guide_header.phase_product, kernels/guiding.h): SPECTRACK_GUIDE_PRODUCT=0|1,
+// else on where events deeper than the first are guided. A fit of f_phase L averaged over the
+// region's propagation directions suits the first event only (their directions are the camera's);
+// deeper, its weights f_phase / p_mix have a second moment of 1.15 per event on dense_subsurface
+// (1.48 on the clouds), which a random walk compounds, against 1.07 (1.17) with the product
+// (docs/guiding.md, "A well-trained cache"). At the first event the two measure the same variance,
+// and the product costs k_scatter time, so it stays off there.
+bool guide_phase_product_setting(int guided_depth);
+
+// Whether the fit weighs guided vertices by the whole rest of their paths (GuideCache::full_path, as
+// Open PGL's samples do) and not by the ring's last bounces: SPECTRACK_GUIDE_FULL_PATH=0|1, else off.
+// Measurements only: the join (end - total) / beta sums the path's shadow-ray folds in an order that
+// depends on the shadow ring's lag, so its weights, and the fit, change in the last bits with the
+// path slots (GuidingRender.EveryScatterEventGuidedDoesNotDependOnPathSlots fails with it).
+bool guide_full_path_setting(bool phase_product);
+
+// The training schedule of a render, for measurements of how much training the guide needs
+// (docs/guiding.md, "A well-trained cache"): SPECTRACK_GUIDE_TRAINING=s1,s2,... gives the passes'
+// samples per pixel (each pass guided by the cache the previous one fitted, each fit from its own
+// pass's records), and SPECTRACK_GUIDE_TRAINING_KEEP=0 drops the passes' samples from the image (the
+// render then renders all its samples after them, so guided and unguided renders compare at equal
+// spp with any training). Without them, kGuideTrainingSpp and the samples are kept.
+struct GuideTraining {
+  std::vector<int> spp;  // per pass
+  bool keep = true;      // the passes' samples are part of the image (they then leave one to the render)
+};
+GuideTraining guide_training_setting();
+
 // Bytes of the record buffer for Q path slots: the count, and in training passes the records of
 // one iteration (a slot records the fit's and the radiance record of the vertex that leaves its
 // ring at a scatter event; when it finishes, those of its ring and its end record), the slots'
@@ -86,6 +115,10 @@ struct GuideCache {
   std::vector<st_guide_node> nodes;   // the cells' kd-trees (kernels/guiding.h): the cells first
   std::vector<int> node_depth;        // each node's depth below its cell (host only)
   std::vector<float> pixel_estimate;  // per film pixel: the training passes' mean over samples and RGB
+  // host only: the fit weighs each guided vertex by what its direction brought back over the whole
+  // rest of its path (its radiance record joined with the path's end) instead of the ring's last
+  // bounces (guide_full_path_setting)
+  bool full_path = false;
   size_t bytes() const {
     return sizeof(st_guide_header) + regions.size() * sizeof(st_guide_region) + nodes.size() * sizeof(st_guide_node) +
            pixel_estimate.size() * sizeof(float);
@@ -122,5 +155,11 @@ size_t refine_guide_regions(GuideCache& cache, const std::vector<st_guide_record
 // records of either kind get alpha 0 and the uniform mixture, or no radiance estimate (records 0).
 // Returns the regions that guide.
 int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records);
+
+// Prints to stderr what the fitted cache does to a path (guide_report.cpp): the mean second moment
+// of the guided weight f_phase / p_mix per event over the guided regions, for a Henyey-Greenstein
+// phase function of asymmetry hg, and the lobes of the most crowded regions with their cosine to
+// the unit direction `sun` (none: 0). For measurements (SPECTRACK_GUIDE_REPORT=1).
+void report_guide_cache(const GuideCache& cache, float hg, bool product, const float* sun, int pass);
 
 }  // namespace spectrack

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <ctime>
 #include <iostream>
+#include <string>
 
 namespace spectrack {
 
@@ -79,6 +80,17 @@ void Renderer::Impl::add_guide_samples(RenderResult& res) {
   guide_samples = RenderResult{};
 }
 
+// Measurements (SPECTRACK_GUIDE_REPORT=1): what the cache after training pass k does to a path, for
+// the first medium's phase function, the lobes against the first directional light.
+void Renderer::Impl::report_guide(int pass) const {
+  const st_scene& st = ds.packed.st;
+  const float* sun = nullptr;
+  for (int l = 0; l < st.n_lights && !sun; ++l)
+    if (st.lights[l].type == ST_LIGHT_DIRECTIONAL) sun = &st.lights[l].direction.x;
+  const float g = st.n_media > 0 && st.media[0].phase_type == ST_PHASE_HG ? st.media[0].g : 0.0f;
+  report_guide_cache(guide, g, guide.header.phase_product != 0, sun, pass);
+}
+
 // The training passes: kGuideTrainingSpp samples per pixel each, at most spp - 1 in all (samples 0-3 of a seed of their
 // own), each guided by the cache the previous one fitted; records are fitted once per pass.
 // With adaptive sampling the passes run in the first round (the pilot), over every pixel in film
@@ -98,9 +110,10 @@ double Renderer::Impl::train_guide(int spp) {
   int64_t begin = 0;
   guide_info = GuideInfo{};
   guide_samples = RenderResult{};
-  // each pass leaves at least one sample to the render (a render of few samples trains fewer)
-  for (int k = 0; k < kGuideTrainingPasses && begin + 1 < spp; ++k) {
-    const int pass_spp = int(std::min<int64_t>(kGuideTrainingSpp[k], spp - 1 - begin));
+  const GuideTraining schedule = guide_training_setting();
+  // kept passes leave at least one sample to the render (a render of few samples trains fewer)
+  for (size_t k = 0; k < schedule.spp.size() && (!schedule.keep || begin + 1 < spp); ++k) {
+    const int pass_spp = int(schedule.keep ? std::min<int64_t>(schedule.spp[k], spp - 1 - begin) : schedule.spp[k]);
     records.clear();
     const auto t_loop = Clock::now();
     const RenderResult pass = run_stage_loop(begin, pass_spp, &records);
@@ -118,8 +131,9 @@ double Renderer::Impl::train_guide(int spp) {
     guide_info.records = records.size();
     guide_info.regions_guided = fit_guide_cache(guide, std::move(records));
     if (opt.guide_cache_hook) opt.guide_cache_hook(guide);
+    if (const char* e = std::getenv("SPECTRACK_GUIDE_REPORT"); e && std::string(e) == "1") report_guide(int(k));
     guide.header.origin.w = 1.0f;  // the next passes and the render sample the guide
-    guide_info.training_passes = k + 1;
+    guide_info.training_passes = int(k) + 1;
     guide_info.seconds_fit += seconds_since(t_fit);
     if (pass.interrupted) break;
   }
@@ -138,6 +152,7 @@ double Renderer::Impl::train_guide(int spp) {
   guide_info.used = true;
   guide_info.bytes = guide.bytes();
   guide_info.regions = int(guide.regions.size());
+  if (!schedule.keep) guide_samples = RenderResult{};  // measurements: the render renders every sample
   guide_info.seconds_training = seconds_since(t0);
   guide_info.cpu_seconds_training = double(std::clock() - cpu0) / CLOCKS_PER_SEC;
   return guide_info.seconds_training;

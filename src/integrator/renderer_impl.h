@@ -106,6 +106,7 @@ struct Renderer::Impl {
   void drain_records(std::vector<st_guide_record>& out);
   // The training passes, leaving at least one of `spp` samples to the render; returns its seconds.
   double train_guide(int spp);
+  void report_guide(int pass) const;
   void add_guide_samples(RenderResult& res);
 
   // Paths per batch (rounded up to whole samples): 2Q with two batches in flight, so one batch
