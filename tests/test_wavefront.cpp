@@ -1,12 +1,12 @@
 // test_wavefront.cpp: the stage loop on the device (docs/architecture.md, 'The stage loop on the
 // device'): a render in chunks of iterations (a GPU's loop) waits for the device at most once per
 // 8 iterations (host_waits in the stats), the schedule changes no pixel (one iteration per read,
-// the queue trace, and the sized loop of a CPU device against chunks of iterations; one
+// the queue trace, and the sized loop against chunks of iterations; one
 // work-group per stage launch, whose work-items then take many items each, in runs or strided,
 // against the default launch size), and every statistic the device folds matches the lockstep
 // render's. The loop policy (src/integrator/loop_policy.h) by device type: chunked over 2048
-// strided work-items per compute unit on a GPU, sized on a CPU device, whose chunked launches are
-// two work-groups per core taking runs of items; the overrides, and values refused by name. The twins: the lockstep render's own host_waits, one per iteration, must fail the 1/8
+// strided work-items per compute unit on a GPU; on a CPU device two work-groups per core taking
+// runs of items from the queues' tickets; the overrides, and values refused by name. The twins: the lockstep render's own host_waits, one per iteration, must fail the 1/8
 // bound, so the bound can fail; and another seed must change the image, so the comparison can.
 #include "cli_util.h"
 #include "integrator/loop_policy.h"
@@ -62,7 +62,7 @@ TEST(Wavefront, ChunksOfIterationsWaitRarelyAndChangeNoPixel) {
     lockstep = render(dir, "lockstep");
   }
   {
-    ScopedEnv loop("SPECTRACK_LOOP", "sized");  // a CPU device's loop, on any device
+    ScopedEnv loop("SPECTRACK_LOOP", "sized");  // one read per iteration, launches sized by it
     sized = render(dir, "sized");
   }
   ASSERT_FALSE(chunked.pixels.empty());
@@ -84,13 +84,15 @@ TEST(Wavefront, ChunksOfIterationsWaitRarelyAndChangeNoPixel) {
 
 TEST(Wavefront, StridingWorkItemsChangeNoPixel) {
   const std::string dir = test_dir();
-  Render wide, narrow, strided, grabbed;
+  Render wide, narrow, strided, grabbed, blocked;
   {
     ScopedEnv loop("SPECTRACK_LOOP", "chunked");  // launches of a fixed size, whatever the queue's
     wide = render(dir, "wide");
     {
       ScopedEnv order("SPECTRACK_ITEM_ORDER", "grabbed");  // runs taken from each queue's ticket counter
       grabbed = render(dir, "grabbed");
+      ScopedEnv fixed("SPECTRACK_ITEM_ORDER", "blocked");  // a fixed run per work-item
+      blocked = render(dir, "blocked");
     }
     ScopedEnv items("SPECTRACK_STAGE_ITEMS", "64");  // one work-group per launch takes its whole queue
     ScopedEnv blocked("SPECTRACK_ITEM_ORDER", "blocked");  // each work-item a run of items
@@ -102,6 +104,7 @@ TEST(Wavefront, StridingWorkItemsChangeNoPixel) {
   EXPECT_EQ(wide.pixels, narrow.pixels);
   EXPECT_EQ(wide.pixels, strided.pixels);
   EXPECT_EQ(wide.pixels, grabbed.pixels);
+  EXPECT_EQ(wide.pixels, blocked.pixels);
   EXPECT_EQ(wide.stats["density_lookups"], grabbed.stats["density_lookups"]);
   EXPECT_EQ(wide.stats["density_lookups"], narrow.stats["density_lookups"]);
   EXPECT_EQ(wide.stats["density_lookups"], strided.stats["density_lookups"]);
@@ -115,8 +118,9 @@ TEST(Wavefront, LoopPolicyByDeviceType) {
   using spectrack::choose_loop_policy;
   const uint64_t many = uint64_t(1) << 30;  // a queue capacity that does not limit the launch
   const spectrack::LoopPolicy cpu = choose_loop_policy(CL_DEVICE_TYPE_CPU);
-  EXPECT_TRUE(cpu.sized);
+  EXPECT_FALSE(cpu.sized);  // chunked with runs from the queues' tickets (loop_policy.cpp)
   EXPECT_TRUE(cpu.blocked_items);
+  EXPECT_TRUE(cpu.grabbed_items);
   EXPECT_EQ(chunk_launch_items(cpu, 2, 64, many), 2u * 2u * 64u);  // two work-groups per core
   const spectrack::LoopPolicy gpu = choose_loop_policy(CL_DEVICE_TYPE_GPU);
   EXPECT_FALSE(gpu.sized);
@@ -128,17 +132,16 @@ TEST(Wavefront, LoopPolicyByDeviceType) {
   spectrack::add_loop_policy_define(gpu, defines);
   EXPECT_TRUE(defines.empty());
   spectrack::add_loop_policy_define(cpu, defines);
-  EXPECT_EQ(defines, (std::vector<std::pair<std::string, std::string>>{{"ST_ITEMS_BLOCKED", "1"}}));
-  EXPECT_FALSE(cpu.grabbed_items);
+  EXPECT_EQ(defines, (std::vector<std::pair<std::string, std::string>>{{"ST_ITEMS_BLOCKED", "1"}, {"ST_ITEMS_GRABBED", "1"}}));
   EXPECT_FALSE(gpu.grabbed_items);
   {
-    ScopedEnv order("SPECTRACK_ITEM_ORDER", "grabbed");  // runs taken from the queue's ticket counter
-    const spectrack::LoopPolicy grabbed = choose_loop_policy(CL_DEVICE_TYPE_CPU);
-    EXPECT_TRUE(grabbed.grabbed_items);
-    EXPECT_TRUE(grabbed.blocked_items);
+    ScopedEnv order("SPECTRACK_ITEM_ORDER", "blocked");  // fixed runs, one per work-item
+    const spectrack::LoopPolicy blocked = choose_loop_policy(CL_DEVICE_TYPE_CPU);
+    EXPECT_FALSE(blocked.grabbed_items);
+    EXPECT_TRUE(blocked.blocked_items);
     std::vector<std::pair<std::string, std::string>> d;
-    spectrack::add_loop_policy_define(grabbed, d);
-    EXPECT_EQ(d, (std::vector<std::pair<std::string, std::string>>{{"ST_ITEMS_BLOCKED", "1"}, {"ST_ITEMS_GRABBED", "1"}}));
+    spectrack::add_loop_policy_define(blocked, d);
+    EXPECT_EQ(d, (std::vector<std::pair<std::string, std::string>>{{"ST_ITEMS_BLOCKED", "1"}}));
   }
   {
     ScopedEnv sized("SPECTRACK_LOOP", "sized");

@@ -14,13 +14,15 @@ namespace {
 
 constexpr uint64_t kGpuGroupsPerCu = 32;  // 2048 work-items of 64 per compute unit
 constexpr uint64_t kCpuGroupsPerCu = 2;   // PoCL: one work-group per core at a time, and one to balance
-// A CPU device runs the sized loop unless told otherwise: on PoCL the chunked loop's eight launches
-// per iteration (about three sized, in an iteration-heavy render's tail) cost as much CPU time as
-// the sized loop's reads save, and under load each launch waits for both cores (paths/s 0.58x
-// f9c773d's against the sized loop's 0.83x on dense_subsurface at load 14; CPU seconds equal;
-// bench/results/pocl_cost_2026-12-05c.txt). One read per iteration, where the GPU's waits per
-// iteration are below 1/8.
-constexpr bool kCpuSized = true;
+// A CPU device runs the chunked loop too, its launches' work-items taking runs of their queue from
+// its ticket counter (ST_ITEMS_GRABBED): on the idle machine that loop renders 1.07x the paths/s of
+// the chunked loop with fixed runs (ST_ITEMS_BLOCKED; median of 20 interleaved pairs over five
+// scenes) and 0.974x f9c773d's (30 pairs; the sized loop, one read per iteration: 0.968x), with at
+// most 0.11 host waits per iteration (bench/results/quiet_2026-12-06.txt). Fixed runs left a core
+// idle while the other finished its share of slower paths, and under load each launch waited for
+// both cores (0.58x f9c773d's on dense_subsurface at load 14, bench/results/pocl_cost_2026-12-05c.txt);
+// runs from a ticket go to whichever core asks, so a late work-group finds the queue taken.
+constexpr bool kCpuSized = false;
 
 const char* env(const char* name) {
   const char* e = std::getenv(name);
@@ -34,6 +36,7 @@ LoopPolicy choose_loop_policy(cl_device_type type) {
   LoopPolicy p;
   p.groups_per_cu = gpu ? kGpuGroupsPerCu : kCpuGroupsPerCu;
   p.blocked_items = !gpu;
+  p.grabbed_items = !gpu;
   p.sized = !gpu && kCpuSized;
   if (const char* e = env("SPECTRACK_LOOP")) {
     const std::string v = e;

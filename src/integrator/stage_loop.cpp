@@ -10,9 +10,9 @@
 // at a time), the film watch (it looks after each new batch) and the queue trace run one
 // iteration per read instead. Every stage is launched over launch_items() work-items whatever its
 // queue's size (loop_policy.h: by device type); a kernel's work-items take the items its queue
-// holds, strided or in runs (kernels/wavefront.h, ST_FOR_ITEMS). The sized loop (a CPU
-// device's) reads the state after every iteration instead and launches each stage over its
-// queue's items.
+// holds, strided or in runs (kernels/wavefront.h, ST_FOR_QUEUE_ITEMS). The sized loop
+// (SPECTRACK_LOOP=sized, for measurements) reads the state after every iteration instead and
+// launches each stage over its queue's items.
 #include <fmt/format.h>
 
 #include <algorithm>
