@@ -198,6 +198,9 @@ void Renderer::Impl::drive_loop(const RenderBuffers& b, const BatchPlan& p, Loop
   cl_ulong t_last = 0, t_first = 0;  // device clock at the end of the last and the first read looked at
   uint64_t iterations_first = 0;      // iterations run at the first
   uint64_t finished_last = 0, iterations_last = 0;  // at the last read looked at
+  // where the loop starts (a resumed film's samples): the reporter's first line, before the first
+  // chunk's paths finish, and the start of its rate
+  if (opt.progress) opt.progress(double(s.samples_before + s.samples_done) / double(s.samples_before + p.spp));
   for (int next = 0;; next = 1 - next) {
     if (stop_requested(s)) break;
     enqueue_iterations(p, s, s.chunk);
