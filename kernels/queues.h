@@ -68,22 +68,28 @@ inline void free_push(__global uint* queues, __global uint* counters, uint Q, ui
   queues[free_offset(Q) + base + i] = slot;
 }
 
-/* Adaptive sampling (ST_FEATURE_ADAPTIVE): after both parities of the queues, the list of the
- * window pixels (row-major indices in the window) whose samples this render draws; a batch is
- * whole samples of these pixels, in list order. */
-inline uint active_pixels_offset(uint Q, uint NL) { return 2u * queue_parity_words(Q, NL); }
+/* Per-pixel work (ST_FEATURE_PIXEL_WORK): after both parities of the queues, one counter per
+ * window pixel of the density lookups and majorant (DDA) steps that its paths' tracking, their
+ * shadow rays and their camera rays' alpha estimates took in this render: the cost of a pixel's
+ * samples, for the trace of an adaptive render (docs/adaptive.md "Measured"). Counts only: no
+ * image value reads it. */
+inline uint pixel_work_offset(uint Q, uint NL) { return 2u * queue_parity_words(Q, NL); }
 
-/* Per-pixel work (ST_FEATURE_PIXEL_WORK): after the pixel list, padded to the window's pixels, one
- * counter per window pixel of the density lookups and majorant (DDA) steps that its paths'
- * tracking, their shadow rays and their camera rays' alpha estimates took in this render: the
- * cost of a pixel's samples, for the trace of an adaptive render (docs/adaptive.md "Measured").
- * Counts only: no image value reads it. */
+/* Adaptive sampling (ST_FEATURE_ADAPTIVE): after the queues (and the work counters, where they are
+ * compiled in), the render's list of entries, two words each: a window pixel (row-major index in
+ * the window) and the offset of the entry's first sample from the render's first sample. A batch
+ * is whole samples of these entries, in list order; a pixel may have several entries, each its own
+ * range of samples (adaptive.cpp renders a round's pixels of every length as one list). */
+inline uint active_pixels_offset(__constant const st_scene* scene, uint Q, uint NL) {
+  return pixel_work_offset(Q, NL) + (ST_HAS_PIXEL_WORK ? (uint)(scene->window_width * scene->window_height) : 0u);
+}
+
 inline void pixel_work_add(__constant const st_scene* scene, __global uint* queues, uint Q, uint NL, uint pixel,
                            uint work) {
-  const uint w = (uint)scene->window_width, npix = w * (uint)scene->window_height;
+  const uint w = (uint)scene->window_width;
   const uint cw = (uint)scene->camera.width;
   const uint x = pixel % cw - (uint)scene->pixel_x0, y = pixel / cw - (uint)scene->pixel_y0;
-  if (work) atomic_add(&queues[active_pixels_offset(Q, NL) + npix + y * w + x], work);
+  if (work) atomic_add(&queues[pixel_work_offset(Q, NL) + y * w + x], work);
 }
 
 inline void counter_add(__global uint* counters, int c, uint v) {

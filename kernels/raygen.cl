@@ -200,7 +200,11 @@ ST_STAGE_FUNCTION(raygen) {
   uint ch = in_batch % nch;
   uint wpix = (in_batch / nch) % npix;
   uint s_local = in_batch / (nch * npix);
-  if (ST_HAS_ADAPTIVE) wpix = queues[active_pixels_offset(Q, NL) + wpix];
+  if (ST_HAS_ADAPTIVE) { /* an entry of the list: its pixel, its first sample (queues.h) */
+    const uint e = active_pixels_offset(scene, Q, NL) + 2u * wpix;
+    wpix = queues[e];
+    s_local += queues[e + 1u];
+  }
 
   st_path p;
   p.sample = it.sample_begin + (uint)b * it.samples_per_batch + s_local;

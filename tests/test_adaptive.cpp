@@ -6,7 +6,7 @@
 // same samples, stopped by the same rule, is seen to be biased, and so is a 3% error (the twins).
 // A render then checks the whole path: it reaches its target with fewer samples than the cap on
 // average, agrees with a long uniform render of another seed within 4 SE (a 3% error does not),
-// and repeats to the bit. The command line writes the samples layer and the metadata, and refuses
+// and repeats to the bit; a round's list of entries draws each entry's own samples. The command line writes the samples layer and the metadata, and refuses
 // what cannot work with adaptive sampling (exit 2), merges included.
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
@@ -420,6 +420,40 @@ TEST(AdaptiveRender, ReachesItsTargetWithFewerSamplesAndAgreesWithAUniformRender
   const AdaptiveResult again = render_adaptive_scene(scene, 0.04, 2048);
   ASSERT_EQ(again.film.sum.size(), f.sum.size());
   for (size_t i = 0; i < f.sum.size(); ++i) ASSERT_EQ(again.film.sum[i], f.sum[i]) << "value " << i;
+}
+
+// A round renders as one list of entries (adaptive.cpp round_entries): a pixel listed twice with
+// sample offsets 0 and 4 of a 4-spp render draws the very samples of an 8-spp render of it, and one
+// listed once those of a 4-spp render; the twin lists a pixel twice at offset 0 (its first 4
+// samples twice over), which must not match.
+TEST(AdaptiveRender, AListOfEntriesDrawsEachEntrysOwnSamples) {
+  const std::string dir = test_dir();
+  const SceneDesc scene = st_test::scene_from_json(small_noise_scene(dir), dir);
+  RenderOptions o = st_test::quiet_options(8);
+  o.noise_target = 0.05;
+  o.adaptive = true;
+  Renderer r(scene, o);
+  const uint32_t w = r.settings().window.width, h = r.settings().window.height;
+  const uint32_t a = (h / 2) * w + w / 2, b = a + 1;
+  const RenderResult eight = r.render_pixels({a}, 16, 8), four = r.render_pixels({b}, 16, 4);
+  const RenderResult list = r.render_pixels({a, b, a}, 16, 4, {0, 0, 4});
+  const RenderResult twin = r.render_pixels({a, b, a}, 16, 4, {0, 0, 0});
+  const size_t na = eight.aov_channels.size();
+  ASSERT_EQ(list.sum.size(), 9u);
+  ASSERT_EQ(list.aov_sum.size(), 3 * na);
+  auto near = [](double x, double y) { return std::abs(x - y) <= 1e-5 * std::max(std::abs(x), std::abs(y)) + 1e-9; };
+  double differs = 0;
+  for (int c = 0; c < 3; ++c) {
+    ASSERT_GT(eight.sum[c], 0.0) << "the test pixel sees the medium";
+    EXPECT_TRUE(near(list.sum[c] + list.sum[6 + c], eight.sum[c])) << c;
+    EXPECT_TRUE(near(list.sum[3 + c], four.sum[c])) << c;
+    differs += !near(twin.sum[c] + twin.sum[6 + c], eight.sum[c]);
+  }
+  for (size_t q = 0; q < na; ++q) {
+    EXPECT_TRUE(near(list.aov_sum[q] + list.aov_sum[2 * na + q], eight.aov_sum[q])) << eight.aov_channels[q];
+    EXPECT_TRUE(near(list.aov_sum[na + q], four.aov_sum[q])) << eight.aov_channels[q];
+  }
+  EXPECT_GT(differs, 0) << "the twin: the same samples twice must differ from 8 samples";
 }
 
 // With guiding, the training passes run in the pilot round and their samples are part of it: the

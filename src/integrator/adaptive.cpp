@@ -28,7 +28,10 @@ double AdaptivePixel::brightness() const { return n > 0 ? (s1[0] + s1[1] + s1[2]
 int64_t adaptive_round_samples(int64_t n, const AdaptivePlan& plan) {
   const int64_t pilot = std::min(plan.pilot, plan.spp);
   if (n == 0) return pilot;
-  return std::min(std::max(pilot, n / 2), plan.spp - n);
+  // a multiple of kAdaptiveLastRoundSteps, so that every length of the round is a multiple of its
+  // quarter (one render of entries: round_entries)
+  const int64_t k = (std::max(pilot, n / 2) + kAdaptiveLastRoundSteps - 1) / kAdaptiveLastRoundSteps * kAdaptiveLastRoundSteps;
+  return std::min(k, plan.spp - n);
 }
 
 double adaptive_relative_variance(const AdaptivePixel& px, double floor) {
@@ -333,18 +336,85 @@ void set_pilot_weights(const RenderResult& rr, const WeightedFilm& film, const R
   wt = adaptive_pilot_weights(pilot, s.window.width, s.window.height, plan);
 }
 
-// Renders one round, starting at sample n: each group is one render of its pixels, added with the
-// weights wt (per window pixel; the pilot's set from the pilot, n = 0). Returns whether the render
-// was stopped.
+// A round's pixels as the entries of one render (Renderer::render_pixels): a pixel taking L
+// samples has L / unit entries of `unit` samples, entry i at samples n + i unit .., unit the
+// greatest common divisor of the round's lengths; the same samples as a render per length, with
+// one drain of the stage loop instead of one per length. Pixel i's entries are first[i] ..
+// first[i + 1] - 1. Empty (a render per length) where there is one length, or where the divisor
+// would list more than kAdaptiveEntriesPerPixel entries per pixel.
+struct RoundEntries {
+  int64_t unit = 0;
+  std::vector<uint32_t> pixels, offsets, round_pixels;
+  std::vector<size_t> first;
+};
+
+RoundEntries round_entries(const RoundGroups& groups) {
+  RoundEntries e;
+  if (groups.size() < 2) return e;
+  size_t count = 0, round_pixels = 0;
+  for (const auto& [len, pix] : groups) e.unit = std::gcd(e.unit, len);
+  for (const auto& [len, pix] : groups) {
+    count += size_t(len / e.unit) * pix.size();
+    round_pixels += pix.size();
+  }
+  if (count > kAdaptiveEntriesPerPixel * round_pixels) return RoundEntries{};
+  for (const auto& [len, pix] : groups)
+    for (const uint32_t p : pix) {
+      e.first.push_back(e.pixels.size());
+      e.round_pixels.push_back(p);
+      for (int64_t i = 0; i < len / e.unit; ++i) {
+        e.pixels.push_back(p);
+        e.offsets.push_back(uint32_t(i * e.unit));
+      }
+    }
+  e.first.push_back(e.pixels.size());
+  return e;
+}
+
+// The render of entries `rr` as a render of the round's pixels: each pixel's sums are its entries'
+// (its work counter, per window pixel, counted once).
+RenderResult fold_entries(const RenderResult& rr, const RoundEntries& e, size_t na) {
+  RenderResult f;
+  const size_t n = e.round_pixels.size();
+  f.sum.assign(3 * n, 0.0);
+  f.aov_sum.assign(na * n, 0.0);
+  if (!rr.pixel_work.empty()) f.pixel_work.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    for (size_t j = e.first[i]; j < e.first[i + 1]; ++j) {
+      for (int c = 0; c < 3; ++c) f.sum[i * 3 + c] += rr.sum[j * 3 + c];
+      for (size_t q = 0; q < na; ++q) f.aov_sum[i * na + q] += rr.aov_sum[j * na + q];
+    }
+    if (!rr.pixel_work.empty()) f.pixel_work[i] = rr.pixel_work[e.first[i]];
+  }
+  return f;
+}
+
+// Renders one round, starting at sample n: one render of its entries (round_entries), else each
+// group one render of its pixels; added with the weights wt (per window pixel; the pilot's set from
+// the pilot, n = 0). Returns whether the render was stopped.
 bool render_round(Renderer& r, const RoundGroups& groups, std::vector<double>& wt, int64_t n, WeightedFilm& film,
                   const AdaptivePlan& plan, AdaptiveResult& out) {
   static const bool trace = std::getenv("SPECTRACK_TRACE_ADAPTIVE") != nullptr;
+  auto traced = [&](const RenderResult& rr, int64_t len, size_t pixels) {
+    if (trace)
+      fmt::print(stderr, "round {} (aim {:.2f}, cap {}): {} samples of {} entries from sample {}: {:.3f} s, occupancy {:.2f}, {} iterations\n",
+                 out.rounds, out.aim, out.cap, len, pixels, n, rr.seconds_render, rr.stats.occupancy_mean, rr.stats.iterations);
+    add_round_info(out.film, rr, out.film.width == 0);
+  };
+  const RoundEntries e = round_entries(groups);
+  if (!e.pixels.empty()) {
+    const RenderResult rr = r.render_pixels(e.pixels, n, int(e.unit), e.offsets);
+    traced(rr, e.unit, e.pixels.size());
+    if (rr.spp_done > 0) {
+      const RenderResult f = fold_entries(rr, e, film.na);
+      for (size_t i = 0; i < e.round_pixels.size(); ++i)
+        film.add(f, i, e.round_pixels[i], wt[e.round_pixels[i]], int64_t(e.first[i + 1] - e.first[i]) * rr.spp_done);
+    }
+    return rr.interrupted;
+  }
   for (const auto& [len, pix] : groups) {
     const RenderResult rr = r.render_pixels(pix, n, int(len));
-    if (trace)
-      fmt::print(stderr, "round {} (aim {:.2f}, cap {}): {} samples of {} pixels from sample {}: {:.3f} s, occupancy {:.2f}, {} iterations\n",
-                 out.rounds, out.aim, out.cap, len, pix.size(), n, rr.seconds_render, rr.stats.occupancy_mean, rr.stats.iterations);
-    add_round_info(out.film, rr, out.film.width == 0);
+    traced(rr, len, pix.size());
     if (n == 0 && rr.spp_done == int(len)) set_pilot_weights(rr, film, r.settings(), plan, wt);
     if (rr.spp_done > 0)
       for (size_t j = 0; j < pix.size(); ++j) film.add(rr, j, pix[j], wt[pix[j]], rr.spp_done);

@@ -47,8 +47,13 @@ namespace spectrack {
 // target leave more than 5% of them above it.
 constexpr double kAdaptiveAim = 0.9;
 // A pixel's last round takes the samples it still needs, rounded up to a multiple of
-// 1 / kAdaptiveLastRoundSteps of the round (each length is one render of its pixels).
+// 1 / kAdaptiveLastRoundSteps of the round.
 constexpr int64_t kAdaptiveLastRoundSteps = 4;
+// A round renders its pixels of every length as one list of entries of the lengths' common
+// divisor (adaptive.cpp round_entries), where that lists at most kAdaptiveEntriesPerPixel entries
+// per pixel on average (a round's length is a multiple of 4 and the lengths multiples of its
+// quarter, so that holds but in a round cut short by the spp); else one render per length.
+constexpr size_t kAdaptiveEntriesPerPixel = 4;
 
 // A round that is not the pixel's last gets its weight B k / T from rho (1 + kAdaptiveWeightMargin
 // / sqrt(n)), not rho: a rho estimated too low from few samples would give the early rounds too
@@ -114,7 +119,8 @@ struct AdaptivePixel {
   double brightness() const;
 };
 
-// The samples of the round that starts after n samples.
+// The samples of the round that starts after n samples: the pilot's k_0, then n / 2 (at least
+// k_0) rounded up to a multiple of kAdaptiveLastRoundSteps, at most spp - n.
 int64_t adaptive_round_samples(int64_t n, const AdaptivePlan& plan);
 // A pixel's relative variance per sample, sigma^2 / max(m, floor)^2 (0 below 2 samples), and per
 // pixel the larger of its own and the mean over its 3x3 neighbourhood: a pixel whose samples

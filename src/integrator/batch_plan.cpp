@@ -129,10 +129,14 @@ RenderBuffers Renderer::Impl::allocate(const BatchPlan& p) {
   const uint64_t per_parity = p.Q * queue_words_per_slot(p.NL) / 2;
   std::vector<uint32_t> init_queue(2 * per_parity, 0u);
   for (uint64_t i = 0; i < p.Q; ++i) init_queue[i] = uint32_t(i);  // parity 0, FREE: every slot
-  // adaptive sampling: the pixel list follows the queues (queues.h active_pixels_offset)
-  if (settings.adaptive) init_queue.insert(init_queue.end(), active_pixels.begin(), active_pixels.end());
-  // and the per-pixel work counters follow the list padded to the window (pixel_work_add)
-  if (ds.packed.features & ST_FEATURE_PIXEL_WORK) init_queue.resize(2 * per_parity + 2 * settings.window.pixels(), 0u);
+  // the per-pixel work counters follow the queues (queues.h pixel_work_offset), then adaptive
+  // sampling's list of entries: pixel, sample offset (active_pixels_offset)
+  if (ds.packed.features & ST_FEATURE_PIXEL_WORK) init_queue.resize(2 * per_parity + settings.window.pixels(), 0u);
+  if (settings.adaptive)
+    for (size_t j = 0; j < active_pixels.size(); ++j) {
+      init_queue.push_back(active_pixels[j]);
+      init_queue.push_back(active_offsets[j]);
+    }
   b.queues = ds.buffer(CL_MEM_READ_WRITE, init_queue.size() * 4, init_queue.data(),
                        fmt::format("queues ({})", slot_cause(opt, p, true)).c_str());
   std::vector<uint32_t> counters(ST_C_COUNT, 0u);

@@ -137,7 +137,7 @@ RenderResult Renderer::Impl::result_header(int64_t sample_begin, int spp) const 
 // The work counters (queues.h pixel_work_add) of the render's pixels, in the order of its pixel list.
 void Renderer::Impl::read_pixel_work(const RenderBuffers& b, const BatchPlan& p, RenderResult& res) {
   if (!(ds.packed.features & ST_FEATURE_PIXEL_WORK)) return;
-  const uint64_t window = settings.window.pixels(), at = p.Q * queue_words_per_slot(p.NL) + window;
+  const uint64_t window = settings.window.pixels(), at = p.Q * queue_words_per_slot(p.NL);
   std::vector<uint32_t> work(window);
   ST_CL_CHECK(ds.queue.enqueueReadBuffer(b.queues, CL_TRUE, at * 4, window * 4, work.data()), "read the pixel work");
   res.pixel_work.resize(active_pixels.size());
@@ -218,6 +218,7 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
   if (settings.adaptive && active_pixels.empty()) {  // a render of every pixel (Renderer::render)
     active_pixels.resize(settings.window.pixels());
     for (size_t i = 0; i < active_pixels.size(); ++i) active_pixels[i] = uint32_t(i);
+    active_offsets.assign(active_pixels.size(), 0u);
   }
   const std::clock_t cpu0 = std::clock();
   const double seconds_training = settings.guiding && !guide_trained ? train_guide(spp) : 0.0;
@@ -304,12 +305,21 @@ Renderer::~Renderer() = default;
 
 RenderResult Renderer::render() { return impl_->render(impl_->settings.sample_begin, impl_->settings.spp); }
 RenderResult Renderer::render(int64_t sample_begin, int spp) { return impl_->render(sample_begin, spp); }
-RenderResult Renderer::render_pixels(const std::vector<uint32_t>& window_pixels, int64_t sample_begin, int spp) {
+RenderResult Renderer::render_pixels(const std::vector<uint32_t>& window_pixels, int64_t sample_begin, int spp,
+                                     const std::vector<uint32_t>& sample_offsets) {
   if (!impl_->settings.adaptive) throw Error("internal: a render of a pixel list without adaptive sampling");
   if (window_pixels.empty()) throw Error("internal: a render of no pixel");
+  if (!sample_offsets.empty() && sample_offsets.size() != window_pixels.size())
+    throw Error("internal: a pixel list's sample offsets do not match its pixels");
   for (uint32_t p : window_pixels)
     if (p >= impl_->settings.window.pixels()) throw Error(fmt::format("internal: pixel {} outside the window", p));
+  const uint32_t last = sample_offsets.empty() ? 0u : *std::max_element(sample_offsets.begin(), sample_offsets.end());
+  if (sample_begin < 0 || spp < 1 || uint64_t(sample_begin) + last + uint64_t(spp) > (uint64_t(1) << 32))
+    throw Error(fmt::format("internal: samples {}:{} of a pixel list with offsets up to {} are not sample indices 0 .. 2^32",
+                            sample_begin, sample_begin + spp, last));
   impl_->active_pixels = window_pixels;
+  impl_->active_offsets = sample_offsets;
+  impl_->active_offsets.resize(window_pixels.size(), 0u);
   return impl_->render(sample_begin, spp);
 }
 const std::string& Renderer::device_name() const { return impl_->ds.dev.name; }

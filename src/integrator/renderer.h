@@ -145,9 +145,11 @@ class Renderer {
   // sequence, e.g. one chunk of a multi-device render).
   RenderResult render(int64_t sample_begin, int spp);
   // Adaptive sampling (settings().adaptive): renders samples [sample_begin, sample_begin + spp) of
-  // the listed window pixels only (row-major indices in the window); the result's sums (and
-  // rgb, aov_sum) hold those pixels in list order.
-  RenderResult render_pixels(const std::vector<uint32_t>& window_pixels, int64_t sample_begin, int spp);
+  // the listed window pixels only (row-major indices in the window), each entry j shifted by
+  // sample_offsets[j] where given (a pixel listed twice with offsets 0 and spp takes 2 spp
+  // samples); the result's sums (and rgb, aov_sum, pixel_work) hold the entries in list order.
+  RenderResult render_pixels(const std::vector<uint32_t>& window_pixels, int64_t sample_begin, int spp,
+                             const std::vector<uint32_t>& sample_offsets = {});
 
   const std::string& device_name() const;
   uint32_t features() const;  // the kernels' st_feature mask

@@ -92,9 +92,10 @@ struct Renderer::Impl {
   bool guide_trained = false;
   RenderResult guide_samples;  // the training passes' film sums, added to the first render's image
 
-  // adaptive sampling: the window pixels the next stage loop renders (kernels/queues.h
-  // active_pixels_offset); empty without adaptive sampling
-  std::vector<uint32_t> active_pixels;
+  // adaptive sampling: the entries the next stage loop renders (kernels/queues.h
+  // active_pixels_offset), each a window pixel and the offset of its first sample from the
+  // render's; empty without adaptive sampling
+  std::vector<uint32_t> active_pixels, active_offsets;
 
   void setup();
   void warm_kernels();
