@@ -2,7 +2,7 @@
 //
 // Design (docs/adaptive.md has the derivation). A pixel's samples come in rounds: round 0, the
 // pilot, gives every pixel kNoiseMinSpp samples; round r >= 1 gives each pixel still active
-// k_r = max(pilot, n_r / 2) more (n_r the samples before it, the same for every pixel that takes
+// k_r = max(pilot, n_r / 2) more, rounded up to a multiple of 4 (n_r the samples before it, the same for every pixel that takes
 // the round, so a round's paths are samples n_r .. n_r + k_r - 1 of each listed pixel, the very
 // paths a uniform render draws), capped at the render's spp. The pixel's estimate is
 // X = sum_r a_r M_r, M_r the mean of its round-r samples, with a weight a_r that is fixed before
@@ -15,8 +15,8 @@
 // rho (V + B^2 / T) <= E^2 with rho = sigma^2 / max(m, floor)^2 the relative variance per sample
 // (as noise.h measures the error), or the mean over the pixel's 3x3 neighbourhood where that is
 // larger; then a_r = B k_r / T, or B when T <= k_r (the last round, which then takes T samples
-// rounded up to a quarter of k_r: finishing pixels of a round are rendered in up to four groups of
-// lengths; the weight of a round that is not the last is taken from a rho with a margin,
+// rounded up to a quarter of k_r: a round is one render of a list of entries, a pixel and the offset
+// of its first sample, each of the lengths' common divisor of samples; the weight of a round that is not the last is taken from a rho with a margin,
 // kAdaptiveWeightMargin). The aim is kAdaptiveAim times the target, raised towards the target as
 // far as the drift of the pixels that finished allows (adaptive_aim); a pixel out of reach of its
 // aim (rho V >= aim^2) aims at the target, or, out of reach of that too, finishes with its next
