@@ -7,14 +7,16 @@
 #ifndef SPECTRACK_GUIDE_PATHS_H
 #define SPECTRACK_GUIDE_PATHS_H
 
-/* Appends one record (the count is the buffer's first uint; the records start 16 bytes in). The
- * host drains the buffer after every iteration, and its capacity is the shadow queue's, so no
- * record is lost. */
-inline void guide_record_push(__global uint* rec, uint capacity, float3 pos, float3 dir, float weight, uint4 key) {
+/* Appends one record (the count is the buffer's first uint; the records start 16 bytes in) with
+ * `phase` in pos.w (the fit's records: f_phase at the direction; the host reads it, then bins the
+ * records by position into its refined regions and writes their region there). The host drains
+ * the buffer after every iteration, and its capacity is the shadow queue's, so no record is lost. */
+inline void guide_record_push(__global uint* rec, uint capacity, float3 pos, float phase, float3 dir, float weight,
+                              uint4 key) {
   uint i = atomic_inc(&rec[0]);
   if (i >= capacity) return;
   __global st_guide_record* r = (__global st_guide_record*)(rec + 4) + i;
-  r->pos = (float4)(pos, 0.0f); /* the host bins the records by position into its refined regions */
+  r->pos = (float4)(pos, phase);
   r->dir = (float4)(dir, weight);
   r->key[0] = key.x;
   r->key[1] = key.y;
@@ -79,10 +81,10 @@ inline void guide_vertex_record(__global uint* rec, __global const st_guide_head
   const float w = v->pos.w * to_L;
   /* only the guided scatter events fit; a weight of 0 too (the host may weigh it by the whole path) */
   if ((int)key.w < h->guided_depth && w >= 0.0f && isfinite(w))
-    guide_record_push(rec, (uint)h->dims[3], v->pos.xyz, v->dir.xyz, w, key);
+    guide_record_push(rec, (uint)h->dims[3], v->pos.xyz, v->dir.w, v->dir.xyz, w, key);
   const float b = masked_avg(fabs(v->beta), mask);
   if (b > 0.0f && isfinite(v->total.x))
-    guide_record_push(rec, (uint)h->dims[3], v->pos.xyz, (float3)(v->total.x, b, to_L), 0.0f,
+    guide_record_push(rec, (uint)h->dims[3], v->pos.xyz, 0.0f, (float3)(v->total.x, b, to_L), 0.0f,
                       (uint4)(key.xyz, key.w | ST_GUIDE_RECORD_RADIANCE));
 }
 /* A scatter event of a training path: credits what the path gathered since its last scatter
@@ -114,7 +116,7 @@ inline void guide_training_finish(__global const st_guide_header* h, __global ui
   guide_credit(ring, 0, p->depth - 1, p->depth, p->L - guide_slot(rec, (uint)h->dims[3], slot)->L_seen, mask);
   for (int k = max(0, p->depth - ST_GUIDE_RING); k < p->depth; ++k)
     guide_vertex_record(rec, h, &ring[k % ST_GUIDE_RING], (uint4)(p->pixel, p->sample, p->channel, (uint)k), mask);
-  guide_record_push(rec, (uint)h->dims[3], (float3)(0.0f), (float3)(total, 0.0f, 0.0f), 0.0f,
+  guide_record_push(rec, (uint)h->dims[3], (float3)(0.0f), 0.0f, (float3)(total, 0.0f, 0.0f), 0.0f,
                     (uint4)(p->pixel, p->sample, p->channel, ST_GUIDE_RECORD_END));
 }
 

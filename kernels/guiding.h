@@ -274,7 +274,8 @@ typedef struct {
 /* One radiance record: a scatter vertex of a training path, the direction it scattered in and
  * what that direction brought back (st_guide_vertex). */
 typedef struct {
-  st_float4 pos;  /* xyz: the scatter position; w: the region index (its bits; the host bins by xyz) */
+  st_float4 pos;  /* xyz: the scatter position; w: from the device f_phase at dir (the fit's records), on
+                   * the host the region index (its bits; the host bins by xyz) */
   st_float4 dir;  /* xyz: the scattered direction; w: the weight, f_phase L / p_mix (a lane mean per unit throughput) */
   st_uint key[4]; /* pixel, sample, channel, depth: the record's place in a canonical order */
 } st_guide_record;

@@ -381,6 +381,7 @@ AdaptiveResult render_adaptive_scene(const SceneDesc& scene, double target, int 
   if (guiding) {
     o.guiding = kGuidingOn;
     o.guide_grid_cells = 2;  // a small film trains few records: few, well-filled regions
+    o.guide_alpha = kGuideAlpha;  // every fitted region guides, whatever the records say it pays
   }
   Renderer r(scene, o);
   AdaptivePlan plan;

@@ -54,6 +54,7 @@ RenderResult render_guided(const json& s, const std::string& dir, int tracker, i
   o.guide_cache_hook = std::move(hook);
   o.generic_kernels = generic;
   o.guide_grid_cells = 2;  // a 16 x 16 film trains few records: few, well-filled regions
+  o.guide_alpha = kGuideAlpha;  // every fitted region guides (the learned alpha: test_guiding_oracle.cpp)
   if (more) more(o);
   return Renderer(scene_from_json(s, dir), o).render();
 }

@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "guiding/guide_cache.h"
 #include "device/probe.h"
 #include "scene/phase_models.h"
 #include "test_util.h"
@@ -267,6 +268,7 @@ RenderResult render_as(const json& s, const std::string& dir, int tracker, uint3
   if (guiding) {
     o.guiding = kGuidingOn;
     o.guide_grid_cells = 2;
+    o.guide_alpha = kGuideAlpha;  // every fitted region guides, whatever the records say it pays
   }
   return Renderer(scene_from_json(s, dir), o).render();
 }

@@ -1,5 +1,7 @@
-// guide_cache.cpp: the grid of cells over the media and the per-region fits (guide_cache.h); the
-// cells' kd-trees are guide_tree.cpp.
+// guide_cache.cpp: the grid of cells over the media and the per-region fits (guide_cache.h): each
+// region's mixture from its lit records, or pooled from the subtree or block of cells around a sparse
+// region, and its selection probability learned from held-out records; the cells' kd-trees are
+// guide_tree.cpp.
 #include "guiding/guide_cache.h"
 
 #include <fmt/format.h>
@@ -127,6 +129,16 @@ bool switch_setting(const char* name, bool fallback) {
 bool guide_phase_product_setting(int guided_depth) { return switch_setting("SPECTRACK_GUIDE_PRODUCT", guided_depth > 1); }
 bool guide_full_path_setting(bool) { return switch_setting("SPECTRACK_GUIDE_FULL_PATH", false); }
 
+float guide_alpha_setting() {
+  const char* e = std::getenv("SPECTRACK_GUIDE_ALPHA");
+  if (!e || !*e) return -1.0f;
+  char* end = nullptr;
+  const double a = std::strtod(e, &end);
+  if (*end != '\0' || !(a >= 0 && a <= kGuideAlphaMax))
+    throw Error(fmt::format("SPECTRACK_GUIDE_ALPHA: '{}' is not a selection probability in [0, {}]", e, kGuideAlphaMax));
+  return float(a);
+}
+
 GuideTraining guide_training_setting() {
   GuideTraining t;
   const char* e = std::getenv("SPECTRACK_GUIDE_TRAINING");
@@ -177,19 +189,107 @@ float full_path_weight(const VertexWeights& full, const VertexKey& key) {
   return e != full.end() && e->first == key ? e->second : 0.0f;
 }
 
+// The fit's records of one region or of several pooled: indices into the sorted records, weights.
+// With each, f_phase at its direction and the density t the training drew it with; `all` counts the
+// records of weight 0 too (the directions that brought nothing back).
+struct FitRecords {
+  std::vector<size_t> index;
+  std::vector<float> weight, phase, train;
+  size_t all = 0;
+  void append(const FitRecords& o) {
+    index.insert(index.end(), o.index.begin(), o.index.end());
+    weight.insert(weight.end(), o.weight.begin(), o.weight.end());
+    phase.insert(phase.end(), o.phase.begin(), o.phase.end());
+    train.insert(train.end(), o.train.begin(), o.train.end());
+    all += o.all;
+  }
+};
+
+// The selection probability that the records say pays (docs/guiding.md, "The learned selection
+// probability"): the estimate f_phase L / p_mix of the incident light at a guided event has, under
+// the one-sample mixture of selection probability a, the second moment
+//     M(a) = integral of (f_phase L)^2 / p_mix = E_t[r^2 t / (a p_guide + (1 - a) f_phase)],
+// with r = f_phase L / t a record drawn from t (the mean mu = E_t[r] does not depend on a). So the
+// variance a removes is the mean of d = r^2 t (1 / f_phase - 1 / p_mix) over the records, records of
+// weight 0 included (d = 0). Among a = 0.1, ..., kGuideAlphaMax the one that removes most wins if
+// its removal stands out of the records' noise (above kGuideAlphaZ standard errors of the mean of
+// d) and is at least kGuideAlphaGain of the unguided variance M(0) - mu^2; else 0, phase sampling,
+// where the guide does not pay back its weights' spread. Any a < 1 keeps the estimator unbiased.
+float learn_alpha(const st_vmf_mixture& mix, const std::vector<st_guide_record>& records, const FitRecords& f) {
+  const double n = double(std::max(f.all, f.index.size()));
+  double mean = 0, m0 = 0;
+  std::vector<double> pdf(f.index.size());
+  for (size_t i = 0; i < f.index.size(); ++i) {
+    const st_guide_record& r = records[f.index[i]];
+    const st_vec3 w = vec3_make(r.dir.x, r.dir.y, r.dir.z);
+    pdf[i] = guide_pdf(&mix, w, 0.0f, w);
+    mean += f.weight[i];
+    m0 += double(f.weight[i]) * f.weight[i] * f.train[i] / f.phase[i];
+  }
+  const double v0 = m0 / n - (mean / n) * (mean / n);
+  double best = 0;
+  float alpha = 0;
+  for (int k = 1; k <= int(kGuideAlphaMax * 10 + 0.5f); ++k) {
+    const double a = 0.1 * k;
+    double sum = 0, sum2 = 0;
+    for (size_t i = 0; i < pdf.size(); ++i) {
+      const double r = f.weight[i], p = a * pdf[i] + (1 - a) * f.phase[i];
+      const double d = r * r * f.train[i] * (1 / double(f.phase[i]) - 1 / p);
+      sum += d, sum2 += d * d;
+    }
+    const double removed = sum / n, se = std::sqrt(std::max(0.0, sum2 / n - removed * removed) / n);
+    if (removed > best && removed > kGuideAlphaZ * se && removed >= kGuideAlphaGain * v0) best = removed, alpha = float(a);
+  }
+  return std::isfinite(best) ? alpha : 0.0f;
+}
+
+// Region g's mixture fitted to the even records of `f` (key order; at least kGuideMinRecords in
+// all, at most kGuideMaxRecordsPerRegion read, every k-th beyond) where the fit is finite, its alpha
+// learned from the odd ones, which the fit has not seen (a mixture fitted to records always looks
+// better on them), or `fixed` where that is not negative. Returns whether it guides.
+bool fit_mixture(st_guide_region& g, const std::vector<st_guide_record>& records, const FitRecords& f, float fixed) {
+  FitRecords fit, held_out;
+  for (size_t k = 0; k < f.index.size(); ++k) {
+    FitRecords& h = k % 2 ? held_out : fit;
+    h.index.push_back(f.index[k]), h.weight.push_back(f.weight[k]), h.phase.push_back(f.phase[k]);
+    h.train.push_back(f.train[k]);
+  }
+  held_out.all = f.all / 2, fit.all = f.all - held_out.all;
+  const size_t n = fit.index.size();
+  const size_t stride = (n + kGuideMaxRecordsPerRegion - 1) / kGuideMaxRecordsPerRegion;
+  std::vector<DirectionalSample> samples;
+  double sum = 0;
+  for (size_t k = 0; k < n; k += stride) {
+    const st_guide_record& r = records[fit.index[k]];
+    samples.push_back(DirectionalSample{{r.dir.x, r.dir.y, r.dir.z}, fit.weight[k]});
+    sum += fit.weight[k];
+  }
+  VmfFitOptions options;
+  options.max_iterations = 40;
+  VmfFitResult result = fit_vmf_mixture(samples, options);
+  g.mix = result.mixture;
+  bool finite = true;
+  for (int k = 0; k < ST_VMF_LOBES; ++k)
+    finite = finite && std::isfinite(g.mix.weight[k]) && std::isfinite(g.mix.lobe[k].w);
+  const float alpha = fixed < 0 ? learn_alpha(g.mix, records, held_out) : fixed;
+  g.alpha = finite && sum > 0 ? alpha : 0.0f;
+  g.weight = float(sum / double(samples.size()));
+  return g.alpha > 0;
+}
+
 // The region of records [begin, end) (sorted, one region): its radiance from its vertices'
-// radiance records joined with their paths' end records (`ends`: each path's radiance), its
-// mixture from the fit's records, weighed by the ring's credit or, with `full` (not empty), by
-// the whole rest of the path. Returns 1 when the region guides.
-int fit_region(GuideCache& cache, const std::vector<st_guide_record>& records, size_t begin, size_t end,
-               const PathEnds& ends, const VertexWeights* full) {
+// radiance records joined with their paths' end records (`ends`: each path's radiance); returns
+// the fit's records (positive weights), weighed by the ring's credit or, with `full` (not empty),
+// by the whole rest of the path.
+FitRecords region_records(GuideCache& cache, const std::vector<st_guide_record>& records, size_t begin, size_t end,
+                          const PathEnds& ends, const VertexWeights* full, const VertexWeights& phase,
+                          const VertexWeights& train) {
   int32_t region;
   std::memcpy(&region, &records[begin].pos.w, 4);
   st_guide_region& g = cache.regions[size_t(region)];
   double sum_radiance = 0;
   size_t n_radiance = 0;
-  std::vector<size_t> guided_depth;
-  std::vector<float> weights;
+  FitRecords f;
   for (size_t i = begin; i < end; ++i) {
     const st_guide_record& r = records[i];
     if (r.key[3] & ST_GUIDE_RECORD_RADIANCE) {
@@ -198,38 +298,104 @@ int fit_region(GuideCache& cache, const std::vector<st_guide_record>& records, s
       if (std::isfinite(L)) sum_radiance += L, ++n_radiance;
       continue;
     }
-    const float w = full ? full_path_weight(*full, VertexKey{r.key[0], r.key[1], r.key[2], r.key[3]}) : r.dir.w;
-    if (w > 0 && std::isfinite(w)) guided_depth.push_back(i), weights.push_back(w);
+    const VertexKey key{r.key[0], r.key[1], r.key[2], r.key[3]};
+    const float w = full ? full_path_weight(*full, key) : r.dir.w;
+    ++f.all;
+    if (!(w > 0 && std::isfinite(w))) continue;
+    f.index.push_back(i), f.weight.push_back(w);
+    f.phase.push_back(full_path_weight(phase, key)), f.train.push_back(full_path_weight(train, key));
   }
   if (n_radiance >= size_t(kGuideMinRecords)) {
     g.records = float(n_radiance);
     g.radiance = float(sum_radiance / double(n_radiance));
   }
-  const size_t n = guided_depth.size();
-  if (n < size_t(kGuideMinRecords)) return 0;
-  const size_t stride = (n + kGuideMaxRecordsPerRegion - 1) / kGuideMaxRecordsPerRegion;
-  std::vector<DirectionalSample> samples;
-  double sum = 0;
-  for (size_t k = 0; k < n; k += stride) {
-    const st_guide_record& r = records[guided_depth[k]];
-    samples.push_back(DirectionalSample{{r.dir.x, r.dir.y, r.dir.z}, weights[k]});
-    sum += weights[k];
+  return f;
+}
+
+// Sparse regions (fewer than kGuideMinRecords fit records: where few directions find light) take
+// the fit of the smallest set around them that holds enough: the subtree of their cell's kd-tree
+// (below), then blocks of 2, 4, ... cells along each axis (pool_sparse_cells).
+struct Pool {
+  GuideCache& cache;
+  const std::vector<st_guide_record>& records;
+  const std::vector<FitRecords>& fit;  // per region
+  std::vector<char> done;              // per region: it has its own fit or a pooled one
+  float fixed_alpha;                   // fit_mixture's
+  int guided = 0;
+
+  // Fits the regions `leaves` that are not done from all their records, if there are enough.
+  void pool(const std::vector<uint32_t>& leaves) {
+    FitRecords all;
+    bool sparse = false;
+    for (uint32_t r : leaves) all.append(fit[r]), sparse = sparse || !done[r];
+    if (!sparse || all.index.size() < size_t(kGuideMinRecords)) return;
+    st_guide_region pooled{};
+    fit_mixture(pooled, records, all, fixed_alpha);
+    for (uint32_t r : leaves) {
+      if (done[r]) continue;
+      st_guide_region& g = cache.regions[r];
+      g.mix = pooled.mix, g.alpha = pooled.alpha, g.weight = pooled.weight;
+      done[r] = 1, guided += g.alpha > 0;
+    }
   }
-  VmfFitOptions options;
-  options.max_iterations = 40;
-  VmfFitResult fit = fit_vmf_mixture(samples, options);
-  g.mix = fit.mixture;
-  bool finite = true;
-  for (int k = 0; k < ST_VMF_LOBES; ++k)
-    finite = finite && std::isfinite(g.mix.weight[k]) && std::isfinite(g.mix.lobe[k].w);
-  g.alpha = finite && sum > 0 ? kGuideAlpha : 0.0f;
-  g.weight = float(sum / double(samples.size()));
-  return g.alpha > 0;
+  // The regions of node i's subtree, pooled bottom up (the smallest subtree first).
+  std::vector<uint32_t> subtree(uint32_t i) {
+    const st_guide_node& n = cache.nodes[i];
+    if (n.next & ST_GUIDE_LEAF) return {n.next & ~ST_GUIDE_LEAF};
+    std::vector<uint32_t> leaves = subtree(n.next >> 2), hi = subtree((n.next >> 2) + 1);
+    leaves.insert(leaves.end(), hi.begin(), hi.end());
+    pool(leaves);
+    return leaves;
+  }
+};
+
+// Pools sparse regions over their cells' kd-trees, then over blocks of 2^l cells per axis.
+int pool_sparse_regions(GuideCache& cache, const std::vector<st_guide_record>& records, const std::vector<FitRecords>& fit,
+                        std::vector<char> done, float fixed_alpha) {
+  Pool p{cache, records, fit, std::move(done), fixed_alpha};
+  const int* d = cache.header.dims;
+  std::vector<std::vector<uint32_t>> cell(size_t(d[0]) * d[1] * d[2]);
+  for (size_t c = 0; c < cell.size(); ++c) cell[c] = p.subtree(uint32_t(c));
+  for (int block = 2; block / 2 < std::max({d[0], d[1], d[2]}); block *= 2)
+    for (int z = 0; z < d[2]; z += block)
+      for (int y = 0; y < d[1]; y += block)
+        for (int x = 0; x < d[0]; x += block) {
+          std::vector<uint32_t> leaves;
+          for (int k = z; k < std::min(z + block, d[2]); ++k)
+            for (int j = y; j < std::min(y + block, d[1]); ++j)
+              for (int i = x; i < std::min(x + block, d[0]); ++i) {
+                const auto& c = cell[(size_t(k) * d[1] + j) * d[0] + i];
+                leaves.insert(leaves.end(), c.begin(), c.end());
+              }
+          p.pool(leaves);
+        }
+  return p.guided;
+}
+
+// Per fit record (by key), f_phase at its direction (the device's pos.w) and the density the
+// training drew it with: f_phase where `sampled_by` did not guide there, else its one-sample mixture.
+void record_densities(const std::vector<st_guide_record>& records, const GuideCache* sampled_by, VertexWeights& phase,
+                      VertexWeights& train) {
+  const bool guided = sampled_by && sampled_by->header.origin.w > 0;
+  for (const st_guide_record& r : records) {
+    if (r.key[3] & ST_GUIDE_RECORD_RADIANCE) continue;  // END records too
+    const VertexKey key{r.key[0], r.key[1], r.key[2], r.key[3]};
+    double t = r.pos.w;
+    if (guided) {
+      const st_guide_region& g = sampled_by->regions[size_t(guide_region_of(*sampled_by, r.pos.x, r.pos.y, r.pos.z))];
+      const st_vec3 w = vec3_make(r.dir.x, r.dir.y, r.dir.z);
+      if (g.alpha > 0) t = guide_mixture_pdf(g.alpha, guide_pdf(&g.mix, w, 0.0f, w), r.pos.w);
+    }
+    phase.emplace_back(key, r.pos.w), train.emplace_back(key, float(t));
+  }
+  std::sort(phase.begin(), phase.end()), std::sort(train.begin(), train.end());
 }
 
 }  // namespace
 
-int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records) {
+int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records, const GuideCache* sampled_by) {
+  VertexWeights phase, train;
+  record_densities(records, sampled_by, phase, train);
   auto region_of = [](const st_guide_record& r) {
     int32_t i;
     std::memcpy(&i, &r.pos.w, 4);
@@ -261,15 +427,23 @@ int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records) {
     }
   std::sort(full.begin(), full.end());
   for (st_guide_region& g : cache.regions) g = st_guide_region{};
-  int guided = 0;
+  std::vector<FitRecords> fit(cache.regions.size());
   for (size_t begin = 0; begin < records.size();) {
     const int region = region_of(records[begin]);
     size_t end = begin;
     while (end < records.size() && region_of(records[end]) == region) ++end;
-    if (region >= 0 && size_t(region) < cache.regions.size()) guided += fit_region(cache, records, begin, end, ends, cache.full_path ? &full : nullptr);
+    if (region >= 0 && size_t(region) < cache.regions.size())
+      fit[size_t(region)] = region_records(cache, records, begin, end, ends, cache.full_path ? &full : nullptr, phase, train);
     begin = end;
   }
-  return guided;
+  // the learned alpha reads the mixture alone: with the phase product (its pdf per event) alpha is fixed
+  const float fixed = cache.fixed_alpha >= 0 ? cache.fixed_alpha : cache.header.phase_product ? kGuideAlpha : -1.0f;
+  int guided = 0;
+  std::vector<char> done(cache.regions.size(), 0);
+  for (size_t r = 0; r < fit.size(); ++r)
+    if (fit[r].index.size() >= size_t(kGuideMinRecords))
+      guided += fit_mixture(cache.regions[r], records, fit[r], fixed), done[r] = 1;
+  return guided + pool_sparse_regions(cache, records, fit, std::move(done), fixed);
 }
 
 }  // namespace spectrack

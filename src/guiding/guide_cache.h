@@ -30,8 +30,15 @@ constexpr int kGuideGridCells = 8;
 constexpr int kGuideMinRecords = 32;
 // Records of one region that the fit reads at most (every k-th in key order beyond).
 constexpr int kGuideMaxRecordsPerRegion = 2048;
-// The selection probability of the guide in a region that has a fit.
+// The selection probability of the guide in a region that has a fit, where it is not learned
+// (with the phase product; SPECTRACK_GUIDE_ALPHA sets another); learned, it is the candidate of
+// 0.1, ..., kGuideAlphaMax that removes most variance by the region's held-out records, and 0
+// unless that removal is kGuideAlphaZ standard errors above 0 and kGuideAlphaGain of the unguided
+// variance (guide_cache.cpp learn_alpha).
 constexpr float kGuideAlpha = 0.5f;
+constexpr float kGuideAlphaMax = 0.9f;
+constexpr double kGuideAlphaZ = 2.0;
+constexpr double kGuideAlphaGain = 0.1;
 // Training passes: their samples per pixel over the full film, in order. One pass of 4: every pass
 // is a stage loop that ends with its own tail of the longest paths (in dense media most of its
 // iterations), and caches fitted from 1 or 2 samples per pixel guided the next passes worse than
@@ -119,6 +126,9 @@ struct GuideCache {
   // rest of its path (its radiance record joined with the path's end) instead of the ring's last
   // bounces (guide_full_path_setting)
   bool full_path = false;
+  // host only: the selection probability of every fitted region, or negative: learned from the
+  // records where the mixture alone is sampled (guide_alpha_setting)
+  float fixed_alpha = -1.0f;
   size_t bytes() const {
     return sizeof(st_guide_header) + regions.size() * sizeof(st_guide_region) + nodes.size() * sizeof(st_guide_node) +
            pixel_estimate.size() * sizeof(float);
@@ -152,9 +162,16 @@ size_t refine_guide_regions(GuideCache& cache, const std::vector<st_guide_record
 // Refits every region from `records` (any order; binned by position and sorted here): its mixture from the records of the
 // scatter events whose direction was guided (depth below kGuideDepth), its radiance (guided
 // roulette's estimate) from the records of every depth; regions with fewer than kGuideMinRecords
-// records of either kind get alpha 0 and the uniform mixture, or no radiance estimate (records 0).
-// Returns the regions that guide.
-int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records);
+// radiance records get no radiance estimate (records 0). Returns the regions that guide.
+// Sparse regions take the fit of the smallest subtree of their cell, or block of cells, that holds
+// kGuideMinRecords records. Each fitted region's alpha is learned from its records
+// (GuideCache::fixed_alpha), which the training drew from the phase function or, where
+// `sampled_by` (the cache that guided the pass) guided, its one-sample mixture.
+int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records, const GuideCache* sampled_by = nullptr);
+
+// The fixed selection probability of a render's fitted regions (GuideCache::fixed_alpha):
+// SPECTRACK_GUIDE_ALPHA=A (0 <= A <= 0.9), for measurements; else -1 (learned).
+float guide_alpha_setting();
 
 // Prints to stderr what the fitted cache does to a path (guide_report.cpp): the mean second moment
 // of the guided weight f_phase / p_mix per event over the guided regions, for a Henyey-Greenstein

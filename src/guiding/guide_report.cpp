@@ -74,14 +74,17 @@ void report_guide_cache(const GuideCache& c, float hg, bool product, const float
     const double m = second_moment(r, hg, product, rng);
     m2 += m * r.records, weight += r.records, worst = std::max(worst, m);
   }
-  std::fprintf(stderr, "# guide report, pass %d: %zu guided regions of %zu, phase g %.2f, product %d; "
+  double alpha = 0;
+  for (int i : guided) alpha += c.regions[size_t(i)].alpha;
+  std::fprintf(stderr, "# guide report, pass %d: %zu guided regions of %zu (mean alpha %.3f), phase g %.2f, product %d; "
                "M2 = E[(f/p_mix)^2] per event, mean over regions by records %.4f, worst %.4f\n",
-               pass, guided.size(), c.regions.size(), hg, int(product), weight > 0 ? m2 / weight : 0.0, worst);
+               pass, guided.size(), c.regions.size(), guided.empty() ? 0.0 : alpha / double(guided.size()), hg,
+               int(product), weight > 0 ? m2 / weight : 0.0, worst);
   std::sort(guided.begin(), guided.end(), [&](int a, int b) { return c.regions[a].records > c.regions[b].records; });
   for (size_t k = 0; k < guided.size() && k < 4; ++k) {
     const st_guide_region& r = c.regions[guided[k]];
-    std::fprintf(stderr, "#   region %d: %g records, mean weight %g, lobes (weight kappa cos-to-sun):", guided[k],
-                 r.records, r.weight);
+    std::fprintf(stderr, "#   region %d: %g records, mean weight %g, alpha %.1f, lobes (weight kappa cos-to-sun [mean]):",
+                 guided[k], r.records, r.weight, r.alpha);
     int order[ST_VMF_LOBES];
     std::iota(order, order + ST_VMF_LOBES, 0);
     std::sort(order, order + ST_VMF_LOBES, [&](int a, int b) { return r.mix.weight[a] > r.mix.weight[b]; });
@@ -89,7 +92,7 @@ void report_guide_cache(const GuideCache& c, float hg, bool product, const float
       if (!(r.mix.weight[j] > 0.01f)) continue;
       const st_float4& l = r.mix.lobe[j];
       const double cs = sun ? l.x * sun[0] + l.y * sun[1] + l.z * sun[2] : 0.0;
-      std::fprintf(stderr, " (%.2f %.1f %+.2f)", r.mix.weight[j], l.w, cs);
+      std::fprintf(stderr, " (%.2f %.1f %+.2f [%+.2f %+.2f %+.2f])", r.mix.weight[j], l.w, cs, l.x, l.y, l.z);
     }
     std::fprintf(stderr, "\n");
   }

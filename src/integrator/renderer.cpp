@@ -59,6 +59,7 @@ void Renderer::Impl::setup() {
     guide.header.guided_depth = guide_depth_setting(opt.guide_depth);
     guide.header.phase_product = guide_phase_product_setting(guide.header.guided_depth) ? 1 : 0;
     guide.full_path = guide_full_path_setting(guide.header.phase_product != 0);
+    guide.fixed_alpha = opt.guide_alpha >= 0 ? opt.guide_alpha : guide_alpha_setting();
   }
   std::vector<unsigned char> g = guide.serialize();
   if (settings.guiding) g.resize(guide.capacity_bytes(), 0);  // room for the regions refinement adds

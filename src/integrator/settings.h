@@ -88,6 +88,7 @@ struct RenderOptions {
   std::function<void(GuideCache&)> guide_cache_hook;
   int guide_grid_cells = 0;             // guide regions along the media box's longest axis; 0: kGuideGridCells
   int guide_depth = 0;                  // guided scatter events: depth below this; 0: guide_depth_setting's default, < 0: all
+  float guide_alpha = -1.0f;            // the fitted regions' selection probability; < 0: guide_alpha_setting (learned)
   bool guide_splitting = true;          // with guiding: guided roulette and splitting in the render (guide_cache.h)
   std::string device;                   // "P:D", name substring, or "" (SPECTRACK_DEVICE, then default)
   std::optional<int> path_slots;        // paths in flight; else by device type (kDefaultPathSlotsCpu/Gpu)
