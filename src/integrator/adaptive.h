@@ -49,11 +49,6 @@ constexpr double kAdaptiveAim = 0.9;
 // A pixel's last round takes the samples it still needs, rounded up to a multiple of
 // 1 / kAdaptiveLastRoundSteps of the round.
 constexpr int64_t kAdaptiveLastRoundSteps = 4;
-// A round renders its pixels of every length as one list of entries of the lengths' common
-// divisor (adaptive.cpp round_entries), where that lists at most kAdaptiveEntriesPerPixel entries
-// per pixel on average (a round's length is a multiple of 4 and the lengths multiples of its
-// quarter, so that holds but in a round cut short by the spp); else one render per length.
-constexpr size_t kAdaptiveEntriesPerPixel = 4;
 
 // A round that is not the pixel's last gets its weight B k / T from rho (1 + kAdaptiveWeightMargin
 // / sqrt(n)), not rho: a rho estimated too low from few samples would give the early rounds too

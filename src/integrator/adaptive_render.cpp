@@ -141,24 +141,22 @@ void set_pilot_weights(const RenderResult& rr, const WeightedFilm& film, const R
 // samples has L / unit entries of `unit` samples, entry i at samples n + i unit .., unit the
 // greatest common divisor of the round's lengths; the same samples as a render per length, with
 // one drain of the stage loop instead of one per length. Pixel i's entries are first[i] ..
-// first[i + 1] - 1. Empty (a render per length) where there is one length, or where the divisor
-// would list more than kAdaptiveEntriesPerPixel entries per pixel.
+// first[i + 1] - 1. Empty (a render per length) where there is one length, or where the list would
+// be longer than `most` entries (the window's pixels: the pilot's film, which had to fit, bounds
+// the film of every round).
 struct RoundEntries {
   int64_t unit = 0;
   std::vector<uint32_t> pixels, offsets, round_pixels;
   std::vector<size_t> first;
 };
 
-RoundEntries round_entries(const RoundGroups& groups) {
+RoundEntries round_entries(const RoundGroups& groups, size_t most) {
   RoundEntries e;
   if (groups.size() < 2) return e;
-  size_t count = 0, round_pixels = 0;
+  size_t count = 0;
   for (const auto& [len, pix] : groups) e.unit = std::gcd(e.unit, len);
-  for (const auto& [len, pix] : groups) {
-    count += size_t(len / e.unit) * pix.size();
-    round_pixels += pix.size();
-  }
-  if (count > kAdaptiveEntriesPerPixel * round_pixels) return RoundEntries{};
+  for (const auto& [len, pix] : groups) count += size_t(len / e.unit) * pix.size();
+  if (count > most) return RoundEntries{};
   for (const auto& [len, pix] : groups)
     for (const uint32_t p : pix) {
       e.first.push_back(e.pixels.size());
@@ -202,7 +200,7 @@ bool render_round(Renderer& r, const RoundGroups& groups, std::vector<double>& w
                  out.rounds, out.aim, out.cap, len, pixels, n, rr.seconds_render, rr.stats.occupancy_mean, rr.stats.iterations);
     add_round_info(out.film, rr, out.film.width == 0);
   };
-  const RoundEntries e = round_entries(groups);
+  const RoundEntries e = round_entries(groups, r.settings().window.pixels());
   if (!e.pixels.empty()) {
     const RenderResult rr = r.render_pixels(e.pixels, n, int(e.unit), e.offsets);
     traced(rr, e.unit, e.pixels.size());
