@@ -7,7 +7,8 @@
 //   - a deliberately wrong cache (every region's lobes pointing away from the sun) still agrees;
 //   - the same seed gives the same image twice, and generic and specialised kernels agree bit for
 //     bit with guiding on; the cache is reported and bounded;
-//   - guiding refuses pixel windows, sample ranges and several devices (a usage error);
+//   - tiles and sample ranges of a guided render add up to the whole render (every part trains
+//     the same cache over the full film); only ranges that cut the training samples are refused;
 //   - the training passes' vertex ring credits a path's later radiance to its first vertex exactly;
 //   - guiding every scatter event (RenderOptions::guide_depth), with and without guided roulette
 //     and splitting, agrees with the unguided render, and its image does not depend on the number
@@ -155,21 +156,108 @@ TEST(GuidingRender, TrainingLeavesASampleAndItsStatisticsCount) {
   }
 }
 
-TEST(GuidingRender, AutoIsOffAndShardsAreRefused) {
+TEST(GuidingRender, AutoIsOffAndOnlyRangesThatCutTheTrainingSamplesAreRefused) {
   const std::string dir = temp_dir("guided_refuse");
-  const SceneDesc scene = scene_from_json(guiding_scene(dir), dir);
+  const SceneDesc scene = scene_from_json(guiding_scene(dir), dir);  // 48 spp
   RenderOptions o = quiet_options();
   EXPECT_FALSE(resolve_settings(scene, o).guiding) << "auto resolves to off for now";
+  EXPECT_EQ(resolve_settings(scene, o).guide_training_samples, 0);
   o.guiding = kGuidingOn;
   EXPECT_TRUE(resolve_settings(scene, o).guiding);
-  RenderOptions tile = o;
+  const int T = kGuideTrainingSpp[0];
+  EXPECT_EQ(resolve_settings(scene, o).guide_training_samples, T);
+  RenderOptions tile = o;  // a tile trains over the full film
   tile.pixel_bounds = std::array<int, 4>{0, 8, 0, 8};
-  EXPECT_THROW(resolve_settings(scene, tile), UsageError);
+  EXPECT_EQ(resolve_settings(scene, tile).guide_training_samples, T);
+  RenderOptions few = o;  // a whole render of T samples trains T - 1 and renders one of its own
+  few.spp = T;
+  EXPECT_EQ(resolve_settings(scene, few).guide_training_samples, T - 1);
   RenderOptions shard = o;
-  shard.sample_begin = 4;
+  shard.sample_range = true;
+  shard.spp = 3;
+  for (int64_t begin : {int64_t(T), int64_t(T + 5)}) {  // holds none of the training samples
+    shard.sample_begin = begin;
+    EXPECT_EQ(resolve_settings(scene, shard).guide_training_samples, T) << begin;
+  }
+  shard.sample_begin = 0;
+  shard.spp = T + 1;  // holds them all and one more
+  EXPECT_EQ(resolve_settings(scene, shard).guide_training_samples, T);
+  shard.spp = T;  // a shard of T samples from 0: the whole render's training might be longer
   EXPECT_THROW(resolve_settings(scene, shard), UsageError);
-  const RenderSettings set = resolve_settings(scene, o);
-  EXPECT_THROW(render_multi_device(scene, o, set, {"", ""}, 0, 2), UsageError);
+  for (int64_t begin = 1; begin < T; ++begin) {  // cuts them
+    shard.sample_begin = begin;
+    shard.spp = 8;
+    EXPECT_THROW(resolve_settings(scene, shard), UsageError) << begin;
+  }
+  RenderOptions adaptive_tile = tile;  // adaptive sampling trains in its first round, over the film
+  adaptive_tile.noise_target = 0.05;
+  adaptive_tile.adaptive = true;
+  EXPECT_THROW(resolve_settings(scene, adaptive_tile), UsageError);
+}
+
+// Every part of a guided render trains the same cache over the full film and keeps the training
+// samples only where its range holds them, so tiles are those pixels of the full render bit for
+// bit and sample ranges add up to it (film sums; relative 1e-6). The twin: the same parts rendered
+// unguided differ from the guided render (so the comparison sees the guide), and a range whose
+// Renderer is asked for samples that cut the training samples is an error.
+TEST(GuidingRender, TilesAndSampleRangesAddUpToTheWholeRender) {
+  const std::string dir = temp_dir("guided_parts");
+  json s = guiding_scene(dir);
+  s["film"]["spp"] = 10;
+  const SceneDesc scene = scene_from_json(s, dir);
+  auto options = [](bool guiding) {
+    RenderOptions o = quiet_options();
+    o.seed = 9;
+    o.guiding = guiding ? kGuidingOn : kGuidingOff;
+    o.guide_grid_cells = 2;
+    o.guide_alpha = kGuideAlpha;
+    return o;
+  };
+  const RenderResult whole = Renderer(scene, options(true)).render();
+  const RenderResult unguided = Renderer(scene, options(false)).render();
+  ASSERT_TRUE(whole.guide.used);
+  ASSERT_EQ(whole.spp_done, 10);
+  const int W = 16;
+  // tiles: the left 5 columns and the rest
+  for (auto b : {std::array<int, 4>{0, 5, 0, 16}, std::array<int, 4>{5, 16, 0, 16}}) {
+    RenderOptions o = options(true);
+    o.pixel_bounds = b;
+    const RenderResult t = Renderer(scene, o).render();
+    ASSERT_EQ(t.spp_done, 10);
+    ASSERT_EQ(t.sum.size(), size_t(3 * (b[1] - b[0]) * (b[3] - b[2])));
+    int differ = 0;
+    for (int y = b[2]; y < b[3]; ++y)
+      for (int x = b[0]; x < b[1]; ++x)
+        for (int k = 0; k < 3; ++k)
+          differ += t.sum[3 * ((y - b[2]) * (b[1] - b[0]) + (x - b[0])) + k] != whole.sum[3 * (y * W + x) + k];
+    EXPECT_EQ(differ, 0) << "tile x " << b[0] << ".." << b[1];
+  }
+  // sample ranges 0:6 (the 4 training samples and 2 of the render's own) and 6:10
+  std::vector<double> sum(whole.sum.size(), 0.0), sum_unguided(whole.sum.size(), 0.0);
+  for (auto [begin, end] : {std::pair<int, int>{0, 6}, std::pair<int, int>{6, 10}}) {
+    for (bool guiding : {true, false}) {
+      RenderOptions o = options(guiding);
+      o.sample_begin = begin;
+      o.spp = end - begin;
+      o.sample_range = true;
+      const RenderResult r = Renderer(scene, o).render();
+      ASSERT_EQ(r.spp_done, end - begin);
+      EXPECT_EQ(r.sample_begin, begin);
+      for (size_t i = 0; i < sum.size(); ++i) (guiding ? sum : sum_unguided)[i] += r.sum[i];
+    }
+  }
+  auto differing = [&](const std::vector<double>& a, const std::vector<double>& b, double rel) {
+    int n = 0;
+    for (size_t i = 0; i < a.size(); ++i) n += std::abs(a[i] - b[i]) > rel * std::max(std::abs(a[i]), std::abs(b[i]));
+    return n;
+  };
+  EXPECT_EQ(differing(sum, whole.sum, 1e-6), 0);
+  EXPECT_GT(differing(sum_unguided, whole.sum, 1e-6), int(whole.sum.size()) / 2) << "the twin: unguided parts";
+  EXPECT_EQ(differing(sum_unguided, unguided.sum, 1e-6), 0);
+  // a Renderer asked for samples that cut the training samples 0:4 refuses
+  Renderer r(scene, options(true));
+  EXPECT_THROW(r.render(2, 4), Error);
+  EXPECT_EQ(differing(r.render(0, 10).sum, whole.sum, 0.0), 0) << "the same range again gives the same image";
 }
 
 // A white furnace cut after the first scatter event (a uniform sky of radiance 1 around a thin,

@@ -187,6 +187,71 @@ TEST(CliShards, TilesEqualThosePixelsOfTheFullRenderAndMergeToIt) {
   EXPECT_EQ(count_differing(read(mixed), full, 1e-5, &worst), 0) << "worst relative difference " << worst;
 }
 
+// Guiding (docs/guiding.md, "Determinism across shards"): every part trains the same cache over
+// the full film, and the training pass's samples 0-3 stay whole in one part. Shards, tiles, tiles
+// of shards, two devices (chunks of 3 samples: the first is stretched to hold the training samples)
+// and MPI ranks give the single guided render; the guided render differs from the unguided one on
+// most pixels (so the comparisons see the guide); ranges that cut the training samples are refused.
+TEST(CliShards, GuidedShardsTilesAndDevicesMergeToTheFullRender) {
+  std::string dir = test_dir();
+  std::string scene = shard_scene(dir);
+  auto guided = [](std::vector<std::string> a) {
+    a.insert(a.end(), {"--tracker", "spectral", "--guiding", "on"});
+    return a;
+  };
+  render_ok(guided({scene, "-o", dir + "/full.exr"}));
+  const spectrack::RgbImage full = read(dir + "/full.exr");
+  EXPECT_GT(count_differing(full_render(dir, scene, "spectral"), full, 1e-5), kW * kH * 3 / 4) << "guiding changes the image";
+  double worst = 0;
+  std::vector<std::string> shards;
+  for (const char* r : {"11:16", "0:6", "6:11"}) {
+    shards.push_back(dir + "/g_shard_" + std::string(r).substr(0, std::string(r).find(':')) + ".exr");
+    render_ok(guided({scene, "--spp-range", r, "-o", shards.back()}));
+  }
+  ASSERT_EQ(merge(dir + "/g_merged.exr", shards).code, 0);
+  EXPECT_EQ(count_differing(read(dir + "/g_merged.exr"), full, 1e-5, &worst), 0) << "shards: worst " << worst;
+  std::vector<std::string> pieces;
+  for (const char* b : {"0,7,0,16", "7,24,0,16"}) {
+    const std::string tile = dir + "/g_tile_" + std::to_string(pieces.size()) + ".exr";
+    render_ok(guided({scene, "--pixel-bounds", b, "-o", tile}));
+    EXPECT_EQ(count_differing(read(tile), full, 0.0), 0) << "a tile is those pixels of the full render: " << b;
+    for (const char* r : {"0:5", "5:16"}) {
+      pieces.push_back(dir + "/g_piece_" + std::to_string(pieces.size()) + ".exr");
+      render_ok(guided({scene, "--pixel-bounds", b, "--spp-range", r, "-o", pieces.back()}));
+    }
+  }
+  ASSERT_EQ(merge(dir + "/g_pieces.exr", pieces).code, 0);
+  EXPECT_EQ(count_differing(read(dir + "/g_pieces.exr"), full, 1e-5, &worst), 0) << "tiles of shards: worst " << worst;
+  const std::string two = dir + "/g_two.exr", stats = dir + "/g_two.json";
+  render_ok(guided({scene, "--device", "0:0,0:0", "--chunk-spp", "3", "-o", two, "--stats-json", stats}));
+  EXPECT_EQ(count_differing(read(two), full, 1e-5, &worst), 0) << "two devices: worst " << worst;
+  json j = json::parse(std::ifstream(stats));
+  ASSERT_EQ(j["samples_per_device"].size(), 2u) << j.dump(2);
+  EXPECT_EQ(j["samples_per_device"][0].get<int>() + j["samples_per_device"][1].get<int>(), kSpp) << j.dump(2);
+  for (const char* r : {"2:8", "0:4"}) {  // cuts the training samples 0:4, or may (a shard 0:4 of a longer render)
+    Proc p = run({"render", scene, "--guiding", "on", "--spp-range", r, "-o", dir + "/cut.exr", "--quiet"});
+    expect_error_exit(p, 2);  // a usage error
+    EXPECT_THAT(p.out, HasSubstr("cut the training pass's samples 0:4")) << p.describe();
+    EXPECT_FALSE(fs::exists(dir + "/cut.exr"));
+  }
+#ifdef SPECTRACK_HAVE_MPI
+  ::setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
+  ::setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
+  ::setenv("OMPI_MCA_btl_vader_single_copy_mechanism", "none", 1);
+  ::setenv("OMPI_MCA_rmaps_base_oversubscribe", "1", 1);
+  RunOptions o;
+  o.timeout_s = 240;
+  // 3 ranks over samples 0:6: shares 0:2, 2:4, 4:6 become 0:4, none, 4:6
+  const std::string shard = dir + "/g_0_6.exr", mpi = dir + "/g_mpi.exr";
+  render_ok(guided({scene, "--spp-range", "0:6", "-o", shard}));
+  Proc p = run_command({MPIRUN, "-np", "3", kBinary, "render", scene, "--tracker", "spectral", "--guiding", "on",
+                        "--spp-range", "0:6", "--mpi", "-o", mpi, "--quiet"},
+                       o);
+  ASSERT_TRUE(p.exited && p.code == 0) << p.describe();
+  EXPECT_EQ(count_differing(read(mpi), read(shard), 1e-5, &worst), 0) << "MPI ranks: worst " << worst;
+#endif
+}
+
 // ---- refusals ----------------------------------------------------------------------------------
 
 void expect_merge_refused(const std::string& dir, const std::vector<std::string>& inputs,

@@ -69,6 +69,7 @@ RenderOptions options_of(const SceneDesc& scene, const RenderArgs& a) {
       throw py::value_error(fmt::format("spp_range=({}, {}): need 0 <= begin < end, at most 2^24 samples", b, e));
     opt.sample_begin = b;
     opt.spp = int(e - b);
+    opt.sample_range = true;
   }
   if (a.pixel_bounds) opt.pixel_bounds = *a.pixel_bounds;
   if (a.tracker) opt.tracker = named(a.tracker, tracker_from_name, tracker_names, "tracker");

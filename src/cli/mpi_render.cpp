@@ -42,10 +42,10 @@ void mpi_abort(int code) {
   std::exit(code);
 }
 
-std::pair<int64_t, int64_t> mpi_sample_share(const MpiWorld& w, int64_t begin_all, int spp) {
-  int64_t a = begin_all + int64_t(spp) * w.rank / w.size;
-  int64_t b = begin_all + int64_t(spp) * (w.rank + 1) / w.size;
-  return {a, b};
+std::pair<int64_t, int64_t> mpi_sample_share(const MpiWorld& w, const RenderSettings& s) {
+  const int64_t a = s.sample_begin + int64_t(s.spp) * w.rank / w.size;
+  const int64_t b = s.sample_begin + int64_t(s.spp) * (w.rank + 1) / w.size;
+  return {guide_part_boundary(s, a), guide_part_boundary(s, b)};
 }
 
 std::string mpi_default_device(const MpiWorld& w) {

@@ -23,8 +23,9 @@ void mpi_finish();
 // Ends every rank of the job (after one rank failed: the others would wait in the reduction).
 [[noreturn]] void mpi_abort(int code);
 
-// This rank's share [begin, end) of samples [begin_all, begin_all + spp): contiguous, in rank order.
-std::pair<int64_t, int64_t> mpi_sample_share(const MpiWorld& w, int64_t begin_all, int spp);
+// This rank's share [begin, end) of the render's samples: contiguous, in rank order, the guide's
+// training samples in one share (settings.h guide_part_boundary).
+std::pair<int64_t, int64_t> mpi_sample_share(const MpiWorld& w, const RenderSettings& s);
 // Without an explicit device: the local_rank-th GPU of this node when it has several, else "".
 std::string mpi_default_device(const MpiWorld& w);
 

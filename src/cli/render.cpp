@@ -102,6 +102,7 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
     int64_t b = 0;
     check_spp_range(a.spp_range, &opt.sample_begin, &b);  // checked by CLI11 already
     opt.spp = int(b - opt.sample_begin);
+    opt.sample_range = true;
   }
   if (!a.shutter.empty()) {
     std::array<double, 2> shutter{};
@@ -120,7 +121,7 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
 int64_t process_samples(const RenderSettings& set, MpiArg& mpi) {
   int64_t my_begin = set.sample_begin, my_end = set.sample_begin + set.spp;
 #ifdef SPECTRACK_HAVE_MPI
-  if (mpi.on) std::tie(my_begin, my_end) = mpi_sample_share(mpi.world, set.sample_begin, set.spp);
+  if (mpi.on) std::tie(my_begin, my_end) = mpi_sample_share(mpi.world, set);
 #endif
   return std::max<int64_t>(my_end - my_begin, 0);
 }
@@ -131,7 +132,7 @@ MultiDeviceResult render_share(const SceneDesc& scene, const RenderOptions& opt,
                                const std::vector<std::string>& devices, int chunk_spp, MpiArg& mpi) {
   int64_t my_begin = set.sample_begin, my_end = set.sample_begin + set.spp;
 #ifdef SPECTRACK_HAVE_MPI
-  if (mpi.on) std::tie(my_begin, my_end) = mpi_sample_share(mpi.world, set.sample_begin, set.spp);
+  if (mpi.on) std::tie(my_begin, my_end) = mpi_sample_share(mpi.world, set);
 #endif
   MultiDeviceResult r;
   if (my_end > my_begin) {
@@ -261,9 +262,6 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   }
   std::vector<std::string> devices = parse_device_list(a.device);
   check_chunk_spp(a.chunk_spp, devices, a.device);  // meaningless with one device: exit 2
-  if (set.guiding && mpi.on)
-    throw UsageError("--mpi: guiding renders in one process for now (each rank would train its own cache); use "
-                     "--guiding off");
 #ifdef SPECTRACK_HAVE_MPI
   if (mpi.on && devices.size() == 1 && devices[0].empty()) devices[0] = mpi_default_device(mpi.world);
 #endif

@@ -99,6 +99,13 @@ bool guide_full_path_setting(bool phase_product);
 struct GuideTraining {
   std::vector<int> spp;  // per pass
   bool keep = true;      // the passes' samples are part of the image (they then leave one to the render)
+  // The samples of the sequence that are the passes' when kept (the first ones: docs/guiding.md,
+  // "Determinism across shards"); 0 when they are dropped.
+  int samples() const {
+    int n = 0;
+    for (int k : spp) n += k;
+    return keep ? n : 0;
+  }
 };
 GuideTraining guide_training_setting();
 

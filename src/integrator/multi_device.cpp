@@ -88,7 +88,8 @@ class MultiDeviceRun {
     std::lock_guard<std::mutex> lock(mu_);
     if (next_ >= end_) return false;
     *begin = next_;
-    *len = std::min<int64_t>(chunk_spp_, end_ - next_);
+    // a chunk holds all of the guide's training samples or none (settings.h guide_part_boundary)
+    *len = std::min<int64_t>(guide_part_boundary(settings_, next_ + chunk_spp_), end_) - next_;
     next_ += *len;
     return true;
   }
@@ -247,9 +248,6 @@ MultiDeviceResult render_multi_device(const SceneDesc& scene, const RenderOption
   const size_t n_dev = devices.size();
   if (n_dev == 0) throw Error("internal: no device to render on");
   if (spp < 1) throw Error("internal: empty sample range");
-  if (settings.guiding && n_dev > 1)
-    throw UsageError("guiding renders on one device for now (each device would train its own cache); use --guiding "
-                     "off with several devices");
   if (settings.adaptive) {
     if (n_dev > 1 || sample_begin != 0 || spp != settings.spp)
       throw UsageError("adaptive sampling renders on one device, over the whole sample range");

@@ -8,9 +8,10 @@
 // them), read the film back. What a scene lacks costs nothing: a scene without
 // lights gets no shadow-ray buffer or queue, and one whose escaping rays see no light gets no
 // escape launch (track sends them straight to finish). With guiding, the first render trains the
-// guide cache (docs/guiding.md): a few passes over the full film with random streams of their own,
-// whose images are dropped and whose radiance records are drained after every iteration and fitted
-// on the host; the render then runs with the cache, its training time counted in seconds_render.
+// guide cache (docs/guiding.md): a pass over the full film with random streams of their own, whose
+// radiance records are drained after every iteration and fitted on the host, and whose samples are
+// the sequence's first (settings.h guide_training_samples: kept by the renders whose range holds
+// them); the render's own samples follow, with the cache, its training time counted in seconds_render.
 #include "integrator/renderer_impl.h"
 
 #include <fmt/format.h>
@@ -222,13 +223,34 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
     active_offsets.assign(active_pixels.size(), 0u);
   }
   const std::clock_t cpu0 = std::clock();
-  const double seconds_training = settings.guiding && !guide_trained ? train_guide(spp) : 0.0;
-  // the training passes' samples are part of the image: the render adds the rest
-  RenderResult res = run_stage_loop(sample_begin, spp - guide_samples.spp_done, nullptr);
-  add_guide_samples(res);  // with their statistics
+  const double seconds_training = settings.guiding && !guide_trained ? train_guide() : 0.0;
+  // With guiding the sequence's first T samples are the training passes' (guide_samples), and
+  // sample i >= T is the render's own sample i - T (settings.h guide_training_samples).
+  const int64_t T = guide_samples.spp_done, end = sample_begin + spp;
+  const bool with_training = sample_begin < T;
+  if (with_training && (sample_begin != 0 || end < T))
+    throw Error(fmt::format("internal: samples {}:{} cut the guide's training samples 0:{}", sample_begin, end, T));
+  const int64_t own_begin = std::max(sample_begin, T) - T, own_end = end - T;
+  RenderResult res = own_end > own_begin ? run_stage_loop(own_begin, int(own_end - own_begin), nullptr)
+                                         : empty_film(own_begin);
+  if (with_training) add_guide_samples(res);  // with their statistics
+  res.sample_begin = sample_begin;
+  res.spp_requested = spp;
   res.seconds_render += seconds_training;  // efficiency counts the training
   res.cpu_seconds_render = double(std::clock() - cpu0) / CLOCKS_PER_SEC;
   res.guide = guide_info;
+  return res;
+}
+
+// A render of no sample of its own (a shard that holds only the guide's training samples): the
+// window's film of zeros, every layer.
+RenderResult Renderer::Impl::empty_film(int64_t sample_begin) const {
+  RenderResult res = result_header(sample_begin, 0);
+  const uint64_t npix = settings.adaptive ? uint64_t(active_pixels.size()) : settings.window.pixels();
+  res.aov_channels = aov_sum_channels(settings.aovs);
+  res.rgb.assign(npix * 3, 0.0f);
+  res.sum.assign(npix * 3, 0.0);
+  res.aov_sum.assign(npix * res.aov_channels.size(), 0.0);
   return res;
 }
 

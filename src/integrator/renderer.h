@@ -142,7 +142,8 @@ class Renderer {
   // Renders the resolved settings' samples.
   RenderResult render();
   // Renders samples [sample_begin, sample_begin + spp) of every window pixel (a shard of the full
-  // sequence, e.g. one chunk of a multi-device render).
+  // sequence, e.g. one chunk of a multi-device render). With guiding the range holds all of the
+  // training samples or none (settings.h guide_training_samples; Error otherwise).
   RenderResult render(int64_t sample_begin, int spp);
   // Adaptive sampling (settings().adaptive): renders samples [sample_begin, sample_begin + spp) of
   // the listed window pixels only (row-major indices in the window), each entry j shifted by

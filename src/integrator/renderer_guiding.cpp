@@ -1,7 +1,8 @@
 // renderer_guiding.cpp: the guide's training passes (docs/guiding.md): a few passes over the full
-// film with random streams of their own, whose images are kept for the render and whose radiance
-// records are drained after every iteration; after each pass the host refines the cache's regions
-// where the records crowd and fits them, then uploads the cache.
+// film (whatever the render's window: every part of a render trains the same cache) with random
+// streams of their own, whose window pixels are kept for the renders that hold the training
+// samples and whose radiance records are drained after every iteration; after each pass the host
+// refines the cache's regions where the records crowd and fits them, then uploads the cache.
 #include "integrator/renderer_impl.h"
 
 #include <fmt/format.h>
@@ -19,8 +20,6 @@ void Renderer::Impl::upload_guide() {
   ST_CL_CHECK(ds.queue.enqueueWriteBuffer(b_guide, CL_TRUE, 0, g.size(), g.data()), "upload the guide cache");
 }
 
-// Appends the records of the last iteration (their order is the device's; the fit sorts them)
-// and empties the buffer. Its capacity (guide_record_capacity) is the most one iteration records.
 // Appends the records of the last iteration (their order is the device's; the fit sorts them)
 // and empties the buffer. Its capacity (guide_record_capacity) is the most one iteration records.
 // One synchronisation per iteration: the count's blocking read (which also completes the previous
@@ -54,6 +53,8 @@ static void add_pixel_estimates(std::vector<double>& sum, const RenderResult& pa
 // Adds a training pass's film sums (beauty and layers) and samples to `kept`.
 static void keep_samples(RenderResult& kept, const RenderResult& pass) {
   if (kept.spp_done == 0) {
+    kept.x0 = pass.x0, kept.y0 = pass.y0, kept.width = pass.width, kept.height = pass.height;
+    kept.aov_channels = pass.aov_channels;
     kept.sum.assign(pass.sum.size(), 0.0);
     kept.aov_sum.assign(pass.aov_sum.size(), 0.0);
   }
@@ -63,9 +64,27 @@ static void keep_samples(RenderResult& kept, const RenderResult& pass) {
   kept.stats.add(pass.stats);
 }
 
-// The first render after training adds the training passes' samples to its film (sums of samples,
-// so the image is their mean over every sample: each training sample is unbiased, its pass guided
-// by a cache fitted from the passes before it alone). Later renders of the same Renderer do not.
+// Crops a full-film result to the window's pixels (beauty and layer sums, in the window's order).
+static void crop_to_window(RenderResult& r, const FilmWindow& w, int full_width) {
+  if (r.spp_done == 0 || (r.x0 == w.x0 && r.y0 == w.y0 && r.width == w.width && r.height == w.height)) return;
+  const size_t na = r.aov_channels.size();
+  std::vector<double> sum(w.pixels() * 3), aov(w.pixels() * na);
+  for (int y = 0; y < w.height; ++y)
+    for (int x = 0; x < w.width; ++x) {
+      const size_t i = size_t(y) * size_t(w.width) + size_t(x);
+      const size_t f = size_t(y + w.y0) * size_t(full_width) + size_t(x + w.x0);
+      for (int k = 0; k < 3; ++k) sum[3 * i + k] = r.sum[3 * f + k];
+      for (size_t k = 0; k < na; ++k) aov[na * i + k] = r.aov_sum[na * f + k];
+    }
+  r.sum = std::move(sum);
+  r.aov_sum = std::move(aov);
+  r.rgb.clear();
+  r.x0 = w.x0, r.y0 = w.y0, r.width = w.width, r.height = w.height;
+}
+
+// A render whose samples hold the training passes' adds their film sums to its own (sums of
+// samples, so the image is their mean over every sample: each training sample is unbiased, its
+// pass guided by a cache fitted from the passes before it alone).
 void Renderer::Impl::add_guide_samples(RenderResult& res) {
   const RenderResult& g = guide_samples;
   if (g.spp_done == 0) return;
@@ -74,10 +93,19 @@ void Renderer::Impl::add_guide_samples(RenderResult& res) {
   for (size_t i = 0; i < res.sum.size(); ++i) res.sum[i] += g.sum[i];
   for (size_t i = 0; i < res.aov_sum.size(); ++i) res.aov_sum[i] += g.aov_sum[i];
   res.spp_done += g.spp_done;
-  res.spp_requested += g.spp_done;
   res.stats.add(g.stats);  // the passes' paths, events, iterations and kernel times
+  res.rgb.assign(res.sum.size(), 0.0f);
   for (size_t i = 0; i < res.rgb.size(); ++i) res.rgb[i] = float(res.sum[i] / double(res.spp_done));
-  guide_samples = RenderResult{};
+}
+
+// The window the stage loop renders: the render's, or the full film for the training passes (the
+// scene constants' window too).
+void Renderer::Impl::set_window(const FilmWindow& w) {
+  settings.window = w;
+  ds.packed.st.pixel_x0 = w.x0;
+  ds.packed.st.pixel_y0 = w.y0;
+  ds.packed.st.window_width = w.width;
+  ds.packed.st.window_height = w.height;
 }
 
 // Measurements (SPECTRACK_GUIDE_REPORT=1): what the cache after training pass k does to a path, for
@@ -91,17 +119,21 @@ void Renderer::Impl::report_guide(int pass) const {
   report_guide_cache(guide, g, guide.header.phase_product != 0, sun, pass);
 }
 
-// The training passes: kGuideTrainingSpp samples per pixel each, at most spp - 1 in all (samples 0-3 of a seed of their
-// own), each guided by the cache the previous one fitted; records are fitted once per pass.
-// With adaptive sampling the passes run in the first round (the pilot), over every pixel in film
-// order, so their film adds to that round's as in a plain render.
-double Renderer::Impl::train_guide(int spp) {
-  if (settings.adaptive && active_pixels.size() != size_t(settings.window.pixels()))
-    throw Error("internal: guide training in an adaptive round that does not cover every pixel");
+// The training passes: kGuideTrainingSpp samples per pixel each, settings.guide_training_samples
+// in all (samples 0-3 of a seed of their own), each guided by the cache the previous one fitted;
+// records are fitted once per pass. They render the full film whatever the window, so every tile
+// and shard of a render fits the same cache; the window's pixels of their film are kept. With
+// adaptive sampling (never a window: settings.cpp) the passes run in the first round (the pilot),
+// over every pixel in film order, so their film adds to that round's as in a plain render.
+double Renderer::Impl::train_guide() {
+  const FilmWindow window = settings.window, full{0, 0, settings.full_width, settings.full_height};
+  if (settings.adaptive && (active_pixels.size() != size_t(settings.window.pixels()) || window.pixels() != full.pixels()))
+    throw Error("internal: guide training in an adaptive round that does not cover every pixel of the film");
   auto t0 = Clock::now();
   const std::clock_t cpu0 = std::clock();
   const uint32_t seed = ds.packed.st.seed;
   ds.packed.st.seed = seed ^ kGuideTrainingSeed;
+  set_window(full);
   ds.write_scene_constants();
   const auto progress = opt.progress;
   opt.progress = nullptr;
@@ -111,9 +143,10 @@ double Renderer::Impl::train_guide(int spp) {
   guide_info = GuideInfo{};
   guide_samples = RenderResult{};
   const GuideTraining schedule = guide_training_setting();
-  // kept passes leave at least one sample to the render (a render of few samples trains fewer)
-  for (size_t k = 0; k < schedule.spp.size() && (!schedule.keep || begin + 1 < spp); ++k) {
-    const int pass_spp = int(schedule.keep ? std::min<int64_t>(schedule.spp[k], spp - 1 - begin) : schedule.spp[k]);
+  // kept passes render the sequence's first settings.guide_training_samples (fewer in a render of few samples)
+  const int64_t kept = settings.guide_training_samples;
+  for (size_t k = 0; k < schedule.spp.size() && (!schedule.keep || begin < kept); ++k) {
+    const int pass_spp = int(schedule.keep ? std::min<int64_t>(schedule.spp[k], kept - begin) : schedule.spp[k]);
     records.clear();
     const auto t_loop = Clock::now();
     const RenderResult pass = run_stage_loop(begin, pass_spp, &records);
@@ -148,7 +181,9 @@ double Renderer::Impl::train_guide(int spp) {
   upload_guide();
   opt.progress = progress;
   ds.packed.st.seed = seed;
+  set_window(window);
   ds.write_scene_constants();
+  crop_to_window(guide_samples, window, settings.full_width);
   guide_trained = true;
   guide_info.used = true;
   guide_info.bytes = guide.bytes();

@@ -90,7 +90,7 @@ struct Renderer::Impl {
   cl::Buffer b_guide, b_records;
   GuideInfo guide_info;
   bool guide_trained = false;
-  RenderResult guide_samples;  // the training passes' film sums, added to the first render's image
+  RenderResult guide_samples;  // the training passes' film sums (the window's), added to the renders that hold them
 
   // adaptive sampling: the entries the next stage loop renders (kernels/queues.h
   // active_pixels_offset), each a window pixel and the offset of its first sample from the
@@ -100,15 +100,18 @@ struct Renderer::Impl {
   void setup();
   void warm_kernels();
   RenderResult render(int64_t sample_begin, int spp);
+  RenderResult empty_film(int64_t sample_begin) const;
   // The stage loop over samples [sample_begin, sample_begin + spp); with `records`, a training
   // pass: the radiance records are collected into it and the film is the caller's to drop.
   RenderResult run_stage_loop(int64_t sample_begin, int spp, std::vector<st_guide_record>* records);
   void upload_guide();
   void drain_records(std::vector<st_guide_record>& out);
-  // The training passes, leaving at least one of `spp` samples to the render; returns its seconds.
-  double train_guide(int spp);
+  // The training passes over the full film, settings.guide_training_samples samples kept; returns
+  // their seconds.
+  double train_guide();
   void report_guide(int pass) const;
   void add_guide_samples(RenderResult& res);
+  void set_window(const FilmWindow& w);
 
   // Paths per batch (rounded up to whole samples): 2Q with two batches in flight, so one batch
   // fills the slots while the other finishes; Q with the ring, so the first pass is done sooner.

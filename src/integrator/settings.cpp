@@ -5,6 +5,8 @@
 #include <cmath>
 #include <fmt/format.h>
 
+#include "guiding/guide_cache.h"
+
 namespace spectrack {
 
 namespace {
@@ -51,6 +53,35 @@ EquiangularMode resolve_equiangular(const SceneDesc& scene, const RenderOptions&
     throw UsageError("equi-angular sampling does not work with guiding yet (its MIS weights assume phase "
                      "sampling); use --equiangular off or auto, or --guiding off");
   return e;
+}
+
+// Guiding: on, off, or auto (off until measurements say where it pays: docs/guiding.md), and which
+// samples of the sequence are the training passes' (RenderSettings::guide_training_samples). Every
+// part of a render trains the same cache over the full film and samples 0 .. T - 1; a part keeps
+// those samples only if its range holds all of them, so a sample range that cuts them is refused.
+// A whole render of at most T samples trains one fewer (the render keeps one sample of its own);
+// a shard of a longer render cannot know its total, so its range must hold T and one more, or none.
+void resolve_guiding(const RenderOptions& o, RenderSettings& s, const SceneDesc& scene) {
+  s.guiding_requested = o.guiding ? checked_enum<GuidingMode>(*o.guiding, kGuidingAuto + 1, "guiding mode")
+                                  : scene.render.guiding.value_or(kGuidingAuto);
+  s.guiding = s.guiding_requested == kGuidingOn;
+  s.guide_splitting = s.guiding && o.guide_splitting;
+  if (!s.guiding) return;
+  if (s.adaptive && o.pixel_bounds)
+    throw UsageError("guiding with adaptive sampling renders the whole film (the training pass is its first "
+                     "round); use --guiding off with --pixel-bounds");
+  const int T = guide_training_setting().samples();
+  const int64_t begin = s.sample_begin, end = s.sample_begin + s.spp;
+  if (begin == 0 && !o.sample_range) {
+    s.guide_training_samples = std::max(0, std::min(T, s.spp - 1));
+  } else if (begin == 0 ? end <= T : begin < T) {
+    throw UsageError(fmt::format("guiding: samples {}:{} cut the training pass's samples 0:{}; a shard of a guided "
+                                 "render holds all of them and at least one more, or none of them (--spp-range 0:B "
+                                 "with B > {}, or A:B with A >= {})",
+                                 begin, end, T, T, T));
+  } else {
+    s.guide_training_samples = T;
+  }
 }
 
 }  // namespace
@@ -102,16 +133,7 @@ RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) 
   s.full_width = scene.film.width;
   s.full_height = scene.film.height;
   s.channels_per_sample = st_paths_per_sample(s.tracker, s.color);
-  // guiding: auto resolves to off until measurements say where it pays (docs/guiding.md); the
-  // cache is trained over the full film and every sample from 0, so a window or a sample range
-  // would train another cache than the single render's: refused for now
-  s.guiding_requested = o.guiding ? checked_enum<GuidingMode>(*o.guiding, kGuidingAuto + 1, "guiding mode")
-                                  : scene.render.guiding.value_or(kGuidingAuto);
-  s.guiding = s.guiding_requested == kGuidingOn;
-  s.guide_splitting = s.guiding && o.guide_splitting;
-  if (s.guiding && (o.pixel_bounds || s.sample_begin != 0))
-    throw UsageError("guiding does not work with --pixel-bounds or --spp-range yet (its cache is trained over the "
-                     "full film); use --guiding off for shards and tiles");
+  resolve_guiding(o, s, scene);
   s.equiangular = resolve_equiangular(scene, o, s.guiding);
   if (st_tracker_achromatic_only(s.tracker)) {
     for (auto& m : scene.media) {

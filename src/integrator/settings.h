@@ -67,6 +67,9 @@ constexpr double kMajorantStepCost = 0.6, kMajorantStepCostControl = 2.0;
 struct RenderOptions {
   std::optional<int> spp;               // samples per pixel (else film.spp)
   int64_t sample_begin = 0;             // first sample index of the full sequence (sample-range shards)
+  // The samples are one shard's range of a longer render (--spp-range, Python's spp_range): with
+  // guiding it holds all of the training pass's samples or none (RenderSettings::guide_training_samples).
+  bool sample_range = false;
   // Pixel window x0, x1, y0, y1 (x1, y1 exclusive, pbrt's --pixelbounds); else the whole film.
   std::optional<std::array<int, 4>> pixel_bounds;
   std::optional<int64_t> seed;          // else render.seed
@@ -150,6 +153,12 @@ struct RenderSettings {
   bool guiding = false;         // volume path guiding on: guiding_requested resolved (auto: off for now)
   EquiangularMode equiangular = kDefaultEquiangular;  // as asked for (the scene packer resolves auto)
   bool guide_splitting = false;  // with guiding: guided roulette and splitting (RenderOptions::guide_splitting)
+  // With guiding, samples 0 .. guide_training_samples - 1 of the sequence are the training passes'
+  // (random streams of their own, over the full film) and sample i >= guide_training_samples is the
+  // render's own sample i - guide_training_samples (docs/guiding.md, "Determinism across shards"):
+  // every part of a render (shard, tile, device, MPI rank) trains the same cache and keeps the
+  // training samples only if its range holds all of them. 0 without guiding.
+  int guide_training_samples = 0;
   // The shutter [open, close] in seconds (none: every path at time 0); the paths' times are
   // stratified over film.spp samples (the scene's, so every shard of a render has the same times)
   std::optional<std::array<double, 2>> shutter;
@@ -157,6 +166,13 @@ struct RenderSettings {
   double noise_target = 0;      // relative error at which the render stops (integrator/noise.h); 0: none
   bool adaptive = false;        // adaptive sampling to the noise target (integrator/adaptive.h)
 };
+
+// A boundary between two parts of a render's samples (MPI ranks, device chunks) that keeps the
+// guide's training samples 0 .. guide_training_samples - 1 in one part: one inside them moves to
+// their end.
+inline int64_t guide_part_boundary(const RenderSettings& s, int64_t b) {
+  return b > 0 && b < s.guide_training_samples ? int64_t(s.guide_training_samples) : b;
+}
 
 // What a result records of the settings it was rendered with: the estimator choices and the seed
 // (RenderResult, MultiDeviceResult; film identities and stats are made from these).
