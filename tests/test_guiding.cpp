@@ -377,8 +377,8 @@ TEST(GuidingDepthSetting, ReadsTheTrainingScheduleAndSwitchesStrictly) {
   GuideTraining t = guide_training_setting();
   EXPECT_EQ(t.spp, std::vector<int>(kGuideTrainingSpp, kGuideTrainingSpp + kGuideTrainingPasses));
   EXPECT_TRUE(t.keep);
-  EXPECT_FALSE(guide_phase_product_setting(1));  // the first event alone: the first-event product fit
-  EXPECT_TRUE(guide_phase_product_setting(2));   // deeper: the phase product
+  EXPECT_FALSE(guide_phase_product_setting(1));  // the mixture alone, whose alpha is learned
+  EXPECT_FALSE(guide_phase_product_setting(2));  // at every depth
   EXPECT_FALSE(guide_full_path_setting(false));
   EXPECT_FALSE(guide_full_path_setting(true));  // measurements only (guide_cache.h)
   ::setenv("SPECTRACK_GUIDE_TRAINING", "4,8,16", 1);

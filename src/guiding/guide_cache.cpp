@@ -7,12 +7,16 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <limits>
+#include <mutex>
 #include <string>
+#include <thread>
 #include <tuple>
 
 #include "guiding/vmf_fit.h"
@@ -126,7 +130,7 @@ bool switch_setting(const char* name, bool fallback) {
 }
 }  // namespace
 
-bool guide_phase_product_setting(int guided_depth) { return switch_setting("SPECTRACK_GUIDE_PRODUCT", guided_depth > 1); }
+bool guide_phase_product_setting(int) { return switch_setting("SPECTRACK_GUIDE_PRODUCT", false); }
 bool guide_full_path_setting(bool) { return switch_setting("SPECTRACK_GUIDE_FULL_PATH", false); }
 
 float guide_alpha_setting() {
@@ -438,11 +442,29 @@ int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records, con
   }
   // the learned alpha reads the mixture alone: with the phase product (its pdf per event) alpha is fixed
   const float fixed = cache.fixed_alpha >= 0 ? cache.fixed_alpha : cache.header.phase_product ? kGuideAlpha : -1.0f;
-  int guided = 0;
-  std::vector<char> done(cache.regions.size(), 0);
-  for (size_t r = 0; r < fit.size(); ++r)
-    if (fit[r].index.size() >= size_t(kGuideMinRecords))
-      guided += fit_mixture(cache.regions[r], records, fit[r], fixed), done[r] = 1;
+  // Each region's fit is a pure function of its records, so the regions are shared out over the
+  // host's threads (the device waits for the cache meanwhile); the cache does not depend on how.
+  std::vector<char> done(cache.regions.size(), 0), guides(cache.regions.size(), 0);
+  std::atomic<size_t> next{0};
+  std::mutex failed_mutex;
+  std::exception_ptr failed;
+  auto worker = [&] {
+    try {
+      for (size_t r; (r = next.fetch_add(1)) < fit.size();)
+        if (fit[r].index.size() >= size_t(kGuideMinRecords))
+          guides[r] = char(fit_mixture(cache.regions[r], records, fit[r], fixed) != 0), done[r] = 1;
+    } catch (...) {
+      std::lock_guard<std::mutex> lock(failed_mutex);
+      if (!failed) failed = std::current_exception();
+      next = fit.size();
+    }
+  };
+  std::vector<std::thread> threads;
+  for (unsigned t = 1; t < std::clamp(std::thread::hardware_concurrency(), 1u, 16u); ++t) threads.emplace_back(worker);
+  worker();
+  for (std::thread& t : threads) t.join();
+  if (failed) std::rethrow_exception(failed);
+  const int guided = int(std::count(guides.begin(), guides.end(), char(1)));
   return guided + pool_sparse_regions(cache, records, fit, std::move(done), fixed);
 }
 
