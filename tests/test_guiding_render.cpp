@@ -2,8 +2,9 @@
 // are compared with unguided ones by the per-pixel difference image (test_util.h max_z: the mean
 // within 4 standard errors of 0 over the image and its quadrants), each with a twin that must see
 // a 3% error:
-//   - guided and unguided renders agree for several trackers in both absorption modes, on a
-//     chromatic, emissive scene of two overlapping media under a sun disc and an environment;
+//   - guided and unguided renders agree for several trackers in both absorption modes, and for
+//     every tracker in RGB and spectral mode, on a chromatic, emissive scene of two overlapping
+//     media under a sun disc and an environment (delta on an achromatic copy);
 //   - a deliberately wrong cache (every region's lobes pointing away from the sun) still agrees;
 //   - the same seed gives the same image twice, and generic and specialised kernels agree bit for
 //     bit with guiding on; the cache is reported and bounded;
@@ -90,6 +91,42 @@ TEST(GuidingRender, GuidedAgreesWithUnguided) {
       if (t == ST_TRACKER_SPECTRAL && a == ST_ABSORPTION_WEIGHT)
         EXPECT_GT(max_z(r, ref, 1.03), 4.0) << "twin: a 3% error must be detected";
     }
+}
+
+// The trackers the test above leaves out (decomposition, spectral-mis; delta on an achromatic copy
+// of the scene, which it needs) in RGB mode, and every tracker in spectral mode (wavelength samples
+// through the film's colour-matching weights), each in its own default absorption mode: guided and
+// unguided renders agree within 4 SE, against an unguided reference of the same colour mode.
+TEST(GuidingRender, GuidedAgreesWithUnguidedForEveryTrackerInRgbAndSpectralMode) {
+  const std::string dir = temp_dir("guided_every_tracker");
+  json chromatic = guiding_scene(dir);
+  chromatic["film"]["spp"] = 96;
+  json achromatic = chromatic;  // the delta tracker's: equal coefficients in every channel, no emission
+  achromatic["media"][0]["sigma_a"] = {0.4, 0.4, 0.4};
+  achromatic["media"][0]["sigma_s"] = {1.5, 1.5, 1.5};
+  achromatic["media"][0].erase("emission");
+  achromatic["media"][1]["sigma_a"] = {0.3, 0.3, 0.3};
+  achromatic["media"][1]["sigma_s"] = {1.2, 1.2, 1.2};
+  for (int color : {ST_FILM_COLOR_RGB, ST_FILM_COLOR_SPECTRAL}) {
+    auto in_mode = [&](RenderOptions& o) { o.color = color; };
+    const RenderResult ref = render_guided(chromatic, dir, ST_TRACKER_DELTA_PER_CHANNEL, ST_ABSORPTION_EVENT, 100, false,
+                                           {}, false, in_mode);
+    const RenderResult ref_achromatic =
+        render_guided(achromatic, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 100, false, {}, false, in_mode);
+    std::vector<int> trackers = {ST_TRACKER_DECOMPOSITION, ST_TRACKER_SPECTRAL_MIS, ST_TRACKER_DELTA};
+    if (color == ST_FILM_COLOR_SPECTRAL)
+      trackers.insert(trackers.end(), {ST_TRACKER_DELTA_PER_CHANNEL, ST_TRACKER_SPECTRAL, ST_TRACKER_SPECTRAL_DECOMPOSITION});
+    for (int t : trackers) {
+      const bool delta = t == ST_TRACKER_DELTA;
+      const RenderResult r = render_guided(delta ? achromatic : chromatic, dir, t, st_tracker_default_absorption(t), 200,
+                                           true, {}, false, in_mode);
+      const std::string what = std::string(tracker_name(t)) + (color == ST_FILM_COLOR_SPECTRAL ? ", spectral" : ", rgb");
+      EXPECT_GT(r.guide.regions_guided, 0) << what << ": the cache must guide somewhere";
+      EXPECT_EQ(r.stats.nonfinite_samples, 0u) << what;
+      EXPECT_LT(max_z(r, delta ? ref_achromatic : ref), 4.0) << what;
+      EXPECT_GT(max_z(r, delta ? ref_achromatic : ref, 1.03), 4.0) << what << ": twin, a 3% error must be detected";
+    }
+  }
 }
 
 TEST(GuidingRender, CachePointingAwayFromTheSunStaysUnbiased) {
