@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <cstring>
 #include <cstdlib>
 
 #include "cli_util.h"
@@ -250,6 +251,91 @@ TEST(CliShards, GuidedShardsTilesAndDevicesMergeToTheFullRender) {
   ASSERT_TRUE(p.exited && p.code == 0) << p.describe();
   EXPECT_EQ(count_differing(read(mpi), read(shard), 1e-5, &worst), 0) << "MPI ranks: worst " << worst;
 #endif
+}
+
+// --guide-cache FILE: the first render trains and writes the cache, every later part reads it (no
+// training) and renders the training pass's samples of its own window only where its range holds
+// them: tiles are those pixels of the full render bit for bit, shards, devices and MPI ranks merge
+// to it. A file of another render (another seed), a truncated, a foreign or a damaged file, and
+// the option without guiding are refused naming the file and the reason; nothing is written then.
+TEST(CliShards, GuideCacheFileIsTrainedOnceAndReadByEveryPart) {
+  std::string dir = test_dir();
+  std::string scene = shard_scene(dir);
+  const std::string cache = dir + "/guide.cache";
+  auto guided = [&](std::vector<std::string> a) {
+    a.insert(a.end(), {"--tracker", "spectral", "--guiding", "on", "--guide-cache", cache});
+    return a;
+  };
+  auto stats = [](const std::string& path) { return json::parse(std::ifstream(path)); };
+  render_ok(guided({scene, "-o", dir + "/full.exr", "--stats-json", dir + "/full.json"}));
+  EXPECT_EQ(stats(dir + "/full.json")["guide_cache_file"], "written");
+  EXPECT_EQ(stats(dir + "/full.json")["guide_training_passes"], 1);
+  ASSERT_TRUE(fs::exists(cache));
+  const auto written = fs::last_write_time(cache);
+  const spectrack::RgbImage full = read(dir + "/full.exr");
+  for (const char* b : {"0,7,0,16", "7,24,0,16"}) {
+    const std::string tile = dir + "/tile.exr", js = dir + "/tile.json";
+    render_ok(guided({scene, "--pixel-bounds", b, "-o", tile, "--stats-json", js}));
+    EXPECT_EQ(count_differing(read(tile), full, 0.0), 0) << "a tile is those pixels of the full render: " << b;
+    EXPECT_EQ(stats(js)["guide_cache_file"], "read");
+    EXPECT_EQ(stats(js)["guide_training_passes"], 0) << "read, not trained";
+  }
+  double worst = 0;
+  std::vector<std::string> shards;
+  for (const char* r : {"0:6", "6:11", "11:16"}) {
+    shards.push_back(dir + "/shard_" + std::to_string(shards.size()) + ".exr");
+    render_ok(guided({scene, "--spp-range", r, "-o", shards.back()}));
+  }
+  ASSERT_EQ(merge(dir + "/merged.exr", shards).code, 0);
+  EXPECT_EQ(count_differing(read(dir + "/merged.exr"), full, 1e-5, &worst), 0) << "shards: worst " << worst;
+  render_ok(guided({scene, "--device", "0:0,0:0", "--chunk-spp", "3", "-o", dir + "/two.exr"}));
+  EXPECT_EQ(count_differing(read(dir + "/two.exr"), full, 1e-5, &worst), 0) << "two devices: worst " << worst;
+  EXPECT_EQ(fs::last_write_time(cache), written) << "a read cache is not written again";
+  // the twin: without the cache file, a tile trains on its own, over the full film: the same image
+  render_ok({scene, "--tracker", "spectral", "--guiding", "on", "--pixel-bounds", "0,7,0,16", "-o", dir + "/own.exr"});
+  EXPECT_EQ(count_differing(read(dir + "/own.exr"), full, 0.0), 0);
+
+  // refusals: nothing is rendered or written, the cache stays as it was
+  auto refused = [&](const std::string& file, std::vector<std::string> extra, const std::vector<std::string>& words,
+                     int code = 1) {
+    std::vector<std::string> a = {"render", scene, "--tracker", "spectral", "--guiding", "on", "--guide-cache", file,
+                                  "-o", dir + "/refused.exr", "--quiet"};
+    a.insert(a.end(), extra.begin(), extra.end());
+    Proc p = run(a);
+    expect_error_exit(p, code);
+    for (const std::string& w : words) EXPECT_THAT(p.out, HasSubstr(w)) << p.describe();
+    EXPECT_FALSE(fs::exists(dir + "/refused.exr")) << p.describe();
+  };
+  refused(cache, {"--seed", "12"}, {cache, "key field 'seed'", "trained for another render"});
+  std::string bytes;
+  {
+    std::ifstream in(cache, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  auto write_file = [&](const std::string& name, const std::string& content) {
+    std::ofstream(dir + "/" + name, std::ios::binary) << content;
+    return dir + "/" + name;
+  };
+  refused(write_file("short.cache", bytes.substr(0, bytes.size() - 100)), {}, {"short.cache", "truncated or damaged"});
+  refused(write_file("foreign.cache", "P6\n4 4\n255\n"), {}, {"foreign.cache", "not a spectrack guide cache"});
+  refused(write_file("nokey.cache", "spectrack-guide-cache 1\n{\"seed\": \n"), {}, {"nokey.cache", "not JSON"});
+  // a damaged node: the first cell's root made an inner node whose children do not exist
+  const size_t body = bytes.find('\n', bytes.find('\n') + 1) + 1;
+  const json key = json::parse(bytes.substr(bytes.find('\n') + 1, body - bytes.find('\n') - 2));
+  const size_t first_node = body + key["layout"]["header_bytes"].get<size_t>() +
+                            key["layout"]["regions"].get<size_t>() * key["layout"]["region_bytes"].get<size_t>();
+  std::string damaged = bytes;
+  const uint32_t bad = 0x7ffffff0u;  // axis 0, children at node 0x1ffffffc: beyond the nodes
+  std::memcpy(&damaged[first_node + 4], &bad, 4);
+  refused(write_file("damaged.cache", damaged), {}, {"damaged.cache", "does not lead to a region"});
+  std::string nan_alpha = bytes;  // a region's alpha (after its 8 lobes and 8 weights) not finite
+  const float nan = std::nanf("");
+  std::memcpy(&nan_alpha[body + key["layout"]["header_bytes"].get<size_t>() + 8 * 16 + 8 * 4], &nan, 4);
+  refused(write_file("nan.cache", nan_alpha), {}, {"nan.cache", "region 0 holds a value out of range"});
+  Proc p = run({"render", scene, "--guiding", "off", "--guide-cache", cache, "-o", dir + "/off.exr", "--quiet"});
+  expect_error_exit(p, 2);
+  EXPECT_THAT(p.out, HasSubstr("--guide-cache")) << p.describe();
+  EXPECT_EQ(fs::last_write_time(cache), written);
 }
 
 // ---- refusals ----------------------------------------------------------------------------------

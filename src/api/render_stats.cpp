@@ -63,6 +63,7 @@ nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_tota
   j["guide_regions"] = r.guide.regions;
   j["guide_regions_guided"] = r.guide.regions_guided;
   j["guide_training_passes"] = r.guide.training_passes;
+  j["guide_cache_file"] = r.guide.cache_file;
   j["guide_training_records"] = r.guide.records;
   j["seconds_guide_training"] = r.guide.seconds_training;
   j["seconds_guide_training_loops"] = r.guide.seconds_training_loops;

@@ -87,6 +87,7 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
   if (!a.guiding.empty()) opt.guiding = guiding_from_name(a.guiding);  // checked by CLI11
   if (!a.equiangular.empty()) opt.equiangular = guiding_from_name(a.equiangular);  // checked by CLI11
   if (!a.guide_splitting.empty()) opt.guide_splitting = a.guide_splitting == "on";
+  opt.guide_cache_file = a.guide_cache;
   if (a.spectral) opt.color = ST_FILM_COLOR_SPECTRAL;
   opt.march_spacing = a.march_spacing;
   opt.pilot_spacing = a.pilot_spacing;
@@ -204,6 +205,11 @@ std::unique_ptr<RenderWatch> make_watch(const RenderArgs& a, const MpiArg& mpi, 
   if ((a.checkpoint || a.resume) && set.adaptive)
     throw UsageError("--checkpoint and --resume do not work with adaptive sampling (a film state holds one sample "
                      "count for every pixel)");
+  if (!a.guide_cache.empty() && !set.guiding)
+    throw UsageError("--guide-cache FILE holds a trained guide cache: it needs --guiding on (render.guiding \"on\")");
+  if (!a.guide_cache.empty() && !a.frames.empty())
+    throw UsageError("--guide-cache with --frames: a cache is trained for one frame's media; render the frames "
+                     "without it");
   if ((a.checkpoint || a.resume) && (several || set.guiding))
     throw UsageError("--checkpoint and --resume work with one device and no --mpi or guiding");
   if (set.noise_target <= 0 && !a.checkpoint && !a.resume && (a.preview.empty() || several)) return nullptr;
@@ -253,7 +259,8 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   }
   if (a.denoise && find_oidn_library().empty()) throw UsageError(denoise_unavailable());
   set_phase("output checks and device selection");
-  check_distinct_paths({{"the image", output}, {"--preview", a.preview}, {"--stats-json", a.stats_json}},
+  check_distinct_paths({{"the image", output}, {"--preview", a.preview}, {"--stats-json", a.stats_json},
+                        {"--guide-cache", a.guide_cache}},
                        scene_inputs(scene));
   if (root) {
     check_output_path(output);

@@ -226,10 +226,12 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
   const double seconds_training = settings.guiding && !guide_trained ? train_guide() : 0.0;
   // With guiding the sequence's first T samples are the training passes' (guide_samples), and
   // sample i >= T is the render's own sample i - T (settings.h guide_training_samples).
-  const int64_t T = guide_samples.spp_done, end = sample_begin + spp;
+  // (a cache read from --guide-cache's file renders them when a range first holds them)
+  const int64_t T = guide_loaded ? settings.guide_training_samples : guide_samples.spp_done, end = sample_begin + spp;
   const bool with_training = sample_begin < T;
   if (with_training && (sample_begin != 0 || end < T))
     throw Error(fmt::format("internal: samples {}:{} cut the guide's training samples 0:{}", sample_begin, end, T));
+  if (with_training && guide_loaded && guide_samples.spp_done == 0) render_training_samples();
   const int64_t own_begin = std::max(sample_begin, T) - T, own_end = end - T;
   RenderResult res = own_end > own_begin ? run_stage_loop(own_begin, int(own_end - own_begin), nullptr)
                                          : empty_film(own_begin);

@@ -67,6 +67,7 @@ struct GuideInfo {
   uint64_t training_iterations = 0;  // stage-loop iterations of the passes (each a kernel sequence and a read)
   uint64_t drains = 0;               // host reads of the record buffer
   std::map<std::string, KernelTime> training_kernels;  // the passes' kernel profile, summed
+  std::string cache_file;  // --guide-cache: "read" (no training), "written", or empty
 };
 
 // What a render ran with where its settings leave the choice to the scene or the device: recorded

@@ -7,11 +7,16 @@
 
 #include <fmt/format.h>
 
+#include <filesystem>
+
 #include <algorithm>
 #include <cstring>
 #include <ctime>
 #include <iostream>
 #include <string>
+
+#include "film/film.h"
+#include "guiding/guide_cache_file.h"
 
 namespace spectrack {
 
@@ -108,6 +113,91 @@ void Renderer::Impl::set_window(const FilmWindow& w) {
   ds.packed.st.window_height = w.height;
 }
 
+// The render's settings in the header of a trained or loaded cache (guided sampling on, no records,
+// guided roulette and splitting as asked), uploaded, and the cache's statistics.
+void Renderer::Impl::finish_guide() {
+  guide.header.origin.w = 1.0f;
+  guide.header.inv_cell.w = 0.0f;
+  guide.header.split_max = settings.guide_splitting ? kGuideSplitMax : 0;
+  guide.header.rr_below = settings.guide_splitting ? kGuideRouletteBelow : 0.0f;
+  guide.header.rr_floor = settings.guide_splitting ? kGuideSurvivalFloor : 0.0f;
+  upload_guide();
+  guide_trained = true;
+  guide_info.used = true;
+  guide_info.bytes = guide.bytes();
+  guide_info.regions = int(guide.regions.size());
+  guide_info.regions_guided = int(std::count_if(guide.regions.begin(), guide.regions.end(),
+                                                [](const st_guide_region& g) { return g.alpha > 0; }));
+}
+
+// What a cache depends on (guide_cache_file.h): the scene as it shapes the image (its hash reads
+// every file it references), the film, the estimator's choices and the seed, the guide's settings
+// and the training's samples. Not guided roulette and splitting, which act in the render only.
+nlohmann::json Renderer::Impl::guide_cache_key() const {
+  const RenderIdentity id = render_identity(settings);
+  return {{"scene_hash", scene_hash(scene)},
+          {"film", {settings.full_width, settings.full_height}},
+          {"seed", id.seed},
+          {"tracker", id.tracker},
+          {"scheme", id.scheme},
+          {"absorption", id.absorption},
+          {"light_sampling", id.light_sampling},
+          {"transmittance", id.transmittance},
+          {"lookup", id.lookup},
+          {"color", id.color},
+          {"equiangular", id.equiangular},
+          {"shutter", id.shutter},
+          {"spectrack_version", id.version},
+          {"guided_depth", guide.header.guided_depth},
+          {"phase_product", guide.header.phase_product},
+          {"full_path", guide.full_path},
+          {"fixed_alpha", guide.fixed_alpha},
+          {"grid_cells", {guide.header.dims[0], guide.header.dims[1], guide.header.dims[2]}},
+          {"training_samples", settings.guide_training_samples},
+          {"training_schedule", guide_training_setting().spp}};
+}
+
+// The cache from --guide-cache's file: no training pass here; a render whose samples hold the
+// training pass's renders them for its window (render_training_samples), the same samples the
+// training rendered over the full film.
+double Renderer::Impl::load_guide() {
+  const auto t0 = Clock::now();
+  const std::clock_t cpu0 = std::clock();
+  guide_info = GuideInfo{};
+  guide_samples = RenderResult{};
+  read_guide_cache_file(opt.guide_cache_file, guide_cache_key(), guide);
+  guide_loaded = true;
+  finish_guide();
+  guide_info.cache_file = "read";
+  guide_info.seconds_training = seconds_since(t0);
+  guide_info.cpu_seconds_training = double(std::clock() - cpu0) / CLOCKS_PER_SEC;
+  return guide_info.seconds_training;
+}
+
+// With a loaded cache, the training pass's samples of this render's window: the pass as it ran in
+// training (the training seed, guided sampling and guided roulette off, records collected: the same
+// kernels' path), its records dropped. Its film is those pixels of the training's, bit for bit.
+void Renderer::Impl::render_training_samples() {
+  const st_guide_header header = guide.header;
+  guide.header.origin.w = 0.0f;
+  guide.header.split_max = 0;
+  guide.header.rr_below = guide.header.rr_floor = 0.0f;
+  const uint32_t seed = ds.packed.st.seed;
+  ds.packed.st.seed = seed ^ kGuideTrainingSeed;
+  ds.write_scene_constants();
+  const auto progress = opt.progress;
+  opt.progress = nullptr;
+  std::vector<st_guide_record> dropped;
+  const auto t0 = Clock::now();
+  guide_samples = run_stage_loop(0, settings.guide_training_samples, &dropped);
+  guide_info.seconds_training_loops += seconds_since(t0);
+  opt.progress = progress;
+  ds.packed.st.seed = seed;
+  ds.write_scene_constants();
+  guide.header = header;
+  upload_guide();
+}
+
 // Measurements (SPECTRACK_GUIDE_REPORT=1): what the cache after training pass k does to a path, for
 // the first medium's phase function, the lobes against the first directional light.
 void Renderer::Impl::report_guide(int pass) const {
@@ -126,6 +216,9 @@ void Renderer::Impl::report_guide(int pass) const {
 // adaptive sampling (never a window: settings.cpp) the passes run in the first round (the pilot),
 // over every pixel in film order, so their film adds to that round's as in a plain render.
 double Renderer::Impl::train_guide() {
+  if (!opt.guide_cache_file.empty() && guide_training_setting().spp.size() != 1)
+    throw UsageError("--guide-cache works with one training pass (the default), not SPECTRACK_GUIDE_TRAINING's several");
+  if (!opt.guide_cache_file.empty() && std::filesystem::exists(opt.guide_cache_file)) return load_guide();
   const FilmWindow window = settings.window, full{0, 0, settings.full_width, settings.full_height};
   if (settings.adaptive && (active_pixels.size() != size_t(settings.window.pixels()) || window.pixels() != full.pixels()))
     throw Error("internal: guide training in an adaptive round that does not cover every pixel of the film");
@@ -140,6 +233,7 @@ double Renderer::Impl::train_guide() {
   std::vector<st_guide_record> records;
   std::vector<double> pixel_sum(guide.pixel_estimate.size(), 0.0);
   int64_t begin = 0;
+  bool interrupted = false;
   guide_info = GuideInfo{};
   guide_samples = RenderResult{};
   const GuideTraining schedule = guide_training_setting();
@@ -169,25 +263,24 @@ double Renderer::Impl::train_guide() {
     guide.header.origin.w = 1.0f;  // the next passes and the render sample the guide
     guide_info.training_passes = int(k) + 1;
     guide_info.seconds_fit += seconds_since(t_fit);
-    if (pass.interrupted) break;
+    if (pass.interrupted) {
+      interrupted = true;
+      break;
+    }
   }
   guide.header.inv_cell.w = 0.0f;  // no records in the render
   set_pixel_estimates(guide, pixel_sum, double(std::max<int64_t>(begin, 1)));
-  if (settings.guide_splitting) {
-    guide.header.split_max = kGuideSplitMax;
-    guide.header.rr_below = kGuideRouletteBelow;
-    guide.header.rr_floor = kGuideSurvivalFloor;
+  if (!opt.guide_cache_file.empty() && !interrupted) {  // an interrupted training writes nothing
+    write_guide_cache_file(opt.guide_cache_file, guide, guide_cache_key());
+    guide_info.cache_file = "written";
   }
-  upload_guide();
+  finish_guide();
   opt.progress = progress;
   ds.packed.st.seed = seed;
   set_window(window);
   ds.write_scene_constants();
   crop_to_window(guide_samples, window, settings.full_width);
   guide_trained = true;
-  guide_info.used = true;
-  guide_info.bytes = guide.bytes();
-  guide_info.regions = int(guide.regions.size());
   if (!schedule.keep) guide_samples = RenderResult{};  // measurements: the render renders every sample
   guide_info.seconds_training = seconds_since(t0);
   guide_info.cpu_seconds_training = double(std::clock() - cpu0) / CLOCKS_PER_SEC;

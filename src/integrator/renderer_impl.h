@@ -6,6 +6,7 @@
 #include "integrator/renderer.h"
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -90,6 +91,7 @@ struct Renderer::Impl {
   cl::Buffer b_guide, b_records;
   GuideInfo guide_info;
   bool guide_trained = false;
+  bool guide_loaded = false;   // the cache came from --guide-cache's file: the training samples are rendered on demand
   RenderResult guide_samples;  // the training passes' film sums (the window's), added to the renders that hold them
 
   // adaptive sampling: the entries the next stage loop renders (kernels/queues.h
@@ -110,6 +112,10 @@ struct Renderer::Impl {
   // their seconds.
   double train_guide();
   void report_guide(int pass) const;
+  double load_guide();             // the cache from --guide-cache's file; returns its seconds
+  void render_training_samples();  // with a loaded cache: the training pass's samples of the window
+  void finish_guide();             // the render's settings in the trained or loaded cache's header
+  nlohmann::json guide_cache_key() const;  // what the cache depends on (guide_cache_file.h)
   void add_guide_samples(RenderResult& res);
   void set_window(const FilmWindow& w);
 
