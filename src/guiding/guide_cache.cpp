@@ -16,6 +16,7 @@
 #include <limits>
 #include <mutex>
 #include <string>
+#include <system_error>
 #include <thread>
 #include <tuple>
 
@@ -460,7 +461,10 @@ int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records, con
     }
   };
   std::vector<std::thread> threads;
-  for (unsigned t = 1; t < std::clamp(std::thread::hardware_concurrency(), 1u, 16u); ++t) threads.emplace_back(worker);
+  try {
+    for (unsigned t = 1; t < std::clamp(std::thread::hardware_concurrency(), 1u, 16u); ++t) threads.emplace_back(worker);
+  } catch (const std::system_error&) {  // no more threads: the ones started and this one share the work
+  }
   worker();
   for (std::thread& t : threads) t.join();
   if (failed) std::rethrow_exception(failed);

@@ -8,7 +8,6 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
-#include <iterator>
 #include <vector>
 
 #include "util/error.h"
@@ -41,23 +40,27 @@ std::string damage(const GuideCache& c, const st_guide_header& fresh) {
         std::memcmp(&(&h.inv_cell.x)[a], &(&fresh.inv_cell.x)[a], 4) != 0)
       return "its grid of cells is not this scene's";
   const size_t cells = size_t(h.dims[0]) * size_t(h.dims[1]) * size_t(h.dims[2]);
-  if (h.regions != int(c.regions.size()) || h.nodes != int(c.nodes.size()) || c.nodes.size() < cells ||
-      c.regions.empty() || c.regions.size() > kGuideMaxRegions)
-    return "its region and node counts do not fit together";
-  if (h.guided_depth < 1 || (h.phase_product != 0 && h.phase_product != 1) || h.depth < 0 || h.depth > ST_GUIDE_MAX_DEPTH)
-    return "its header's guided depth, phase product or tree depth is out of range";
-  for (size_t root = 0; root < cells; ++root) {  // every walk ends in an existing region
+  if (h.regions != int(c.regions.size()) || h.nodes != int(c.nodes.size()))
+    return "its header's region and node counts are not its layout's";
+  if (h.guided_depth != fresh.guided_depth || h.phase_product != fresh.phase_product || h.depth < 0 ||
+      h.depth > ST_GUIDE_MAX_DEPTH)
+    return "its header's guided depth, phase product or tree depth is not this render's";
+  // every cell's kd-tree: each node reached once, every walk ends in a leaf within
+  // ST_GUIDE_MAX_DEPTH levels (guide_tree_leaf's bound) that names an existing region
+  std::vector<char> seen(c.nodes.size(), 0);
+  for (size_t root = 0; root < cells; ++root) {
     std::vector<std::pair<uint32_t, int>> stack = {{uint32_t(root), 0}};
     while (!stack.empty()) {
       const auto [i, d] = stack.back();
       stack.pop_back();
+      if (seen[i]++) return fmt::format("node {} is reached twice (the cells' trees are not trees)", i);
       const st_guide_node& n = c.nodes[i];
       if (n.next & ST_GUIDE_LEAF) {
         if ((n.next & ~ST_GUIDE_LEAF) >= c.regions.size()) return fmt::format("node {} names a region that does not exist", i);
         continue;
       }
       const uint64_t child = uint64_t(n.next >> 2);
-      if ((n.next & 3u) > 2u || child + 1 >= c.nodes.size() || child < cells || d + 1 >= ST_GUIDE_MAX_DEPTH ||
+      if ((n.next & 3u) > 2u || child + 1 >= c.nodes.size() || child < cells || d + 1 > ST_GUIDE_MAX_DEPTH ||
           !std::isfinite(n.split))
         return fmt::format("node {} of cell {} does not lead to a region", i, root);
       stack.push_back({uint32_t(child), d + 1}), stack.push_back({uint32_t(child + 1), d + 1});
@@ -65,18 +68,18 @@ std::string damage(const GuideCache& c, const st_guide_header& fresh) {
   }
   for (size_t r = 0; r < c.regions.size(); ++r) {
     const st_guide_region& g = c.regions[r];
-    bool ok = finite_in(g.alpha, 0.0f, kGuideAlphaMax) && finite_in(g.records, 0.0f, 3.4e38f) &&
-              finite_in(g.radiance, 0.0f, 3.4e38f) && std::isfinite(g.weight);
-    for (int k = 0; k < ST_VMF_LOBES && ok; ++k) {
+    bool ok = finite_in(g.alpha, 0.0f, kGuideAlphaMax) && finite_in(g.records, 0.0f, 1e30f) &&
+              finite_in(g.radiance, 0.0f, 1e30f) && finite_in(g.weight, -1e30f, 1e30f);
+    for (int k = 0; k < ST_VMF_LOBES && ok; ++k) {  // weights bounded so that their float sum stays finite
       const st_float4& l = g.mix.lobe[k];
       const double norm = std::sqrt(double(l.x) * l.x + double(l.y) * l.y + double(l.z) * l.z);
-      ok = finite_in(g.mix.weight[k], 0.0f, 3.4e38f) && finite_in(l.w, 0.0f, 1e7f) &&
+      ok = finite_in(g.mix.weight[k], 0.0f, 1e30f) && finite_in(l.w, 0.0f, 1e7f) &&
            (g.mix.weight[k] == 0.0f || std::abs(norm - 1.0) < 1e-3);
     }
     if (!ok) return fmt::format("region {} holds a value out of range (alpha, lobe, weight or radiance)", r);
   }
   for (size_t i = 0; i < c.pixel_estimate.size(); ++i)
-    if (!finite_in(c.pixel_estimate[i], 0.0f, 3.4e38f)) return fmt::format("pixel estimate {} is not finite and >= 0", i);
+    if (!finite_in(c.pixel_estimate[i], 0.0f, 1e30f)) return fmt::format("pixel estimate {} is not finite and >= 0", i);
   return "";
 }
 
@@ -117,37 +120,39 @@ void read_guide_cache_file(const std::string& path, const nlohmann::json& key, G
                              field, head[field].dump(), want.dump()));
   }
   const nlohmann::json& lay = head.contains("layout") ? head["layout"] : nlohmann::json();
-  GuideCache shape;  // the counts the layout names, sizes checked against this build's
+  // the counts, checked before anything is allocated: at most kGuideMaxRegions regions, two nodes
+  // per region that refinement added to the grid's cells, one estimate per film pixel
+  const size_t cells = size_t(cache.header.dims[0]) * size_t(cache.header.dims[1]) * size_t(cache.header.dims[2]);
+  uint64_t regions = 0, nodes = 0, pixels = 0;
   try {
-    const nlohmann::json built = layout(shape);
+    const nlohmann::json built = layout(GuideCache{});
     for (const char* f : {"header_bytes", "region_bytes", "node_bytes", "vmf_lobes"})
       if (lay.at(f) != built.at(f)) throw fail(fmt::format("it was written by a build with another layout ({})", f));
-    shape.regions.resize(lay.at("regions").get<size_t>());
-    shape.nodes.resize(lay.at("nodes").get<size_t>());
-    shape.pixel_estimate.resize(lay.at("pixels").get<size_t>());
+    regions = lay.at("regions").get<uint64_t>(), nodes = lay.at("nodes").get<uint64_t>(), pixels = lay.at("pixels").get<uint64_t>();
   } catch (const nlohmann::json::exception& e) {
     throw fail(fmt::format("its layout is missing or not counts ({})", e.what()));
-  } catch (const std::length_error&) {
-    throw fail("its layout's counts are too large");
   }
-  if (shape.regions.size() > kGuideMaxRegions || shape.nodes.size() > 4 * kGuideMaxRegions + (1u << 20) ||
-      shape.pixel_estimate.size() != cache.pixel_estimate.size())
-    throw fail(fmt::format("its counts do not fit this render ({} pixel estimates for a film of {} pixels)",
-                           shape.pixel_estimate.size(), cache.pixel_estimate.size()));
-  std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (bytes.size() != shape.bytes())
-    throw fail(fmt::format("it holds {} bytes after its key where its layout needs {} (truncated or damaged)", bytes.size(),
-                           shape.bytes()));
-  GuideCache c = cache;  // the host-only settings and the fresh grid stay the caller's
-  size_t at = 0;
+  if (regions < cells || regions > kGuideMaxRegions || nodes != cells + 2 * (regions - cells) ||
+      pixels != cache.pixel_estimate.size())
+    throw fail(fmt::format("its counts do not fit this render ({} regions, {} nodes and {} pixel estimates for a grid of "
+                           "{} cells and a film of {} pixels)",
+                           regions, nodes, pixels, cells, cache.pixel_estimate.size()));
+  const uint64_t need = sizeof(st_guide_header) + regions * sizeof(st_guide_region) + nodes * sizeof(st_guide_node) +
+                        pixels * sizeof(float);
+  const std::streampos body = in.tellg();
+  in.seekg(0, std::ios::end);
+  const uint64_t have = uint64_t(in.tellg() - body);
+  in.seekg(body);
+  if (have != need)
+    throw fail(fmt::format("it holds {} bytes after its key where its layout needs {} (truncated or damaged)", have, need));
+  GuideCache c = cache;  // the host-only settings stay the caller's
+  c.regions.resize(regions);
+  c.nodes.resize(nodes);
+  c.pixel_estimate.resize(pixels);
   auto take = [&](void* to, size_t n) {
-    if (n) std::memcpy(to, bytes.data() + at, n);
-    at += n;
+    if (n && !in.read(static_cast<char*>(to), std::streamsize(n))) throw fail("cannot be read to its end");
   };
   take(&c.header, sizeof(st_guide_header));
-  c.regions.resize(shape.regions.size());
-  c.nodes.resize(shape.nodes.size());
-  c.pixel_estimate.resize(shape.pixel_estimate.size());
   take(c.regions.data(), c.regions.size() * sizeof(st_guide_region));
   take(c.nodes.data(), c.nodes.size() * sizeof(st_guide_node));
   take(c.pixel_estimate.data(), c.pixel_estimate.size() * sizeof(float));

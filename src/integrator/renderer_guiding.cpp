@@ -113,6 +113,32 @@ void Renderer::Impl::set_window(const FilmWindow& w) {
   ds.packed.st.window_height = w.height;
 }
 
+// A training pass's state of the renderer (the training seed in the scene constants, no progress
+// reports), and on restore (or when an exception leaves the scope) the render's again: seed,
+// window, progress and the cache's header.
+Renderer::Impl::TrainingState::TrainingState(Impl& r)
+    : r(r), seed(r.ds.packed.st.seed), window(r.settings.window), header(r.guide.header), progress(r.opt.progress) {
+  r.ds.packed.st.seed = seed ^ kGuideTrainingSeed;
+  r.ds.write_scene_constants();
+  r.opt.progress = nullptr;
+}
+void Renderer::Impl::TrainingState::restore() {
+  if (restored) return;
+  restored = true;
+  r.opt.progress = progress;
+  r.ds.packed.st.seed = seed;
+  r.set_window(window);
+  r.ds.write_scene_constants();
+}
+Renderer::Impl::TrainingState::~TrainingState() {
+  if (restored) return;
+  r.guide.header = header;  // an exception: the cache as it was (a failed training leaves no guide)
+  try {
+    restore();
+  } catch (...) {  // the device failed too: the exception in flight says why
+  }
+}
+
 // The render's settings in the header of a trained or loaded cache (guided sampling on, no records,
 // guided roulette and splitting as asked), uploaded, and the cache's statistics.
 void Renderer::Impl::finish_guide() {
@@ -178,23 +204,16 @@ double Renderer::Impl::load_guide() {
 // training (the training seed, guided sampling and guided roulette off, records collected: the same
 // kernels' path), its records dropped. Its film is those pixels of the training's, bit for bit.
 void Renderer::Impl::render_training_samples() {
-  const st_guide_header header = guide.header;
+  TrainingState training(*this);
   guide.header.origin.w = 0.0f;
   guide.header.split_max = 0;
   guide.header.rr_below = guide.header.rr_floor = 0.0f;
-  const uint32_t seed = ds.packed.st.seed;
-  ds.packed.st.seed = seed ^ kGuideTrainingSeed;
-  ds.write_scene_constants();
-  const auto progress = opt.progress;
-  opt.progress = nullptr;
   std::vector<st_guide_record> dropped;
   const auto t0 = Clock::now();
   guide_samples = run_stage_loop(0, settings.guide_training_samples, &dropped);
   guide_info.seconds_training_loops += seconds_since(t0);
-  opt.progress = progress;
-  ds.packed.st.seed = seed;
-  ds.write_scene_constants();
-  guide.header = header;
+  training.restore();
+  guide.header = training.header;
   upload_guide();
 }
 
@@ -216,20 +235,15 @@ void Renderer::Impl::report_guide(int pass) const {
 // adaptive sampling (never a window: settings.cpp) the passes run in the first round (the pilot),
 // over every pixel in film order, so their film adds to that round's as in a plain render.
 double Renderer::Impl::train_guide() {
-  if (!opt.guide_cache_file.empty() && guide_training_setting().spp.size() != 1)
-    throw UsageError("--guide-cache works with one training pass (the default), not SPECTRACK_GUIDE_TRAINING's several");
   if (!opt.guide_cache_file.empty() && std::filesystem::exists(opt.guide_cache_file)) return load_guide();
   const FilmWindow window = settings.window, full{0, 0, settings.full_width, settings.full_height};
   if (settings.adaptive && (active_pixels.size() != size_t(settings.window.pixels()) || window.pixels() != full.pixels()))
     throw Error("internal: guide training in an adaptive round that does not cover every pixel of the film");
   auto t0 = Clock::now();
   const std::clock_t cpu0 = std::clock();
-  const uint32_t seed = ds.packed.st.seed;
-  ds.packed.st.seed = seed ^ kGuideTrainingSeed;
+  TrainingState training(*this);
   set_window(full);
   ds.write_scene_constants();
-  const auto progress = opt.progress;
-  opt.progress = nullptr;
   std::vector<st_guide_record> records;
   std::vector<double> pixel_sum(guide.pixel_estimate.size(), 0.0);
   int64_t begin = 0;
@@ -275,10 +289,7 @@ double Renderer::Impl::train_guide() {
     guide_info.cache_file = "written";
   }
   finish_guide();
-  opt.progress = progress;
-  ds.packed.st.seed = seed;
-  set_window(window);
-  ds.write_scene_constants();
+  training.restore();
   crop_to_window(guide_samples, window, settings.full_width);
   guide_trained = true;
   if (!schedule.keep) guide_samples = RenderResult{};  // measurements: the render renders every sample

@@ -115,6 +115,17 @@ struct Renderer::Impl {
   double load_guide();             // the cache from --guide-cache's file; returns its seconds
   void render_training_samples();  // with a loaded cache: the training pass's samples of the window
   void finish_guide();             // the render's settings in the trained or loaded cache's header
+  struct TrainingState {           // renderer_guiding.cpp
+    explicit TrainingState(Impl& r);
+    ~TrainingState();
+    void restore();
+    Impl& r;
+    const uint32_t seed;
+    const FilmWindow window;
+    const st_guide_header header;
+    const std::function<void(double)> progress;
+    bool restored = false;
+  };
   nlohmann::json guide_cache_key() const;  // what the cache depends on (guide_cache_file.h)
   void add_guide_samples(RenderResult& res);
   void set_window(const FilmWindow& w);

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "guiding/guide_cache.h"
+#include "integrator/noise.h"
 
 namespace spectrack {
 
@@ -70,7 +71,12 @@ void resolve_guiding(const RenderOptions& o, RenderSettings& s, const SceneDesc&
   if (s.adaptive && o.pixel_bounds)
     throw UsageError("guiding with adaptive sampling renders the whole film (the training pass is its first "
                      "round); use --guiding off with --pixel-bounds");
-  const int T = guide_training_setting().samples();
+  const GuideTraining schedule = guide_training_setting();
+  if (!o.guide_cache_file.empty() && schedule.spp.size() != 1)
+    throw UsageError("--guide-cache works with one training pass (the default), not SPECTRACK_GUIDE_TRAINING's several");
+  int T = schedule.samples();
+  // adaptive sampling trains in its pilot round, which must hold the training samples and one more
+  if (s.adaptive) T = std::min<int64_t>(T, std::min<int64_t>(kNoiseMinSpp, s.spp) - 1);
   const int64_t begin = s.sample_begin, end = s.sample_begin + s.spp;
   if (begin == 0 && !o.sample_range) {
     s.guide_training_samples = std::max(0, std::min(T, s.spp - 1));
