@@ -191,8 +191,9 @@ TEST(CliShards, TilesEqualThosePixelsOfTheFullRenderAndMergeToIt) {
 // Guiding (docs/guiding.md, "Determinism across shards"): every part trains the same cache over
 // the full film, and the training pass's samples 0-3 stay whole in one part. Shards, tiles, tiles
 // of shards, two devices (chunks of 3 samples: the first is stretched to hold the training samples)
-// and MPI ranks give the single guided render; the guided render differs from the unguided one on
-// most pixels (so the comparisons see the guide); ranges that cut the training samples are refused.
+// give the single guided render (MPI ranks: CliMpi.GuidedRanksGiveTheGuidedShard); the guided render
+// differs from the unguided one on most pixels (so the comparisons see the guide); ranges that cut
+// the training samples are refused.
 TEST(CliShards, GuidedShardsTilesAndDevicesMergeToTheFullRender) {
   std::string dir = test_dir();
   std::string scene = shard_scene(dir);
@@ -235,22 +236,6 @@ TEST(CliShards, GuidedShardsTilesAndDevicesMergeToTheFullRender) {
     EXPECT_THAT(p.out, HasSubstr("cut the training pass's samples 0:4")) << p.describe();
     EXPECT_FALSE(fs::exists(dir + "/cut.exr"));
   }
-#ifdef SPECTRACK_HAVE_MPI
-  ::setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
-  ::setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
-  ::setenv("OMPI_MCA_btl_vader_single_copy_mechanism", "none", 1);
-  ::setenv("OMPI_MCA_rmaps_base_oversubscribe", "1", 1);
-  RunOptions o;
-  o.timeout_s = 240;
-  // 3 ranks over samples 0:6: shares 0:2, 2:4, 4:6 become 0:4, none, 4:6
-  const std::string shard = dir + "/g_0_6.exr", mpi = dir + "/g_mpi.exr";
-  render_ok(guided({scene, "--spp-range", "0:6", "-o", shard}));
-  Proc p = run_command({MPIRUN, "-np", "3", kBinary, "render", scene, "--tracker", "spectral", "--guiding", "on",
-                        "--spp-range", "0:6", "--mpi", "-o", mpi, "--quiet"},
-                       o);
-  ASSERT_TRUE(p.exited && p.code == 0) << p.describe();
-  EXPECT_EQ(count_differing(read(mpi), read(shard), 1e-5, &worst), 0) << "MPI ranks: worst " << worst;
-#endif
 }
 
 // --guide-cache FILE: the first render trains and writes the cache, every later part reads it (no
@@ -522,6 +507,35 @@ TEST(CliMpi, TwoRanksEqualTheSingleProcessRender) {
   ASSERT_TRUE(p.exited && p.code == 0) << p.describe();
   EXPECT_EQ(count_differing(read(shard_mpi), read(shard), 1e-5, &worst), 0) << "worst relative difference " << worst;
   EXPECT_EQ(meta_string(read(shard_mpi), "spp_ranges"), "5:12");
+#endif
+}
+
+// Guided MPI ranks (docs/guiding.md, "Determinism across shards"): 3 ranks over samples 0:6, whose
+// shares 0:2, 2:4, 4:6 become 0:4, none and 4:6 (the training samples stay in one share), give the
+// shard 0:6 rendered by one process.
+TEST(CliMpi, GuidedRanksGiveTheGuidedShard) {
+#ifndef SPECTRACK_HAVE_MPI
+  GTEST_SKIP() << "spectrack was built without MPI (libopenmpi-dev not found by CMake)";
+#else
+  std::string dir = test_dir();
+  std::string scene = shard_scene(dir);
+  ::setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
+  ::setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
+  ::setenv("OMPI_MCA_btl_vader_single_copy_mechanism", "none", 1);
+  ::setenv("OMPI_MCA_rmaps_base_oversubscribe", "1", 1);
+  RunOptions o;
+  o.timeout_s = 240;
+  double worst = 0;
+  const std::string shard = dir + "/g_0_6.exr", mpi = dir + "/g_mpi.exr";
+  render_ok({scene, "--tracker", "spectral", "--guiding", "on", "--spp-range", "0:6", "-o", shard});
+  Proc p = run_command({MPIRUN, "-np", "3", kBinary, "render", scene, "--tracker", "spectral", "--guiding", "on",
+                        "--spp-range", "0:6", "--mpi", "-o", mpi, "--quiet"},
+                       o);
+  ASSERT_TRUE(p.exited && p.code == 0) << p.describe();
+  EXPECT_EQ(count_differing(read(mpi), read(shard), 1e-5, &worst), 0) << "MPI ranks: worst " << worst;
+  render_ok({scene, "--tracker", "spectral", "--guiding", "off", "--spp-range", "0:6", "-o", dir + "/u_0_6.exr"});
+  EXPECT_GT(count_differing(read(mpi), read(dir + "/u_0_6.exr"), 1e-5), kW * kH * 3 / 4)
+      << "twin: the unguided shard differs";
 #endif
 }
 
