@@ -467,6 +467,21 @@ TEST(CliMultiDevice, TwoDevicesShareTheSamplesOfOneFilm) {
 
 // ---- MPI ---------------------------------------------------------------------------------------
 
+#ifdef SPECTRACK_HAVE_MPI
+// mpirun's options: Open MPI as root in a container allowed explicitly, no shared-memory single
+// copy (CMA needs ptrace rights containers lack), oversubscribed in case the machine reports one
+// slot; time for a cold kernel build.
+RunOptions mpirun_options() {
+  ::setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
+  ::setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
+  ::setenv("OMPI_MCA_btl_vader_single_copy_mechanism", "none", 1);
+  ::setenv("OMPI_MCA_rmaps_base_oversubscribe", "1", 1);
+  RunOptions o;
+  o.timeout_s = 240;
+  return o;
+}
+#endif
+
 TEST(CliMpi, TwoRanksEqualTheSingleProcessRender) {
 #ifndef SPECTRACK_HAVE_MPI
   GTEST_SKIP() << "spectrack was built without MPI (libopenmpi-dev not found by CMake)";
@@ -474,15 +489,8 @@ TEST(CliMpi, TwoRanksEqualTheSingleProcessRender) {
   std::string dir = test_dir();
   std::string scene = shard_scene(dir);
   spectrack::RgbImage full = full_render(dir, scene, "spectral");
-  // Open MPI as root in a container: allowed explicitly; no shared-memory single copy (CMA needs
-  // ptrace rights containers lack); oversubscribe in case the machine reports one slot.
-  ::setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
-  ::setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
-  ::setenv("OMPI_MCA_btl_vader_single_copy_mechanism", "none", 1);
-  ::setenv("OMPI_MCA_rmaps_base_oversubscribe", "1", 1);
+  const RunOptions o = mpirun_options();
   std::string out = dir + "/mpi.exr", stats = dir + "/mpi.json";
-  RunOptions o;
-  o.timeout_s = 240;
   Proc p = run_command({MPIRUN, "-np", "2", kBinary, "render", scene, "--tracker", "spectral", "--mpi", "-o", out,
                         "--stats-json", stats, "--quiet"},
                        o);
@@ -519,12 +527,7 @@ TEST(CliMpi, GuidedRanksGiveTheGuidedShard) {
 #else
   std::string dir = test_dir();
   std::string scene = shard_scene(dir);
-  ::setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
-  ::setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
-  ::setenv("OMPI_MCA_btl_vader_single_copy_mechanism", "none", 1);
-  ::setenv("OMPI_MCA_rmaps_base_oversubscribe", "1", 1);
-  RunOptions o;
-  o.timeout_s = 240;
+  const RunOptions o = mpirun_options();
   double worst = 0;
   const std::string shard = dir + "/g_0_6.exr", mpi = dir + "/g_mpi.exr";
   render_ok({scene, "--tracker", "spectral", "--guiding", "on", "--spp-range", "0:6", "-o", shard});
