@@ -7,11 +7,10 @@
 
 #include <fmt/format.h>
 
-#include <filesystem>
-
 #include <algorithm>
 #include <cstring>
 #include <ctime>
+#include <filesystem>
 #include <iostream>
 #include <string>
 
@@ -291,7 +290,6 @@ double Renderer::Impl::train_guide() {
   finish_guide();
   training.restore();
   crop_to_window(guide_samples, window, settings.full_width);
-  guide_trained = true;
   if (!schedule.keep) guide_samples = RenderResult{};  // measurements: the render renders every sample
   guide_info.seconds_training = seconds_since(t0);
   guide_info.cpu_seconds_training = double(std::clock() - cpu0) / CLOCKS_PER_SEC;
