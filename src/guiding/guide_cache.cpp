@@ -208,6 +208,14 @@ struct FitRecords {
     train.insert(train.end(), o.train.begin(), o.train.end());
     all += o.all;
   }
+  // Kish's effective count of the records, (sum w)^2 / sum w^2: what a fit learns from them (a
+  // few bright records among many dim ones count as the few; the fit's priors count in the same
+  // unit, vmf_fit.cpp)
+  double effective() const {
+    double sum = 0, sum2 = 0;
+    for (float w : weight) sum += double(w), sum2 += double(w) * double(w);
+    return sum2 > 0 ? sum * sum / sum2 : 0.0;
+  }
 };
 
 // The selection probability that the records say pays (docs/guiding.md, "The learned selection
@@ -317,8 +325,9 @@ FitRecords region_records(GuideCache& cache, const std::vector<st_guide_record>&
   return f;
 }
 
-// Sparse regions (fewer than kGuideMinRecords fit records: where few directions find light) take
-// the fit of the smallest set around them that holds enough: the subtree of their cell's kd-tree
+// Sparse regions (fit records of an effective count below kGuideMinRecords: where few directions
+// find light, or few bring back most of it) take the fit of the smallest set around them that
+// holds enough: the subtree of their cell's kd-tree
 // (below), then blocks of 2, 4, ... cells along each axis (pool_sparse_cells).
 struct Pool {
   GuideCache& cache;
@@ -333,7 +342,7 @@ struct Pool {
     FitRecords all;
     bool sparse = false;
     for (uint32_t r : leaves) all.append(fit[r]), sparse = sparse || !done[r];
-    if (!sparse || all.index.size() < size_t(kGuideMinRecords)) return;
+    if (!sparse || all.effective() < double(kGuideMinRecords)) return;
     st_guide_region pooled{};
     fit_mixture(pooled, records, all, fixed_alpha);
     for (uint32_t r : leaves) {
@@ -452,7 +461,7 @@ int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records, con
   auto worker = [&] {
     try {
       for (size_t r; (r = next.fetch_add(1)) < fit.size();)
-        if (fit[r].index.size() >= size_t(kGuideMinRecords))
+        if (fit[r].effective() >= double(kGuideMinRecords))
           guides[r] = char(fit_mixture(cache.regions[r], records, fit[r], fixed) != 0), done[r] = 1;
     } catch (...) {
       std::lock_guard<std::mutex> lock(failed_mutex);

@@ -27,7 +27,8 @@ namespace spectrack {
 
 // Cells along the longest axis of the media's box.
 constexpr int kGuideGridCells = 8;
-// A region guides (alpha > 0) from this many records on; below, phase sampling alone.
+// A region fits its own records from this many on (their effective count for the fit, Kish's
+// (sum w)^2 / sum w^2); below, it takes a pooled fit, or phase sampling alone.
 constexpr int kGuideMinRecords = 32;
 // Records of one region that the fit reads at most (every k-th in key order beyond).
 constexpr int kGuideMaxRecordsPerRegion = 2048;
@@ -173,8 +174,8 @@ size_t refine_guide_regions(GuideCache& cache, const std::vector<st_guide_record
 // scatter events whose direction was guided (depth below kGuideDepth), its radiance (guided
 // roulette's estimate) from the records of every depth; regions with fewer than kGuideMinRecords
 // radiance records get no radiance estimate (records 0). Returns the regions that guide.
-// Sparse regions take the fit of the smallest subtree of their cell, or block of cells, that holds
-// kGuideMinRecords records. Each fitted region's alpha is learned from its records
+// Sparse regions (their fit records' effective count below kGuideMinRecords) take the fit of the
+// smallest subtree of their cell, or block of cells, whose records' effective count reaches it. Each fitted region's alpha is learned from its records
 // (GuideCache::fixed_alpha), which the training drew from the phase function or, where
 // `sampled_by` (the cache that guided the pass) guided, its one-sample mixture.
 int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records, const GuideCache* sampled_by = nullptr);
