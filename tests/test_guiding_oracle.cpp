@@ -5,9 +5,10 @@
 // which phase sampling finds by chance. Tests:
 //   - the selection probability learned from records: a region whose records bring light back from
 //     a narrow cone guides (alpha > 0), its twin of the same records' weights spread over every
-//     direction does not (alpha 0), and sparse regions take the fit of the subtree around them;
-//   - the oracle render (single scattering, the film's first scatter events guided): the guided
-//     variance is at most kOracleVarianceRatio of the unguided one, and the means agree within 4
+//     direction does not (alpha 0), and sparse regions (few lit records, also among many dim ones)
+//     take the fit of the subtree around them;
+//   - the oracle render (single scattering, guided by `--guiding auto`, which the lamp turns on):
+//     the guided variance is at most kOracleVarianceRatio of the unguided one, and the means agree within 4
 //     standard errors, with a twin that must see a 3% error.
 // The variance of a render is estimated from two renders of different seeds: the mean over pixels
 // of (a - b)^2 / 2 (no variance layer needed; the image's structure cancels).
@@ -78,8 +79,7 @@ json oracle_scene() {
 RenderResult render_oracle(const json& s, const std::string& dir, uint32_t seed, bool guiding) {
   RenderOptions o = quiet_options();
   o.seed = seed;
-  o.guiding = guiding ? kGuidingOn : kGuidingOff;
-  o.guide_splitting = false;
+  o.guiding = guiding ? kGuidingAuto : kGuidingOff;  // auto: on for the lamp, without roulette and splitting
   return Renderer(scene_from_json(s, dir), o).render();
 }
 
@@ -126,13 +126,44 @@ TEST(GuidingOracle, SparseRegionsTakeThePooledFit) {
   EXPECT_EQ(fit_guide_cache(few, sparse), 0);
 }
 
+// A dim sky behind a narrow light: every record has weight, so each cell holds ~60 records but
+// only ~1.5 lit ones. What a fit learns from is the records' effective count, so a cell whose few
+// lit records carry nearly all its weight takes the pooled fit, which points at the light and
+// guides (counted by records, each such cell fitted its own one to three lit records, whose
+// held-out half could not show a gain: it did not guide). A cell with no lit record is a uniform
+// sky of ~60 effective records: it fits itself and does not guide.
+TEST(GuidingOracle, ADimSkyDoesNotHideASparseLight) {
+  std::vector<st_guide_record> records = cone_records(4000, 0.95, false, 7);
+  for (st_guide_record& r : records)
+    if (r.dir.w == 0) r.dir.w = 1e-4f;
+  GuideCache c = unit_cache(4);
+  fit_guide_cache(c, records);
+  std::vector<int> lit(c.regions.size(), 0);
+  for (const st_guide_record& r : records)
+    if (r.dir.w > 0.5f) ++lit[size_t(guide_region_of(c, r.pos.x, r.pos.y, r.pos.z))];
+  int cells_lit = 0, guided = 0, toward = 0;
+  for (size_t i = 0; i < c.regions.size(); ++i) {
+    if (lit[i] == 0) continue;
+    const st_guide_region& g = c.regions[i];
+    int lobe = 0;
+    for (int k = 1; k < ST_VMF_LOBES; ++k)
+      if (g.mix.weight[k] > g.mix.weight[lobe]) lobe = k;
+    ++cells_lit, guided += g.alpha > 0, toward += g.mix.lobe[lobe].y > 0.9f;
+  }
+  ASSERT_GT(cells_lit, 32);
+  EXPECT_EQ(guided, cells_lit) << "every cell with a lit record guides, by the pooled fit";
+  EXPECT_EQ(toward, cells_lit) << "and its main lobe points at the light";
+}
+
 TEST(GuidingOracle, GuidingWinsWhereTheLightIsNarrowAndStaysUnbiased) {
   const std::string dir = temp_dir("guided_oracle");
   json s = oracle_scene();
   const RenderResult off1 = render_oracle(s, dir, 11, false), off2 = render_oracle(s, dir, 12, false);
   s["film"]["spp"] = 512;  // the guided side of the means' test below (its 4 training samples unguided)
   const RenderResult on1 = render_oracle(s, dir, 21, true), on2 = render_oracle(s, dir, 22, true);
+  EXPECT_TRUE(on1.guide.used) << "auto guides where a lamp lights the slab";
   EXPECT_GT(on1.guide.regions_guided, 0) << "the learned alpha guides toward the lamp";
+  EXPECT_EQ(on1.stats.split_paths, 0u) << "auto does not split";
   const double ratio = pixel_variance(on1, on2) * 512 / (pixel_variance(off1, off2) * 64);
   EXPECT_LT(ratio, kOracleVarianceRatio) << "guided / unguided variance per sample";
   // the means: the guided renders, and their mean, against a long unguided reference (its rare hits

@@ -193,12 +193,66 @@ TEST(GuidingRender, TrainingLeavesASampleAndItsStatisticsCount) {
   }
 }
 
-TEST(GuidingRender, AutoIsOffAndOnlyRangesThatCutTheTrainingSamplesAreRefused) {
+// `auto` guides where a lamp (a medium that emits and does not scatter: light next-event
+// estimation does not sample) lights a medium that scatters, without guided roulette and
+// splitting, and stays off elsewhere and where the render asks for what guiding refuses.
+TEST(GuidingRender, AutoGuidesWhereALampLightsAScatteringMedium) {
+  const std::string dir = temp_dir("guided_auto");
+  const SceneDesc plain = scene_from_json(guiding_scene(dir), dir);  // 48 spp, a sun and a sky
+  ASSERT_FALSE(plain.media.empty());
+  RenderOptions o = quiet_options();
+  EXPECT_FALSE(guiding_pays(plain));
+  EXPECT_FALSE(resolve_settings(plain, o).guiding) << "every light is sampled by next-event estimation";
+  EXPECT_EQ(resolve_settings(plain, o).guide_training_samples, 0);
+  SceneDesc lit = plain;
+  MediumDesc lamp = plain.media[0];
+  lamp.name = "lamp", lamp.sigma_s = Vec3{0, 0, 0}, lamp.sigma_a = Vec3{5, 5, 5};
+  lamp.emission.present = true, lamp.emission.radiance = Vec3{4, 4, 4};
+  lit.media.push_back(lamp);
+  EXPECT_TRUE(guiding_pays(lit));
+  const RenderSettings on = resolve_settings(lit, o);
+  EXPECT_TRUE(on.guiding);
+  EXPECT_EQ(on.guiding_requested, kGuidingAuto);
+  EXPECT_FALSE(on.guide_splitting) << "auto guides directions alone";
+  EXPECT_EQ(on.guide_training_samples, kGuideTrainingSpp[0]);
+  RenderOptions asked = o;
+  asked.guiding = kGuidingOn;
+  EXPECT_TRUE(resolve_settings(lit, asked).guide_splitting) << "--guiding on keeps --guide-splitting's default";
+  // the twins: a lamp that also scatters (fire in its smoke), a lamp alone, a lamp of no power
+  SceneDesc fire = plain;
+  fire.media[0].emission = lamp.emission;
+  EXPECT_FALSE(guiding_pays(fire));
+  SceneDesc alone = plain;
+  alone.media = {lamp};
+  EXPECT_FALSE(guiding_pays(alone));
+  SceneDesc dark = lit;
+  dark.media.back().emission.scale = 0;
+  EXPECT_FALSE(guiding_pays(dark));
+  // what guiding refuses turns auto off instead of failing: film states, equi-angular sampling,
+  // adaptive sampling of a window; an explicit --guiding off too
+  RenderOptions state = o, equiangular = o, adaptive_tile = o, off = o;
+  state.film_state = true;
+  equiangular.equiangular = kEquiangularOn;
+  adaptive_tile.noise_target = 0.05, adaptive_tile.adaptive = true;
+  adaptive_tile.pixel_bounds = std::array<int, 4>{0, 8, 0, 8};
+  off.guiding = kGuidingOff;
+  for (const RenderOptions* r : {&state, &equiangular, &adaptive_tile, &off}) EXPECT_FALSE(resolve_settings(lit, *r).guiding);
+  // a shard of an auto-guided render obeys the training samples like any guided one
+  RenderOptions shard = o;
+  shard.sample_range = true, shard.sample_begin = 2, shard.spp = 8;
+  try {
+    resolve_settings(lit, shard);
+    ADD_FAILURE() << "a range that cuts the training samples";
+  } catch (const UsageError& e) {
+    EXPECT_NE(std::string(e.what()).find("on by auto"), std::string::npos) << e.what();
+  }
+  EXPECT_NO_THROW(resolve_settings(plain, shard)) << "no guiding, no training samples to cut";
+}
+
+TEST(GuidingRender, OnlyRangesThatCutTheTrainingSamplesAreRefused) {
   const std::string dir = temp_dir("guided_refuse");
   const SceneDesc scene = scene_from_json(guiding_scene(dir), dir);  // 48 spp
   RenderOptions o = quiet_options();
-  EXPECT_FALSE(resolve_settings(scene, o).guiding) << "auto resolves to off for now";
-  EXPECT_EQ(resolve_settings(scene, o).guide_training_samples, 0);
   o.guiding = kGuidingOn;
   EXPECT_TRUE(resolve_settings(scene, o).guiding);
   const int T = kGuideTrainingSpp[0];

@@ -88,6 +88,7 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
   if (!a.equiangular.empty()) opt.equiangular = guiding_from_name(a.equiangular);  // checked by CLI11
   if (!a.guide_splitting.empty()) opt.guide_splitting = a.guide_splitting == "on";
   opt.guide_cache_file = a.guide_cache;
+  opt.film_state = a.checkpoint || a.resume;
   if (a.spectral) opt.color = ST_FILM_COLOR_SPECTRAL;
   opt.march_spacing = a.march_spacing;
   opt.pilot_spacing = a.pilot_spacing;
@@ -206,7 +207,8 @@ std::unique_ptr<RenderWatch> make_watch(const RenderArgs& a, const MpiArg& mpi, 
     throw UsageError("--checkpoint and --resume do not work with adaptive sampling (a film state holds one sample "
                      "count for every pixel)");
   if (!a.guide_cache.empty() && !set.guiding)
-    throw UsageError("--guide-cache FILE holds a trained guide cache: it needs --guiding on (render.guiding \"on\")");
+    throw UsageError("--guide-cache FILE holds a trained guide cache: it needs guiding (--guiding on, render.guiding "
+                     "\"on\", or auto where it turns guiding on)");
   if (!a.guide_cache.empty() && !a.frames.empty())
     throw UsageError("--guide-cache with --frames: a cache is trained for one frame's media; render the frames "
                      "without it");

@@ -138,10 +138,13 @@ Renderer::Impl::TrainingState::~TrainingState() {
   }
 }
 
-// The render's settings in the header of a trained or loaded cache (guided sampling on, no records,
-// guided roulette and splitting as asked), uploaded, and the cache's statistics.
+// The render's settings in the header of a trained or loaded cache (guided sampling on where a
+// region guides: a cache whose learned alphas are all 0 leaves the render's paths the phase
+// function without a region lookup; no records; guided roulette and splitting as asked), uploaded,
+// and the cache's statistics.
 void Renderer::Impl::finish_guide() {
-  guide.header.origin.w = 1.0f;
+  const bool guides = std::any_of(guide.regions.begin(), guide.regions.end(), [](const st_guide_region& g) { return g.alpha > 0; });
+  guide.header.origin.w = guides ? 1.0f : 0.0f;
   guide.header.inv_cell.w = 0.0f;
   guide.header.split_max = settings.guide_splitting ? kGuideSplitMax : 0;
   guide.header.rr_below = settings.guide_splitting ? kGuideRouletteBelow : 0.0f;

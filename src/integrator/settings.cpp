@@ -2,6 +2,7 @@
 // kernels/types.h (ST_TRACKERS), which the kernels read too.
 #include "integrator/settings.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
 
@@ -56,17 +57,23 @@ EquiangularMode resolve_equiangular(const SceneDesc& scene, const RenderOptions&
   return e;
 }
 
-// Guiding: on, off, or auto (off until measurements say where it pays: docs/guiding.md), and which
-// samples of the sequence are the training passes' (RenderSettings::guide_training_samples). Every
-// part of a render trains the same cache over the full film and samples 0 .. T - 1; a part keeps
-// those samples only if its range holds all of them, so a sample range that cuts them is refused.
-// A whole render of at most T samples trains one fewer (the render keeps one sample of its own);
+// Guiding: on, off, or auto (guiding_pays, unless the render asks for what guiding refuses), and
+// which samples of the sequence are the training passes' (RenderSettings::guide_training_samples).
+// Every part of a render trains the same cache over the full film and samples 0 .. T - 1; a part
+// keeps those samples only if its range holds all of them, so a sample range that cuts them is
+// refused. A whole render of at most T samples trains one fewer (the render keeps one of its own);
 // a shard of a longer render cannot know its total, so its range must hold T and one more, or none.
+// `auto` depends on the scene and the options alone, so every part of a render resolves it alike.
 void resolve_guiding(const RenderOptions& o, RenderSettings& s, const SceneDesc& scene) {
   s.guiding_requested = o.guiding ? checked_enum<GuidingMode>(*o.guiding, kGuidingAuto + 1, "guiding mode")
                                   : scene.render.guiding.value_or(kGuidingAuto);
-  s.guiding = s.guiding_requested == kGuidingOn;
-  s.guide_splitting = s.guiding && o.guide_splitting;
+  const int equiangular = o.equiangular ? *o.equiangular : int(scene.render.equiangular.value_or(kDefaultEquiangular));
+  const bool refused = o.film_state || equiangular == kEquiangularOn || (s.adaptive && o.pixel_bounds);
+  const bool by_auto = s.guiding_requested == kGuidingAuto && !refused && guiding_pays(scene);
+  s.guiding = s.guiding_requested == kGuidingOn || by_auto;
+  // auto guides scattered directions alone: guided roulette and splitting cost more than they save
+  // on every scene measured (docs/guiding.md)
+  s.guide_splitting = s.guiding_requested == kGuidingOn && o.guide_splitting;
   if (!s.guiding) return;
   if (s.adaptive && o.pixel_bounds)
     throw UsageError("guiding with adaptive sampling renders the whole film (the training pass is its first "
@@ -81,16 +88,26 @@ void resolve_guiding(const RenderOptions& o, RenderSettings& s, const SceneDesc&
   if (begin == 0 && !o.sample_range) {
     s.guide_training_samples = std::max(0, std::min(T, s.spp - 1));
   } else if (begin == 0 ? end <= T : begin < T) {
-    throw UsageError(fmt::format("guiding: samples {}:{} cut the training pass's samples 0:{}; a shard of a guided "
+    throw UsageError(fmt::format("guiding{}: samples {}:{} cut the training pass's samples 0:{}; a shard of a guided "
                                  "render holds all of them and at least one more, or none of them (--spp-range 0:B "
-                                 "with B > {}, or A:B with A >= {})",
-                                 begin, end, T, T, T));
+                                 "with B > {}, or A:B with A >= {}{})",
+                                 by_auto ? " (on by auto: the scene has a lamp, a medium that emits and does not scatter)" : "",
+                                 begin, end, T, T, T, by_auto ? ", or --guiding off" : ""));
   } else {
     s.guide_training_samples = T;
   }
 }
 
 }  // namespace
+
+bool guiding_pays(const SceneDesc& scene) {
+  auto scatters = [](const MediumDesc& m) {
+    return m.density_scale > 0 && (m.sigma_s[0] > 0 || m.sigma_s[1] > 0 || m.sigma_s[2] > 0);
+  };
+  auto lamp = [&](const MediumDesc& m) { return m.emission.present && m.emission.scale > 0 && !scatters(m); };
+  return std::any_of(scene.media.begin(), scene.media.end(), lamp) &&
+         std::any_of(scene.media.begin(), scene.media.end(), scatters);
+}
 
 RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) {
   RenderSettings s;

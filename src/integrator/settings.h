@@ -96,6 +96,7 @@ struct RenderOptions {
   // With guiding: the trained cache's file (--guide-cache): read where it exists (no training), else
   // written after training, so that every part of a render uses one cache (guide_cache_file.h)
   std::string guide_cache_file;
+  bool film_state = false;              // --checkpoint or --resume: a film state holds no guide (auto: guiding off)
   std::string device;                   // "P:D", name substring, or "" (SPECTRACK_DEVICE, then default)
   std::optional<int> path_slots;        // paths in flight; else by device type (kDefaultPathSlotsCpu/Gpu)
   int iteration_budget = kDefaultIterationBudget;  // tentative collisions + DDA steps per item and launch
@@ -153,7 +154,7 @@ struct RenderSettings {
   int full_width = 0, full_height = 0;  // the film
   int channels_per_sample = 1;  // paths per (pixel, sample): the per-channel trackers' lanes (st_paths_per_sample)
   GuidingMode guiding_requested = kGuidingAuto;  // as asked for (scene.h: off, on, auto)
-  bool guiding = false;         // volume path guiding on: guiding_requested resolved (auto: off for now)
+  bool guiding = false;         // volume path guiding on: guiding_requested resolved (auto: guiding_pays)
   EquiangularMode equiangular = kDefaultEquiangular;  // as asked for (the scene packer resolves auto)
   bool guide_splitting = false;  // with guiding: guided roulette and splitting (RenderOptions::guide_splitting)
   // With guiding, samples 0 .. guide_training_samples - 1 of the sequence are the training passes'
@@ -209,6 +210,11 @@ struct RenderChoices {
 // scene: pixel bounds outside the film, a tracker that needs achromatic media on chromatic ones,
 // an empty or out-of-range sample range.
 RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& options);
+
+// Whether `--guiding auto` turns guiding on for the scene (docs/guiding.md "What auto does"): a
+// medium that emits and does not scatter (a lamp, whose light next-event estimation does not
+// sample) beside a medium that scatters.
+bool guiding_pays(const SceneDesc& scene);
 
 // One VDB medium's majorant structure, for the render statistics.
 struct MajorantInfo {
