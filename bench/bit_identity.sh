@@ -10,6 +10,12 @@ run() { # name scene args...
   local name=$1; shift
   $OLD render "$@" $NA_OLD -o $out/$name.old.exr --quiet --stats-json $out/$name.old.json >/dev/null 2>&1 || { echo "OLD FAIL $name"; }
   $NEW render "$@" $NA_NEW -o $out/$name.new.exr --quiet --stats-json $out/$name.new.json >/dev/null 2>&1 || { echo "NEW FAIL $name"; }
+  # `--guiding auto` (the default) turns guiding on where a lamp lights a medium (docs/guiding.md):
+  # a new feature on, so such a scene compares with it off
+  if python3 -c "import json,sys; sys.exit(0 if json.load(open('$out/$name.new.json')).get('guiding_used') else 1)" 2>/dev/null; then
+    echo "# $name: auto guides it; compared with --guiding off"
+    $NEW render "$@" $NA_NEW --guiding off -o $out/$name.new.exr --quiet --stats-json $out/$name.new.json >/dev/null 2>&1 || { echo "NEW FAIL $name"; }
+  fi
   if cmp -s <(oiiotool --dumpdata $out/$name.old.exr 2>/dev/null | tail -n +2) <(oiiotool --dumpdata $out/$name.new.exr 2>/dev/null | tail -n +2); then
     a=$(python3 -c "import json;j=json.load(open('$out/$name.old.json'));print(j['density_lookups'],j['real_collisions'],j['dda_steps'])")
     b=$(python3 -c "import json;j=json.load(open('$out/$name.new.json'));print(j['density_lookups'],j['real_collisions'],j['dda_steps'])")

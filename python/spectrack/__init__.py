@@ -34,20 +34,24 @@ class Scene:
     seed = property(lambda self: self._desc.seed)
 
     def render(self, spp=None, seed=None, device="", spp_range=None, pixel_bounds=None, tracker=None, scheme=None,
-               alpha=None, aovs=(), time_limit=None, chunk_spp=0, progress=None, verbose=False):
+               guiding=None, guide_cache=None, alpha=None, aovs=(), time_limit=None, chunk_spp=0, progress=None,
+               verbose=False):
         """Renders the scene and returns an :class:`Image`.
 
         spp: samples per pixel (film.spp); seed: render.seed; device: "P:D", a name substring, "all"
         or a comma-separated list ("" the default device); spp_range: (begin, end), samples
         begin..end-1 of every pixel (a shard, for merge); pixel_bounds: (x0, x1, y0, y1);
-        tracker, scheme: names as `spectrack render` takes them; alpha: the alpha layers (default:
+        tracker, scheme: names as `spectrack render` takes them; guiding: "off", "on" or "auto"
+        (render.guiding); guide_cache: a file path, the trained guide cache that shards, tiles and
+        later renders share (written by the first render that names it, read by the others); alpha: the alpha layers (default:
         film.alpha, else off, so .rgb is the whole beauty); aovs: film layer names; time_limit: seconds;
         progress: called with the fraction done, on the calling thread. The GIL is released while the
         devices render. Ctrl-C stops the render at its next iteration and raises KeyboardInterrupt
         with the finished samples' image as its ``image`` attribute.
         """
         return _spectrack.render(self._desc, spp=spp, seed=seed, device=device, spp_range=spp_range,
-                                 pixel_bounds=pixel_bounds, tracker=tracker, scheme=scheme, alpha=alpha,
+                                 pixel_bounds=pixel_bounds, tracker=tracker, scheme=scheme, guiding=guiding,
+                                 guide_cache=os.fspath(guide_cache) if guide_cache is not None else "", alpha=alpha,
                                  aovs=list(aovs), time_limit=time_limit, chunk_spp=chunk_spp, verbose=verbose,
                                  progress=progress, json_text=self._text)
 

@@ -52,16 +52,18 @@ void bind_scene(py::module_& m) {
         "parses and validates scene JSON text; `name` stands for the file in messages, `dir` resolves relative paths");
   m.def("render", [](const SceneDesc& scene, std::optional<int> spp, std::optional<int64_t> seed, std::string device,
                      std::optional<std::pair<int64_t, int64_t>> spp_range, std::optional<std::array<int, 4>> pixel_bounds,
-                     std::optional<std::string> tracker, std::optional<std::string> scheme, std::optional<bool> alpha,
+                     std::optional<std::string> tracker, std::optional<std::string> scheme,
+                     std::optional<std::string> guiding, std::string guide_cache, std::optional<bool> alpha,
                      std::vector<std::string> aovs, std::optional<double> time_limit, int chunk_spp, bool verbose,
                      py::object progress, std::string json_text) {
     python::RenderArgs a{spp, seed, std::move(device), spp_range, pixel_bounds, std::move(tracker), std::move(scheme),
-                         alpha, std::move(aovs), time_limit, chunk_spp, verbose, std::move(progress),
-                         std::move(json_text)};
+                         std::move(guiding), std::move(guide_cache), alpha, std::move(aovs), time_limit, chunk_spp,
+                         verbose, std::move(progress), std::move(json_text)};
     return python::render(scene, a);
   }, py::arg("scene"), py::arg("spp") = py::none(), py::arg("seed") = py::none(), py::arg("device") = "",
      py::arg("spp_range") = py::none(), py::arg("pixel_bounds") = py::none(), py::arg("tracker") = py::none(),
-     py::arg("scheme") = py::none(), py::arg("alpha") = py::none(), py::arg("aovs") = std::vector<std::string>{},
+     py::arg("scheme") = py::none(), py::arg("guiding") = py::none(), py::arg("guide_cache") = "",
+     py::arg("alpha") = py::none(), py::arg("aovs") = std::vector<std::string>{},
      py::arg("time_limit") = py::none(), py::arg("chunk_spp") = 0, py::arg("verbose") = false,
      py::arg("progress") = py::none(), py::arg("json_text") = "");
   m.def("devices", &devices, "the OpenCL devices: spec (P:D, what device= takes), name, type, memory");

@@ -23,6 +23,8 @@ struct RenderArgs {
   std::optional<std::pair<int64_t, int64_t>> spp_range;
   std::optional<std::array<int, 4>> pixel_bounds;
   std::optional<std::string> tracker, scheme;
+  std::optional<std::string> guiding;  // "off", "on", "auto" (render.guiding)
+  std::string guide_cache;             // a trained guide cache's file (--guide-cache), else ""
   std::optional<bool> alpha;
   std::vector<std::string> aovs;
   std::optional<double> time_limit;

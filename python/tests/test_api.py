@@ -68,6 +68,32 @@ def test_shards_merge_to_the_single_render(spectrack_binary, tmp_path):
         spectrack.merge([a, a])
 
 
+# A slab lit by a lamp (a medium that emits and does not scatter): guiding="auto" turns guiding on.
+LAMP = dict(SLAB, lights=[], media=SLAB["media"] + [
+    {"name": "lamp", "type": "homogeneous", "bounds": [[-0.4, 1.2, -1.4], [0.4, 1.8, -0.8]],
+     "sigma_s": [0, 0, 0], "sigma_a": [20, 20, 20], "emission": {"radiance": [8, 8, 8]}}])
+
+
+def test_guiding_and_a_shared_guide_cache(tmp_path):
+    scene = spectrack.load_dict(LAMP)
+    assert scene.render(spp=6, guiding="auto").stats["guiding_used"]
+    assert not scene.render(spp=6, guiding="off").stats["guiding_used"]
+    assert not spectrack.load_dict(SLAB).render(spp=6).stats["guiding_used"], "auto: no lamp, no guiding"
+    whole = scene.render(spp=10)
+    cache = tmp_path / "guide.cache"
+    a = scene.render(spp_range=(0, 6), guide_cache=cache)
+    b = scene.render(spp_range=(6, 10), guide_cache=str(cache))
+    assert (a.stats["guide_cache_file"], b.stats["guide_cache_file"]) == ("written", "read")
+    assert b.stats["guide_training_passes"] == 0
+    np.testing.assert_allclose(spectrack.merge([a, b]).rgb, whole.rgb, rtol=1e-5, atol=1e-7)
+    unguided = scene.render(spp=10, guiding="off")
+    assert not np.allclose(unguided.rgb, whole.rgb, rtol=1e-5, atol=1e-7), "the comparison sees the guide"
+    with pytest.raises(ValueError, match="guide_cache"):
+        scene.render(spp=6, guiding="off", guide_cache=cache)
+    with pytest.raises(ValueError, match="guiding=sometimes"):
+        scene.render(spp=6, guiding="sometimes")
+
+
 def test_write_and_read_back(tmp_path):
     img = spectrack.load_dict(SLAB).render(spp=2, aovs=["variance"])
     img.write(str(tmp_path / "x.exr"))

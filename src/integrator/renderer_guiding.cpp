@@ -163,7 +163,7 @@ void Renderer::Impl::finish_guide() {
 // and the training's samples. Not guided roulette and splitting, which act in the render only.
 nlohmann::json Renderer::Impl::guide_cache_key() const {
   const RenderIdentity id = render_identity(settings);
-  return {{"scene_hash", scene_hash(scene)},
+  return {{"scene_hash", opt.scene_json.empty() ? scene_hash(scene) : scene_hash(scene, opt.scene_json)},
           {"film", {settings.full_width, settings.full_height}},
           {"seed", id.seed},
           {"tracker", id.tracker},

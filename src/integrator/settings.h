@@ -96,6 +96,7 @@ struct RenderOptions {
   // With guiding: the trained cache's file (--guide-cache): read where it exists (no training), else
   // written after training, so that every part of a render uses one cache (guide_cache_file.h)
   std::string guide_cache_file;
+  std::string scene_json;  // the JSON a scene made in memory was parsed from (its hash: guide_cache_key), else ""
   bool film_state = false;              // --checkpoint or --resume: a film state holds no guide (auto: guiding off)
   std::string device;                   // "P:D", name substring, or "" (SPECTRACK_DEVICE, then default)
   std::optional<int> path_slots;        // paths in flight; else by device type (kDefaultPathSlotsCpu/Gpu)
