@@ -194,13 +194,16 @@ TEST(GuidingRender, TrainingLeavesASampleAndItsStatisticsCount) {
 }
 
 // `auto` guides where a lamp (a medium that emits and does not scatter: light next-event
-// estimation does not sample) lights a medium that scatters, without guided roulette and
-// splitting, and stays off elsewhere and where the render asks for what guiding refuses.
+// estimation does not sample) lights a medium that scatters and no scattering medium emits,
+// without guided roulette and splitting, and stays off elsewhere and where the render asks for
+// what guiding refuses.
 TEST(GuidingRender, AutoGuidesWhereALampLightsAScatteringMedium) {
   const std::string dir = temp_dir("guided_auto");
-  const SceneDesc plain = scene_from_json(guiding_scene(dir), dir);  // 48 spp, a sun and a sky
+  SceneDesc plain = scene_from_json(guiding_scene(dir), dir);  // 48 spp, a sun and a sky
   ASSERT_FALSE(plain.media.empty());
   RenderOptions o = quiet_options();
+  EXPECT_FALSE(guiding_pays(plain)) << "its emission is in a medium that scatters";
+  plain.media[0].emission = EmissionDesc{};
   EXPECT_FALSE(guiding_pays(plain));
   EXPECT_FALSE(resolve_settings(plain, o).guiding) << "every light is sampled by next-event estimation";
   EXPECT_EQ(resolve_settings(plain, o).guide_training_samples, 0);
@@ -218,10 +221,14 @@ TEST(GuidingRender, AutoGuidesWhereALampLightsAScatteringMedium) {
   RenderOptions asked = o;
   asked.guiding = kGuidingOn;
   EXPECT_TRUE(resolve_settings(lit, asked).guide_splitting) << "--guiding on keeps --guide-splitting's default";
-  // the twins: a lamp that also scatters (fire in its smoke), a lamp alone, a lamp of no power
+  // the twins: a lamp that also scatters (fire in its smoke), a lamp inside a fireball that emits
+  // too, a lamp alone, a lamp of no power
   SceneDesc fire = plain;
   fire.media[0].emission = lamp.emission;
   EXPECT_FALSE(guiding_pays(fire));
+  SceneDesc fireball = lit;
+  fireball.media[0].emission = lamp.emission;
+  EXPECT_FALSE(guiding_pays(fireball));
   SceneDesc alone = plain;
   alone.media = {lamp};
   EXPECT_FALSE(guiding_pays(alone));

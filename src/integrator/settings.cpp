@@ -104,9 +104,12 @@ bool guiding_pays(const SceneDesc& scene) {
   auto scatters = [](const MediumDesc& m) {
     return m.density_scale > 0 && (m.sigma_s[0] > 0 || m.sigma_s[1] > 0 || m.sigma_s[2] > 0);
   };
-  auto lamp = [&](const MediumDesc& m) { return m.emission.present && m.emission.scale > 0 && !scatters(m); };
-  return std::any_of(scene.media.begin(), scene.media.end(), lamp) &&
-         std::any_of(scene.media.begin(), scene.media.end(), scatters);
+  auto emits = [](const MediumDesc& m) { return m.emission.present && m.emission.scale > 0; };
+  auto lamp = [&](const MediumDesc& m) { return emits(m) && !scatters(m); };
+  auto glows = [&](const MediumDesc& m) { return emits(m) && scatters(m); };
+  const auto& media = scene.media;
+  return std::any_of(media.begin(), media.end(), lamp) && std::any_of(media.begin(), media.end(), scatters) &&
+         std::none_of(media.begin(), media.end(), glows);
 }
 
 RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) {

@@ -214,7 +214,8 @@ RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& opt
 
 // Whether `--guiding auto` turns guiding on for the scene (docs/guiding.md "What auto does"): a
 // medium that emits and does not scatter (a lamp, whose light next-event estimation does not
-// sample) beside a medium that scatters.
+// sample) beside a medium that scatters, and no medium that both scatters and emits (fire in its
+// smoke, whose emission every path through it gathers: guiding measured no gain there).
 bool guiding_pays(const SceneDesc& scene);
 
 // One VDB medium's majorant structure, for the render statistics.
