@@ -11,11 +11,14 @@ run() { # name scene args...
   $OLD render "$@" $NA_OLD -o $out/$name.old.exr --quiet --stats-json $out/$name.old.json >/dev/null 2>&1 || { echo "OLD FAIL $name"; }
   $NEW render "$@" $NA_NEW -o $out/$name.new.exr --quiet --stats-json $out/$name.new.json >/dev/null 2>&1 || { echo "NEW FAIL $name"; }
   # `--guiding auto` (the default) turns guiding on where a lamp lights a medium (docs/guiding.md):
-  # a new feature on, so such a scene compares with it off
-  if python3 -c "import json,sys; sys.exit(0 if json.load(open('$out/$name.new.json')).get('guiding_used') else 1)" 2>/dev/null; then
-    echo "# $name: auto guides it; compared with --guiding off"
-    $NEW render "$@" $NA_NEW --guiding off -o $out/$name.new.exr --quiet --stats-json $out/$name.new.json >/dev/null 2>&1 || { echo "NEW FAIL $name"; }
-  fi
+  # a new feature on, so a binary that guided such a scene renders it again with guiding off
+  for side in old new; do
+    if python3 -c "import json,sys; sys.exit(0 if json.load(open('$out/$name.$side.json')).get('guiding_used') else 1)" 2>/dev/null; then
+      echo "# $name: auto guides it ($side); compared with --guiding off"
+      bin=$NEW; na=$NA_NEW; [ $side = old ] && bin=$OLD && na=$NA_OLD
+      $bin render "$@" $na --guiding off -o $out/$name.$side.exr --quiet --stats-json $out/$name.$side.json >/dev/null 2>&1 || { echo "${side^^} FAIL $name"; }
+    fi
+  done
   if cmp -s <(oiiotool --dumpdata $out/$name.old.exr 2>/dev/null | tail -n +2) <(oiiotool --dumpdata $out/$name.new.exr 2>/dev/null | tail -n +2); then
     a=$(python3 -c "import json;j=json.load(open('$out/$name.old.json'));print(j['density_lookups'],j['real_collisions'],j['dda_steps'])")
     b=$(python3 -c "import json;j=json.load(open('$out/$name.new.json'));print(j['density_lookups'],j['real_collisions'],j['dda_steps'])")

@@ -16,6 +16,7 @@
 //     of path slots (bit for bit).
 #include <cstring>
 
+#include "film/film.h"
 #include "guiding/guide_cache.h"
 #include "integrator/multi_device.h"
 #include "test_util.h"
@@ -235,6 +236,21 @@ TEST(GuidingRender, AutoGuidesWhereALampLightsAScatteringMedium) {
   SceneDesc dark = lit;
   dark.media.back().emission.scale = 0;
   EXPECT_FALSE(guiding_pays(dark));
+  SceneDesc black = lit;  // a colour of 0, a blackbody below its cutoff: no source term
+  black.media.back().emission.radiance = Vec3{0, 0, 0};
+  EXPECT_FALSE(guiding_pays(black));
+  black.media.back().emission.blackbody = true, black.media.back().emission.temperature = 50;
+  EXPECT_FALSE(guiding_pays(black));
+  black.media.back().emission.temperature = 1500;
+  EXPECT_TRUE(guiding_pays(black));
+  SceneDesc off_fire = lit;  // a fireball of density scale 0 neither scatters nor emits
+  off_fire.media[0].emission = lamp.emission, off_fire.media[0].density_scale = 0;
+  EXPECT_TRUE(guiding_pays(off_fire));
+  SceneDesc tinted = lit;  // an albedo colour grid makes a medium of sigma_s 0 scatter
+  tinted.media[0].sigma_s = Vec3{0, 0, 0}, tinted.media[1].sigma_s = Vec3{0, 0, 0};
+  EXPECT_FALSE(guiding_pays(tinted));
+  tinted.media[0].color.present = true, tinted.media[0].color.mode = ST_COLOR_ALBEDO;
+  EXPECT_TRUE(guiding_pays(tinted));
   // what guiding refuses turns auto off instead of failing: film states, equi-angular sampling,
   // adaptive sampling of a window; an explicit --guiding off too
   RenderOptions state = o, equiangular = o, adaptive_tile = o, off = o;
@@ -244,6 +260,19 @@ TEST(GuidingRender, AutoGuidesWhereALampLightsAScatteringMedium) {
   adaptive_tile.pixel_bounds = std::array<int, 4>{0, 8, 0, 8};
   off.guiding = kGuidingOff;
   for (const RenderOptions* r : {&state, &equiangular, &adaptive_tile, &off}) EXPECT_FALSE(resolve_settings(lit, *r).guiding);
+  RenderOptions one = o;  // a whole render of one sample has no training sample
+  one.spp = 1;
+  EXPECT_FALSE(resolve_settings(lit, one).guiding);
+  SceneDesc point_lit = lit;  // equi-angular auto with a point light: auto leaves it to equi-angular sampling
+  LightDesc point;
+  point.type = ST_LIGHT_POINT;
+  point_lit.lights.push_back(point);
+  RenderOptions ea_auto = o;
+  ea_auto.equiangular = kEquiangularAuto;
+  EXPECT_FALSE(resolve_settings(point_lit, ea_auto).guiding);
+  EXPECT_TRUE(resolve_settings(point_lit, o).guiding) << "equi-angular sampling is off by default";
+  EXPECT_EQ(render_identity(on).guided, "on") << "a film records whether guiding ran (merge compares it)";
+  EXPECT_EQ(render_identity(resolve_settings(lit, state)).guided, "off");
   // a shard of an auto-guided render obeys the training samples like any guided one
   RenderOptions shard = o;
   shard.sample_range = true, shard.sample_begin = 2, shard.spp = 8;

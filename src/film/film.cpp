@@ -133,6 +133,7 @@ RenderIdentity render_identity(const RenderSettings& s) {
   id.transmittance = transmittance_name(s.transmittance);
   id.lookup = lookup_name(s.lookup);
   id.color = film_color_name(s.color);
+  id.guided = s.guiding ? "on" : "off";
   id.guide_splitting = s.guide_splitting ? "on" : "off";
   id.equiangular = guiding_name(s.equiangular);
   id.aovs = s.aovs;
@@ -150,6 +151,7 @@ const std::vector<RecordedChoice>& recorded_choices() {
       {"transmittance", &RenderIdentity::transmittance, "the transmittance estimator", false},
       {"lookup", &RenderIdentity::lookup, "the density lookup mode", false},
       {"color", &RenderIdentity::color, "the colour mode", false},
+      {"guided", &RenderIdentity::guided, "volume path guiding (as run)", false},
       {"guide_splitting", &RenderIdentity::guide_splitting, "guided roulette and splitting", false},
       {"equiangular", &RenderIdentity::equiangular, "equi-angular sampling", false},
   };

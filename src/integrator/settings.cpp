@@ -68,7 +68,13 @@ void resolve_guiding(const RenderOptions& o, RenderSettings& s, const SceneDesc&
   s.guiding_requested = o.guiding ? checked_enum<GuidingMode>(*o.guiding, kGuidingAuto + 1, "guiding mode")
                                   : scene.render.guiding.value_or(kGuidingAuto);
   const int equiangular = o.equiangular ? *o.equiangular : int(scene.render.equiangular.value_or(kDefaultEquiangular));
-  const bool refused = o.film_state || equiangular == kEquiangularOn || (s.adaptive && o.pixel_bounds);
+  const bool local_lights = std::any_of(scene.lights.begin(), scene.lights.end(), [](const LightDesc& l) {
+    return l.type == ST_LIGHT_POINT || l.type == ST_LIGHT_SPOT || l.type == ST_LIGHT_SPHERE;
+  });
+  // what guiding refuses or turns off (equi-angular sampling, which auto may turn on for local
+  // lights), and a whole render of one sample (no training sample)
+  const bool refused = o.film_state || equiangular == kEquiangularOn || (equiangular == kEquiangularAuto && local_lights) ||
+                       (s.adaptive && o.pixel_bounds) || (!o.sample_range && s.spp <= 1);
   const bool by_auto = s.guiding_requested == kGuidingAuto && !refused && guiding_pays(scene);
   s.guiding = s.guiding_requested == kGuidingOn || by_auto;
   // auto guides scattered directions alone: guided roulette and splitting cost more than they save
@@ -101,10 +107,22 @@ void resolve_guiding(const RenderOptions& o, RenderSettings& s, const SceneDesc&
 }  // namespace
 
 bool guiding_pays(const SceneDesc& scene) {
-  auto scatters = [](const MediumDesc& m) {
-    return m.density_scale > 0 && (m.sigma_s[0] > 0 || m.sigma_s[1] > 0 || m.sigma_s[2] > 0);
+  auto positive = [](const Vec3& v) { return v[0] > 0 || v[1] > 0 || v[2] > 0; };
+  // sigma_s as the packer makes it: times density_scale, and an albedo colour grid makes a medium
+  // of sigma_s 0 scatter (sigma_t times the albedo)
+  auto scatters = [&](const MediumDesc& m) {
+    return m.density_scale > 0 &&
+           (positive(m.sigma_s) || (m.color.present && m.color.mode == ST_COLOR_ALBEDO && positive(m.sigma_a)));
   };
-  auto emits = [](const MediumDesc& m) { return m.emission.present && m.emission.scale > 0; };
+  // a source term that is not 0: a colour (a radiance, a blackbody above its cutoff, a ramp with a
+  // stop above 0) times sigma_a (the physical model) or the density (the artists' model)
+  auto emits = [&](const MediumDesc& m) {
+    const EmissionDesc& e = m.emission;
+    if (!e.present || !(e.scale > 0) || !(m.density_scale > 0) || !(e.per_density || positive(m.sigma_a))) return false;
+    if (e.blackbody) return !(e.temperature > 0) || e.temperature > e.temperature_cutoff;
+    if (e.ramp) return std::any_of(e.stops.begin(), e.stops.end(), [&](const auto& s) { return positive(s.second); });
+    return positive(e.radiance);
+  };
   auto lamp = [&](const MediumDesc& m) { return emits(m) && !scatters(m); };
   auto glows = [&](const MediumDesc& m) { return emits(m) && scatters(m); };
   const auto& media = scene.media;

@@ -196,8 +196,8 @@ struct FilmDesc {
   std::string compression = "zip"; // film.compression: an EXR compression (exr_compressions())
 };
 
-// Volume path guiding (docs/guiding.md): off, on, or auto (the renderer decides per scene; it
-// resolves to off until measurements say where guiding pays).
+// Volume path guiding (docs/guiding.md): off, on, or auto (on for the scenes where guiding
+// measures a gain: integrator/settings.h guiding_pays).
 enum GuidingMode { kGuidingOff = 0, kGuidingOn = 1, kGuidingAuto = 2 };
 inline int guiding_from_name(const std::string& n) { return n == "off" ? 0 : n == "on" ? 1 : n == "auto" ? 2 : -1; }
 inline std::string guiding_names() { return "off, on, auto"; }
