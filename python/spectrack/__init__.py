@@ -43,8 +43,9 @@ class Scene:
         begin..end-1 of every pixel (a shard, for merge); pixel_bounds: (x0, x1, y0, y1);
         tracker, scheme: names as `spectrack render` takes them; guiding: "off", "on" or "auto"
         (render.guiding); guide_cache: a file path, the trained guide cache that shards, tiles and
-        later renders share (written by the first render that names it, read by the others); alpha: the alpha layers (default:
-        film.alpha, else off, so .rgb is the whole beauty); aovs: film layer names; time_limit: seconds;
+        later renders share (written by the first render that names it, read by the others);
+        alpha: the alpha layers (default: film.alpha, else off, so .rgb is the whole beauty); aovs:
+        film layer names; time_limit: seconds;
         progress: called with the fraction done, on the calling thread. The GIL is released while the
         devices render. Ctrl-C stops the render at its next iteration and raises KeyboardInterrupt
         with the finished samples' image as its ``image`` attribute.

@@ -76,10 +76,7 @@ RenderOptions options_of(const SceneDesc& scene, const RenderArgs& a) {
   if (a.scheme) opt.scheme = named(a.scheme, scheme_from_name, scheme_names, "scheme");
   if (a.guiding) opt.guiding = named(a.guiding, guiding_from_name, guiding_names, "guiding");
   opt.guide_cache_file = a.guide_cache;
-  opt.scene_json = a.json_text;
-  if (!a.guide_cache.empty() && !resolve_settings(scene, opt).guiding)
-    throw py::value_error(fmt::format("guide_cache={}: a trained guide cache needs guiding (guiding=\"on\", or \"auto\" "
-                                      "where it turns guiding on)", a.guide_cache));
+  opt.scene_json = a.json_text;  // resolve_settings refuses a guide cache without guiding
   opt.aovs = film_layers(scene, a.aovs, a.alpha);
   return opt;
 }

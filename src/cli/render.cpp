@@ -206,9 +206,6 @@ std::unique_ptr<RenderWatch> make_watch(const RenderArgs& a, const MpiArg& mpi, 
   if ((a.checkpoint || a.resume) && set.adaptive)
     throw UsageError("--checkpoint and --resume do not work with adaptive sampling (a film state holds one sample "
                      "count for every pixel)");
-  if (!a.guide_cache.empty() && !set.guiding)
-    throw UsageError("--guide-cache FILE holds a trained guide cache: it needs guiding (--guiding on, render.guiding "
-                     "\"on\", or auto where it turns guiding on)");
   if (!a.guide_cache.empty() && !a.frames.empty())
     throw UsageError("--guide-cache with --frames: a cache is trained for one frame's media; render the frames "
                      "without it");

@@ -327,8 +327,8 @@ FitRecords region_records(GuideCache& cache, const std::vector<st_guide_record>&
 
 // Sparse regions (fit records of an effective count below kGuideMinRecords: where few directions
 // find light, or few bring back most of it) take the fit of the smallest set around them that
-// holds enough: the subtree of their cell's kd-tree
-// (below), then blocks of 2, 4, ... cells along each axis (pool_sparse_cells).
+// holds enough: the subtree of their cell's kd-tree (below), then blocks of 2, 4, ... cells along
+// each axis (pool_sparse_cells).
 struct Pool {
   GuideCache& cache;
   const std::vector<st_guide_record>& records;

@@ -175,9 +175,10 @@ size_t refine_guide_regions(GuideCache& cache, const std::vector<st_guide_record
 // roulette's estimate) from the records of every depth; regions with fewer than kGuideMinRecords
 // radiance records get no radiance estimate (records 0). Returns the regions that guide.
 // Sparse regions (their fit records' effective count below kGuideMinRecords) take the fit of the
-// smallest subtree of their cell, or block of cells, whose records' effective count reaches it. Each fitted region's alpha is learned from its records
-// (GuideCache::fixed_alpha), which the training drew from the phase function or, where
-// `sampled_by` (the cache that guided the pass) guided, its one-sample mixture.
+// smallest subtree of their cell, or block of cells, whose records' effective count reaches it.
+// Each fitted region's alpha is learned from its records (GuideCache::fixed_alpha), which the
+// training drew from the phase function or, where `sampled_by` (the cache that guided the pass)
+// guided, its one-sample mixture.
 int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records, const GuideCache* sampled_by = nullptr);
 
 // The fixed selection probability of a render's fitted regions (GuideCache::fixed_alpha):

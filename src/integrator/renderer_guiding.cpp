@@ -143,8 +143,9 @@ Renderer::Impl::TrainingState::~TrainingState() {
 // function without a region lookup; no records; guided roulette and splitting as asked), uploaded,
 // and the cache's statistics.
 void Renderer::Impl::finish_guide() {
-  const bool guides = std::any_of(guide.regions.begin(), guide.regions.end(), [](const st_guide_region& g) { return g.alpha > 0; });
-  guide.header.origin.w = guides ? 1.0f : 0.0f;
+  guide_info.regions_guided = int(std::count_if(guide.regions.begin(), guide.regions.end(),
+                                                [](const st_guide_region& g) { return g.alpha > 0; }));
+  guide.header.origin.w = guide_info.regions_guided > 0 ? 1.0f : 0.0f;
   guide.header.inv_cell.w = 0.0f;
   guide.header.split_max = settings.guide_splitting ? kGuideSplitMax : 0;
   guide.header.rr_below = settings.guide_splitting ? kGuideRouletteBelow : 0.0f;
@@ -154,8 +155,6 @@ void Renderer::Impl::finish_guide() {
   guide_info.used = true;
   guide_info.bytes = guide.bytes();
   guide_info.regions = int(guide.regions.size());
-  guide_info.regions_guided = int(std::count_if(guide.regions.begin(), guide.regions.end(),
-                                                [](const st_guide_region& g) { return g.alpha > 0; }));
 }
 
 // What a cache depends on (guide_cache_file.h): the scene as it shapes the image (its hash reads

@@ -80,6 +80,9 @@ void resolve_guiding(const RenderOptions& o, RenderSettings& s, const SceneDesc&
   // auto guides scattered directions alone: guided roulette and splitting cost more than they save
   // on every scene measured (docs/guiding.md)
   s.guide_splitting = s.guiding_requested == kGuidingOn && o.guide_splitting;
+  if (!s.guiding && !o.guide_cache_file.empty())
+    throw UsageError("--guide-cache FILE (guide_cache=) holds a trained guide cache: it needs guiding (--guiding on, "
+                     "render.guiding \"on\", or auto where it turns guiding on)");
   if (!s.guiding) return;
   if (s.adaptive && o.pixel_bounds)
     throw UsageError("guiding with adaptive sampling renders the whole film (the training pass is its first "
