@@ -222,6 +222,18 @@ TEST(GuidingRender, AutoGuidesWhereALampLightsAScatteringMedium) {
   RenderOptions asked = o;
   asked.guiding = kGuidingOn;
   EXPECT_TRUE(resolve_settings(lit, asked).guide_splitting) << "--guiding on keeps --guide-splitting's default";
+  // an explicit --guide-splitting is obeyed where guiding runs (auto included), and "on" without
+  // guiding is refused rather than ignored
+  RenderOptions split = o;
+  split.guide_splitting = true;
+  EXPECT_TRUE(resolve_settings(lit, split).guide_splitting) << "auto splits when asked";
+  asked.guide_splitting = false;
+  EXPECT_FALSE(resolve_settings(lit, asked).guide_splitting);
+  EXPECT_THROW(resolve_settings(plain, split), UsageError) << "auto leaves the plain scene unguided";
+  split.guiding = kGuidingOff;
+  EXPECT_THROW(resolve_settings(lit, split), UsageError);
+  split.guide_splitting = false;
+  EXPECT_FALSE(resolve_settings(lit, split).guide_splitting);
   // the twins: a lamp that also scatters (fire in its smoke), a lamp inside a fireball that emits
   // too, a lamp alone, a lamp of no power
   SceneDesc fire = plain;

@@ -77,9 +77,12 @@ void resolve_guiding(const RenderOptions& o, RenderSettings& s, const SceneDesc&
                        (s.adaptive && o.pixel_bounds) || (!o.sample_range && s.spp <= 1);
   const bool by_auto = s.guiding_requested == kGuidingAuto && !refused && guiding_pays(scene);
   s.guiding = s.guiding_requested == kGuidingOn || by_auto;
-  // auto guides scattered directions alone: guided roulette and splitting cost more than they save
-  // on every scene measured (docs/guiding.md)
-  s.guide_splitting = s.guiding_requested == kGuidingOn && o.guide_splitting;
+  // auto guides scattered directions alone unless asked to split: guided roulette and splitting
+  // cost more than they save on every scene measured (docs/guiding.md)
+  s.guide_splitting = s.guiding && o.guide_splitting.value_or(s.guiding_requested == kGuidingOn);
+  if (!s.guiding && o.guide_splitting.value_or(false))
+    throw UsageError("--guide-splitting on splits guided paths: it needs guiding (--guiding on, render.guiding \"on\", "
+                     "or auto where it turns guiding on)");
   if (!s.guiding && !o.guide_cache_file.empty())
     throw UsageError("--guide-cache FILE (guide_cache=) holds a trained guide cache: it needs guiding (--guiding on, "
                      "render.guiding \"on\", or auto where it turns guiding on)");

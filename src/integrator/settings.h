@@ -92,7 +92,9 @@ struct RenderOptions {
   int guide_grid_cells = 0;             // guide regions along the media box's longest axis; 0: kGuideGridCells
   int guide_depth = 0;                  // guided scatter events: depth below this; 0: guide_depth_setting's default, < 0: all
   float guide_alpha = -1.0f;            // the fitted regions' selection probability; < 0: guide_alpha_setting (learned)
-  bool guide_splitting = true;          // with --guiding on (auto never splits): guided roulette and splitting (guide_cache.h)
+  // guided roulette and splitting (guide_cache.h) where given; else on with --guiding on and off
+  // where auto turns guiding on; "on" needs guiding
+  std::optional<bool> guide_splitting;
   // With guiding: the trained cache's file (--guide-cache): read where it exists (no training), else
   // written after training, so that every part of a render uses one cache (guide_cache_file.h)
   std::string guide_cache_file;
