@@ -35,7 +35,7 @@ class Scene:
 
     def render(self, spp=None, seed=None, device="", spp_range=None, pixel_bounds=None, tracker=None, scheme=None,
                guiding=None, guide_cache=None, alpha=None, aovs=(), time_limit=None, chunk_spp=0, progress=None,
-               verbose=False):
+               verbose=False, guide_splitting=None):
         """Renders the scene and returns an :class:`Image`.
 
         spp: samples per pixel (film.spp); seed: render.seed; device: "P:D", a name substring, "all"
@@ -44,6 +44,8 @@ class Scene:
         tracker, scheme: names as `spectrack render` takes them; guiding: "off", "on" or "auto"
         (render.guiding); guide_cache: a file path, the trained guide cache that shards, tiles and
         later renders share (written by the first render that names it, read by the others);
+        guide_splitting: True or False, guided roulette and splitting (--guide-splitting; default:
+        on with guiding="on", off where auto guides; True without guiding raises ValueError);
         alpha: the alpha layers (default: film.alpha, else off, so .rgb is the whole beauty); aovs:
         film layer names; time_limit: seconds;
         progress: called with the fraction done, on the calling thread. The GIL is released while the
@@ -54,7 +56,7 @@ class Scene:
                                  pixel_bounds=pixel_bounds, tracker=tracker, scheme=scheme, guiding=guiding,
                                  guide_cache=os.fspath(guide_cache) if guide_cache is not None else "", alpha=alpha,
                                  aovs=list(aovs), time_limit=time_limit, chunk_spp=chunk_spp, verbose=verbose,
-                                 progress=progress, json_text=self._text)
+                                 progress=progress, json_text=self._text, guide_splitting=guide_splitting)
 
     def __repr__(self):
         return f"<spectrack.Scene {self.path} {self.width}x{self.height}, {self.spp} spp>"

@@ -55,17 +55,17 @@ void bind_scene(py::module_& m) {
                      std::optional<std::string> tracker, std::optional<std::string> scheme,
                      std::optional<std::string> guiding, std::string guide_cache, std::optional<bool> alpha,
                      std::vector<std::string> aovs, std::optional<double> time_limit, int chunk_spp, bool verbose,
-                     py::object progress, std::string json_text) {
+                     py::object progress, std::string json_text, std::optional<bool> guide_splitting) {
     python::RenderArgs a{spp, seed, std::move(device), spp_range, pixel_bounds, std::move(tracker), std::move(scheme),
                          std::move(guiding), std::move(guide_cache), alpha, std::move(aovs), time_limit, chunk_spp,
-                         verbose, std::move(progress), std::move(json_text)};
+                         verbose, std::move(progress), std::move(json_text), guide_splitting};
     return python::render(scene, a);
   }, py::arg("scene"), py::arg("spp") = py::none(), py::arg("seed") = py::none(), py::arg("device") = "",
      py::arg("spp_range") = py::none(), py::arg("pixel_bounds") = py::none(), py::arg("tracker") = py::none(),
      py::arg("scheme") = py::none(), py::arg("guiding") = py::none(), py::arg("guide_cache") = "",
      py::arg("alpha") = py::none(), py::arg("aovs") = std::vector<std::string>{},
      py::arg("time_limit") = py::none(), py::arg("chunk_spp") = 0, py::arg("verbose") = false,
-     py::arg("progress") = py::none(), py::arg("json_text") = "");
+     py::arg("progress") = py::none(), py::arg("json_text") = "", py::arg("guide_splitting") = py::none());
   m.def("devices", &devices, "the OpenCL devices: spec (P:D, what device= takes), name, type, memory");
 }
 

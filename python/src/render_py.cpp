@@ -76,6 +76,7 @@ RenderOptions options_of(const SceneDesc& scene, const RenderArgs& a) {
   if (a.scheme) opt.scheme = named(a.scheme, scheme_from_name, scheme_names, "scheme");
   if (a.guiding) opt.guiding = named(a.guiding, guiding_from_name, guiding_names, "guiding");
   opt.guide_cache_file = a.guide_cache;
+  opt.guide_splitting = a.guide_splitting;
   opt.scene_json = a.json_text;  // resolve_settings refuses a guide cache without guiding
   opt.aovs = film_layers(scene, a.aovs, a.alpha);
   return opt;

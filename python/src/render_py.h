@@ -32,6 +32,7 @@ struct RenderArgs {
   bool verbose = false;
   pybind11::object progress = pybind11::none();
   std::string json_text;  // the JSON a scene made in memory was parsed from (its hash), else ""
+  std::optional<bool> guide_splitting;  // --guide-splitting: guided roulette and splitting
 };
 
 Image render(const SceneDesc& scene, const RenderArgs& args);

@@ -92,6 +92,11 @@ def test_guiding_and_a_shared_guide_cache(tmp_path):
         scene.render(spp=6, guiding="off", guide_cache=cache)
     with pytest.raises(ValueError, match="guiding=sometimes"):
         scene.render(spp=6, guiding="sometimes")
+    assert whole.stats["guide_splitting"] == "off", "auto guides directions alone"
+    assert scene.render(spp=6, guide_splitting=True).stats["guide_splitting"] == "on"
+    assert scene.render(spp=6, guiding="on", guide_splitting=False).stats["guide_splitting"] == "off"
+    with pytest.raises(ValueError, match="guide_splitting=True"):
+        scene.render(spp=6, guiding="off", guide_splitting=True)
 
 
 def test_write_and_read_back(tmp_path):

@@ -81,7 +81,7 @@ void resolve_guiding(const RenderOptions& o, RenderSettings& s, const SceneDesc&
   // cost more than they save on every scene measured (docs/guiding.md)
   s.guide_splitting = s.guiding && o.guide_splitting.value_or(s.guiding_requested == kGuidingOn);
   if (!s.guiding && o.guide_splitting.value_or(false))
-    throw UsageError("--guide-splitting on splits guided paths: it needs guiding (--guiding on, render.guiding \"on\", "
+    throw UsageError("--guide-splitting on (guide_splitting=True) splits guided paths: it needs guiding (--guiding on, render.guiding \"on\", "
                      "or auto where it turns guiding on)");
   if (!s.guiding && !o.guide_cache_file.empty())
     throw UsageError("--guide-cache FILE (guide_cache=) holds a trained guide cache: it needs guiding (--guiding on, "
