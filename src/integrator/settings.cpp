@@ -80,13 +80,14 @@ void resolve_guiding(const RenderOptions& o, RenderSettings& s, const SceneDesc&
   // auto guides scattered directions alone unless asked to split: guided roulette and splitting
   // cost more than they save on every scene measured (docs/guiding.md)
   s.guide_splitting = s.guiding && o.guide_splitting.value_or(s.guiding_requested == kGuidingOn);
-  if (!s.guiding && o.guide_splitting.value_or(false))
-    throw UsageError("--guide-splitting on (guide_splitting=True) splits guided paths: it needs guiding (--guiding on, render.guiding \"on\", "
-                     "or auto where it turns guiding on)");
-  if (!s.guiding && !o.guide_cache_file.empty())
-    throw UsageError("--guide-cache FILE (guide_cache=) holds a trained guide cache: it needs guiding (--guiding on, "
-                     "render.guiding \"on\", or auto where it turns guiding on)");
-  if (!s.guiding) return;
+  if (!s.guiding) {  // what only a guided render uses is refused, not ignored
+    const char* needs = "it needs guiding (--guiding on, render.guiding \"on\", or auto where it turns guiding on)";
+    if (o.guide_splitting.value_or(false))
+      throw UsageError(fmt::format("--guide-splitting on (guide_splitting=True) splits guided paths: {}", needs));
+    if (!o.guide_cache_file.empty())
+      throw UsageError(fmt::format("--guide-cache FILE (guide_cache=) holds a trained guide cache: {}", needs));
+    return;
+  }
   if (s.adaptive && o.pixel_bounds)
     throw UsageError("guiding with adaptive sampling renders the whole film (the training pass is its first "
                      "round); use --guiding off with --pixel-bounds");
