@@ -43,6 +43,7 @@ ST_STAGE_FUNCTION(finish) {
   const int training = ST_HAS_GUIDING && guide->inv_cell.w > 0.0f;
   __global st_guide_vertex* ring = training ? guide_ring(guide_records, (uint)guide->dims[3], Q, slot) : 0;
   const float4 mask = path_mask(scene, &p);
+  const float4 lw = training ? guide_lane_weights(scene, &p) : (float4)(1.0f);
   const uint n = Q * NL;
   for (int k = shadow_ring(NL, shadow_lights(scene)); k >= 1; --k) {
     int bounce = p.depth - k;
@@ -53,12 +54,12 @@ ST_STAGE_FUNCTION(finish) {
       if (shadow_status(shadows, n, e) != ST_SHADOW_DONE) continue;
       const float4 c = shadow_fold(scene, shadows, n, slot * NL + (uint)l, e, bounce,
                                    &results[p.result_index * (uint)scene->result_layers]);
-      if (training) guide_credit(ring, 0, bounce - 1, p.depth, c, mask);
+      if (training) guide_credit(ring, 0, bounce - 1, p.depth, c, lw, mask);
     }
   }
   if (training)
-    guide_training_finish(guide, guide_records, ring, slot, &p, mask,
-                          guide_path_total(shadows, n, NL, shadow_lights(scene), slot, &p, mask));
+    guide_training_finish(guide, guide_records, ring, slot, &p, lw, mask,
+                          guide_path_total(shadows, n, NL, shadow_lights(scene), slot, &p, lw, mask));
   /* splitting: a waiting child of the family takes the slot; the last path writes the sample */
   if (ST_HAS_GUIDING && guide_next_child(guide, guide_records, slot, &p)) {
     atomic_inc(&counters[ST_C_SPLIT_PATHS]);

@@ -2,8 +2,12 @@
  * records of training passes (a ring of the path's last scatter vertices, credited with every later
  * contribution) and guided Russian roulette and splitting in the render.
  *
- * Design: included by guiding.h on the device only, after the cache's structs and lookups; each
- * kernel calls these only where the feature mask has ST_FEATURE_GUIDING (features.h). */
+ * Design: included by guiding.h on the device only, after the cache's structs and lookups (and,
+ * in the program, after spectrum.h); each kernel calls these only where the feature mask has
+ * ST_FEATURE_GUIDING (features.h). Every radiance the guide keeps (a record's weight, a vertex's
+ * running total, a path's end, hence a region's radiance) is the mean over the path's lanes of
+ * the radiance times guide_lane_weights: the film's unit, which the pixel estimates it is compared
+ * with are in. */
 #ifndef SPECTRACK_GUIDE_PATHS_H
 #define SPECTRACK_GUIDE_PATHS_H
 
@@ -34,9 +38,29 @@ inline __global st_guide_vertex* guide_ring(__global uint* rec, uint capacity, u
   return (__global st_guide_vertex*)guide_slot(rec, capacity, Q) + slot * ST_GUIDE_RING;
 }
 
-/* The mean over the path's lanes of c / beta (lanes whose beta is 0 left out): what a contribution
- * c of the path says about the radiance at a vertex that beta arrived at. */
-inline float guide_ratio(float4 c, float4 beta, float4 mask) {
+/* The weights that turn a path's radiance into the film's unit, lane by lane. In RGB mode a lane
+ * is a channel of the film: 1. In spectral mode lane i is the radiance at wavelength lambda_i (an
+ * upsampled light colour carries D65, about 100 at 560 nm), which film_rgb turns into linear sRGB
+ * with F(lambda_i) / p(lambda_i): the weight is the mean of F's three channels over p, so that the
+ * weighted lanes' mean is, in expectation over the wavelengths, the mean of R, G and B of the
+ * radiance, the unit of the pixel estimates (guided roulette compares the two). */
+inline float4 guide_lane_weights(__constant const st_scene* scene, const st_path* p) {
+  if (!spectral_mode(scene)) return (float4)(1.0f);
+  const float4 pdf = wavelength_pdfs(p->lambda);
+  const float4 F[4] = {film_table_at(p->lambda.x), film_table_at(p->lambda.y), film_table_at(p->lambda.z),
+                       film_table_at(p->lambda.w)};
+  const float4 Fbar = (float4)(F[0].x + F[0].y + F[0].z, F[1].x + F[1].y + F[1].z, F[2].x + F[2].y + F[2].z,
+                               F[3].x + F[3].y + F[3].z) * (1.0f / 3.0f);
+  return select(Fbar / pdf, (float4)(0.0f), isequal(pdf, (float4)(0.0f)));
+}
+
+/* The guide's scalar of a radiance c of the path: the mean over its lanes of c in the film's unit. */
+inline float guide_radiance(float4 c, float4 lw, float4 mask) { return masked_avg(c * lw, mask); }
+
+/* The mean over the path's lanes of c / beta in the film's unit (lanes whose beta is 0 left out):
+ * what a contribution c of the path says about the radiance at a vertex that beta arrived at. */
+inline float guide_ratio(float4 c, float4 lw, float4 beta, float4 mask) {
+  c *= lw;
   float cc[4] = {c.x, c.y, c.z, c.w}, bb[4] = {beta.x, beta.y, beta.z, beta.w}, mm[4] = {mask.x, mask.y, mask.z, mask.w};
   float sum = 0.0f, n = 0.0f;
   for (int i = 0; i < 4; ++i)
@@ -47,18 +71,19 @@ inline float guide_ratio(float4 c, float4 beta, float4 mask) {
 /* Credits the contribution c to the ring's vertices of depths first .. last (those below 0 or out
  * of the ring are skipped); the ring's later vertices (depths last + 1 .. depth - 1) add it to
  * what their record's radiance leaves out (st_guide_vertex.total). */
-inline void guide_credit(__global st_guide_vertex* ring, int first, int last, int depth, float4 c, float4 mask) {
+inline void guide_credit(__global st_guide_vertex* ring, int first, int last, int depth, float4 c, float4 lw,
+                         float4 mask) {
   if (!(masked_max(fabs(c), mask) > 0.0f)) return;
   for (int k = max(max(first, 0), depth - ST_GUIDE_RING); k < depth; ++k) {
     __global st_guide_vertex* v = &ring[k % ST_GUIDE_RING];
-    if (k <= last) v->pos.w += guide_ratio(c, v->beta, mask);
-    else v->total.x += masked_avg(c, mask);
+    if (k <= last) v->pos.w += guide_ratio(c, lw, v->beta, mask);
+    else v->total.x += guide_radiance(c, lw, mask);
   }
 }
 
 /* Vertex `depth` of a training path enters the ring: its position, scattered direction wi with the
  * phase function's value f there, the throughput beta_in that arrived at it, and the path's
- * radiance so far (lane mean) `total`. */
+ * radiance so far (guide_radiance) `total`. */
 inline void guide_ring_enter(__global st_guide_vertex* ring, int depth, float3 x, float3 wi, float f, float4 beta_in,
                              float total) {
   __global st_guide_vertex* v = &ring[depth % ST_GUIDE_RING];
@@ -91,29 +116,29 @@ inline void guide_vertex_record(__global uint* rec, __global const st_guide_head
  * event (emission) to its vertices, records the vertex that leaves the ring; the slot's state
  * starts at the path's first scatter event. */
 inline void guide_training_scatter(__global const st_guide_header* h, __global uint* rec, __global st_guide_vertex* ring,
-                                   uint slot, const st_path* p, float4 mask) {
+                                   uint slot, const st_path* p, float4 lw, float4 mask) {
   __global st_guide_slot* gs = guide_slot(rec, (uint)h->dims[3], slot);
   if (p->depth == 0) gs->L_seen = p->L;
-  guide_credit(ring, 0, p->depth - 1, p->depth, p->L - gs->L_seen, mask);
+  guide_credit(ring, 0, p->depth - 1, p->depth, p->L - gs->L_seen, lw, mask);
   gs->L_seen = p->L;
   if (p->depth >= ST_GUIDE_RING) /* vertex depth - RING leaves the ring */
     guide_vertex_record(rec, h, &ring[p->depth % ST_GUIDE_RING],
                         (uint4)(p->pixel, p->sample, p->channel, (uint)(p->depth - ST_GUIDE_RING)), mask);
 }
 
-/* The radiance a path has gathered so far, its lanes' mean: its L and its lights' accumulators
+/* The radiance a path has gathered so far (guide_radiance): its L and its lights' accumulators
  * (the folded shadow rays). */
 inline float guide_path_total(ST_SHADOW_STATE shadows, uint n, uint NL, int n_lights, uint slot, const st_path* p,
-                              float4 mask) {
-  return masked_avg(shadow_gathered(shadows, n, NL, n_lights, slot, p->L), mask);
+                              float4 lw, float4 mask) {
+  return guide_radiance(shadow_gathered(shadows, n, NL, n_lights, slot, p->L), lw, mask);
 }
 
 /* A finished training path (its shadow rays folded): credits what it gathered since its last
  * scatter event, records the vertices left in its ring and appends its end record. */
 inline void guide_training_finish(__global const st_guide_header* h, __global uint* rec, __global st_guide_vertex* ring,
-                                  uint slot, const st_path* p, float4 mask, float total) {
+                                  uint slot, const st_path* p, float4 lw, float4 mask, float total) {
   if (p->depth <= 0) return;
-  guide_credit(ring, 0, p->depth - 1, p->depth, p->L - guide_slot(rec, (uint)h->dims[3], slot)->L_seen, mask);
+  guide_credit(ring, 0, p->depth - 1, p->depth, p->L - guide_slot(rec, (uint)h->dims[3], slot)->L_seen, lw, mask);
   for (int k = max(0, p->depth - ST_GUIDE_RING); k < p->depth; ++k)
     guide_vertex_record(rec, h, &ring[k % ST_GUIDE_RING], (uint4)(p->pixel, p->sample, p->channel, (uint)k), mask);
   guide_record_push(rec, (uint)h->dims[3], (float3)(0.0f), 0.0f, (float3)(total, 0.0f, 0.0f), 0.0f,

@@ -28,6 +28,7 @@
 #ifdef __OPENCL_VERSION__
 #include "phase.h"
 #include "sampling.h"
+#include "spectrum.h"
 typedef float3 st_vec3;
 #define ST_GUIDE_GLOBAL __global
 inline st_vec3 vec3_make(float x, float y, float z) { return (float3)(x, y, z); }
@@ -276,7 +277,7 @@ typedef struct {
 typedef struct {
   st_float4 pos;  /* xyz: the scatter position; w: from the device f_phase at dir (the fit's records), on
                    * the host the region index (its bits; the host bins by xyz) */
-  st_float4 dir;  /* xyz: the scattered direction; w: the weight, f_phase L / p_mix (a lane mean per unit throughput) */
+  st_float4 dir;  /* xyz: the scattered direction; w: the weight, f_phase L / p_mix (guide_radiance per unit throughput) */
   st_uint key[4]; /* pixel, sample, channel, depth: the record's place in a canonical order */
 } st_guide_record;
 
@@ -309,7 +310,7 @@ typedef struct {
   st_float4 pos;   /* xyz: the scatter position; w: the sum of (contribution / beta) credited so far */
   st_float4 dir;   /* xyz: the scattered direction; w: f_phase at it */
   st_float4 beta;  /* the throughput that arrived at the vertex (before its scatter weight) */
-  st_float4 total; /* x: the path's radiance (lane mean) when the vertex entered, plus the later folds of the
+  st_float4 total; /* x: the path's radiance (guide_radiance) when the vertex entered, plus the later folds of the
                     * shadow rays of its own and earlier bounces (none of its scattered direction's) */
 } st_guide_vertex;
 

@@ -46,7 +46,8 @@ inline int shadows_busy(__constant const st_scene* scene, ST_SHADOW_STATE shadow
     } else if (state == ST_SHADOW_DONE) { /* the entry of bounce depth - R (R: the shadow ring) */
       const float4 c = shadow_fold(scene, shadows, n, slot * NL + (uint)l, e, bounce,
                                    &results[p->result_index * (uint)scene->result_layers]);
-      if (ST_HAS_GUIDING && ring) guide_credit(ring, 0, bounce - 1, p->depth, c, path_mask(scene, p));
+      if (ST_HAS_GUIDING && ring)
+        guide_credit(ring, 0, bounce - 1, p->depth, c, guide_lane_weights(scene, p), path_mask(scene, p));
     }
   }
   /* equi-angular sampling: the entry whose place the next segment's takes (equiangular.h) */
@@ -221,7 +222,8 @@ ST_STAGE_FUNCTION(scatter) {
   const float4 mask = path_mask(scene, &p);
   /* guiding: training credits what the path gathered since its last scatter event; the region's
    * mixture and selection probability (alpha 0: plain phase sampling) */
-  if (training) guide_training_scatter(guide, guide_records, ring, slot, &p, mask);
+  const float4 lw = training ? guide_lane_weights(scene, &p) : (float4)(1.0f);
+  if (training) guide_training_scatter(guide, guide_records, ring, slot, &p, lw, mask);
   __global const st_guide_region* region = 0;
   float alpha = 0.0f, kp = 0.0f; /* kp: the phase lobe of the guide's product (guiding.h) */
   /* not at a ground vertex (the medium index test, not `ground`, which is a constant without a ground) */
@@ -246,7 +248,7 @@ ST_STAGE_FUNCTION(scatter) {
   const float3 wi = scatter_direction(m, region, alpha, kp, ground, albedo, wo, &p, &rng, &pdf, &f);
   if (training)
     guide_ring_enter(ring, p.depth, p.o.xyz, wi, f, beta_in,
-                     guide_path_total(shadows, Q * NL, NL, shadow_lights(scene), slot, &p, mask));
+                     guide_path_total(shadows, Q * NL, NL, shadow_lights(scene), slot, &p, lw, mask));
   p.d = (float4)(wi, pdf);
   p.o.w = 0.0f;
   p.depth += 1;

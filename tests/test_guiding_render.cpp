@@ -10,7 +10,9 @@
 //     bit with guiding on; the cache is reported and bounded;
 //   - tiles and sample ranges of a guided render add up to the whole render (every part trains
 //     the same cache over the full film); only ranges that cut the training samples are refused;
-//   - the training passes' vertex ring credits a path's later radiance to its first vertex exactly;
+//   - the training passes' vertex ring credits a path's later radiance to its first vertex exactly,
+//     and in spectral mode in the film's unit (the unit of the pixel estimates guided roulette
+//     compares with);
 //   - guiding every scatter event (RenderOptions::guide_depth), with and without guided roulette
 //     and splitting, agrees with the unguided render, and its image does not depend on the number
 //     of path slots (bit for bit).
@@ -403,11 +405,12 @@ TEST(GuidingRender, TilesAndSampleRangesAddUpToTheWholeRender) {
 // non-absorbing, isotropic medium; max_depth 1): a first-event vertex's scattered ray either leaves
 // the medium and sees the sky, weighted by the power heuristic of two equal pdfs (the phase
 // function's and the uniform sky's, 1 / 4 pi): 1/2, or scatters and ends with nothing. The ring
-// credits the escape to the vertex through the path's radiance at k_finish, so every record (only
-// positive ones are kept) weighs exactly 1/2, and so does every region's mean of the fit's records.
-// The twin asks for 3% more and must fail.
-TEST(GuidingRender, RingRecordsCreditTheEscapeToTheFirstVertex) {
-  const std::string dir = temp_dir("guided_furnace");
+// credits the escape to the vertex through the path's radiance at k_finish. Returns the first
+// training pass's regions.
+namespace {
+
+std::vector<st_guide_region> furnace_regions(const std::string& name, int color) {
+  const std::string dir = temp_dir(name);
   json s = {{"format", "spectrack-scene/1"},
             {"camera", {{"type", "perspective"}, {"position", {0, 0, -4.5}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 26}}},
             {"film", {{"width", 32}, {"height", 32}, {"spp", 8}}},
@@ -420,15 +423,56 @@ TEST(GuidingRender, RingRecordsCreditTheEscapeToTheFirstVertex) {
   auto hook = [&](GuideCache& c) {
     if (first.empty()) first = c.regions;
   };
-  render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 11, true, hook);
+  render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 11, true, hook, false,
+                [&](RenderOptions& o) { o.color = color; });
+  return first;
+}
+
+}  // namespace
+
+// In RGB mode every record (only positive ones are kept) weighs exactly 1/2, and so does every
+// region's mean of the fit's records. The twin asks for 3% more and must fail.
+TEST(GuidingRender, RingRecordsCreditTheEscapeToTheFirstVertex) {
   int regions = 0;
-  for (const st_guide_region& g : first)
+  for (const st_guide_region& g : furnace_regions("guided_furnace", ST_FILM_COLOR_RGB))
     if (g.alpha > 0) {
       ++regions;
       EXPECT_NEAR(g.weight, 0.5, 1e-5) << "records " << g.records;
       EXPECT_GT(std::abs(g.weight - 0.5 * 1.03), 1e-5) << "twin: a 3% error must be detected";
     }
   EXPECT_GE(regions, 4) << "the first pass must fill most of the 2 x 2 x 2 regions";
+}
+
+// The same furnace in spectral mode: a lane carries the sky's radiance at its wavelength (the
+// upsampled white times D65, about 100 at 560 nm), and the guide keeps radiance in the film's unit
+// (guide_paths.h guide_lane_weights), so a record is 1/2 times the mean over the path's four
+// wavelengths of D65 F / p, whose expectation is 1/2 again (the film maps D65 to white). The
+// regions' means of their records then agree with 1/2 within 4 standard errors (the spread of the
+// regions' means: their records come from different paths) and a 3% error is detected. The
+// regions' radiance (what guided roulette compares with the pixel estimates; half the probability
+// that a scattered ray escapes, the same in both modes for a gray medium) agrees with the RGB
+// render's within 10%: in the lanes' own unit (D65's scale) it is about 90 times larger.
+TEST(GuidingRender, SpectralRecordsAreInTheFilmsUnit) {
+  std::vector<double> weights;
+  double radiance_spectral = 0, radiance_rgb = 0, n_spectral = 0, n_rgb = 0;
+  for (const st_guide_region& g : furnace_regions("guided_furnace_spectral", ST_FILM_COLOR_SPECTRAL)) {
+    if (g.alpha > 0) weights.push_back(g.weight);
+    if (g.records > 0) radiance_spectral += g.radiance * g.records, n_spectral += g.records;
+  }
+  for (const st_guide_region& g : furnace_regions("guided_furnace_rgb", ST_FILM_COLOR_RGB))
+    if (g.records > 0) radiance_rgb += g.radiance * g.records, n_rgb += g.records;
+  ASSERT_GE(weights.size(), 4u) << "the first pass must fill most of the 2 x 2 x 2 regions";
+  const double k = double(weights.size());
+  double mean = 0, var = 0;
+  for (double w : weights) mean += w / k;
+  for (double w : weights) var += (w - mean) * (w - mean) / (k - 1);
+  const double se = std::sqrt(var / k);
+  EXPECT_LT(std::abs(mean - 0.5), 4 * se) << "mean of " << k << " regions' record means " << mean << ", SE " << se;
+  EXPECT_GT(std::abs(mean - 0.5 * 1.03), 4 * se) << "twin: a 3% error must be detected (SE " << se << ")";
+  ASSERT_GT(n_spectral, 0);
+  ASSERT_GT(n_rgb, 0);
+  const double ratio = (radiance_spectral / n_spectral) / (radiance_rgb / n_rgb);
+  EXPECT_NEAR(ratio, 1.0, 0.1) << "region radiance, spectral over RGB";
 }
 
 // Every scatter event guided (guide_depth < 0): the product of the guided weights over a path's

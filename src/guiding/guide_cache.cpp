@@ -424,7 +424,7 @@ int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records, con
     std::memcpy(&r.pos.w, &region, 4);
   }
   std::sort(records.begin(), records.end(), order);
-  PathEnds ends;  // every path's radiance (lane mean), from its one end record (region -1: sorted first, by key)
+  PathEnds ends;  // every path's radiance (guide_radiance: the film's unit), from its one end record (region -1: sorted first, by key)
   for (const st_guide_record& r : records)
     if (r.key[3] == ST_GUIDE_RECORD_END) ends.emplace_back(PathKey{r.key[0], r.key[1], r.key[2]}, r.dir.x);
 
