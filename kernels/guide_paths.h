@@ -83,7 +83,10 @@ inline void guide_credit(__global st_guide_vertex* ring, int first, int last, in
 
 /* Vertex `depth` of a training path enters the ring: its position, scattered direction wi with the
  * phase function's value f there, the throughput beta_in that arrived at it, and the path's
- * radiance so far (guide_radiance) `total`. */
+ * radiance so far (guide_radiance) `total`. A ground vertex (a surface outside every medium, which
+ * is neither guided nor split) enters with f = ST_GUIDE_NO_RECORD: it keeps the ring's order but
+ * makes no record (its records would fall outside the grid and be binned into the nearest cell). */
+#define ST_GUIDE_NO_RECORD -1.0f
 inline void guide_ring_enter(__global st_guide_vertex* ring, int depth, float3 x, float3 wi, float f, float4 beta_in,
                              float total) {
   __global st_guide_vertex* v = &ring[depth % ST_GUIDE_RING];
@@ -102,6 +105,7 @@ inline void guide_ring_enter(__global st_guide_vertex* ring, int depth, float3 x
  * follows the incident radiance alone, and each event multiplies it with its own phase lobe. */
 inline void guide_vertex_record(__global uint* rec, __global const st_guide_header* h, __global st_guide_vertex* v,
                                 uint4 key, float4 mask) {
+  if (v->dir.w == ST_GUIDE_NO_RECORD) return;
   const float to_L = h->phase_product ? (v->dir.w > 0.0f ? 1.0f / v->dir.w : 0.0f) : 1.0f;
   const float w = v->pos.w * to_L;
   /* only the guided scatter events fit; a weight of 0 too (the host may weigh it by the whole path) */

@@ -308,7 +308,7 @@ typedef struct {
 #define ST_GUIDE_RING 8
 typedef struct {
   st_float4 pos;   /* xyz: the scatter position; w: the sum of (contribution / beta) credited so far */
-  st_float4 dir;   /* xyz: the scattered direction; w: f_phase at it */
+  st_float4 dir;   /* xyz: the scattered direction; w: f_phase at it (ST_GUIDE_NO_RECORD at the ground) */
   st_float4 beta;  /* the throughput that arrived at the vertex (before its scatter weight) */
   st_float4 total; /* x: the path's radiance (guide_radiance) when the vertex entered, plus the later folds of the
                     * shadow rays of its own and earlier bounces (none of its scattered direction's) */

@@ -247,7 +247,7 @@ ST_STAGE_FUNCTION(scatter) {
   const float4 beta_in = p.beta;
   const float3 wi = scatter_direction(m, region, alpha, kp, ground, albedo, wo, &p, &rng, &pdf, &f);
   if (training)
-    guide_ring_enter(ring, p.depth, p.o.xyz, wi, f, beta_in,
+    guide_ring_enter(ring, p.depth, p.o.xyz, wi, in_medium ? f : ST_GUIDE_NO_RECORD, beta_in,
                      guide_path_total(shadows, Q * NL, NL, shadow_lights(scene), slot, &p, lw, mask));
   p.d = (float4)(wi, pdf);
   p.o.w = 0.0f;

@@ -10,6 +10,7 @@
 //     bit with guiding on; the cache is reported and bounded;
 //   - tiles and sample ranges of a guided render add up to the whole render (every part trains
 //     the same cache over the full film); only ranges that cut the training samples are refused;
+//   - ground vertices make no records (none lies outside the grid);
 //   - the training passes' vertex ring credits a path's later radiance to its first vertex exactly,
 //     and in spectral mode in the film's unit (the unit of the pixel estimates guided roulette
 //     compares with);
@@ -473,6 +474,53 @@ TEST(GuidingRender, SpectralRecordsAreInTheFilmsUnit) {
   ASSERT_GT(n_rgb, 0);
   const double ratio = (radiance_spectral / n_spectral) / (radiance_rgb / n_rgb);
   EXPECT_NEAR(ratio, 1.0, 0.1) << "region radiance, spectral over RGB";
+}
+
+// A ground vertex (a bounce off the ground, outside every medium) is neither guided nor split, so it
+// makes no record: its records would fall outside the grid, be binned into the nearest cell by
+// clamping, and pull that cell's kd-tree and fit towards light the medium never sees. A thin slab
+// above a bright ground seen from above: most training vertices are on the ground, and none of the
+// pass's radiance records lies outside the grid (GuideCache::records_outside; the twin: records
+// below the grid are counted).
+TEST(GuidingRender, GroundVerticesMakeNoRecords) {
+  const std::string dir = temp_dir("guided_ground");
+  json s = {{"format", "spectrack-scene/1"},
+            {"camera", {{"type", "perspective"}, {"position", {0, 4, -3}}, {"look_at", {0, 0.5, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 50}}},
+            {"film", {{"width", 24}, {"height", 24}, {"spp", 8}}},
+            {"render", {{"seed", 7}, {"light_sampling", "all"}}},
+            {"lights", {{{"type", "environment"}, {"radiance", {0.4, 0.5, 0.7}}},
+                        {{"type", "directional"}, {"to_light", {-0.3, 1, 0.2}}, {"irradiance", {3, 3, 3}}, {"angle_deg", 1}}}},
+            {"ground", {{"height", 0}, {"albedo", {0.9, 0.9, 0.9}}, {"mode", "diffuse"}}},
+            {"media", json::array()}};
+  s["media"].push_back({{"type", "homogeneous"}, {"bounds", {{-2, 0.5, -2}, {2, 1.5, 2}}}, {"sigma_a", {0.02, 0.02, 0.02}},
+                        {"sigma_s", {0.4, 0.4, 0.4}}, {"phase", {{"type", "isotropic"}}}});
+  GuideCache first;
+  int passes = 0;
+  auto hook = [&](GuideCache& c) {
+    if (passes++ == 0) first = c;
+  };
+  render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 3, true, hook);
+  ASSERT_EQ(passes, 1);
+  double slab_records = 0;
+  for (const st_guide_region& g : first.regions) slab_records += g.records;
+  EXPECT_GT(slab_records, 1000) << "the slab's vertices must make records";
+  EXPECT_EQ(first.records_outside, 0u);
+  GuideCache twin = first;
+  std::vector<st_guide_record> below(100);
+  for (size_t k = 0; k < below.size(); ++k) {
+    below[k].pos = st_float4{0.1f * float(k % 10) - 0.5f, k < 30 ? 0.0f : 1.0f, 0.3f, 0.0f};  // 30 on the ground
+    below[k].key[3] = ST_GUIDE_RECORD_RADIANCE;
+  }
+  refine_guide_regions(twin, below);
+  EXPECT_EQ(twin.records_outside, 30u) << "twin: records below the grid must be counted";
+  // guided paths that bounce off the ground (guided roulette and splitting on) agree with unguided ones
+  s["film"]["spp"] = 64;
+  const RenderResult ref = render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 30, false);
+  const RenderResult guided = render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 31, true, {}, false,
+                                            [](RenderOptions& o) { o.guide_splitting = true; });
+  EXPECT_GT(guided.guide.regions_guided, 0) << "the cache must guide somewhere";
+  EXPECT_LT(max_z(guided, ref), 4.0);
+  EXPECT_GT(max_z(guided, ref, 1.03), 4.0) << "twin: a 3% error must be detected";
 }
 
 // Every scatter event guided (guide_depth < 0): the product of the guided weights over a path's

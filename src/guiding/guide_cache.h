@@ -140,6 +140,10 @@ struct GuideCache {
   // host only: the selection probability of every fitted region, or negative: learned from the
   // records where the mixture alone is sampled (guide_alpha_setting)
   float fixed_alpha = -1.0f;
+  // host only: the last training pass's radiance records outside the grid, which the cells' trees
+  // bin by clamping into the nearest cell (refine_guide_regions counts them; scatter vertices in a
+  // medium lie inside it, and ground vertices make no records, so 0 unless something is wrong)
+  size_t records_outside = 0;
   size_t bytes() const {
     return sizeof(st_guide_header) + regions.size() * sizeof(st_guide_region) + nodes.size() * sizeof(st_guide_node) +
            pixel_estimate.size() * sizeof(float);

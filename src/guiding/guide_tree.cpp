@@ -27,6 +27,17 @@ uint32_t leaf_of(const GuideCache& c, const Point& p) {
   return guide_tree_leaf(c.nodes.data(), uint32_t(cell), p[0], p[1], p[2]);
 }
 
+// Whether p lies outside the grid's box by more than a thousandth of a cell (the vertices' rounding).
+bool outside_grid(const GuideCache& c, const Point& p) {
+  const st_guide_header& h = c.header;
+  const float o[3] = {h.origin.x, h.origin.y, h.origin.z}, inv[3] = {h.inv_cell.x, h.inv_cell.y, h.inv_cell.z};
+  for (int a = 0; a < 3; ++a) {
+    const float u = (p[a] - o[a]) * inv[a];
+    if (!(u >= -1e-3f && u <= float(h.dims[a]) + 1e-3f)) return true;
+  }
+  return false;
+}
+
 struct Leaf {
   uint32_t node;
   std::vector<uint32_t> points;  // indices of the records' positions it holds
@@ -80,6 +91,7 @@ size_t refine_guide_regions(GuideCache& c, const std::vector<st_guide_record>& r
   std::vector<Point> pts;
   for (const st_guide_record& r : records)
     if (r.key[3] != ST_GUIDE_RECORD_END && (r.key[3] & ST_GUIDE_RECORD_RADIANCE)) pts.push_back(Point{r.pos.x, r.pos.y, r.pos.z});
+  c.records_outside = size_t(std::count_if(pts.begin(), pts.end(), [&](const Point& p) { return outside_grid(c, p); }));
   std::map<uint32_t, std::vector<uint32_t>> by_leaf;
   for (uint32_t i = 0; i < pts.size(); ++i) by_leaf[leaf_of(c, pts[i])].push_back(i);
   std::vector<Leaf> heap;
