@@ -77,9 +77,10 @@ void report_guide_cache(const GuideCache& c, float hg, bool product, const float
   double alpha = 0;
   for (int i : guided) alpha += c.regions[size_t(i)].alpha;
   std::fprintf(stderr, "# guide report, pass %d: %zu guided regions of %zu (mean alpha %.3f), phase g %.2f, product %d; "
-               "M2 = E[(f/p_mix)^2] per event, mean over regions by records %.4f, worst %.4f\n",
+               "M2 = E[(f/p_mix)^2] per event, mean over regions by records %.4f, worst %.4f; "
+               "radiance records outside the grid %zu\n",
                pass, guided.size(), c.regions.size(), guided.empty() ? 0.0 : alpha / double(guided.size()), hg,
-               int(product), weight > 0 ? m2 / weight : 0.0, worst);
+               int(product), weight > 0 ? m2 / weight : 0.0, worst, c.records_outside);
   std::sort(guided.begin(), guided.end(), [&](int a, int b) { return c.regions[a].records > c.regions[b].records; });
   for (size_t k = 0; k < guided.size() && k < 4; ++k) {
     const st_guide_region& r = c.regions[guided[k]];
