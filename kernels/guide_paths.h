@@ -97,6 +97,16 @@ inline void guide_ring_enter(__global st_guide_vertex* ring, int depth, float3 x
 }
 
 
+/* A training path's camera ray that ends on a shadow catcher (scatter.cl): the ground point is its
+ * vertex 0, which makes no record, and what the path gathers from there is counted from now, so
+ * that k_finish credits and records this path's ring, not what an earlier path left in the slot. */
+inline void guide_training_catcher(__global const st_guide_header* h, __global uint* rec, uint Q, uint slot,
+                                   const st_path* p) {
+  guide_slot(rec, (uint)h->dims[3], slot)->L_seen = p->L;
+  guide_ring_enter(guide_ring(rec, (uint)h->dims[3], Q, slot), p->depth, p->o.xyz, (float3)(0.0f), ST_GUIDE_NO_RECORD,
+                   p->beta, 0.0f);
+}
+
 /* The record of ring vertex k of a path: what its scattered direction brought back per unit
  * throughput arriving at it, f_phase L / p_mix (its credited sum): the fit's density then follows
  * the product of the phase function and the incident radiance, averaged over the region's

@@ -38,6 +38,7 @@ inline int shadows_busy(__constant const st_scene* scene, ST_SHADOW_STATE shadow
   int busy = 0;
   const uint n = Q * NL;
   const int bounce = p->depth - shadow_ring(NL, shadow_lights(scene));
+  const float4 lw = ST_HAS_GUIDING && ring ? guide_lane_weights(scene, p) : (float4)(1.0f);
   for (int l = 0; l < scene->n_lights; ++l) {
     const uint e = shadow_entry(slot, NL, shadow_lights(scene), p->depth, l);
     const uint state = shadow_status(shadows, n, e);
@@ -46,8 +47,7 @@ inline int shadows_busy(__constant const st_scene* scene, ST_SHADOW_STATE shadow
     } else if (state == ST_SHADOW_DONE) { /* the entry of bounce depth - R (R: the shadow ring) */
       const float4 c = shadow_fold(scene, shadows, n, slot * NL + (uint)l, e, bounce,
                                    &results[p->result_index * (uint)scene->result_layers]);
-      if (ST_HAS_GUIDING && ring)
-        guide_credit(ring, 0, bounce - 1, p->depth, c, guide_lane_weights(scene, p), path_mask(scene, p));
+      if (ST_HAS_GUIDING && ring) guide_credit(ring, 0, bounce - 1, p->depth, c, lw, path_mask(scene, p));
     }
   }
   /* equi-angular sampling: the entry whose place the next segment's takes (equiangular.h) */
@@ -194,6 +194,7 @@ ST_STAGE_FUNCTION(scatter) {
   path_load(paths, Q, slot, ST_PATH_ALL, &p);
   const int ground = ST_HAS_GROUND && p.medium == ST_MEDIUM_GROUND;
   if (ground && scene->ground.mode == ST_GROUND_SHADOW_CATCHER) {
+    if (ST_HAS_GUIDING && guide->inv_cell.w > 0.0f) guide_training_catcher(guide, guide_records, Q, slot, &p);
     shadow_catcher_event(scene, env, shadows, queues, counters, results, Q, NL, cur, slot, &p);
     path_store(paths, Q, slot, ST_PATH_ALL, &p);
     return;

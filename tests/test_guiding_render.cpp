@@ -10,7 +10,7 @@
 //     bit with guiding on; the cache is reported and bounded;
 //   - tiles and sample ranges of a guided render add up to the whole render (every part trains
 //     the same cache over the full film); only ranges that cut the training samples are refused;
-//   - ground vertices make no records (none lies outside the grid);
+//   - ground vertices make no records (none lies outside the grid), shadow-catcher paths none either;
 //   - the training passes' vertex ring credits a path's later radiance to its first vertex exactly,
 //     and in spectral mode in the film's unit (the unit of the pixel estimates guided roulette
 //     compares with);
@@ -410,13 +410,14 @@ TEST(GuidingRender, TilesAndSampleRangesAddUpToTheWholeRender) {
 // training pass's regions.
 namespace {
 
-std::vector<st_guide_region> furnace_regions(const std::string& name, int color) {
+std::vector<st_guide_region> furnace_regions(const std::string& name, int color, int tracker = ST_TRACKER_SPECTRAL,
+                                             Vec3 sky = {1, 1, 1}, int size = 32) {
   const std::string dir = temp_dir(name);
   json s = {{"format", "spectrack-scene/1"},
             {"camera", {{"type", "perspective"}, {"position", {0, 0, -4.5}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 26}}},
-            {"film", {{"width", 32}, {"height", 32}, {"spp", 8}}},
+            {"film", {{"width", size}, {"height", size}, {"spp", 8}}},
             {"render", {{"seed", 5}, {"light_sampling", "all"}, {"max_depth", 1}}},
-            {"lights", {{{"type", "environment"}, {"radiance", {1, 1, 1}}}}},
+            {"lights", {{{"type", "environment"}, {"radiance", {sky[0], sky[1], sky[2]}}}}},
             {"media", json::array()}};
   s["media"].push_back({{"type", "homogeneous"}, {"bounds", {{-1, -1, -1}, {1, 1, 1}}}, {"sigma_a", {0, 0, 0}},
                         {"sigma_s", {0.3, 0.3, 0.3}}, {"phase", {{"type", "isotropic"}}}});
@@ -424,8 +425,7 @@ std::vector<st_guide_region> furnace_regions(const std::string& name, int color)
   auto hook = [&](GuideCache& c) {
     if (first.empty()) first = c.regions;
   };
-  render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 11, true, hook, false,
-                [&](RenderOptions& o) { o.color = color; });
+  render_guided(s, dir, tracker, ST_ABSORPTION_WEIGHT, 11, true, hook, false, [&](RenderOptions& o) { o.color = color; });
   return first;
 }
 
@@ -444,36 +444,49 @@ TEST(GuidingRender, RingRecordsCreditTheEscapeToTheFirstVertex) {
   EXPECT_GE(regions, 4) << "the first pass must fill most of the 2 x 2 x 2 regions";
 }
 
-// The same furnace in spectral mode: a lane carries the sky's radiance at its wavelength (the
-// upsampled white times D65, about 100 at 560 nm), and the guide keeps radiance in the film's unit
-// (guide_paths.h guide_lane_weights), so a record is 1/2 times the mean over the path's four
-// wavelengths of D65 F / p, whose expectation is 1/2 again (the film maps D65 to white). The
-// regions' means of their records then agree with 1/2 within 4 standard errors (the spread of the
-// regions' means: their records come from different paths) and a 3% error is detected. The
-// regions' radiance (what guided roulette compares with the pixel estimates; half the probability
-// that a scattered ray escapes, the same in both modes for a gray medium) agrees with the RGB
-// render's within 10%: in the lanes' own unit (D65's scale) it is about 90 times larger.
+// The same furnace in spectral mode under a red sky (1, 1/4, 1/4): a lane carries the sky's
+// radiance at its wavelength (the upsampled colour times D65, about 100 at 560 nm), and the guide
+// keeps radiance in the film's unit (guide_paths.h guide_lane_weights), so a record is 1/2 times the
+// lanes' mean of s D65 (F_R + F_G + F_B) / (3 p), whose expectation is 1/2 times the mean of R, G and
+// B of the sky, 1/4, as in RGB mode (a weighting by one channel, or by the luminance, gives another
+// value). For a tracker of four lanes (spectral) and one of one lane per path (delta-per-channel)
+// the regions' means of their records agree with 1/4 within 4 standard errors, taken from the
+// spread of at least 8 distinct region means (their records come from different paths; a pooled
+// sparse region repeats its pool's mean and counts once), and a 3% error is detected. The regions'
+// radiance (what guided roulette compares with the pixel estimates; half the probability that a
+// scattered ray escapes, the same in both modes for a gray medium) is within 10% of the RGB
+// render's: a guard against the lanes' own unit (D65's scale), about 90 times larger, not a
+// statistical bound.
 TEST(GuidingRender, SpectralRecordsAreInTheFilmsUnit) {
-  std::vector<double> weights;
-  double radiance_spectral = 0, radiance_rgb = 0, n_spectral = 0, n_rgb = 0;
-  for (const st_guide_region& g : furnace_regions("guided_furnace_spectral", ST_FILM_COLOR_SPECTRAL)) {
-    if (g.alpha > 0) weights.push_back(g.weight);
-    if (g.records > 0) radiance_spectral += g.radiance * g.records, n_spectral += g.records;
-  }
-  for (const st_guide_region& g : furnace_regions("guided_furnace_rgb", ST_FILM_COLOR_RGB))
+  const Vec3 sky = {1, 0.25, 0.25};
+  const double expect = 0.5 * (sky[0] + sky[1] + sky[2]) / 3;
+  double radiance_rgb = 0, n_rgb = 0;
+  for (const st_guide_region& g : furnace_regions("guided_furnace_red", ST_FILM_COLOR_RGB, ST_TRACKER_SPECTRAL, sky, 96)) {
+    if (g.alpha > 0) EXPECT_NEAR(g.weight, expect, 1e-5) << "rgb: every record weighs exactly the sky's mean over 2";
     if (g.records > 0) radiance_rgb += g.radiance * g.records, n_rgb += g.records;
-  ASSERT_GE(weights.size(), 4u) << "the first pass must fill most of the 2 x 2 x 2 regions";
-  const double k = double(weights.size());
-  double mean = 0, var = 0;
-  for (double w : weights) mean += w / k;
-  for (double w : weights) var += (w - mean) * (w - mean) / (k - 1);
-  const double se = std::sqrt(var / k);
-  EXPECT_LT(std::abs(mean - 0.5), 4 * se) << "mean of " << k << " regions' record means " << mean << ", SE " << se;
-  EXPECT_GT(std::abs(mean - 0.5 * 1.03), 4 * se) << "twin: a 3% error must be detected (SE " << se << ")";
-  ASSERT_GT(n_spectral, 0);
+  }
   ASSERT_GT(n_rgb, 0);
-  const double ratio = (radiance_spectral / n_spectral) / (radiance_rgb / n_rgb);
-  EXPECT_NEAR(ratio, 1.0, 0.1) << "region radiance, spectral over RGB";
+  for (int tracker : {ST_TRACKER_SPECTRAL, ST_TRACKER_DELTA_PER_CHANNEL}) {
+    const std::string what = tracker_name(tracker);
+    std::vector<double> weights;
+    double radiance = 0, n = 0;
+    for (const st_guide_region& g : furnace_regions("guided_furnace_spectral", ST_FILM_COLOR_SPECTRAL, tracker, sky, 96)) {
+      if (g.alpha > 0) weights.push_back(g.weight);
+      if (g.records > 0) radiance += g.radiance * g.records, n += g.records;
+    }
+    std::sort(weights.begin(), weights.end());
+    weights.erase(std::unique(weights.begin(), weights.end()), weights.end());
+    ASSERT_GE(weights.size(), 8u) << what << ": the first pass must fill the 2 x 2 x 2 regions";
+    const double k = double(weights.size());
+    double mean = 0, var = 0;
+    for (double w : weights) mean += w / k;
+    for (double w : weights) var += (w - mean) * (w - mean) / (k - 1);
+    const double se = std::sqrt(var / k);
+    EXPECT_LT(std::abs(mean - expect), 4 * se) << what << ": mean of " << k << " regions' record means " << mean << ", SE " << se;
+    EXPECT_GT(std::abs(mean - expect * 1.03), 4 * se) << what << ": twin, a 3% error must be detected (SE " << se << ")";
+    ASSERT_GT(n, 0);
+    EXPECT_NEAR((radiance / n) / (radiance_rgb / n_rgb), 1.0, 0.1) << what << ": region radiance, spectral over RGB";
+  }
 }
 
 // A ground vertex (a bounce off the ground, outside every medium) is neither guided nor split, so it
@@ -521,6 +534,32 @@ TEST(GuidingRender, GroundVerticesMakeNoRecords) {
   EXPECT_GT(guided.guide.regions_guided, 0) << "the cache must guide somewhere";
   EXPECT_LT(max_z(guided, ref), 4.0);
   EXPECT_GT(max_z(guided, ref, 1.03), 4.0) << "twin: a 3% error must be detected";
+}
+
+// A camera ray that ends on a shadow catcher makes its ground point vertex 0 of the training ring,
+// which makes no record: before, k_finish credited and recorded the ring vertex an earlier path had
+// left in the slot. The camera sees only the catcher (the medium casts its shadow from outside the
+// view), so no path scatters in a medium and the training's only records are the paths' end
+// records, one per training sample of every pixel (an exact count: with the stale vertices, 2647
+// records where 1280 paths ended).
+TEST(GuidingRender, ShadowCatcherPathsMakeNoVertexRecords) {
+  const std::string dir = temp_dir("guided_catcher");
+  const int w = 20, h = 16;
+  json s = {{"format", "spectrack-scene/1"},
+            {"camera", {{"type", "perspective"}, {"position", {0, 3, 0}}, {"look_at", {0, 0, 0.01}}, {"up", {0, 0, 1}}, {"fov_deg", 40}}},
+            {"film", {{"width", w}, {"height", h}, {"spp", 8}}},
+            {"render", {{"seed", 9}, {"light_sampling", "all"}}},
+            {"lights", {{{"type", "environment"}, {"radiance", {0.3, 0.4, 0.6}}},
+                        {{"type", "directional"}, {"to_light", {1, 1, 0}}, {"irradiance", {3, 3, 3}}, {"angle_deg", 1}}}},
+            {"ground", {{"height", 0}, {"albedo", {0.5, 0.5, 0.5}}, {"mode", "shadow_catcher"}}},
+            {"media", json::array()}};
+  s["media"].push_back({{"type", "homogeneous"}, {"bounds", {{-2.5, 1.5, -0.5}, {-1.5, 2.5, 0.5}}}, {"sigma_a", {0.1, 0.1, 0.1}},
+                        {"sigma_s", {2, 2, 2}}, {"phase", {{"type", "isotropic"}}}});
+  const RenderResult r = render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 4, true);
+  ASSERT_TRUE(r.guide.used);
+  ASSERT_EQ(r.guide.training_passes, 1);
+  const size_t end_records = size_t(w) * h * size_t(kGuideTrainingSpp[0]);
+  EXPECT_EQ(r.guide.records, end_records) << "only the paths' end records";
 }
 
 // Every scatter event guided (guide_depth < 0): the product of the guided weights over a path's

@@ -49,6 +49,11 @@ constexpr int kGuideTrainingSpp[] = {4};
 constexpr int kGuideTrainingPasses = int(sizeof(kGuideTrainingSpp) / sizeof(kGuideTrainingSpp[0]));
 // The training passes' random streams: the render's seed xor this.
 constexpr uint32_t kGuideTrainingSeed = 0x6a09e667u;
+// What a training pass's records hold, in a cache file's key (guide_cache_file.h), so that a file
+// trained by a build whose records differ is refused: 2 = radiance in the film's unit (spectral
+// lanes weighed by the film, kernels/guide_paths.h guide_lane_weights), no records at ground
+// vertices or shadow-catcher hits.
+constexpr int kGuideRecordsVersion = 2;
 // Region refinement: a region that holds more than this many radiance records of a training pass
 // splits (its halves hold at least half as many each: the split is at their median), and the cache
 // holds at most kGuideMaxRegions regions (176 bytes each, and two kd-tree nodes of 8 bytes).

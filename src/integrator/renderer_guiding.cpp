@@ -181,7 +181,8 @@ nlohmann::json Renderer::Impl::guide_cache_key() const {
           {"fixed_alpha", guide.fixed_alpha},
           {"grid_cells", {guide.header.dims[0], guide.header.dims[1], guide.header.dims[2]}},
           {"training_samples", settings.guide_training_samples},
-          {"training_schedule", guide_training_setting().spp}};
+          {"training_schedule", guide_training_setting().spp},
+          {"records", kGuideRecordsVersion}};
 }
 
 // The cache from --guide-cache's file: no training pass here; a render whose samples hold the
