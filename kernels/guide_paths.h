@@ -206,6 +206,7 @@ inline int guide_rrs(__global const st_guide_header* h, __global st_guide_slot* 
   const float estimate = guide_pixel_estimates(h)[p->pixel];
   if (!(r->records > 0.0f) || !(estimate > 0.0f) || !(r->radiance >= 0.0f)) return -1;
   const float q = masked_avg(fabs(p->beta), mask) * r->radiance / estimate;
+  if (!isfinite(q)) return -1; /* a path whose throughput is not finite (its sample is dropped): no splitting */
   if (q < h->rr_below) {
     const float survive = fmax(q, h->rr_floor);
     if (rng_uniform(rng) >= survive) return 0;

@@ -292,6 +292,7 @@ TEST(CliShards, GuideCacheFileIsTrainedOnceAndReadByEveryPart) {
     EXPECT_FALSE(fs::exists(dir + "/refused.exr")) << p.describe();
   };
   refused(cache, {"--seed", "12"}, {cache, "key field 'seed'", "trained for another render"});
+  refused(cache, {"--no-alpha"}, {cache, "key field 'alpha'"});  // the pixel estimates then hold the seen sky
   std::string bytes;
   {
     std::ifstream in(cache, std::ios::binary);

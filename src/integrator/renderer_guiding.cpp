@@ -182,6 +182,7 @@ nlohmann::json Renderer::Impl::guide_cache_key() const {
           {"grid_cells", {guide.header.dims[0], guide.header.dims[1], guide.header.dims[2]}},
           {"training_samples", settings.guide_training_samples},
           {"training_schedule", guide_training_setting().spp},
+          {"alpha", (settings.aovs & ST_AOV_BIT(ALPHA)) != 0},  // the pixel estimates leave out the seen environment
           {"records", kGuideRecordsVersion}};
 }
 
