@@ -13,6 +13,7 @@
 #include <cmath>
 
 #include "cli_util.h"
+#include "guiding/guide_cache.h"
 #include "integrator/film_watch.h"
 #include "integrator/noise.h"
 #include "integrator/render_watch.h"
@@ -76,6 +77,73 @@ TEST(NoiseTarget, StopsBelowTheTargetWithTheUniformImageOfItsSamplesAndNoBias) {
   ASSERT_EQ(uniform.rgb.size(), stopped.rgb.size());
   for (size_t i = 0; i < uniform.rgb.size(); ++i) ASSERT_EQ(uniform.rgb[i], stopped.rgb[i]) << "value " << i;
   // ... and it agrees with a long uniform render of another seed within 4 SE; 3% off does not
+  RenderOptions lo = st_test::quiet_options(1024);
+  lo.seed = 977;
+  const RenderResult reference = render_with(scene, lo);
+  EXPECT_LT(st_test::max_z(stopped, reference), 4.0);
+  EXPECT_GT(st_test::max_z(stopped, reference, 1.03), 4.0) << "the twin: a 3% error must be seen";
+}
+
+// A watch that hands everything to a RenderWatch and keeps what it was shown: the sample counts it
+// was asked about and the last film it saw.
+struct Seen : FilmWatch {
+  RenderWatch& inner;
+  std::vector<int64_t> asked;
+  RenderResult last;
+  explicit Seen(RenderWatch& w) : inner(w) {}
+  int wants(int64_t n) override {
+    asked.push_back(n);
+    return inner.wants(n);
+  }
+  bool see(const RenderResult& film, const FilmState* st) override {
+    last = film;
+    return inner.see(film, st);
+  }
+  int64_t samples_needed() const override { return inner.samples_needed(); }
+};
+
+// With guiding the image holds the training pass's samples besides the stage loop's own: the watch
+// judges that image, so the render stops as soon as the image (not the own samples alone) reaches
+// the target, and the image is the uniform guided render of as many samples.
+TEST(NoiseTarget, CountsTheGuidesTrainingSamples) {
+  const std::string dir = test_dir();
+  const SceneDesc scene = st_test::scene_from_json(small_noise_scene(dir), dir);
+  auto guided = [](int spp) {
+    RenderOptions o = st_test::quiet_options(spp);
+    o.guiding = kGuidingOn;
+    o.aovs = ST_AOV_BIT(VARIANCE);
+    return o;
+  };
+  RenderOptions o = guided(4096);
+  o.noise_target = 0.04;
+  WatchConfig c;
+  c.noise_target = 0.04;
+  c.spp = 4096;
+  RenderWatch inner(c);
+  Seen watch(inner);
+  o.watch = &watch;
+  const RenderResult stopped = render_with(scene, o);
+  ASSERT_TRUE(stopped.noise_target_reached);
+  ASSERT_TRUE(stopped.guide.used);
+  int64_t T = 0;  // the training samples the image holds
+  for (int spp : kGuideTrainingSpp) T += spp;
+  EXPECT_LT(stopped.spp_done, 4096);
+  // every count the watch was asked about holds the training samples, and the film it stopped on
+  // is the one returned, bit for bit
+  ASSERT_FALSE(watch.asked.empty());
+  EXPECT_GT(watch.asked.front(), T);
+  EXPECT_EQ(watch.last.spp_done, stopped.spp_done);
+  ASSERT_EQ(watch.last.sum.size(), stopped.sum.size());
+  for (size_t i = 0; i < stopped.sum.size(); ++i) ASSERT_EQ(watch.last.sum[i], stopped.sum[i]) << "sum " << i;
+  ASSERT_TRUE(inner.last_estimate());
+  const NoiseEstimate e = estimate_film_noise(stopped.sum, stopped.aov_sum, stopped.aov_channels, stopped.spp_done);
+  EXPECT_EQ(inner.last_estimate()->error, e.error);
+  EXPECT_LE(e.error, 0.04);
+  // the image is the uniform guided render of its samples, bit for bit
+  const RenderResult uniform = render_with(scene, guided(int(stopped.spp_done)));
+  ASSERT_EQ(uniform.rgb.size(), stopped.rgb.size());
+  for (size_t i = 0; i < uniform.rgb.size(); ++i) ASSERT_EQ(uniform.rgb[i], stopped.rgb[i]) << "value " << i;
+  // and agrees with a long unguided render of another seed within 4 SE; 3% off does not
   RenderOptions lo = st_test::quiet_options(1024);
   lo.seed = 977;
   const RenderResult reference = render_with(scene, lo);

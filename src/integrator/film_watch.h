@@ -9,7 +9,8 @@
 // render (a noise target met). Films sum one sample at a time in sample order (k_accumulate), so a
 // film state of the first k samples, loaded back before samples k .. spp - 1 are rendered, gives the
 // uninterrupted render's sums to the bit: resume() hands such a state to the loop. Guiding's
-// training passes are not watched.
+// training passes are not watched; a render whose film holds their samples shows the watch its film
+// with them, counted in samples_done (the image's samples, not only the stage loop's).
 #pragma once
 #include <cstdint>
 #include <string>

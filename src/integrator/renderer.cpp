@@ -233,8 +233,10 @@ RenderResult Renderer::Impl::render(int64_t sample_begin, int spp) {
     throw Error(fmt::format("internal: samples {}:{} cut the guide's training samples 0:{}", sample_begin, end, T));
   if (with_training && guide_loaded && guide_samples.spp_done == 0) render_training_samples();
   const int64_t own_begin = std::max(sample_begin, T) - T, own_end = end - T;
+  watch_with_training = with_training && guide_samples.spp_done > 0;  // a noise target counts them
   RenderResult res = own_end > own_begin ? run_stage_loop(own_begin, int(own_end - own_begin), nullptr)
                                          : empty_film(own_begin);
+  watch_with_training = false;
   if (with_training) add_guide_samples(res);  // with their statistics
   res.sample_begin = sample_begin;
   res.spp_requested = spp;

@@ -93,6 +93,7 @@ struct Renderer::Impl {
   bool guide_trained = false;
   bool guide_loaded = false;   // the cache came from --guide-cache's file: the training samples are rendered on demand
   RenderResult guide_samples;  // the training passes' film sums (the window's), added to the renders that hold them
+  bool watch_with_training = false;  // the render's film holds guide_samples: the watch sees them on it
 
   // adaptive sampling: the entries the next stage loop renders (kernels/queues.h
   // active_pixels_offset), each a window pixel and the offset of its first sample from the
@@ -165,6 +166,7 @@ struct Renderer::Impl {
   void load_film_state(const RenderBuffers& b, const BatchPlan& plan, const FilmState& st);
   bool watch_film(const RenderBuffers& b, const BatchPlan& plan, LoopState& s, const RenderResult& header);
   void limit_issue(LoopState& s, const BatchPlan& plan, const FilmWatch& w);
+  int64_t watched_training_samples() const;
   // The stage kernels launched for this scene, in launch order.
   std::vector<const Stage*> launched_stages() const;
 };

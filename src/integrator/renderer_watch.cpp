@@ -30,10 +30,16 @@ void Renderer::Impl::load_film_state(const RenderBuffers& b, const BatchPlan& p,
               "load the resumed film");
 }
 
+// The guide's training samples on the film the watch sees (0 without them): the watch counts the
+// samples of the image, the stage loop its own (docs/guiding.md, "Determinism across shards").
+int64_t Renderer::Impl::watched_training_samples() const {
+  return watch_with_training ? guide_samples.spp_done : 0;
+}
+
 // The batches that hold the samples the watch needs before its next look (at least one more than
 // are on the film, so the loop never waits on a watch that will not look).
 void Renderer::Impl::limit_issue(LoopState& s, const BatchPlan& p, const FilmWatch& w) {
-  const int64_t needed = w.samples_needed() - int64_t(s.samples_before);
+  const int64_t needed = w.samples_needed() - int64_t(s.samples_before) - watched_training_samples();
   if (needed >= int64_t(p.spp)) {
     s.batches_issuable = UINT64_MAX;
     return;
@@ -45,10 +51,11 @@ void Renderer::Impl::limit_issue(LoopState& s, const BatchPlan& p, const FilmWat
 // After new batches: the film (and its state) when the watch asks; true stops the loop (the
 // batches on the film are the result, the paths in flight are dropped).
 bool Renderer::Impl::watch_film(const RenderBuffers& b, const BatchPlan& p, LoopState& s, const RenderResult& header) {
-  const int want = opt.watch->wants(int64_t(s.samples_before + s.samples_done));
+  const int want = opt.watch->wants(int64_t(s.samples_before + s.samples_done) + watched_training_samples());
   if (!(want & FilmWatch::kFilm)) return false;
   RenderResult film = result_header(header.sample_begin, header.spp_requested);
   read_film(b, p, s, film);
+  if (watch_with_training) add_guide_samples(film);  // the film the render returns holds them
   film.interrupted = false;  // a look at a render in progress
   std::optional<FilmState> st;
   if (want & FilmWatch::kState) st = film_state(b, p, s, header.sample_begin);
