@@ -290,20 +290,31 @@ bool fit_mixture(st_guide_region& g, const std::vector<st_guide_record>& records
   return g.alpha > 0;
 }
 
-// The region of records [begin, end) (sorted, one region): its radiance from its vertices'
-// radiance records joined with their paths' end records (`ends`: each path's radiance); returns
-// the fit's records (positive weights), weighed by the ring's credit or, with `full` (not empty),
-// by the whole rest of the path.
-FitRecords region_records(GuideCache& cache, const std::vector<st_guide_record>& records, size_t begin, size_t end,
-                          const PathEnds& ends, const VertexWeights* full, const VertexWeights& phase,
-                          const VertexWeights& train) {
+// A record's place in the canonical order: its region under the current trees (END records: -1,
+// first), its key, its index in the pass's records (sort_records).
+struct RecordOrder {
   int32_t region;
-  std::memcpy(&region, &records[begin].pos.w, 4);
-  st_guide_region& g = cache.regions[size_t(region)];
+  uint32_t key[4];
+  uint32_t index;
+  bool operator<(const RecordOrder& o) const {
+    return std::tie(region, key[0], key[1], key[2], key[3], index) <
+           std::tie(o.region, o.key[0], o.key[1], o.key[2], o.key[3], o.index);
+  }
+};
+
+// The region of records order[begin, end) (one region): its radiance from its vertices' radiance
+// records joined with their paths' end records (`ends`: each path's radiance); returns the fit's
+// records (positive weights, in key order, indices into `records`), weighed by the ring's credit
+// or, with `full` (not empty), by the whole rest of the path; `phase` and `train` by record index.
+FitRecords region_records(GuideCache& cache, const std::vector<st_guide_record>& records,
+                          const std::vector<RecordOrder>& order, size_t begin, size_t end, const PathEnds& ends,
+                          const VertexWeights* full, const std::vector<float>& phase, const std::vector<float>& train) {
+  st_guide_region& g = cache.regions[size_t(order[begin].region)];
   double sum_radiance = 0;
   size_t n_radiance = 0;
   FitRecords f;
-  for (size_t i = begin; i < end; ++i) {
+  for (size_t j = begin; j < end; ++j) {
+    const size_t i = order[j].index;
     const st_guide_record& r = records[i];
     if (r.key[3] & ST_GUIDE_RECORD_RADIANCE) {
       const float* e = path_end(ends, PathKey{r.key[0], r.key[1], r.key[2]});
@@ -316,7 +327,7 @@ FitRecords region_records(GuideCache& cache, const std::vector<st_guide_record>&
     ++f.all;
     if (!(w > 0 && std::isfinite(w))) continue;
     f.index.push_back(i), f.weight.push_back(w);
-    f.phase.push_back(full_path_weight(phase, key)), f.train.push_back(full_path_weight(train, key));
+    f.phase.push_back(phase[i]), f.train.push_back(train[i]);
   }
   if (n_radiance >= size_t(kGuideMinRecords)) {
     g.records = float(n_radiance);
@@ -386,47 +397,50 @@ int pool_sparse_regions(GuideCache& cache, const std::vector<st_guide_record>& r
   return p.guided;
 }
 
-// Per fit record (by key), f_phase at its direction (the device's pos.w) and the density the
-// training drew it with: f_phase where `sampled_by` did not guide there, else its one-sample mixture.
-void record_densities(const std::vector<st_guide_record>& records, const GuideCache* sampled_by, VertexWeights& phase,
-                      VertexWeights& train) {
+// Per fit record (index-aligned with `records`; radiance and end records 0), f_phase at its
+// direction (the device's pos.w) and the density the training drew it with: f_phase where
+// `sampled_by` did not guide there, else its one-sample mixture.
+void record_densities(const std::vector<st_guide_record>& records, const GuideCache* sampled_by, std::vector<float>& phase,
+                      std::vector<float>& train) {
   const bool guided = sampled_by && sampled_by->header.origin.w > 0;
-  for (const st_guide_record& r : records) {
+  phase.assign(records.size(), 0.0f), train.assign(records.size(), 0.0f);
+  for (size_t i = 0; i < records.size(); ++i) {
+    const st_guide_record& r = records[i];
     if (r.key[3] & ST_GUIDE_RECORD_RADIANCE) continue;  // END records too
-    const VertexKey key{r.key[0], r.key[1], r.key[2], r.key[3]};
     double t = r.pos.w;
     if (guided) {
       const st_guide_region& g = sampled_by->regions[size_t(guide_region_of(*sampled_by, r.pos.x, r.pos.y, r.pos.z))];
       const st_vec3 w = vec3_make(r.dir.x, r.dir.y, r.dir.z);
       if (g.alpha > 0) t = guide_mixture_pdf(g.alpha, guide_pdf(&g.mix, w, 0.0f, w), r.pos.w);
     }
-    phase.emplace_back(key, r.pos.w), train.emplace_back(key, float(t));
+    phase[i] = r.pos.w, train[i] = float(t);
   }
-  std::sort(phase.begin(), phase.end()), std::sort(train.begin(), train.end());
+}
+
+// The records' canonical order: by region under the current trees, then by key. The keys are
+// unique, so the order is a function of the set of records, not of the order the device appended
+// them in; the records themselves stay where they are (a sort of small entries, no copy of them).
+std::vector<RecordOrder> sort_records(const GuideCache& cache, const std::vector<st_guide_record>& records) {
+  std::vector<RecordOrder> order(records.size());
+  for (size_t i = 0; i < records.size(); ++i) {
+    const st_guide_record& r = records[i];
+    const int32_t region = r.key[3] == ST_GUIDE_RECORD_END ? -1 : guide_region_of(cache, r.pos.x, r.pos.y, r.pos.z);
+    order[i] = RecordOrder{region, {r.key[0], r.key[1], r.key[2], r.key[3]}, uint32_t(i)};
+  }
+  std::sort(order.begin(), order.end());
+  return order;
 }
 
 }  // namespace
 
-int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records, const GuideCache* sampled_by) {
-  VertexWeights phase, train;
+int fit_guide_cache(GuideCache& cache, const std::vector<st_guide_record>& records, const GuideCache* sampled_by) {
+  if (records.size() > size_t(UINT32_MAX)) throw Error(fmt::format("internal: {} guide records in one pass", records.size()));
+  std::vector<float> phase, train;
   record_densities(records, sampled_by, phase, train);
-  auto region_of = [](const st_guide_record& r) {
-    int32_t i;
-    std::memcpy(&i, &r.pos.w, 4);
-    return i;
-  };
-  auto order = [&](const st_guide_record& a, const st_guide_record& b) {
-    return std::make_tuple(region_of(a), a.key[0], a.key[1], a.key[2], a.key[3]) <
-           std::make_tuple(region_of(b), b.key[0], b.key[1], b.key[2], b.key[3]);
-  };
-  for (st_guide_record& r : records) {  // the region under the current trees (END records: -1)
-    const int32_t region = r.key[3] == ST_GUIDE_RECORD_END ? -1 : guide_region_of(cache, r.pos.x, r.pos.y, r.pos.z);
-    std::memcpy(&r.pos.w, &region, 4);
-  }
-  std::sort(records.begin(), records.end(), order);
-  PathEnds ends;  // every path's radiance (guide_radiance: the film's unit), from its one end record (region -1: sorted first, by key)
-  for (const st_guide_record& r : records)
-    if (r.key[3] == ST_GUIDE_RECORD_END) ends.emplace_back(PathKey{r.key[0], r.key[1], r.key[2]}, r.dir.x);
+  const std::vector<RecordOrder> order = sort_records(cache, records);
+  PathEnds ends;  // every path's radiance (guide_radiance: the film's unit), from its one end record (region -1: first, by key)
+  for (const RecordOrder& o : order)
+    if (o.key[3] == ST_GUIDE_RECORD_END) ends.emplace_back(PathKey{o.key[0], o.key[1], o.key[2]}, records[o.index].dir.x);
 
   VertexWeights full;  // with cache.full_path: each guided vertex's weight over the rest of its path
   if (cache.full_path)
@@ -442,12 +456,13 @@ int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records, con
   std::sort(full.begin(), full.end());
   for (st_guide_region& g : cache.regions) g = st_guide_region{};
   std::vector<FitRecords> fit(cache.regions.size());
-  for (size_t begin = 0; begin < records.size();) {
-    const int region = region_of(records[begin]);
+  for (size_t begin = 0; begin < order.size();) {
+    const int32_t region = order[begin].region;
     size_t end = begin;
-    while (end < records.size() && region_of(records[end]) == region) ++end;
+    while (end < order.size() && order[end].region == region) ++end;
     if (region >= 0 && size_t(region) < cache.regions.size())
-      fit[size_t(region)] = region_records(cache, records, begin, end, ends, cache.full_path ? &full : nullptr, phase, train);
+      fit[size_t(region)] =
+          region_records(cache, records, order, begin, end, ends, cache.full_path ? &full : nullptr, phase, train);
     begin = end;
   }
   // the learned alpha reads the mixture alone: with the phase product (its pdf per event) alpha is fixed

@@ -179,7 +179,7 @@ int guide_region_of(const GuideCache& cache, float x, float y, float z);
 size_t refine_guide_regions(GuideCache& cache, const std::vector<st_guide_record>& records,
                             size_t split_above = kGuideSplitRecords, size_t max_regions = kGuideMaxRegions);
 
-// Refits every region from `records` (any order; binned by position and sorted here): its mixture from the records of the
+// Refits every region from `records` (any order; binned by position and put in key order here): its mixture from the records of the
 // scatter events whose direction was guided (depth below kGuideDepth), its radiance (guided
 // roulette's estimate) from the records of every depth; regions with fewer than kGuideMinRecords
 // radiance records get no radiance estimate (records 0). Returns the regions that guide.
@@ -188,7 +188,8 @@ size_t refine_guide_regions(GuideCache& cache, const std::vector<st_guide_record
 // Each fitted region's alpha is learned from its records (GuideCache::fixed_alpha), which the
 // training drew from the phase function or, where `sampled_by` (the cache that guided the pass)
 // guided, its one-sample mixture.
-int fit_guide_cache(GuideCache& cache, std::vector<st_guide_record> records, const GuideCache* sampled_by = nullptr);
+int fit_guide_cache(GuideCache& cache, const std::vector<st_guide_record>& records,
+                    const GuideCache* sampled_by = nullptr);
 
 // The fixed selection probability of a render's fitted regions (GuideCache::fixed_alpha):
 // SPECTRACK_GUIDE_ALPHA=A (0 <= A <= 0.9), for measurements; else -1 (learned).

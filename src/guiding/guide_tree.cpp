@@ -13,7 +13,7 @@
 // parent's region index, the right half takes a new one.
 #include <algorithm>
 #include <array>
-#include <map>
+#include <vector>
 
 #include "guiding/guide_cache.h"
 
@@ -92,11 +92,11 @@ size_t refine_guide_regions(GuideCache& c, const std::vector<st_guide_record>& r
   for (const st_guide_record& r : records)
     if (r.key[3] != ST_GUIDE_RECORD_END && (r.key[3] & ST_GUIDE_RECORD_RADIANCE)) pts.push_back(Point{r.pos.x, r.pos.y, r.pos.z});
   c.records_outside = size_t(std::count_if(pts.begin(), pts.end(), [&](const Point& p) { return outside_grid(c, p); }));
-  std::map<uint32_t, std::vector<uint32_t>> by_leaf;
+  std::vector<std::vector<uint32_t>> by_leaf(c.nodes.size());  // per node (leaves only), in node order
   for (uint32_t i = 0; i < pts.size(); ++i) by_leaf[leaf_of(c, pts[i])].push_back(i);
   std::vector<Leaf> heap;
-  for (auto& [node, points] : by_leaf)
-    if (points.size() > split_above) heap.push_back(Leaf{node, std::move(points)});
+  for (uint32_t node = 0; node < by_leaf.size(); ++node)
+    if (by_leaf[node].size() > split_above) heap.push_back(Leaf{node, std::move(by_leaf[node])});
   std::make_heap(heap.begin(), heap.end(), less_crowded);
   const size_t before = c.regions.size();
   while (!heap.empty() && c.regions.size() < max_regions) {

@@ -274,7 +274,7 @@ double Renderer::Impl::train_guide() {
     const GuideCache sampled_by = guide.header.origin.w > 0 ? guide : GuideCache{};  // what guided the pass
     refine_guide_regions(guide, records);  // where the pass's records crowd (guide_tree.cpp)
     guide_info.records = records.size();
-    guide_info.regions_guided = fit_guide_cache(guide, std::move(records), &sampled_by);
+    guide_info.regions_guided = fit_guide_cache(guide, records, &sampled_by);
     if (opt.guide_cache_hook) opt.guide_cache_hook(guide);
     if (const char* e = std::getenv("SPECTRACK_GUIDE_REPORT"); e && std::string(e) == "1") report_guide(int(k));
     guide.header.origin.w = 1.0f;  // the next passes and the render sample the guide
