@@ -9,7 +9,8 @@ import sys
 src, dst, scale = sys.argv[1], sys.argv[2], float(sys.argv[3])
 j = json.load(open(src))
 for m in j["media"]:
-    m["file"] = os.path.abspath(os.path.join(os.path.dirname(src), m["file"]))
+    if "file" in m:  # a VDB medium (homogeneous ones have none)
+        m["file"] = os.path.abspath(os.path.join(os.path.dirname(src), m["file"]))
 j["film"]["width"] = max(8, round(j["film"]["width"] * scale))
 j["film"]["height"] = max(8, round(j["film"]["height"] * scale))
 j["film"]["output"] = "out.exr"

@@ -40,7 +40,7 @@ ST_STAGE_FUNCTION(finish) {
   /* the shadow rays not added yet: bounces depth - R .. depth - 1 (R: the shadow ring), oldest first;
    * a guide training pass credits them, and what the path gathered since its last scatter event,
    * to the path's vertices, which then become records (guiding.h) */
-  const int training = ST_HAS_GUIDING && guide->inv_cell.w > 0.0f;
+  const int training = ST_HAS_GUIDING && guide_training_path(guide, &p);
   __global st_guide_vertex* ring = training ? guide_ring(guide_records, (uint)guide->dims[3], Q, slot) : 0;
   const float4 mask = path_mask(scene, &p);
   const float4 lw = training ? guide_lane_weights(scene, &p) : (float4)(1.0f);

@@ -38,6 +38,12 @@ inline __global st_guide_vertex* guide_ring(__global uint* rec, uint capacity, u
   return (__global st_guide_vertex*)guide_slot(rec, capacity, Q) + slot * ST_GUIDE_RING;
 }
 
+/* Whether path p makes records: in a training pass (the header's inv_cell.w: the fraction of the
+ * pass's camera samples that do), where its camera sample is one of them. */
+inline int guide_training_path(__global const st_guide_header* h, const st_path* p) {
+  return h->inv_cell.w > 0.0f && guide_sample_records(h->inv_cell.w, p->pixel, p->sample);
+}
+
 /* The weights that turn a path's radiance into the film's unit, lane by lane. In RGB mode a lane
  * is a channel of the film: 1. In spectral mode lane i is the radiance at wavelength lambda_i (an
  * upsampled light colour carries D65, about 100 at 560 nm), which film_rgb turns into linear sRGB

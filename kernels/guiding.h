@@ -23,6 +23,7 @@
 #ifndef SPECTRACK_GUIDING_H
 #define SPECTRACK_GUIDING_H
 
+#include "hash.h"
 #include "types.h"
 
 #ifdef __OPENCL_VERSION__
@@ -44,6 +45,16 @@ inline st_vec3 vec3_make(float x, float y, float z) {
   return v;
 }
 #endif
+
+/* Whether camera sample `sample` of pixel `pixel` (of the full film) makes records in a training
+ * pass that records `fraction` of its samples (guide_cache.h kGuideRecordSamples): all of them
+ * where the fraction is 1, else those whose hash of (pixel, sample) falls below it. The set
+ * depends on nothing else, so every part of a render (the pass always covers the full film) and
+ * the host's tests agree on it; the samples that do not record render the same paths. */
+#define ST_GUIDE_RECORD_HASH 0x9E3779B9u
+inline int guide_sample_records(float fraction, st_uint pixel, st_uint sample) {
+  return fraction >= 1.0f || hash_uniform(pixel, sample, ST_GUIDE_RECORD_HASH) < fraction;
+}
 
 #define ST_GUIDE_PI 3.14159265358979323846f
 #define ST_GUIDE_INV_4PI 0.07957747154594767f
@@ -240,7 +251,8 @@ inline st_vec3 guide_sample(ST_GUIDE_GLOBAL const st_vmf_mixture* m, st_vec3 nu,
  * entries. */
 typedef struct {
   st_float4 origin;   /* xyz: the grid's world-space corner; w: 1 when guided sampling is on */
-  st_float4 inv_cell; /* xyz: cells per world unit along each axis; w: 1 when records are collected */
+  st_float4 inv_cell; /* xyz: cells per world unit along each axis; w: in a training pass the fraction of its camera
+                       * samples that make records (guide_sample_records), 0 outside training */
   st_int dims[4];     /* xyz: cells per axis; w: record capacity of the record buffer */
   st_int guided_depth; /* scatter events of depth below this are guided, and their records fit the mixtures */
   st_int split_max;    /* guided roulette and splitting: the most paths one path splits into (0: off) */

@@ -187,7 +187,7 @@ inline float4 path_wavelengths(__constant const st_scene* scene, const st_path* 
  * is open + u (close - open), st_camera.shutter): the pixel's N samples (shutter.z) are
  * stratified, sample s in stratum s mod N with a uniform offset inside it, and the strata are
  * rotated by a uniform per pixel (Cranley-Patterson), so every sample's u is uniform on its own and
- * a pixel's N samples cover the shutter evenly. Both uniforms are hashes (rng.h hash_uniform) of
+ * a pixel's N samples cover the shutter evenly. Both uniforms are hashes (hash.h hash_uniform) of
  * the seed, the stream ST_STREAM_TIME, the pixel and the sample (the rotation: of the pixel
  * alone), not Philox draws: every kernel that looks a moving medium up recomputes the time, and two
  * Philox calls per path and kernel cost several percent of a blurred render. The time depends

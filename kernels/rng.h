@@ -31,6 +31,8 @@
 #ifndef SPECTRACK_RNG_H
 #define SPECTRACK_RNG_H
 
+#include "hash.h" /* st_hash32, hash_uniform: hashed values that need no stream */
+
 #define ST_STREAM_CAMERA_T 0xffffffffu /* the alpha layer's camera-ray transmittance (raygen.cl) */
 #define ST_STREAM_CAMERA_COLLISION 0xfffffffeu /* the albedo and depth layers' camera-ray free flight */
 #define ST_STREAM_WAVELENGTHS 0xfffffffdu /* spectral mode: a sample's wavelengths (queues.h path_wavelengths) */
@@ -104,24 +106,5 @@ inline uint rng_next_word(st_rng* r) {
 
 /* Uniform in [0, 1): 24 random bits (a multiple of 2^-24 below 1), so 1 - u is never 0. */
 inline float rng_uniform(st_rng* r) { return (float)(rng_next_word(r) >> 8) * (1.0f / 16777216.0f); }
-
-/* A 32-bit integer hash with full avalanche (Chris Wellons' lowbias32: every input bit flips each
- * output bit with probability about 1/2). */
-inline uint st_hash32(uint x) {
-  x ^= x >> 16;
-  x *= 0x7feb352du;
-  x ^= x >> 15;
-  x *= 0x846ca68bu;
-  x ^= x >> 16;
-  return x;
-}
-
-/* A uniform in [0, 1) (24 bits, as rng_uniform) that depends only on the three words: a chained
- * hash, for a value that every kernel of a path recomputes and that needs no stream of its own (a
- * sample's time in the shutter, queues.h path_shutter_u), at a tenth of a Philox call. */
-inline float hash_uniform(uint a, uint b, uint c) {
-  const uint h = st_hash32(a ^ st_hash32(b ^ st_hash32(c ^ 0x2545F491u)));
-  return (float)(h >> 8) * (1.0f / 16777216.0f);
-}
 
 #endif

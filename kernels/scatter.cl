@@ -194,7 +194,7 @@ ST_STAGE_FUNCTION(scatter) {
   path_load(paths, Q, slot, ST_PATH_ALL, &p);
   const int ground = ST_HAS_GROUND && p.medium == ST_MEDIUM_GROUND;
   if (ground && scene->ground.mode == ST_GROUND_SHADOW_CATCHER) {
-    if (ST_HAS_GUIDING && guide->inv_cell.w > 0.0f) guide_training_catcher(guide, guide_records, Q, slot, &p);
+    if (ST_HAS_GUIDING && guide_training_path(guide, &p)) guide_training_catcher(guide, guide_records, Q, slot, &p);
     shadow_catcher_event(scene, env, shadows, queues, counters, results, Q, NL, cur, slot, &p);
     path_store(paths, Q, slot, ST_PATH_ALL, &p);
     return;
@@ -206,7 +206,7 @@ ST_STAGE_FUNCTION(scatter) {
     queue_push(queues, counters, Q, NL, cur, ST_Q_FINISH, slot);
     return;
   }
-  const int training = ST_HAS_GUIDING && guide->inv_cell.w > 0.0f;
+  const int training = ST_HAS_GUIDING && guide_training_path(guide, &p);
   __global st_guide_vertex* ring = training ? guide_ring(guide_records, (uint)guide->dims[3], Q, slot) : 0;
   if (!child && shadows_busy(scene, shadows, results, Q, NL, slot, &p, ring)) {
     atomic_inc(&counters[ST_C_WAITS]);

@@ -17,7 +17,10 @@
 //   - guiding every scatter event (RenderOptions::guide_depth), with and without guided roulette
 //     and splitting, agrees with the unguided render, and its image does not depend on the number
 //     of path slots (bit for bit).
+#include <algorithm>
+#include <cmath>
 #include <cstring>
+#include <tuple>
 
 #include "film/film.h"
 #include "guiding/guide_cache.h"
@@ -613,4 +616,52 @@ TEST(GuidingRender, EveryScatterEventGuidedDoesNotDependOnPathSlots) {
     EXPECT_NE(std::memcmp(r[0].rgb.data(), first.rgb.data(), r[0].rgb.size() * 4), 0)
         << "guiding every event changes the samples of a first-event render";
   }
+}
+
+// A training pass makes records from at most its budget of camera samples (guide_cache.h
+// kGuideRecordSamples): the hashed set of (pixel, sample) that guide_sample_records picks. The
+// other samples render the same paths, so the bounded pass's records are exactly those that the
+// pass recording every sample makes at the picked samples.
+TEST(GuidingRender, TrainingRecordsComeFromABoundedSetOfSamples) {
+  {  // the set's share of a large film's samples is the fraction within 4 SE; 3% off is seen
+    const uint32_t pixels = 1024 * 1024;
+    const float f = guide_record_fraction(pixels, 4, int64_t(1) << 20);
+    ASSERT_EQ(f, 0.25f);
+    double picked = 0;
+    for (uint32_t px = 0; px < pixels; ++px)
+      for (uint32_t s = 0; s < 4; ++s) picked += guide_sample_records(f, px, s);
+    const double n = 4.0 * pixels, share = picked / n, se = std::sqrt(0.25 * 0.75 / n);
+    EXPECT_LT(std::abs(share - 0.25) / se, 4.0) << share;
+    EXPECT_GT(std::abs(share - 0.25 * 1.03) / se, 4.0) << "the twin: a share 3% off must be seen";
+  }
+  EXPECT_EQ(guide_record_fraction(128 * 96, 4, kGuideRecordSamples), 1.0f) << "a bench film's pass records every sample";
+  EXPECT_EQ(guide_record_fraction(1920 * 1080, 4, 0), 1.0f) << "a budget of 0 records every sample";
+  const std::string dir = temp_dir("guided_record_budget");
+  json s = guiding_scene(dir);
+  s["film"]["width"] = 32;
+  s["film"]["height"] = 32;
+  auto key_of = [](const st_guide_record& r) { return std::make_tuple(r.key[0], r.key[1], r.key[2], r.key[3]); };
+  auto records_of = [&](int64_t budget) {
+    std::vector<st_guide_record> pass;
+    int passes = 0;
+    render_guided(s, dir, ST_TRACKER_SPECTRAL, ST_ABSORPTION_WEIGHT, 5, true, {}, false, [&](RenderOptions& o) {
+      o.spp = 6;
+      o.guide_record_samples = budget;
+      o.guide_records_hook = [&](const std::vector<st_guide_record>& r) { pass = r, ++passes; };
+    });
+    EXPECT_EQ(passes, 1);
+    std::sort(pass.begin(), pass.end(), [&](const st_guide_record& a, const st_guide_record& b) { return key_of(a) < key_of(b); });
+    return pass;
+  };
+  const std::vector<st_guide_record> every = records_of(0), bounded = records_of(1024);
+  const float f = guide_record_fraction(32 * 32, 4, 1024);
+  ASSERT_EQ(f, 0.25f);
+  std::vector<st_guide_record> picked;
+  for (const st_guide_record& r : every)
+    if (guide_sample_records(f, r.key[0], r.key[1])) picked.push_back(r);
+  EXPECT_GT(every.size(), 10000u);
+  EXPECT_LT(picked.size(), every.size() / 2) << "the twin: the bounded pass must record fewer";
+  ASSERT_EQ(bounded.size(), picked.size());
+  for (size_t i = 0; i < picked.size(); ++i)
+    ASSERT_EQ(std::memcmp(&bounded[i], &picked[i], sizeof(st_guide_record)), 0) << "record " << i;
 }

@@ -1,16 +1,14 @@
 // guide_cache.cpp: the grid of cells over the media and the per-region fits (guide_cache.h): each
 // region's mixture from its lit records, or pooled from the subtree or block of cells around a sparse
 // region, and its selection probability learned from held-out records; the cells' kd-trees are
-// guide_tree.cpp.
+// guide_tree.cpp, the settings from the environment guide_settings.cpp.
 #include "guiding/guide_cache.h"
 
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <atomic>
-#include <cctype>
 #include <cmath>
-#include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <limits>
@@ -108,61 +106,6 @@ GuideCache make_guide_cache(const st_scene& st, int cells_longest_axis) {
   c.node_depth.assign(cells, 0);
   c.pixel_estimate.assign(size_t(std::max(st.camera.width, 0)) * size_t(std::max(st.camera.height, 0)), 0.0f);
   return c;
-}
-
-int guide_depth_setting(int option) {
-  if (option != 0) return option > 0 ? option : std::numeric_limits<int>::max();
-  const char* e = std::getenv("SPECTRACK_GUIDE_DEPTH");
-  if (!e || !*e) return kGuideDepth;
-  char* end = nullptr;
-  const long d = std::strtol(e, &end, 10);
-  if (*end != '\0' || d < 0 || d > std::numeric_limits<int>::max())
-    throw Error(fmt::format("SPECTRACK_GUIDE_DEPTH: '{}' is not a guided depth (0: every scatter event, or a "
-                            "positive count of events)", e));
-  return d > 0 ? int(d) : std::numeric_limits<int>::max();
-}
-
-namespace {
-bool switch_setting(const char* name, bool fallback) {
-  const char* e = std::getenv(name);
-  if (!e || !*e) return fallback;
-  if (std::string(e) != "0" && std::string(e) != "1") throw Error(fmt::format("{}: '{}' is not 0 or 1", name, e));
-  return std::string(e) == "1";
-}
-}  // namespace
-
-bool guide_phase_product_setting(int) { return switch_setting("SPECTRACK_GUIDE_PRODUCT", false); }
-bool guide_full_path_setting(bool) { return switch_setting("SPECTRACK_GUIDE_FULL_PATH", false); }
-
-float guide_alpha_setting() {
-  const char* e = std::getenv("SPECTRACK_GUIDE_ALPHA");
-  if (!e || !*e) return -1.0f;
-  char* end = nullptr;
-  const double a = std::strtod(e, &end);
-  if (*end != '\0' || !(a >= 0 && a <= kGuideAlphaMax))
-    throw Error(fmt::format("SPECTRACK_GUIDE_ALPHA: '{}' is not a selection probability in [0, {}]", e, kGuideAlphaMax));
-  return float(a);
-}
-
-GuideTraining guide_training_setting() {
-  GuideTraining t;
-  const char* e = std::getenv("SPECTRACK_GUIDE_TRAINING");
-  if (!e || !*e) {
-    t.spp.assign(kGuideTrainingSpp, kGuideTrainingSpp + kGuideTrainingPasses);
-  } else {
-    for (const char* at = e;;) {  // numbers, each followed by a comma and another, or the end
-      char* end = nullptr;
-      const long n = std::isdigit(static_cast<unsigned char>(*at)) ? std::strtol(at, &end, 10) : 0;
-      if (n < 1 || n > 65536 || (*end != ',' && *end != '\0') || t.spp.size() >= 16)
-        throw Error(fmt::format("SPECTRACK_GUIDE_TRAINING: '{}' is not a list of at most 16 passes' samples per "
-                                "pixel (1-65536, comma separated)", e));
-      t.spp.push_back(int(n));
-      if (*end == '\0') break;
-      at = end + 1;
-    }
-  }
-  t.keep = switch_setting("SPECTRACK_GUIDE_TRAINING_KEEP", true);
-  return t;
 }
 
 void set_pixel_estimates(GuideCache& cache, const std::vector<double>& sums, double samples) {

@@ -52,8 +52,22 @@ constexpr uint32_t kGuideTrainingSeed = 0x6a09e667u;
 // What a training pass's records hold, in a cache file's key (guide_cache_file.h), so that a file
 // trained by a build whose records differ is refused: 2 = radiance in the film's unit (spectral
 // lanes weighed by the film, kernels/guide_paths.h guide_lane_weights), no records at ground
-// vertices or shadow-catcher hits.
-constexpr int kGuideRecordsVersion = 2;
+// vertices or shadow-catcher hits; 3 = records from at most kGuideRecordSamples camera samples of
+// a pass.
+constexpr int kGuideRecordsVersion = 3;
+// The camera samples of a training pass that make records, at most: a pass renders every pixel of
+// the film, and on a large film only a hashed fraction of its samples (the same set in every part
+// of a render: kernels/guiding.h guide_sample_records) records, so that the records' memory and the
+// host's fit stay bounded whatever the film (a pass of 4 samples on 512x384 pixels made 7.3 M
+// records, 350 MB, and took 4.4 s to fit on 2 cores; docs/guiding.md, "Records"). 2^18 is above
+// the bench films' passes (128x96 x 4 = 49152; twice the film 196608), whose caches it leaves as
+// they were. The other samples render the same paths and stay in the image.
+constexpr int64_t kGuideRecordSamples = int64_t(1) << 18;
+// The fraction of a training pass's camera samples (`pixels` of the full film times `spp`) that make
+// records: 1 up to `budget` samples (kGuideRecordSamples, or SPECTRACK_GUIDE_RECORD_SAMPLES for
+// measurements: 0 is every sample), else budget / samples.
+float guide_record_fraction(int64_t pixels, int spp, int64_t budget = -1);
+int64_t guide_record_samples_setting();
 // Region refinement: a region that holds more than this many radiance records of a training pass
 // splits (its halves hold at least half as many each: the split is at their median), and the cache
 // holds at most kGuideMaxRegions regions (176 bytes each, and two kd-tree nodes of 8 bytes).

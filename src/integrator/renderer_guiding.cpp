@@ -47,6 +47,10 @@ void Renderer::Impl::drain_records(std::vector<st_guide_record>& out) {
   guide_info.seconds_drain += seconds_since(t0);
 }
 
+int64_t Renderer::Impl::guide_record_samples() const {
+  return opt.guide_record_samples >= 0 ? opt.guide_record_samples : guide_record_samples_setting();
+}
+
 // Adds a training pass's pixel means (over RGB) times its spp to `sum` (guided roulette's pixel
 // estimates: their mean over the passes' samples).
 static void add_pixel_estimates(std::vector<double>& sum, const RenderResult& pass, int spp) {
@@ -183,7 +187,8 @@ nlohmann::json Renderer::Impl::guide_cache_key() const {
           {"training_samples", settings.guide_training_samples},
           {"training_schedule", guide_training_setting().spp},
           {"alpha", (settings.aovs & ST_AOV_BIT(ALPHA)) != 0},  // the pixel estimates leave out the seen environment
-          {"records", kGuideRecordsVersion}};
+          {"records", kGuideRecordsVersion},
+          {"record_samples", guide_record_samples()}};
 }
 
 // The cache from --guide-cache's file: no training pass here; a render whose samples hold the
@@ -262,6 +267,7 @@ double Renderer::Impl::train_guide() {
     const auto t_loop = Clock::now();
     const RenderResult pass = run_stage_loop(begin, pass_spp, &records);
     guide_info.seconds_training_loops += seconds_since(t_loop);
+    if (opt.guide_records_hook) opt.guide_records_hook(records);
     guide_info.training_iterations += pass.stats.iterations;
     for (auto& [name, t] : pass.stats.kernels) {
       guide_info.training_kernels[name].seconds += t.seconds;

@@ -129,6 +129,7 @@ struct Renderer::Impl {
   };
   nlohmann::json guide_cache_key() const;  // what the cache depends on (guide_cache_file.h)
   void add_guide_samples(RenderResult& res);
+  int64_t guide_record_samples() const;  // RenderOptions::guide_record_samples, else the setting
   void set_window(const FilmWindow& w);
 
   // Paths per batch (rounded up to whole samples): 2Q with two batches in flight, so one batch

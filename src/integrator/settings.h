@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "kernels/guiding.h"  // st_guide_record (the records hook)
 #include "scene/scene.h"
 
 namespace spectrack {
@@ -89,6 +90,11 @@ struct RenderOptions {
   // Testing: called with the guide cache after every training pass's fit, before its upload (a
   // deliberately wrong cache must still give an unbiased image).
   std::function<void(GuideCache&)> guide_cache_hook;
+  // Testing: called with every training pass's records, before the fit.
+  std::function<void(const std::vector<st_guide_record>&)> guide_records_hook;
+  // The camera samples of a training pass that make records, at most (guide_cache.h
+  // kGuideRecordSamples; 0: every one); < 0: guide_record_samples_setting().
+  int64_t guide_record_samples = -1;
   int guide_grid_cells = 0;             // guide regions along the media box's longest axis; 0: kGuideGridCells
   int guide_depth = 0;                  // guided scatter events: depth below this; 0: guide_depth_setting's default, < 0: all
   float guide_alpha = -1.0f;            // the fitted regions' selection probability; < 0: guide_alpha_setting (learned)
