@@ -367,6 +367,26 @@ TEST(GuidingDepthSetting, ReadsTheEnvironmentStrictly) {
   ::unsetenv("SPECTRACK_GUIDE_DEPTH");
 }
 
+// The bound on a training pass's recording samples (SPECTRACK_GUIDE_RECORD_SAMPLES): the default
+// without it, a count read strictly, and the fraction it gives a pass.
+TEST(GuidingDepthSetting, ReadsTheRecordSamplesStrictly) {
+  using namespace spectrack;
+  ::unsetenv("SPECTRACK_GUIDE_RECORD_SAMPLES");
+  EXPECT_EQ(guide_record_samples_setting(), kGuideRecordSamples);
+  ::setenv("SPECTRACK_GUIDE_RECORD_SAMPLES", "0", 1);
+  EXPECT_EQ(guide_record_samples_setting(), 0);
+  EXPECT_EQ(guide_record_fraction(4096 * 4096, 4), 1.0f) << "0: every sample records";
+  ::setenv("SPECTRACK_GUIDE_RECORD_SAMPLES", "65536", 1);
+  EXPECT_EQ(guide_record_fraction(256 * 256, 4), 0.25f);
+  EXPECT_EQ(guide_record_fraction(128 * 128, 4), 1.0f);
+  for (const char* bad : {"", "-1", " 5", "+5", "5x", "x", "99999999999999999999", "2e6"}) {
+    ::setenv("SPECTRACK_GUIDE_RECORD_SAMPLES", bad, 1);
+    if (*bad) EXPECT_THROW(guide_record_samples_setting(), Error) << bad;
+    else EXPECT_EQ(guide_record_samples_setting(), kGuideRecordSamples);
+  }
+  ::unsetenv("SPECTRACK_GUIDE_RECORD_SAMPLES");
+}
+
 // The measurements' training schedule (SPECTRACK_GUIDE_TRAINING, SPECTRACK_GUIDE_TRAINING_KEEP) and
 // switches (SPECTRACK_GUIDE_PRODUCT, SPECTRACK_GUIDE_FULL_PATH): read strictly, defaults without.
 TEST(GuidingDepthSetting, ReadsTheTrainingScheduleAndSwitchesStrictly) {

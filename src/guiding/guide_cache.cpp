@@ -137,7 +137,7 @@ float full_path_weight(const VertexWeights& full, const VertexKey& key) {
   return e != full.end() && e->first == key ? e->second : 0.0f;
 }
 
-// The fit's records of one region or of several pooled: indices into the sorted records, weights.
+// The fit's records of one region or of several pooled: indices into the pass's records, weights.
 // With each, f_phase at its direction and the density t the training drew it with; `all` counts the
 // records of weight 0 too (the directions that brought nothing back).
 struct FitRecords {

@@ -58,10 +58,10 @@ constexpr int kGuideRecordsVersion = 3;
 // The camera samples of a training pass that make records, at most: a pass renders every pixel of
 // the film, and on a large film only a hashed fraction of its samples (the same set in every part
 // of a render: kernels/guiding.h guide_sample_records) records, so that the records' memory and the
-// host's fit stay bounded whatever the film (a pass of 4 samples on 512x384 pixels made 7.3 M
-// records, 350 MB, and took 4.4 s to fit on 2 cores; docs/guiding.md, "Records"). 2^18 is above
-// the bench films' passes (128x96 x 4 = 49152; twice the film 196608), whose caches it leaves as
-// they were. The other samples render the same paths and stay in the image.
+// host's fit stay bounded whatever the film (where every sample of a pass of 4 samples on 512x384
+// pixels records, it makes 7.3 M records, 350 MB, and 4.4-4.7 s of fit on 2 cores; docs/guiding.md,
+// "Records"). 2^18 is above the bench films' passes (128x96 x 4 = 49152; twice the film 196608), so
+// every sample of theirs records. The other samples render the same paths and stay in the image.
 constexpr int64_t kGuideRecordSamples = int64_t(1) << 18;
 // The fraction of a training pass's camera samples (`pixels` of the full film times `spp`) that make
 // records: 1 up to `budget` samples (kGuideRecordSamples, or SPECTRACK_GUIDE_RECORD_SAMPLES for

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include <cctype>
+#include <cerrno>
 #include <cstdlib>
 #include <limits>
 #include <string>
@@ -76,9 +77,11 @@ int64_t guide_record_samples_setting() {
   const char* e = std::getenv("SPECTRACK_GUIDE_RECORD_SAMPLES");
   if (!e || !*e) return kGuideRecordSamples;
   char* end = nullptr;
-  const long long v = std::strtoll(e, &end, 10);
-  if (*end != '\0' || v < 0)
-    throw Error(fmt::format("SPECTRACK_GUIDE_RECORD_SAMPLES: '{}' is not a count of camera samples (0: every one)", e));
+  errno = 0;
+  const long long v = std::isdigit(static_cast<unsigned char>(*e)) ? std::strtoll(e, &end, 10) : -1;
+  if (v < 0 || *end != '\0' || errno == ERANGE || v > (int64_t(1) << 40))
+    throw Error(fmt::format("SPECTRACK_GUIDE_RECORD_SAMPLES: '{}' is not a count of camera samples (0: every one, "
+                            "at most 2^40)", e));
   return v;
 }
 

@@ -10,7 +10,8 @@
 // film state of the first k samples, loaded back before samples k .. spp - 1 are rendered, gives the
 // uninterrupted render's sums to the bit: resume() hands such a state to the loop. Guiding's
 // training passes are not watched; a render whose film holds their samples shows the watch its film
-// with them, counted in samples_done (the image's samples, not only the stage loop's).
+// with them, and wants(), samples_needed() and the film's spp_done count them (the image's samples);
+// a FilmState holds the stage loop's own film and samples (checkpoints refuse guiding).
 #pragma once
 #include <cstdint>
 #include <string>
@@ -40,7 +41,7 @@ class FilmWatch {
   // The film so far (and the device film when asked); true stops the render: the result then
   // holds these samples and RenderResult::noise_target_reached is set.
   virtual bool see(const RenderResult& film, const FilmState* state) = 0;
-  // The samples (of the range, resumed ones included) that may be issued before the next look: a
+  // The samples (of the range, resumed ones and a guided render's training samples included) that may be issued before the next look: a
   // noise target's next check, so that paths past it are not started and dropped.
   virtual int64_t samples_needed() const { return INT64_MAX; }
   // At the end of the stage loop (finished, stopped or interrupted), when wants_final_state(): the
