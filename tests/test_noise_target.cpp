@@ -53,6 +53,20 @@ RenderResult render_with(const SceneDesc& scene, RenderOptions o) {
   return r.render();
 }
 
+// A render stopped at n samples holds the image of the uniform render `uniform_options` (n samples),
+// bit for bit, and agrees with a long unguided render of another seed within 4 SE; 3% off does not.
+void expect_uniform_image_without_bias(const SceneDesc& scene, const RenderResult& stopped,
+                                       const RenderOptions& uniform_options) {
+  const RenderResult uniform = render_with(scene, uniform_options);
+  ASSERT_EQ(uniform.rgb.size(), stopped.rgb.size());
+  for (size_t i = 0; i < uniform.rgb.size(); ++i) ASSERT_EQ(uniform.rgb[i], stopped.rgb[i]) << "value " << i;
+  RenderOptions lo = st_test::quiet_options(1024);
+  lo.seed = 977;
+  const RenderResult reference = render_with(scene, lo);
+  EXPECT_LT(st_test::max_z(stopped, reference), 4.0);
+  EXPECT_GT(st_test::max_z(stopped, reference, 1.03), 4.0) << "the twin: a 3% error must be seen";
+}
+
 TEST(NoiseTarget, StopsBelowTheTargetWithTheUniformImageOfItsSamplesAndNoBias) {
   const std::string dir = test_dir();
   const SceneDesc scene = st_test::scene_from_json(small_noise_scene(dir), dir);
@@ -72,16 +86,8 @@ TEST(NoiseTarget, StopsBelowTheTargetWithTheUniformImageOfItsSamplesAndNoBias) {
   const NoiseEstimate e = estimate_film_noise(stopped.sum, stopped.aov_sum, stopped.aov_channels, stopped.spp_done);
   EXPECT_LE(e.error, 0.04);
   EXPECT_GT(e.pixels, 100u);
-  // stopping only chose n: the image is the uniform render of n samples, bit for bit
-  const RenderResult uniform = render_with(scene, st_test::quiet_options(stopped.spp_done));
-  ASSERT_EQ(uniform.rgb.size(), stopped.rgb.size());
-  for (size_t i = 0; i < uniform.rgb.size(); ++i) ASSERT_EQ(uniform.rgb[i], stopped.rgb[i]) << "value " << i;
-  // ... and it agrees with a long uniform render of another seed within 4 SE; 3% off does not
-  RenderOptions lo = st_test::quiet_options(1024);
-  lo.seed = 977;
-  const RenderResult reference = render_with(scene, lo);
-  EXPECT_LT(st_test::max_z(stopped, reference), 4.0);
-  EXPECT_GT(st_test::max_z(stopped, reference, 1.03), 4.0) << "the twin: a 3% error must be seen";
+  // stopping only chose n: the image is the uniform render of n samples, and unbiased
+  expect_uniform_image_without_bias(scene, stopped, st_test::quiet_options(int(stopped.spp_done)));
 }
 
 // A watch that hands everything to a RenderWatch and keeps what it was shown: the sample counts it
@@ -139,16 +145,8 @@ TEST(NoiseTarget, CountsTheGuidesTrainingSamples) {
   const NoiseEstimate e = estimate_film_noise(stopped.sum, stopped.aov_sum, stopped.aov_channels, stopped.spp_done);
   EXPECT_EQ(inner.last_estimate()->error, e.error);
   EXPECT_LE(e.error, 0.04);
-  // the image is the uniform guided render of its samples, bit for bit
-  const RenderResult uniform = render_with(scene, guided(int(stopped.spp_done)));
-  ASSERT_EQ(uniform.rgb.size(), stopped.rgb.size());
-  for (size_t i = 0; i < uniform.rgb.size(); ++i) ASSERT_EQ(uniform.rgb[i], stopped.rgb[i]) << "value " << i;
-  // and agrees with a long unguided render of another seed within 4 SE; 3% off does not
-  RenderOptions lo = st_test::quiet_options(1024);
-  lo.seed = 977;
-  const RenderResult reference = render_with(scene, lo);
-  EXPECT_LT(st_test::max_z(stopped, reference), 4.0);
-  EXPECT_GT(st_test::max_z(stopped, reference, 1.03), 4.0) << "the twin: a 3% error must be seen";
+  // the image is the uniform guided render of its samples, and unbiased
+  expect_uniform_image_without_bias(scene, stopped, guided(int(stopped.spp_done)));
 }
 
 // A watch that stops the render at a sample count and keeps the film state it ends with; or

@@ -35,18 +35,14 @@
 #include <thread>
 #include <vector>
 
+#include "kernels/hash.h"  // st_hash32
+
 namespace {
 
 constexpr uint32_t kSeed = 0x5eed1234u;
 
 uint32_t hash3(int x, int y, int z, uint32_t seed) {
-  uint32_t h = seed ^ (uint32_t(x) * 0x8da6b343u) ^ (uint32_t(y) * 0xd8163841u) ^ (uint32_t(z) * 0xcb1ab31fu);
-  h ^= h >> 16;
-  h *= 0x7feb352du;
-  h ^= h >> 15;
-  h *= 0x846ca68bu;
-  h ^= h >> 16;
-  return h;
+  return st_hash32(seed ^ (uint32_t(x) * 0x8da6b343u) ^ (uint32_t(y) * 0xd8163841u) ^ (uint32_t(z) * 0xcb1ab31fu));
 }
 
 double lattice(int x, int y, int z, uint32_t seed) { return hash3(x, y, z, seed) * (1.0 / 4294967296.0); }
