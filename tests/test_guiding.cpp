@@ -375,10 +375,10 @@ TEST(GuidingDepthSetting, ReadsTheRecordSamplesStrictly) {
   EXPECT_EQ(guide_record_samples_setting(), kGuideRecordSamples);
   ::setenv("SPECTRACK_GUIDE_RECORD_SAMPLES", "0", 1);
   EXPECT_EQ(guide_record_samples_setting(), 0);
-  EXPECT_EQ(guide_record_fraction(4096 * 4096, 4), 1.0f) << "0: every sample records";
+  EXPECT_EQ(guide_record_fraction(4096 * 4096, 4, guide_record_samples_setting()), 1.0f) << "0: every sample records";
   ::setenv("SPECTRACK_GUIDE_RECORD_SAMPLES", "65536", 1);
-  EXPECT_EQ(guide_record_fraction(256 * 256, 4), 0.25f);
-  EXPECT_EQ(guide_record_fraction(128 * 128, 4), 1.0f);
+  EXPECT_EQ(guide_record_fraction(256 * 256, 4, guide_record_samples_setting()), 0.25f);
+  EXPECT_EQ(guide_record_fraction(128 * 128, 4, guide_record_samples_setting()), 1.0f);
   for (const char* bad : {"", "-1", " 5", "+5", "5x", "x", "99999999999999999999", "2e6"}) {
     ::setenv("SPECTRACK_GUIDE_RECORD_SAMPLES", bad, 1);
     if (*bad) EXPECT_THROW(guide_record_samples_setting(), Error) << bad;

@@ -64,9 +64,9 @@ constexpr int kGuideRecordsVersion = 3;
 // every sample of theirs records. The other samples render the same paths and stay in the image.
 constexpr int64_t kGuideRecordSamples = int64_t(1) << 18;
 // The fraction of a training pass's camera samples (`pixels` of the full film times `spp`) that make
-// records: 1 up to `budget` samples (kGuideRecordSamples, or SPECTRACK_GUIDE_RECORD_SAMPLES for
-// measurements: 0 is every sample), else budget / samples.
-float guide_record_fraction(int64_t pixels, int spp, int64_t budget = -1);
+// records: 1 up to `budget` samples (0: every sample), else budget / samples.
+float guide_record_fraction(int64_t pixels, int spp, int64_t budget);
+// The bound of a render: SPECTRACK_GUIDE_RECORD_SAMPLES=N for measurements, else kGuideRecordSamples.
 int64_t guide_record_samples_setting();
 // Region refinement: a region that holds more than this many radiance records of a training pass
 // splits (its halves hold at least half as many each: the split is at their median), and the cache

@@ -86,7 +86,6 @@ int64_t guide_record_samples_setting() {
 }
 
 float guide_record_fraction(int64_t pixels, int spp, int64_t budget) {
-  if (budget < 0) budget = guide_record_samples_setting();
   const double samples = double(pixels) * double(spp);
   if (budget == 0 || samples <= double(budget)) return 1.0f;
   return float(double(budget) / samples);

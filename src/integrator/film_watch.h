@@ -41,8 +41,9 @@ class FilmWatch {
   // The film so far (and the device film when asked); true stops the render: the result then
   // holds these samples and RenderResult::noise_target_reached is set.
   virtual bool see(const RenderResult& film, const FilmState* state) = 0;
-  // The samples (of the range, resumed ones and a guided render's training samples included) that may be issued before the next look: a
-  // noise target's next check, so that paths past it are not started and dropped.
+  // The samples (of the range, resumed ones and a guided render's training samples included) that
+  // may be issued before the next look: a noise target's next check, so that paths past it are not
+  // started and dropped.
   virtual int64_t samples_needed() const { return INT64_MAX; }
   // At the end of the stage loop (finished, stopped or interrupted), when wants_final_state(): the
   // device film as it ends.

@@ -290,7 +290,8 @@ RenderResult Renderer::Impl::run_stage_loop(int64_t sample_begin, int spp, std::
                           nullptr, "guide records");
     ST_CL_CHECK(ds.queue.enqueueWriteBuffer(b_records, CL_TRUE, 0, sizeof(head), head), "clear the guide record count");
     guide.header.dims[3] = int(capacity);
-    guide.header.inv_cell.w = records ? guide_record_fraction(int64_t(settings.full_width) * settings.full_height, spp, guide_record_samples()) : 0.0f;
+    const int64_t film_pixels = int64_t(settings.full_width) * settings.full_height;  // a pass's fraction: of the full film
+    guide.header.inv_cell.w = records ? guide_record_fraction(film_pixels, spp, guide_record_samples()) : 0.0f;
     upload_guide();
   }
   bind_stage_args(buf, plan);
