@@ -54,7 +54,6 @@ for (scene, seed), r in sorted(rows.items()):
     if {"off", "old", "new"} <= r.keys():
         by[scene].append(r)
 for scene, rs in by.items():
-    f = lambda k, i, j: " ".join(f"{r[k][i] / r[j][i] if j in r else r[k][i]:.3g}" for r in rs)
     rec = " ".join(f"{r['old'][5] / max(r['new'][5], 1):.2f}" for r in rs)
     mem = " ".join(f"{r['old'][6] / r['new'][6]:.2f}" for r in rs)
     fit = " ".join(f"{r['old'][3] / max(r['new'][3], 1e-9):.2f}" for r in rs)
