@@ -10,6 +10,8 @@
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 
+#include <sys/stat.h>
+
 #include <cmath>
 
 #include "cli_util.h"
@@ -198,6 +200,46 @@ TEST(Resume, ContinuesTheSampleSequenceToTheUninterruptedSumsBitForBit) {
   EXPECT_GE(differ, lit * 9 / 10);
 }
 
+// A damaged film state is refused naming the file, never resumed into a wrong image: a changed
+// sample count, flipped bits, a non-finite value, a header cut short, a FIFO, a folder.
+TEST(Resume, DamagedFilmStatesAreRefusedNamingTheFile) {
+  const std::string dir = test_dir();
+  FilmState st;
+  st.sample_begin = 0;
+  st.samples_done = 5;
+  st.npix = 3;
+  st.layers = 2;
+  st.film.assign(2 * st.layers * st.npix * 4, 0.25f);
+  const std::string good = dir + "/state";
+  write_film_state(good, st, "key");
+  EXPECT_EQ(read_film_state(good, "key").film, st.film);  // the twin: the file itself reads back
+  std::string bytes;
+  {
+    std::ifstream in(good, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  auto refused = [&](const std::string& name, const std::string& content) {
+    std::ofstream(dir + "/" + name, std::ios::binary) << content;
+    return st_test::error_of([&] { read_film_state(dir + "/" + name, "key"); });
+  };
+  std::string count = bytes;
+  count.replace(count.find("0 5 3 2"), 7, "0 4 3 2");  // fewer samples than the sums hold: a darker image
+  EXPECT_THAT(refused("count", count), AllOf(HasSubstr(dir + "/count"), HasSubstr("damaged")));
+  std::string flipped = bytes;
+  flipped[flipped.size() - 3] ^= 0x40;
+  EXPECT_THAT(refused("flipped", flipped), AllOf(HasSubstr(dir + "/flipped"), HasSubstr("damaged")));
+  EXPECT_THAT(refused("cut", bytes.substr(0, bytes.find('\n') + 5)), HasSubstr("header is cut short"));
+  FilmState nan = st;
+  nan.film[7] = std::nanf("");
+  write_film_state(dir + "/nan", nan, "key");  // its digest is right: the value itself is refused
+  EXPECT_THAT(st_test::error_of([&] { read_film_state(dir + "/nan", "key"); }),
+              AllOf(HasSubstr(dir + "/nan"), HasSubstr("non-finite")));
+  ASSERT_EQ(::mkfifo((dir + "/fifo").c_str(), 0600), 0);
+  EXPECT_THAT(st_test::error_of([&] { read_film_state(dir + "/fifo", "key"); }), HasSubstr("not a regular file"));
+  fs::create_directories(dir + "/folder");
+  EXPECT_THAT(st_test::error_of([&] { read_film_state(dir + "/folder", "key"); }), HasSubstr("not a regular file"));
+}
+
 std::string meta_of(const std::string& path, const std::string& key) {
   auto in = OIIO::ImageInput::open(path);
   return in ? in->spec().get_string_attribute("spectrack:" + key, "<missing>") : "<unreadable>";
@@ -295,7 +337,7 @@ TEST(CliResume, AnInterruptedCheckpointedRenderResumesToTheUninterruptedImage) {
   EXPECT_EQ(differ, 0u) << "the resumed image differs from the uninterrupted one";
   // a state of another render is refused, naming the file
   args = with({"-o", dir + "/part.exr", "--resume", "--quiet"});
-  std::ofstream(dir + "/part.exr.resume") << "spectrack-film-state/1\nscene_hash=x\n0 1 1 1\n";
+  std::ofstream(dir + "/part.exr.resume") << "spectrack-film-state/2\nscene_hash=x\n0 1 1 1\n0\n";
   Proc bad = run(args, ro);
   EXPECT_EQ(bad.code, 1) << bad.describe();
   EXPECT_THAT(bad.out, HasSubstr("part.exr.resume: the film state belongs to another render"));

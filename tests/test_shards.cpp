@@ -8,6 +8,8 @@
 // tolerance is sharp: a render missing a quarter of the samples must fail it on most pixels, so
 // a merge that dropped or doubled a shard could not pass. The scene is a small chromatic,
 // heterogeneous VDB with an environment and a sun, so every path type contributes.
+#include <sys/stat.h>
+
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 
@@ -318,6 +320,11 @@ TEST(CliShards, GuideCacheFileIsTrainedOnceAndReadByEveryPart) {
   const float nan = std::nanf("");
   std::memcpy(&nan_alpha[body + key["layout"]["header_bytes"].get<size_t>() + 8 * 16 + 8 * 4], &nan, 4);
   refused(write_file("nan.cache", nan_alpha), {}, {"nan.cache", "region 0 holds a value out of range"});
+  // a FIFO would block the reader for ever, a folder is no cache
+  ASSERT_EQ(::mkfifo((dir + "/fifo.cache").c_str(), 0600), 0);
+  refused(dir + "/fifo.cache", {}, {"fifo.cache", "not a regular file"});
+  fs::create_directories(dir + "/folder.cache");
+  refused(dir + "/folder.cache", {}, {"folder.cache", "not a regular file"});
   Proc p = run({"render", scene, "--guiding", "off", "--guide-cache", cache, "-o", dir + "/off.exr", "--quiet"});
   expect_error_exit(p, 2);
   EXPECT_THAT(p.out, HasSubstr("--guide-cache")) << p.describe();

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "util/error.h"
+#include "util/files.h"
 #include "util/output_file.h"
 
 namespace spectrack {
@@ -100,6 +101,7 @@ void read_guide_cache_file(const std::string& path, const nlohmann::json& key, G
   auto fail = [&](const std::string& why) {
     return Error(fmt::format("{}: guide cache (--guide-cache): {}", path, why));
   };
+  check_input_file(path, "guide cache (--guide-cache)");  // a FIFO would block, a folder is no cache
   std::ifstream in(path, std::ios::binary);
   if (!in) throw fail("cannot be read");
   std::string magic, line;

@@ -53,9 +53,11 @@ class FilmWatch {
   virtual const FilmState* resume() const { return nullptr; }
 };
 
-// A film state on disk ("spectrack-film-state/1": a text header naming the render, then the
-// floats): `key` names the render it belongs to (identity and sample range; film_state_key), and
-// reading refuses a file of another render, a truncated or malformed one, naming the file.
+// A film state on disk ("spectrack-film-state/2": a text header naming the render and holding the
+// SHA-1 of the state, then the floats): `key` names the render it belongs to (identity and sample
+// range; film_state_key), and reading refuses anything but a regular file, a file of another
+// render, a truncated, malformed or damaged one (the digest differs, a value is not finite),
+// naming the file.
 std::string film_state_key(const RenderIdentity& id, const FilmWindow& window, int64_t sample_begin, int spp);
 void write_film_state(const std::string& path, const FilmState& state, const std::string& key);
 FilmState read_film_state(const std::string& path, const std::string& key);
