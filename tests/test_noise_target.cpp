@@ -275,6 +275,20 @@ TEST(CliNoiseTarget, RecordsTheTargetTheErrorReachedAndWhyItStopped) {
   EXPECT_EQ(k.value("spp", 0), 20);
   EXPECT_EQ(k.value("stop_reason", "x"), "spp");
   EXPECT_GT(k.value("noise_error", 0.0), 0.001);
+  // one sample per pixel measures no noise: the target is missed at --spp, uniform or adaptive, and no
+  // error is recorded (0% would read as reached)
+  for (const std::vector<std::string>& extra : {std::vector<std::string>{}, std::vector<std::string>{"--adaptive"}}) {
+    std::vector<std::string> a = {"render", scene, "-o", dir + "/one.exr", "--noise-target", "0.1", "--spp", "1",
+                                  "--stats-json", dir + "/one.json"};
+    a.insert(a.end(), extra.begin(), extra.end());
+    p = run(a, ro);
+    ASSERT_TRUE(p.exited && p.code == 0) << p.describe();
+    EXPECT_THAT(p.out, HasSubstr("noise target missed at --spp"));
+    EXPECT_THAT(p.out, testing::Not(HasSubstr("noise 0%")));
+    const json one = json::parse(std::ifstream(dir + "/one.json"));
+    EXPECT_EQ(one.value("stop_reason", "x"), "spp") << extra.size();
+    EXPECT_FALSE(one.contains("noise_error")) << one.dump(2);
+  }
   // a target out of reach stops at the time limit; the progress lines show the estimate
   p = run({"render", scene, "-o", dir + "/t.exr", "--noise-target", "0.0001", "--spp", "1000000", "--time-limit", "7",
            "--stats-json", dir + "/t.json"}, ro);

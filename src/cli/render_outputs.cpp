@@ -24,7 +24,8 @@ namespace {
 
 // The relative error of the image (integrator/noise.h) when it has the variance layer.
 std::optional<NoiseEstimate> film_noise(const FilmPiece& p) {
-  if (!(p.id.aovs & ST_AOV_BIT(VARIANCE)) || p.samples() == 0) return std::nullopt;
+  // one sample per pixel has no sample variance: its noise is not measured (not 0)
+  if (!(p.id.aovs & ST_AOV_BIT(VARIANCE)) || p.samples() < 2) return std::nullopt;
   return estimate_film_noise(p.sum, p.aov_sum, aov_sum_channels(p.id.aovs), p.samples());
 }
 

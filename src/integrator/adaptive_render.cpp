@@ -7,8 +7,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <map>
+#include <memory>
 #include <numeric>
 #include <vector>
 
@@ -223,19 +226,26 @@ bool render_round(Renderer& r, const RoundGroups& groups, std::vector<double>& w
 }
 
 // SPECTRACK_ADAPTIVE_PIXELS=FILE: each pixel's samples, work and unweighted sums, one line each
-// (bench/adaptive_oracle.py reads it).
-void write_pixel_trace(const std::vector<AdaptivePixel>& px) {
+// (bench/adaptive_oracle.py reads it). The file is opened before the render, so that a path that
+// cannot be written fails at once rather than after the whole render.
+using PixelTrace = std::unique_ptr<std::FILE, int (*)(std::FILE*)>;
+
+PixelTrace open_pixel_trace() {
   const char* path = std::getenv("SPECTRACK_ADAPTIVE_PIXELS");
-  if (!path || !*path) return;
-  std::FILE* f = std::fopen(path, "w");
-  if (!f) throw Error(fmt::format("cannot write SPECTRACK_ADAPTIVE_PIXELS file '{}'", path));
+  if (!path || !*path) return PixelTrace(nullptr, &std::fclose);
+  PixelTrace f(std::fopen(path, "w"), &std::fclose);
+  if (!f) throw Error(fmt::format("SPECTRACK_ADAPTIVE_PIXELS: cannot write '{}': {}", path, std::strerror(errno)));
+  return f;
+}
+
+void write_pixel_trace(std::FILE* f, const std::vector<AdaptivePixel>& px) {
+  if (!f) return;
   fmt::print(f, "# pixel n work B V s1R s1G s1B s2R s2G s2B\n");
   for (size_t p = 0; p < px.size(); ++p) {
     const AdaptivePixel& x = px[p];
     fmt::print(f, "{} {} {} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g}\n", p, x.n, x.work, x.B, x.V,
                x.s1[0], x.s1[1], x.s1[2], x.s2[0], x.s2[1], x.s2[2]);
   }
-  std::fclose(f);
 }
 
 }  // namespace
@@ -245,6 +255,7 @@ AdaptiveResult render_adaptive(Renderer& r, const AdaptivePlan& plan,
   const RenderSettings& s = r.settings();
   if (!s.adaptive) throw Error("internal: an adaptive render with a renderer made without adaptive sampling");
   if (plan.spp < 1 || !(plan.target > 0)) throw Error("internal: an adaptive render needs spp >= 1 and a target");
+  const PixelTrace trace = open_pixel_trace();
   WeightedFilm film(s);
   AdaptiveResult out;
   std::vector<uint32_t> active(s.window.pixels());
@@ -296,7 +307,7 @@ AdaptiveResult render_adaptive(Renderer& r, const AdaptivePlan& plan,
     total += double(film.px[p].n);
   }
   out.mean_samples = film.px.empty() ? 0.0 : total / double(film.px.size());
-  write_pixel_trace(film.px);
+  write_pixel_trace(trace.get(), film.px);
   if (std::getenv("SPECTRACK_TRACE_ADAPTIVE")) {  // the samples the weights waste: 1 / V is a uniform render's n
     double taken = 0, effective = 0;
     for (const AdaptivePixel& x : film.px)
@@ -308,7 +319,8 @@ AdaptiveResult render_adaptive(Renderer& r, const AdaptivePlan& plan,
                effective, effective / taken);
   }
   const NoiseEstimate e = estimate_film_noise(f.sum, f.aov_sum, f.aov_channels, plan.spp);
-  f.noise_target_reached = !stopped && e.error <= plan.target;
+  // one sample per pixel measures no variance, so no error: the target is not reached but missed at the spp
+  f.noise_target_reached = !stopped && plan.spp >= 2 && e.error <= plan.target;
   if (!stopped && !f.noise_target_reached)
     out.stop_reason = std::any_of(film.px.begin(), film.px.end(), [&](const AdaptivePixel& x) { return x.n >= plan.spp; })
                           ? "spp"
