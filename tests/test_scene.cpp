@@ -703,6 +703,20 @@ TEST_F(SceneTest, MissingRequiredFields) {
   EXPECT_SCENE_ERROR(j, "/media/0/emission/radiance", "missing required field");
 }
 
+// The render fields an option overrides take the option's range (--noise-target, --time-limit).
+TEST_F(SceneTest, RenderFieldsTakeTheirOptionsRange) {
+  json j = example();
+  j["render"]["noise_target"] = 1e-30;
+  EXPECT_SCENE_ERROR(j, "/render/noise_target", "out of range (must be in [1e-06, 1])");
+  j = example();
+  j["render"]["time_limit"] = 1e-4;
+  EXPECT_SCENE_ERROR(j, "/render/time_limit", "out of range (must be in [0.001, 1000000000])");
+  j = example();
+  j["render"]["noise_target"] = 0.02;  // the twin: values inside the range load
+  j["render"]["time_limit"] = 60;
+  EXPECT_NO_THROW(parse(j));
+}
+
 // ---- unknown enum names ----
 
 TEST_F(SceneTest, UnknownTypeNames) {

@@ -296,8 +296,12 @@ void Parser::render(const json& j, const std::string& path, RenderDesc& r) {
   }
   const OptionCheck& seed = option_row("seed").check;  // the range of --seed
   r.seed = static_cast<uint32_t>(integer(j, path, "seed", r.seed, int64_t(seed.lo), int64_t(seed.hi)));
-  if (find(j, "time_limit")) r.time_limit = number(j, path, "time_limit", 0.0, Range{0, 1e9, true, false});
-  if (find(j, "noise_target")) r.noise_target = number(j, path, "noise_target", 0.0, Range{0, 1, true, false});
+  // the range of the option that overrides the field (--time-limit, --noise-target)
+  for (const auto& [key, out] : {std::pair{"time_limit", &r.time_limit}, std::pair{"noise_target", &r.noise_target}})
+    if (find(j, key)) {
+      const OptionCheck& c = option_row(key).check;
+      *out = number(j, path, key, 0.0, Range{c.lo, c.hi, false, false});
+    }
   if (const json* v = find(j, "adaptive")) {
     if (!v->is_boolean()) fail(path + "/adaptive", std::string("expected true or false, got ") + v->type_name());
     r.adaptive = v->get<bool>();
