@@ -54,6 +54,7 @@ TEST(CliDenoise, WithoutTheLibraryExitsTwoAndSaysHowToGetIt) {
   ::unsetenv("SPECTRACK_OIDN_LIBRARY");
   EXPECT_EQ(p.code, 2) << p.describe();
   EXPECT_THAT(p.out, HasSubstr("pip install"));
+  EXPECT_THAT(p.out, HasSubstr("no-such-libOpenImageDenoise.so.2', which does not exist"));
   EXPECT_FALSE(fs::exists(dir + "/d.exr"));
   p = run({"render", scene, "-o", dir + "/d.png", "--spp", "2", "--denoise", "--quiet"});
   EXPECT_EQ(p.code, 2) << p.describe();  // a layer needs an EXR

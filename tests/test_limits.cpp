@@ -179,6 +179,20 @@ TEST(LimitsMemory, EnvironmentMapRefusedBeforeItsPixels) {
   EXPECT_NE(e.find("512x256 environment map"), std::string::npos) << e;
 }
 
+// SPECTRACK_HOST_MEMORY is a count of bytes, read strictly (1G would be 1 byte to strtod), and a
+// refusal it causes says so.
+TEST(LimitsMemory, HostMemorySettingIsReadStrictlyAndNamed) {
+  for (const char* bad : {"1G", "abc", "nan", "-5", " 100", "1e9"}) {
+    ScopedEnv env("SPECTRACK_HOST_MEMORY", bad);
+    const std::string e = error_of([] { host_memory_available(); });
+    EXPECT_NE(e.find(std::string("SPECTRACK_HOST_MEMORY: '") + bad + "'"), std::string::npos) << e;
+  }
+  ScopedEnv env("SPECTRACK_HOST_MEMORY", "1000000");
+  EXPECT_EQ(host_memory_available(), 1e6);  // the twin: a count reads
+  const std::string e = error_of([] { check_host_memory(2e6, "a test", "use less"); });
+  EXPECT_NE(e.find("SPECTRACK_HOST_MEMORY says so"), std::string::npos) << e;
+}
+
 TEST(LimitsMessages, EnvironmentScaleBoundsTheProduct) {
   const std::string dir = temp_dir("limits_envscale");
   write_image(dir + "/dim.exr", 8, 4, std::vector<float>(8 * 4 * 3, 1e-6f), {});

@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "device/opencl.h"
+#include "integrator/multi_device.h"
 #include "kernels/types.h"
 
 using namespace spectrack;
@@ -129,6 +130,17 @@ TEST(OpenCL, DeviceSelection) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("SPECTRACK_DEVICE"), std::string::npos) << e.what();
   }
+  // a render's device list leaves one device of the variable to select_device, which names it
+  ::setenv("SPECTRACK_DEVICE", "9:9", 1);
+  EXPECT_EQ(parse_device_list(""), std::vector<std::string>{""});
+  try {
+    select_device(parse_device_list("").front());
+    ADD_FAILURE() << "SPECTRACK_DEVICE=9:9 was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("SPECTRACK_DEVICE"), std::string::npos) << e.what();
+  }
+  ::setenv("SPECTRACK_DEVICE", "0:0,0:0", 1);  // a list is the render's to split
+  EXPECT_EQ(parse_device_list(""), (std::vector<std::string>{"0:0", "0:0"}));
   ::unsetenv("SPECTRACK_DEVICE");
 }
 

@@ -158,6 +158,8 @@ TEST(Wavefront, LoopPolicyByDeviceType) {
     EXPECT_EQ(chunk_launch_items(forced, 2, 64, many), 320u);
   }
   for (auto [name, value] : {std::pair{"SPECTRACK_LOOP", "fast"}, std::pair{"SPECTRACK_STAGE_ITEMS", "12x"},
+                             std::pair{"SPECTRACK_STAGE_ITEMS", " -1"}, std::pair{"SPECTRACK_STAGE_ITEMS", "0"},
+                             std::pair{"SPECTRACK_STAGE_ITEMS", "99999999999999999999999"},
                              std::pair{"SPECTRACK_ITEM_ORDER", "random"}}) {
     ScopedEnv bad(name, value);
     try {

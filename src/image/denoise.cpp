@@ -80,9 +80,12 @@ std::string find_oidn_library() {
 }
 
 std::string denoise_unavailable() {
-  return "--denoise needs Intel Open Image Denoise: install it with `/usr/bin/python3 -m pip install --user "
-         "pyoidn` (its wheel ships the libraries; add --break-system-packages on Debian), or set "
-         "SPECTRACK_OIDN_LIBRARY to a libOpenImageDenoise.so.2 (docs/cli.md#denoising)";
+  const char* e = std::getenv("SPECTRACK_OIDN_LIBRARY");
+  return std::string("--denoise needs Intel Open Image Denoise") +
+         (e && *e ? fmt::format(" (SPECTRACK_OIDN_LIBRARY names '{}', which does not exist)", e) : std::string()) +
+         ": install it with `/usr/bin/python3 -m pip install --user pyoidn` (its wheel ships the libraries; add "
+         "--break-system-packages on Debian), or set SPECTRACK_OIDN_LIBRARY to a libOpenImageDenoise.so.2 "
+         "(docs/cli.md#denoising)";
 }
 
 std::vector<float> denoise(const std::vector<float>& rgb, const std::vector<float>& albedo, int width, int height) {

@@ -7,6 +7,7 @@
 #include <cstdlib>
 
 #include "util/error.h"
+#include "util/option_text.h"
 
 namespace spectrack {
 
@@ -45,11 +46,10 @@ LoopPolicy choose_loop_policy(cl_device_type type) {
     p.sized = v == "sized";
   }
   if (const char* e = env("SPECTRACK_STAGE_ITEMS")) {
-    char* end = nullptr;
-    const unsigned long long n = std::strtoull(e, &end, 10);
-    if (*end != '\0' || e[0] == '-')
-      throw Error(fmt::format("SPECTRACK_STAGE_ITEMS: '{}' is not a count of work-items", e));
-    p.items_forced = n;
+    int64_t n = 0;  // strictly: decimal digits, no sign or space, no wrap past 2^32
+    const std::string why = read_integer(e, 1, int64_t(1) << 32, &n);
+    if (!why.empty()) throw Error(fmt::format("SPECTRACK_STAGE_ITEMS: '{}' is not a count of work-items ({})", e, why));
+    p.items_forced = uint64_t(n);
   }
   if (const char* e = env("SPECTRACK_ITEM_ORDER")) {
     const std::string v = e;

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "util/error.h"
+#include "util/option_text.h"
 
 namespace spectrack {
 
@@ -30,10 +31,11 @@ MemoryNeed render_memory(const RenderShape& s) {
 }
 
 double host_memory_available() {
-  if (const char* v = std::getenv("SPECTRACK_HOST_MEMORY")) {
-    char* end = nullptr;
-    const double b = std::strtod(v, &end);
-    if (end != v && b >= 0) return b;
+  if (const char* v = std::getenv("SPECTRACK_HOST_MEMORY"); v && *v) {  // a count of bytes, strictly
+    int64_t b = 0;
+    const std::string why = read_integer(v, 0, int64_t(1) << 60, &b);
+    if (!why.empty()) throw Error(fmt::format("SPECTRACK_HOST_MEMORY: '{}' is not a count of bytes ({})", v, why));
+    return double(b);
   }
   std::ifstream f("/proc/meminfo");
   std::string line;
@@ -49,8 +51,10 @@ double host_memory_available() {
 void check_host_memory(double bytes, const std::string& what, const std::string& advice) {
   const double available = host_memory_available();
   if (bytes <= available) return;
-  throw Error(fmt::format("{} needs about {:.1f} MiB of host memory, but {:.1f} MiB are available; {}", what,
-                          bytes / 1048576.0, available / 1048576.0, advice));
+  const char* set = std::getenv("SPECTRACK_HOST_MEMORY");
+  throw Error(fmt::format("{} needs about {:.1f} MiB of host memory, but {:.1f} MiB are available{}; {}", what,
+                          bytes / 1048576.0, available / 1048576.0,
+                          set && *set ? " (SPECTRACK_HOST_MEMORY says so)" : "", advice));
 }
 
 void check_env_map_memory(const std::string& context, int width, int height) {

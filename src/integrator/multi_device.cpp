@@ -10,6 +10,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
+#include <cstring>
 #include <exception>
 #include <mutex>
 #include <sstream>
@@ -21,8 +22,9 @@ namespace spectrack {
 
 std::vector<std::string> parse_device_list(const std::string& spec_in) {
   std::string spec = spec_in;
-  if (spec.empty())
-    if (const char* e = std::getenv("SPECTRACK_DEVICE")) spec = e;
+  // one device from SPECTRACK_DEVICE stays "": select_device reads it and names it in its messages
+  if (const char* e = std::getenv("SPECTRACK_DEVICE"); spec.empty() && e && (std::string(e) == "all" || std::strchr(e, ',')))
+    spec = e;
   if (spec == "all") {
     std::vector<std::string> out;
     for (auto& d : enumerate_devices()) out.push_back(fmt::format("{}:{}", d.platform_index, d.device_index));
