@@ -22,6 +22,7 @@
 #include "api/render_call.h"
 #include "api/render_stats.h"
 #include "image_py.h"
+#include "integrator/option_table.h"
 #include "render_py.h"
 
 namespace py = pybind11;
@@ -70,6 +71,11 @@ RenderOptions options_of(const SceneDesc& scene, const RenderArgs& a) {
     opt.sample_begin = b;
     opt.spp = int(e - b);
     opt.sample_range = true;
+  }
+  if (a.time_limit) {  // at most --time-limit's bound (a longer one overflows the deadline); NaN is no limit
+    const double most = option_row("time_limit").check.hi;
+    if (!(*a.time_limit > 0 && *a.time_limit <= most))
+      throw py::value_error(fmt::format("time_limit={}: seconds, more than 0 and at most {:g}", *a.time_limit, most));
   }
   if (a.pixel_bounds) opt.pixel_bounds = *a.pixel_bounds;
   if (a.tracker) opt.tracker = named(a.tracker, tracker_from_name, tracker_names, "tracker");

@@ -7,6 +7,7 @@
 #include <pybind11/stl.h>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <openvdb/openvdb.h>
 
 #include <cmath>
@@ -14,6 +15,7 @@
 #include <filesystem>
 
 #include "util/error.h"
+#include "volume/inspect.h"
 
 namespace py = pybind11;
 namespace fs = std::filesystem;
@@ -91,12 +93,28 @@ std::unique_ptr<Volume> from_numpy(const py::array& density, double voxel_size, 
   return v;
 }
 
+// The grid of a file, checked as `spectrack info` reads it (volume/inspect.h): the file a VDB or
+// NanoVDB one, the grid present and usable as a density; its shape is the active voxels' box.
 std::unique_ptr<Volume> from_file(const std::string& path, const std::string& grid) {
-  if (!fs::is_regular_file(path)) throw Error(fmt::format("{}: no such volume file", path));
-  auto v = std::make_unique<Volume>();
-  v->file = fs::absolute(path).string();
-  v->grid = grid;
-  return v;
+  if (!fs::exists(path)) throw Error(fmt::format("{}: no such volume file", path));
+  std::vector<std::string> names;
+  for (const GridInfo& g : inspect_volume(path)) {
+    if (g.name != grid) {
+      names.push_back("'" + printable_name(g.name) + "'");
+      continue;
+    }
+    if (g.density_use != "yes")
+      throw py::value_error(fmt::format("Volume.from_file: {}: grid '{}' cannot be a density: {}", path,
+                                        printable_name(grid), g.density_use));
+    auto v = std::make_unique<Volume>();
+    v->file = fs::absolute(path).string();
+    v->grid = grid;
+    for (size_t d = 0; d < 3; ++d) v->shape[d] = g.empty ? 0 : g.index_max[d] - g.index_min[d] + 1;
+    v->active_voxels = g.active_voxels;
+    return v;
+  }
+  throw py::value_error(fmt::format("Volume.from_file: {}: no grid '{}' (the file has {})", path, printable_name(grid),
+                                    names.empty() ? std::string("none") : fmt::format("{}", fmt::join(names, ", "))));
 }
 
 }  // namespace

@@ -164,7 +164,7 @@ def test_without_usd_core_the_rest_works(tmp_path):
     assert "pip install usd-core" in r.stdout
 
 
-def test_volume_from_file_is_the_file():
+def test_volume_from_file_is_the_file(tmp_path):
     cloud = str(ROOT / "data" / "volumes" / "cloud.vdb")
     base = {**SLAB, "media": [{"type": "vdb", "file": cloud, "density_scale": 4, "sigma_s": [1, 1, 1],
                                "sigma_a": [0.1, 0.1, 0.1]}], "camera": {"look_at": "media", "fit": 1.1}}
@@ -173,5 +173,17 @@ def test_volume_from_file_is_the_file():
     by_volume = spectrack.load_dict({**base, "media": [{**base["media"][0], "file": vol}]}).render(spp=1)
     np.testing.assert_array_equal(by_volume.rgb, by_path.rgb)
     assert by_path.rgb.max() > 0
+    assert vol.active_voxels > 0 and min(vol.shape) > 0
     with pytest.raises(ValueError, match="no such volume file"):
         spectrack.Volume.from_file(str(ROOT / "missing.vdb"))
+    # the file is read when the Volume is made: a missing grid, a file that is not a VDB, a truncated one
+    with pytest.raises(ValueError, match="no grid 'smoke'.*'density'"):
+        spectrack.Volume.from_file(cloud, grid="smoke")
+    not_vdb = tmp_path / "not.vdb"
+    not_vdb.write_bytes(b"P6\n4 4\n255\n" + bytes(48))
+    with pytest.raises(ValueError, match="not.vdb"):
+        spectrack.Volume.from_file(str(not_vdb))
+    cut = tmp_path / "cut.vdb"
+    cut.write_bytes(open(cloud, "rb").read()[:1000])
+    with pytest.raises(ValueError, match="cut.vdb"):
+        spectrack.Volume.from_file(str(cut))
