@@ -275,6 +275,16 @@ TEST(CliNoiseTarget, RecordsTheTargetTheErrorReachedAndWhyItStopped) {
   EXPECT_EQ(k.value("spp", 0), 20);
   EXPECT_EQ(k.value("stop_reason", "x"), "spp");
   EXPECT_GT(k.value("noise_error", 0.0), 0.001);
+  // a film of one batch is first looked at after its last sample: a target met there is reached
+  // (the twin above, 0.001 at 20 spp, is missed)
+  p = run({"render", scene, "-o", dir + "/once.exr", "--noise-target", "0.5", "--spp", "32", "--path-slots", "65536",
+           "--stats-json", dir + "/once.json", "--quiet"}, ro);
+  ASSERT_TRUE(p.exited && p.code == 0) << p.describe();
+  const json once = json::parse(std::ifstream(dir + "/once.json"));
+  EXPECT_EQ(once.value("spp", 0), 32);
+  EXPECT_LE(once.value("noise_error", 1.0), 0.5);
+  EXPECT_EQ(once.value("stop_reason", "x"), "noise-target");
+  EXPECT_EQ(meta_of(dir + "/once.exr", "stop_reason"), "noise-target");
   // one sample per pixel measures no noise: the target is missed at --spp, uniform or adaptive, and no
   // error is recorded (0% would read as reached)
   for (const std::vector<std::string>& extra : {std::vector<std::string>{}, std::vector<std::string>{"--adaptive"}}) {

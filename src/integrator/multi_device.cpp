@@ -3,6 +3,7 @@
 // (MultiDeviceRun::PerDevice).
 #include "integrator/multi_device.h"
 #include "integrator/adaptive.h"
+#include "integrator/noise.h"
 
 #include <fmt/format.h>
 
@@ -220,6 +221,12 @@ MultiDeviceResult MultiDeviceRun::combine() const {
   else
     out.piece = with_samples.size() == 1 ? with_samples[0] : merge_pieces(with_samples);
   out.piece.source = "render";
+  // a render that ends at the spp with the target met (a film of one batch is never looked at
+  // before its last sample) reached it; below kNoiseMinSpp the variance decides nothing, as for the watch
+  if (settings_.noise_target > 0 && !out.noise_target_reached && !interrupted && out.piece.samples() >= kNoiseMinSpp &&
+      (settings_.aovs & ST_AOV_BIT(VARIANCE)))
+    out.noise_target_reached = estimate_film_noise(out.piece.sum, out.piece.aov_sum, aov_sum_channels(out.piece.id.aovs),
+                                                   out.piece.samples()).error <= settings_.noise_target;
   out.piece.interrupted = interrupted || (out.piece.samples() < spp_ && !out.noise_target_reached);
   if (settings_.noise_target > 0 && !out.noise_target_reached && !out.piece.interrupted) out.stop_reason = "spp";
   if (base_.deadline && std::chrono::steady_clock::now() >= *base_.deadline && out.piece.samples() < spp_)
