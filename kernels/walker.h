@@ -110,6 +110,7 @@ typedef struct {
   int decompose, mode, iter, budget;
   int exact;        /* flights below the float spacing of t were met: positions are summed exactly */
   float t_max;      /* where the ray ends (a local light; INFINITY: past every medium) */
+  float t_begin;    /* where this call's walk began (walker_refund_empty_crossing) */
 } st_walker;
 
 /* The tracker's view of the iterator's current segment. A ray that ends at t_max (local lights,
@@ -130,6 +131,7 @@ inline void walker_begin(__constant const st_scene* scene, __global const float2
                          int budget) {
   majorant_iterator_init(scene, maj, &w->it, o, d, t, &w->maj);
   w->t = t;
+  w->t_begin = t;
   w->t_max = t_max;
   w->mask = mask;
   if (ST_HAS_SPECTRAL)
@@ -192,6 +194,16 @@ inline int walker_cross(__constant const st_scene* scene, __global const float2*
   return ST_WALK_CROSSED;
 }
 
+/* A segment that ends where the walk stands (a walk begun on a cell's boundary, where the DDA may
+ * locate the cell that ends there) is crossed without moving t. When that crossing is the budget's
+ * last step and the walk has not moved since walker_begin, it takes none of the budget: otherwise
+ * such a walk (a budget of 1, resumed on a boundary) would end its launch where it began, resume
+ * there and never finish. Only such a launch, which would repeat itself for ever, changes: every
+ * walk that finished before finishes as before, with the same random numbers. */
+inline void walker_refund_empty_crossing(st_walker* w) {
+  if (!(w->seg.t1 > w->t) && w->iter >= w->budget && !(w->t > w->t_begin)) w->iter -= 1;
+}
+
 /* One step of the walk: returns ST_WALK_* (above). DDA steps are added to *dda_steps, those
  * entering a non-empty cell also to *dda_nonempty. */
 inline int walker_step(__constant const st_scene* scene, __global const float2* maj, st_walker* w, st_rng* rng,
@@ -206,6 +218,7 @@ inline int walker_step(__constant const st_scene* scene, __global const float2* 
     w->t = tc;
     return ST_WALK_COLLISION;
   }
+  walker_refund_empty_crossing(w);
   return walker_cross(scene, maj, w, dda_steps, dda_nonempty);
 }
 
@@ -231,6 +244,7 @@ inline int walker_march(__constant const st_scene* scene, __global const float2*
     return ST_WALK_COLLISION;
   }
   if (w->mu_bar > 0.0f) *walked = fmax(w->seg.t1 - w->t, 0.0f) * w->mu_bar;
+  walker_refund_empty_crossing(w);
   return walker_cross(scene, maj, w, dda_steps, dda_nonempty);
 }
 
