@@ -64,6 +64,9 @@ Image merge(const py::list& items) {
   for (const py::handle& h : items) {
     if (py::isinstance<py::str>(h)) {
       pieces.push_back(read_piece(h.cast<std::string>()));
+    } else if (!py::isinstance<Image>(h)) {
+      throw py::type_error(fmt::format("merge: {} is neither a spectrack.Image nor an EXR file's path",
+                                       py::repr(h).cast<std::string>()));
     } else {
       const Image& im = h.cast<const Image&>();
       pieces.push_back(im.piece);

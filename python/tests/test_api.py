@@ -54,6 +54,8 @@ def test_shards_merge_to_the_single_render(spectrack_binary, tmp_path):
     b = scene.render(spp_range=(2, 6))
     merged = spectrack.merge([a, b])
     assert merged.spp == 6 and merged.spp_ranges == [(0, 6)]
+    with pytest.raises(TypeError, match="merge: 5 is neither"):
+        spectrack.merge([a, 5])
     np.testing.assert_allclose(merged.rgb, whole.rgb, rtol=1e-6, atol=0)
     # a shard from the command line merges with one from Python (one render: one scene hash)
     path = tmp_path / "slab.json"
