@@ -34,6 +34,8 @@ TEST(NoiseEstimate, IsTheStandardErrorOverTheMeanOfTheNoisyPixels) {
   NoiseEstimate e = estimate_noise(sum.data(), 3, m2.data(), 3, 2, 4);
   EXPECT_EQ(e.pixels, 1u);  // the black pixel does not count
   EXPECT_NEAR(e.error, std::sqrt(14.0 / 3.0 / 4.0) / 3.0, 1e-12);
+  EXPECT_TRUE(e.measured);
+  EXPECT_FALSE(estimate_noise(sum.data(), 3, m2.data(), 3, 2, 1).measured);  // one sample: no sample variance
   // a constant pixel has no error to measure; a dim noisy one counts against the floor
   sum = {s1, s1, s1, 40, 40, 40, 0.04, 0.04, 0.04};
   m2 = {s2, s2, s2, 400, 400, 400, 0.0016 * 4, 0.0016 * 4, 0.0016 * 4};

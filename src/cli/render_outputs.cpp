@@ -24,9 +24,9 @@ namespace {
 
 // The relative error of the image (integrator/noise.h) when it has the variance layer.
 std::optional<NoiseEstimate> film_noise(const FilmPiece& p) {
-  // one sample per pixel has no sample variance: its noise is not measured (not 0)
-  if (!(p.id.aovs & ST_AOV_BIT(VARIANCE)) || p.samples() < 2) return std::nullopt;
-  return estimate_film_noise(p.sum, p.aov_sum, aov_sum_channels(p.id.aovs), p.samples());
+  if (!(p.id.aovs & ST_AOV_BIT(VARIANCE)) || p.samples() == 0) return std::nullopt;
+  const NoiseEstimate e = estimate_film_noise(p.sum, p.aov_sum, aov_sum_channels(p.id.aovs), p.samples());
+  return e.measured ? std::optional<NoiseEstimate>(e) : std::nullopt;
 }
 
 // The beauty of `p` denoised (image/denoise.h) with its albedo layer as auxiliary input: per pixel the

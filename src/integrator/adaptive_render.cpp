@@ -319,8 +319,7 @@ AdaptiveResult render_adaptive(Renderer& r, const AdaptivePlan& plan,
                effective, effective / taken);
   }
   const NoiseEstimate e = estimate_film_noise(f.sum, f.aov_sum, f.aov_channels, plan.spp);
-  // one sample per pixel measures no variance, so no error: the target is not reached but missed at the spp
-  f.noise_target_reached = !stopped && plan.spp >= 2 && e.error <= plan.target;
+  f.noise_target_reached = !stopped && e.measured && e.error <= plan.target;
   if (!stopped && !f.noise_target_reached)
     out.stop_reason = std::any_of(film.px.begin(), film.px.end(), [&](const AdaptivePixel& x) { return x.n >= plan.spp; })
                           ? "spp"

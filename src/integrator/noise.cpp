@@ -14,6 +14,7 @@ NoiseEstimate estimate_noise(const double* sum, size_t sum_stride, const double*
   NoiseEstimate e;
   e.samples = n;
   if (n < 2) return e;
+  e.measured = true;
   const double dn = double(n);
   std::vector<double> m, se;
   m.reserve(npix);

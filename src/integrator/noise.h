@@ -30,6 +30,7 @@ struct NoiseEstimate {
   double error = 0;        // the 95th percentile of r_p (0: no noisy pixel)
   uint64_t pixels = 0;     // pixels counted (m_p > 0, SE_p > 0)
   int64_t samples = 0;     // n
+  bool measured = false;   // n >= 2: one sample per pixel has no sample variance, hence no error
 };
 
 // npix pixels of n samples each: sum (S1) and moment2 (S2) hold 3 values per pixel at strides

@@ -28,7 +28,7 @@ bool RenderWatch::see(const RenderResult& film, const FilmState* state) {
   const int64_t n = film.spp_done;
   if (c_.noise_target > 0 && (n >= next_check_ || n >= c_.spp)) {  // n = spp: an adaptive film so far
     const NoiseEstimate e = estimate_film_noise(film.sum, film.aov_sum, film.aov_channels, n);
-    if (n >= 2) {  // one sample has no sample variance: no error is shown for it
+    if (e.measured) {
       std::lock_guard<std::mutex> lock(mu_);
       estimate_ = e;
     }
