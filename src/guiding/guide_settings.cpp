@@ -8,13 +8,13 @@
 #include <fmt/format.h>
 
 #include <cctype>
-#include <cerrno>
 #include <cstdlib>
 #include <limits>
 #include <string>
 
 #include "guiding/guide_cache.h"
 #include "util/error.h"
+#include "util/option_text.h"
 
 namespace spectrack {
 
@@ -76,12 +76,11 @@ GuideTraining guide_training_setting() {
 int64_t guide_record_samples_setting() {
   const char* e = std::getenv("SPECTRACK_GUIDE_RECORD_SAMPLES");
   if (!e || !*e) return kGuideRecordSamples;
-  char* end = nullptr;
-  errno = 0;
-  const long long v = std::isdigit(static_cast<unsigned char>(*e)) ? std::strtoll(e, &end, 10) : -1;
-  if (v < 0 || *end != '\0' || errno == ERANGE || v > (int64_t(1) << 40))
-    throw Error(fmt::format("SPECTRACK_GUIDE_RECORD_SAMPLES: '{}' is not a count of camera samples (0: every one, "
-                            "at most 2^40)", e));
+  int64_t v = 0;  // the command line's strict reader: digits only, no sign, space or overflow
+  const std::string why = read_integer(e, 0, int64_t(1) << 40, &v);
+  if (!why.empty())
+    throw Error(fmt::format("SPECTRACK_GUIDE_RECORD_SAMPLES: '{}' is not a count of camera samples (0: every one; {})",
+                            e, why));
   return v;
 }
 
