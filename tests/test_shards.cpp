@@ -236,8 +236,14 @@ TEST(CliShards, GuidedShardsTilesAndDevicesMergeToTheFullRender) {
     Proc p = run({"render", scene, "--guiding", "on", "--spp-range", r, "-o", dir + "/cut.exr", "--quiet"});
     expect_error_exit(p, 2);  // a usage error
     EXPECT_THAT(p.out, HasSubstr("cut the training pass's samples 0:4")) << p.describe();
+    EXPECT_THAT(p.out, HasSubstr("at most 5 samples is not cut")) << p.describe();
     EXPECT_FALSE(fs::exists(dir + "/cut.exr"));
   }
+  // a whole render of one sample has no sample to train on: --guiding on is refused, auto stays off
+  Proc one = run({"render", scene, "--guiding", "on", "--spp", "1", "-o", dir + "/one.exr", "--quiet"});
+  expect_error_exit(one, 2);
+  EXPECT_THAT(one.out, HasSubstr("needs at least 2 samples per pixel")) << one.describe();
+  EXPECT_FALSE(fs::exists(dir + "/one.exr"));
 }
 
 // --guide-cache FILE: the first render trains and writes the cache, every later part reads it (no

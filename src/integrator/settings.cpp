@@ -99,13 +99,17 @@ void resolve_guiding(const RenderOptions& o, RenderSettings& s, const SceneDesc&
   if (s.adaptive) T = std::min<int64_t>(T, std::min<int64_t>(kNoiseMinSpp, s.spp) - 1);
   const int64_t begin = s.sample_begin, end = s.sample_begin + s.spp;
   if (begin == 0 && !o.sample_range) {
-    s.guide_training_samples = std::max(0, std::min(T, s.spp - 1));
+    if (s.spp <= 1)  // auto is off there (refused above), so guiding was asked for
+      throw UsageError("--guiding on (render.guiding \"on\") needs at least 2 samples per pixel: the first trains "
+                       "the guide cache and the render's own samples follow it; with --spp 1 use --guiding off or auto");
+    s.guide_training_samples = std::min(T, s.spp - 1);
   } else if (begin == 0 ? end <= T : begin < T) {
     throw UsageError(fmt::format("guiding{}: samples {}:{} cut the training pass's samples 0:{}; a shard of a guided "
                                  "render holds all of them and at least one more, or none of them (--spp-range 0:B "
-                                 "with B > {}, or A:B with A >= {}{})",
+                                 "with B > {}, or A:B with A >= {}{}); a guided render of at most {} samples is not cut "
+                                 "into sample ranges (render it whole)",
                                  by_auto ? " (on by auto: the scene has a lamp, a medium that emits and does not scatter)" : "",
-                                 begin, end, T, T, T, by_auto ? ", or --guiding off" : ""));
+                                 begin, end, T, T, T, by_auto ? ", or --guiding off" : "", T + 1));
   } else {
     s.guide_training_samples = T;
   }
