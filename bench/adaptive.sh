@@ -11,6 +11,9 @@
 # of the mean seconds and of the mean CPU seconds (uniform / adaptive) and the per-seed ratios.
 # BASE=path/to/spectrack adds a third mode, that binary's adaptive render ("base"), interleaved with
 # the others, and the ratios base / adaptive (an A/B of two versions of the adaptive rule).
+# SCENES="FILE:FACTOR ..." replaces the two scenes (FACTOR multiplies SCALE for that scene), e.g.
+# SCENES=bench/scenes/fire_lit.json:1 CAP=256 for a medium lit by its own fire (docs/adaptive.md,
+# "Light that the pilot does not see").
 set -euo pipefail
 cd "$(dirname "$0")/.."
 TARGET=${1:-0.05}; SEEDS=${2:-3}; SCALE=${3:-0.5}
@@ -21,7 +24,7 @@ out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 echo "adaptive vs uniform: $BIN, noise target $TARGET, spp cap $CAP, $SEEDS seeds, film scale $SCALE," \
      "$(date -u '+%F %H:%M') UTC on $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg), commit $(git rev-parse --short HEAD)"
-for entry in bench/scenes/smoke1.json:1 data/scenes/disney_cloud.json:0.5; do
+for entry in ${SCENES:-bench/scenes/smoke1.json:1 data/scenes/disney_cloud.json:0.5}; do
   s=${entry%%:*}; f=${entry##*:}
   n=$(basename "$s" .json)
   # a copy with the film scaled and the volume paths absolute (the copy lives in $out)

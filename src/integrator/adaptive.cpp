@@ -68,9 +68,12 @@ double adaptive_samples_needed(const AdaptivePixel& px, double rho, const Adapti
   if (!(rho > 0.0)) return 0.0;  // nothing to average out (a background every sample sees alike)
   const double T = samples_to_reach(px, rho, plan.target * plan.aim);
   if (std::isfinite(T) || px.n == 0) return T;
-  // the aim is out of reach: the target itself, else nothing more (the next round is the last)
+  // the aim is out of reach: the target itself, else the samples whose share of the weight left
+  // adds no more variance than the rounds so far hold (B^2 / T = V): the pixel ends within sqrt(2)
+  // of the least error it can reach, sqrt(rho V), without running to the spp for the last bit
   const double T_target = samples_to_reach(px, rho, plan.target);
-  return std::isfinite(T_target) ? T_target : 0.0;
+  if (std::isfinite(T_target)) return T_target;
+  return px.V > 0.0 ? std::ceil(px.B * px.B / px.V) : 0.0;
 }
 
 double adaptive_round_weight(const AdaptivePixel& px, int64_t k, int64_t cap, double rho, const AdaptivePlan& plan) {

@@ -19,8 +19,9 @@
 // of its first sample, each of the lengths' common divisor of samples; the weight of a round that is not the last is taken from a rho with a margin,
 // kAdaptiveWeightMargin). The aim is kAdaptiveAim times the target, raised towards the target as
 // far as the drift of the pixels that finished allows (adaptive_aim); a pixel out of reach of its
-// aim (rho V >= aim^2) aims at the target, or, out of reach of that too, finishes with its next
-// round. No pixel is given more than the samples the image's 97.5th-percentile pixel needs (the
+// aim (rho V >= aim^2) aims at the target, or, out of reach of that too, takes B^2 / V samples
+// more (its error then ends within sqrt(2) of the least it can reach, sqrt(rho V)), at most to
+// the cap. No pixel is given more than the samples the image's 97.5th-percentile pixel needs (the
 // 96.25th once the drift measured allows, chosen with the aim), nor twice what its
 // 95th-percentile pixel needs (adaptive_cap): the image's error is the 95th percentile's, and the
 // rest of that allowance is left to pixels that drift above their aim. The
@@ -125,8 +126,8 @@ int64_t adaptive_round_samples(int64_t n, const AdaptivePlan& plan);
 double adaptive_relative_variance(const AdaptivePixel& px, double floor);
 std::vector<double> adaptive_neighbourhood(const std::vector<AdaptivePixel>& px, int width, int height, double floor);
 // The samples to come that bring rho (V + B^2 / T) to the aim, or to the target where the aim is
-// out of reach (rho V >= aim^2); 0: none needed, or the target out of reach too (the next round is
-// the last).
+// out of reach (rho V >= aim^2), or B^2 / V where the target is out of reach too (the samples that
+// add no more variance than the rounds so far hold); 0: none needed (the next round is the last).
 double adaptive_samples_needed(const AdaptivePixel& px, double rho, const AdaptivePlan& plan);
 // The weight of the pixel's next round of k samples, from rounds so far only: B when it is the
 // last round (the pixel reaches its aim, or `cap` samples, with it), else B k / T (above).
