@@ -116,7 +116,7 @@ TEST(AdaptiveWeights, APilotWeightFromTheNeighboursIsUnbiasedWhereOneFromTheOwnP
 // or, out of reach of that too, takes the samples that add no more variance than its fixed weights
 // hold (B^2 / T = V), instead of running to the spp (a rule before did: 27604 of these 100000
 // pixels took all 4096 samples with the heavier pilot) or finishing with a quarter round that
-// takes all the weight left (the rule after it: the pilot's fixed variance times 60 on average, an
+// takes all the weight left (the rule after it: the pilot's fixed variance times 65 on average, an
 // error 8 times the least reachable): the decision is made before the round from the rounds so
 // far, so the estimate stays unbiased.
 TEST(AdaptiveWeights, PixelsThatCannotReachTheirAimStopWithoutBias) {
