@@ -269,15 +269,16 @@ TEST(GuidingRender, AutoGuidesWhereALampLightsAScatteringMedium) {
   EXPECT_FALSE(guiding_pays(tinted));
   tinted.media[0].color.present = true, tinted.media[0].color.mode = ST_COLOR_ALBEDO;
   EXPECT_TRUE(guiding_pays(tinted));
-  // what guiding refuses turns auto off instead of failing: film states, equi-angular sampling,
-  // adaptive sampling of a window; an explicit --guiding off too
+  // what guiding refuses turns auto off instead of failing: film states, equi-angular sampling;
+  // an explicit --guiding off too. Adaptive sampling of a window is refused whatever guiding does
   RenderOptions state = o, equiangular = o, adaptive_tile = o, off = o;
   state.film_state = true;
   equiangular.equiangular = kEquiangularOn;
   adaptive_tile.noise_target = 0.05, adaptive_tile.adaptive = true;
   adaptive_tile.pixel_bounds = std::array<int, 4>{0, 8, 0, 8};
   off.guiding = kGuidingOff;
-  for (const RenderOptions* r : {&state, &equiangular, &adaptive_tile, &off}) EXPECT_FALSE(resolve_settings(lit, *r).guiding);
+  for (const RenderOptions* r : {&state, &equiangular, &off}) EXPECT_FALSE(resolve_settings(lit, *r).guiding);
+  EXPECT_THROW(resolve_settings(lit, adaptive_tile), UsageError);
   RenderOptions one = o;  // a whole render of one sample has no training sample
   one.spp = 1;
   EXPECT_FALSE(resolve_settings(lit, one).guiding);

@@ -21,6 +21,7 @@
 
 #include "api/render_call.h"
 #include "api/render_stats.h"
+#include "cli/checks.h"
 #include "image_py.h"
 #include "integrator/option_table.h"
 #include "render_py.h"
@@ -85,6 +86,10 @@ RenderOptions options_of(const SceneDesc& scene, const RenderArgs& a) {
   opt.guide_splitting = a.guide_splitting;
   opt.scene_json = a.json_text;  // resolve_settings refuses a guide cache without guiding
   opt.aovs = film_layers(scene, a.aovs, a.alpha);
+  // the command line's refusals of what would be ignored (ValueError, as the CLI's exit 2)
+  check_tracker_scheme(scene, opt, a.scheme.value_or(""), a.tracker.value_or(""));
+  check_chunk_spp(a.chunk_spp > 0 ? std::optional<int>(a.chunk_spp) : std::nullopt, parse_device_list(a.device),
+                  a.device);
   return opt;
 }
 

@@ -110,6 +110,35 @@ def test_write_and_read_back(tmp_path):
     assert img.stats["spp"] == 2 and img.stats["tracker"] == "spectral-decomposition" and img.stats["paths"] > 0
 
 
+def test_what_the_command_line_refuses_is_refused(spectrack_binary, tmp_path):
+    # a noise target on a tile or a shard (each would stop at its own noise), on several devices
+    target = spectrack.load_dict(dict(SLAB, render=dict(SLAB["render"], noise_target=0.2, adaptive=True),
+                                      film=dict(SLAB["film"], spp=32)))
+    with pytest.raises(ValueError, match="with --spp-range or --pixel-bounds"):
+        target.render(pixel_bounds=(0, 12, 0, 10))
+    with pytest.raises(ValueError, match="with --spp-range or --pixel-bounds"):
+        target.render(spp_range=(0, 16))
+    with pytest.raises(ValueError, match="several devices"):
+        target.render(device="0:0,0:0")
+    # an adaptive render written from Python is refused by both merges, as the command line's
+    adaptive = target.render()
+    assert "samples" in adaptive.channels
+    adaptive.write(str(tmp_path / "ad.exr"))
+    with pytest.raises(ValueError, match="an adaptive render cannot be merged"):
+        spectrack.merge([adaptive])
+    merged = subprocess.run([spectrack_binary, "merge", str(tmp_path / "m.exr"), str(tmp_path / "ad.exr")],
+                            capture_output=True, text=True)
+    assert merged.returncode == 2 and "an adaptive render cannot be merged" in merged.stderr, merged.stderr
+    # a scheme the tracker ignores, chunks of samples with one device
+    with pytest.raises(ValueError, match="ignores the spectral scheme"):
+        spectrack.load_dict(SLAB).render(tracker="delta", scheme="average")
+    with pytest.raises(ValueError, match="this render has one device"):
+        spectrack.load_dict(SLAB).render(chunk_spp=2)
+    # the twins: what is allowed still renders
+    assert spectrack.load_dict(SLAB).render(tracker="spectral", scheme="average", spp=1).spp == 1
+    assert spectrack.load_dict(SLAB).render(spp_range=(0, 2)).spp == 2
+
+
 def test_bad_field_names_its_path():
     bad = {**SLAB, "media": [{**SLAB["media"][0], "sigma_s": [2.0, -1.0, 0.5]}]}
     with pytest.raises(ValueError, match=r"<dict>: /media/0/sigma_s"):

@@ -191,8 +191,8 @@ ExrOptions exr_options(bool half, const std::string& compression, const FilmDesc
 
 // What the watch of a render (integrator/render_watch.h) needs, or nothing when no flag asks for it. It
 // looks at one device's film in one process: a noise target, checkpoints and --resume refuse
-// several devices and --mpi (exit 2), a noise target also shards and tiles (each would stop at
-// its own noise); a preview with several devices or ranks is written at the end only.
+// several devices and --mpi (exit 2; shards and tiles are refused by resolve_settings, for the
+// Python module too); a preview with several devices or ranks is written at the end only.
 std::unique_ptr<RenderWatch> make_watch(const RenderArgs& a, const MpiArg& mpi, const SceneDesc& scene,
                                         const RenderSettings& set, const std::vector<std::string>& devices,
                                         const std::string& output, const std::function<std::string()>& hash) {
@@ -200,9 +200,6 @@ std::unique_ptr<RenderWatch> make_watch(const RenderArgs& a, const MpiArg& mpi, 
   if (set.noise_target > 0 && several)
     throw UsageError("--noise-target (render.noise_target) stops one device's render at its noise: it does not work "
                      "with several devices or --mpi");
-  if (set.noise_target > 0 && (!a.spp_range.empty() || !a.pixel_bounds.empty()))
-    throw UsageError("--noise-target (render.noise_target) with --spp-range or --pixel-bounds: each shard or tile would "
-                     "stop at its own noise, and the pieces would not merge; render the whole film");
   if ((a.checkpoint || a.resume) && set.adaptive)
     throw UsageError("--checkpoint and --resume do not work with adaptive sampling (a film state holds one sample "
                      "count for every pixel)");

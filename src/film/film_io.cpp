@@ -44,6 +44,7 @@ Metadata piece_metadata(const FilmPiece& p) {
   m["pixel_bounds"] = fmt::format("{},{},{},{}", p.x0, p.x0 + p.width, p.y0, p.y0 + p.height);
   m["full_resolution"] = fmt::format("{}x{}", p.id.full_width, p.id.full_height);
   m["interrupted"] = p.interrupted ? 1 : 0;
+  if (!p.pixel_samples.empty()) m["adaptive"] = 1;  // its 'samples' layer: a merge refuses it (piece_from_header)
   return m;
 }
 

@@ -40,6 +40,12 @@ void resolve_noise_target(const SceneDesc& scene, const RenderOptions& o, Render
   if (!(s.noise_target >= 0 && s.noise_target <= 1))
     throw Error(fmt::format("noise target {} is not a relative error in (0, 1] (0: none)", s.noise_target));
   if (s.noise_target > 0) s.aovs |= ST_AOV_BIT(VARIANCE);
+  // the command line's and the Python module's one check: a shard or tile would stop at its own
+  // noise (and an adaptive one take its own rounds), so the pieces would not merge to the render
+  if (s.noise_target > 0 && (o.sample_range || o.pixel_bounds))
+    throw UsageError("--noise-target (render.noise_target) with --spp-range or --pixel-bounds (spp_range=, "
+                     "pixel_bounds=): each shard or tile would stop at its own noise, and the pieces would not merge; "
+                     "render the whole film");
   s.adaptive = o.adaptive.value_or(scene.render.adaptive);
   if (s.adaptive && s.noise_target <= 0)
     throw UsageError("adaptive sampling (--adaptive, render.adaptive) needs a noise target (--noise-target, "
@@ -74,7 +80,7 @@ void resolve_guiding(const RenderOptions& o, RenderSettings& s, const SceneDesc&
   // what guiding refuses or turns off (equi-angular sampling, which auto may turn on for local
   // lights), and a whole render of one sample (no training sample)
   const bool refused = o.film_state || equiangular == kEquiangularOn || (equiangular == kEquiangularAuto && local_lights) ||
-                       (s.adaptive && o.pixel_bounds) || (!o.sample_range && s.spp <= 1);
+                       (!o.sample_range && s.spp <= 1);
   const bool by_auto = s.guiding_requested == kGuidingAuto && !refused && guiding_pays(scene);
   s.guiding = s.guiding_requested == kGuidingOn || by_auto;
   // auto guides scattered directions alone unless asked to split: guided roulette and splitting
@@ -88,9 +94,6 @@ void resolve_guiding(const RenderOptions& o, RenderSettings& s, const SceneDesc&
       throw UsageError(fmt::format("--guide-cache FILE (guide_cache=) holds a trained guide cache: {}", needs));
     return;
   }
-  if (s.adaptive && o.pixel_bounds)
-    throw UsageError("guiding with adaptive sampling renders the whole film (the training pass is its first "
-                     "round); use --guiding off with --pixel-bounds");
   const GuideTraining schedule = guide_training_setting();
   if (!o.guide_cache_file.empty() && schedule.spp.size() != 1)
     throw UsageError("--guide-cache works with one training pass (the default), not SPECTRACK_GUIDE_TRAINING's several");
