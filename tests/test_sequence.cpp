@@ -55,11 +55,20 @@ TEST(Sequence, MissingFrameIsNamed) {
   EXPECT_THAT(p.out, HasSubstr("smoke_000004.vdb: no such file")) << p.out;
   EXPECT_FALSE(fs::exists(dir + "/f_0002.exr")) << "rendered before checking every frame";
   Proc q = run({"render", scene, "--frames", "1:2", "-o", dir + "/plain.exr"});
-  expect_error_exit(q);
+  expect_error_exit(q, 2);  // usage errors
   EXPECT_THAT(q.out, HasSubstr("no frame pattern")) << q.out;
   Proc r = run({"render", scene, "-o", dir + "/plain.exr"});
-  expect_error_exit(r);
+  expect_error_exit(r, 2);
   EXPECT_THAT(r.out, HasSubstr("--frames")) << r.out;
+  // the statistics and the preview are written per frame too: one name for all would be overwritten
+  for (const char* flag : {"--stats-json", "--preview"}) {
+    Proc one = run({"render", scene, "--frames", "1:2", "-o", dir + "/g_####.exr", flag,
+                    dir + (flag[2] == 's' ? "/plain.json" : "/plain.png")});
+    expect_error_exit(one, 2);
+    EXPECT_THAT(one.out, HasSubstr(std::string(flag) + " " + dir)) << one.out;
+    EXPECT_THAT(one.out, HasSubstr("no frame pattern")) << one.out;
+    EXPECT_FALSE(fs::exists(dir + "/g_0001.exr"));
+  }
 }
 
 }  // namespace

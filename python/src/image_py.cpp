@@ -7,6 +7,9 @@
 #include <pybind11/stl.h>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include <algorithm>
 
 #include "integrator/stats_json.h"
 
@@ -127,6 +130,10 @@ void bind_image(py::module_& m) {
       .def("write", [](const Image& im, const std::string& path, bool half, const std::string& compression) {
         ExrOptions exr;
         exr.half = half;
+        const std::vector<std::string>& known = exr_compressions();  // the CLI's --compression names
+        if (std::find(known.begin(), known.end(), compression) == known.end())
+          throw py::value_error(fmt::format("write: compression=\"{}\": unknown (one of: {})", compression,
+                                            fmt::join(known, ", ")));
         exr.compression = compression;
         write_piece(path, im.piece, im.meta, exr);
       }, py::arg("path"), py::arg("half") = false, py::arg("compression") = "zip",

@@ -106,6 +106,10 @@ def test_write_and_read_back(tmp_path):
     img.write(str(tmp_path / "x.exr"))
     back = spectrack.read(str(tmp_path / "x.exr"))
     assert back.spp == 2 and "variance" in img.layers
+    with pytest.raises(ValueError, match='compression="lzw": unknown'):
+        img.write(str(tmp_path / "y.exr"), compression="lzw")
+    assert not (tmp_path / "y.exr").exists()
+    img.write(str(tmp_path / "y.exr"), compression="piz")
     np.testing.assert_array_equal(back.rgb, img.rgb)
     assert img.stats["spp"] == 2 and img.stats["tracker"] == "spectral-decomposition" and img.stats["paths"] > 0
 

@@ -162,20 +162,20 @@ uint32_t film_layers(const RenderArgs& a, const SceneDesc& scene, const std::str
   bool alpha_listed = false;
   while (std::getline(list, name, ',')) {
     const int k = aov_from_name(name);
-    if (k < 0) throw Error(fmt::format("--aov {}: unknown layer '{}' (one of: {})", a.aov, name, aov_names()));
+    if (k < 0) throw UsageError(fmt::format("--aov {}: unknown layer '{}' (one of: {})", a.aov, name, aov_names()));
     if (k == ST_AOV_INDEX_ALPHA) alpha_listed = true;
     else aovs |= 1u << k;
   }
   std::string ext = lower_extension(output);
   const bool exr = ext == ".exr";
-  if (a.alpha && a.no_alpha) throw Error("--alpha and --no-alpha: choose one");
-  if (alpha_listed && a.no_alpha) throw Error(fmt::format("--aov {} lists alpha, which --no-alpha turns off", a.aov));
+  if (a.alpha && a.no_alpha) throw UsageError("--alpha and --no-alpha: choose one");
+  if (alpha_listed && a.no_alpha) throw UsageError(fmt::format("--aov {} lists alpha, which --no-alpha turns off", a.aov));
   if (a.denoise && !exr)
     throw UsageError(fmt::format("{}: --denoise writes the denoised beauty as an EXR layer: write an EXR", output));
   if (a.denoise) aovs |= ST_AOV_BIT(ALBEDO);  // the denoiser's auxiliary input
   bool alpha = a.alpha || alpha_listed ? true : a.no_alpha ? false : scene.film.alpha.value_or(exr);
   if (!exr && (aovs || ((a.alpha || alpha_listed || scene.film.alpha.value_or(false)) && !a.no_alpha)))
-    throw Error(fmt::format("{}: film layers ({}) need an EXR output; a PNG holds the beauty only (write an EXR and add "
+    throw UsageError(fmt::format("{}: film layers ({}) need an EXR output; a PNG holds the beauty only (write an EXR and add "
                             "--preview for a PNG)",
                             output, a.aov.empty() ? std::string("film.aovs / film.alpha of ") + scene.path : "--aov " + a.aov));
   if (!exr) alpha = false;
@@ -325,14 +325,17 @@ int cmd_render(const RenderArgs& a, MpiArg& mpi) {
   if (a.frames.empty()) {
     for (const MediumDesc& m : scene.media)
       if (has_frame_pattern(fs::path(m.file).filename().string()))
-        throw Error(fmt::format("{}: {}/file: {} is a frame pattern: render it with --frames A:B", scene.path, m.json_path, m.file));
+        throw UsageError(fmt::format("{}: {}/file: {} is a frame pattern: render it with --frames A:B", scene.path, m.json_path, m.file));
     return render_scene(a, mpi, scene, output, t0);
   }
   long long first = 0, last = 0;
   check_frames(a.frames, &first, &last);  // checked by CLI11 already
-  if (!has_frame_pattern(fs::path(output).filename().string()))
-    throw Error(fmt::format("--frames {}: the output {} has no frame pattern (e.g. out_####.exr or out_$F4.exr), so "
-                            "every frame would overwrite it", a.frames, output));
+  // every file a frame writes is named per frame, or the frames would overwrite one another
+  for (const auto& [what, path] : {std::pair<const char*, std::string>{"the output", output}, {"--preview", a.preview},
+                                   {"--stats-json", a.stats_json}})
+    if (!path.empty() && !has_frame_pattern(fs::path(path).filename().string()))
+      throw UsageError(fmt::format("--frames {}: {} {} has no frame pattern (e.g. out_####.exr or out_$F4.exr), so "
+                                   "every frame would overwrite it", a.frames, what, path));
   set_phase("the frames' file checks");
   check_frame_files(scene, first, last);
   // one camera for the whole sequence: framing from every frame's boxes (scene/sequence_camera.h)

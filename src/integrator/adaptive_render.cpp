@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <iostream>
 #include <map>
 #include <memory>
 #include <numeric>
@@ -199,7 +200,7 @@ bool render_round(Renderer& r, const RoundGroups& groups, std::vector<double>& w
   static const bool trace = std::getenv("SPECTRACK_TRACE_ADAPTIVE") != nullptr;
   auto traced = [&](const RenderResult& rr, int64_t len, size_t pixels) {
     if (trace)
-      fmt::print(stderr, "round {} (aim {:.2f}, cap {}): {} samples of {} entries from sample {}: {:.3f} s, occupancy {:.2f}, {} iterations\n",
+      std::cerr << fmt::format("round {} (aim {:.2f}, cap {}): {} samples of {} entries from sample {}: {:.3f} s, occupancy {:.2f}, {} iterations\n",
                  out.rounds, out.aim, out.cap, len, pixels, n, rr.seconds_render, rr.stats.occupancy_mean, rr.stats.iterations);
     add_round_info(out.film, rr, out.film.width == 0);
   };
@@ -315,7 +316,7 @@ AdaptiveResult render_adaptive(Renderer& r, const AdaptivePlan& plan,
         taken += double(x.n);
         effective += 1.0 / x.V;
       }
-    fmt::print(stderr, "samples of the noisy pixels {:.0f}, as effective as {:.0f} equally weighted ({:.3f})\n", taken,
+    std::cerr << fmt::format("samples of the noisy pixels {:.0f}, as effective as {:.0f} equally weighted ({:.3f})\n", taken,
                effective, effective / taken);
   }
   const NoiseEstimate e = estimate_film_noise(f.sum, f.aov_sum, f.aov_channels, plan.spp);

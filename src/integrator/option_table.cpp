@@ -82,7 +82,8 @@ const OptionRow& option_row(const std::string& member) {
 
 std::string option_help(const OptionRow& row) {
   std::string notes;
-  if (!row.scene.empty()) notes = "overrides " + row.scene;
+  // a flag overrides its scene field, except --aov, whose layers are added to the list film.aovs
+  if (!row.scene.empty()) notes = (row.member == "aov" ? "adds to " : "overrides ") + row.scene;
   if (!row.default_text.empty()) notes += (notes.empty() ? "" : "; ") + std::string("default: ") + row.default_text;
   return notes.empty() ? row.doc : row.doc + " (" + notes + ")";
 }
