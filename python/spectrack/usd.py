@@ -261,11 +261,20 @@ def _sphere_light(mp, prim):
     return light_dict
 
 
+# the options stage_to_dict reads besides frame, camera, width and spp (docs/usd.md)
+OPTIONS = ("sigma_t", "albedo", "temperature_scale", "emission_scale", "blackbody_normalization", "search_paths",
+           "assets")
+
+
 def stage_to_dict(path, frame=None, camera=None, width=512, spp=64, **options):
     """The scene dict of a stage at `frame` (default: the stage's default time) and the warnings.
     options: sigma_t (1, per stage unit), albedo (0.8), temperature_scale (1: the grid in kelvin),
     emission_scale, blackbody_normalization, search_paths (folders for files not found next to
-    the stage), assets (authored asset path -> file)."""
+    the stage), assets (authored asset path -> file); any other option is a TypeError."""
+    unknown = sorted(set(options) - set(OPTIONS))
+    if unknown:
+        raise TypeError(f"load_usd: unknown option(s) {', '.join(unknown)} (the options: frame, camera, width, spp, "
+                        f"{', '.join(OPTIONS)})")
     stage = Usd.Stage.Open(os.fspath(path))
     if stage is None:
         raise ValueError(f"{path}: not a USD stage")

@@ -17,13 +17,26 @@ def main(argv=None):
     ap.add_argument("--sigma-t", type=float, default=1.0, help="extinction per unit density per stage unit")
     ap.add_argument("--albedo", type=float, default=0.8)
     ap.add_argument("--temperature-scale", type=float, default=1.0, help="kelvin per unit of a temperature field")
+    ap.add_argument("--emission-scale", type=float, default=1.0, help="a multiplier of the emission")
+    ap.add_argument("--blackbody-normalization", choices=("peak", "luminance", "none"), default="peak",
+                    help="a blackbody's normalisation (docs/scene-format.md)")
     ap.add_argument("--search-path", action="append", default=[], help="a folder for files not next to the stage")
+    ap.add_argument("--asset", action="append", default=[], metavar="AUTHORED=FILE",
+                    help="the file of an asset path the stage authors (repeatable)")
     a = ap.parse_args(argv)
+    assets = {}
+    for pair in a.asset:
+        authored, sep, real = pair.partition("=")
+        if not sep or not authored or not real:
+            ap.error(f"--asset {pair}: give AUTHORED=FILE")
+        assets[authored] = real
     try:
         from .usd import stage_to_dict
         scene, warnings = stage_to_dict(a.stage, frame=a.frame, camera=a.camera, width=a.width, spp=a.spp,
                                         sigma_t=a.sigma_t, albedo=a.albedo, temperature_scale=a.temperature_scale,
-                                        search_paths=a.search_path)
+                                        emission_scale=a.emission_scale,
+                                        blackbody_normalization=a.blackbody_normalization,
+                                        search_paths=a.search_path, assets=assets)
     except (ImportError, ValueError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
@@ -36,9 +49,13 @@ def main(argv=None):
     for lt in scene["lights"]:
         if "map" in lt:
             lt["map"] = os.path.relpath(lt["map"], base)
-    with open(a.output, "w", encoding="utf-8") as f:
-        json.dump(scene, f, indent=2)
-        f.write("\n")
+    try:
+        with open(a.output, "w", encoding="utf-8") as f:
+            json.dump(scene, f, indent=2)
+            f.write("\n")
+    except OSError as e:
+        print(f"error: {a.output}: cannot write the scene: {e.strerror}", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -79,6 +79,17 @@ def test_usd2scene_writes_a_scene_the_cli_renders(spectrack_binary, tmp_path):
     assert "warning:" in r.stderr and "Mesh: not mapped" in r.stderr
     subprocess.run([spectrack_binary, "render", str(out), "-o", str(tmp_path / "x.exr"), "-q"], check=True)
     assert np.asarray(spectrack.read_exr(str(tmp_path / "x.exr"))["R"]).max() > 0
+    # every option of load_usd is a flag; a folder that does not exist is an error, not a traceback
+    r = subprocess.run([sys.executable, "-m", "spectrack.usd2scene", str(USD / "refs" / "vdbVolume.usda"), "-o",
+                        str(tmp_path / "flags.json"), "--search-path", str(USD), "--emission-scale", "2",
+                        "--blackbody-normalization", "none", "--asset", "no/such.vdb=" + str(USD / "smoke1.vdb")],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    r = subprocess.run([sys.executable, "-m", "spectrack.usd2scene", str(USD / "refs" / "vdbVolume.usda"), "-o",
+                        str(tmp_path / "none" / "s.json"), "--search-path", str(USD)], capture_output=True, text=True)
+    assert r.returncode == 1 and "cannot write the scene" in r.stderr and "Traceback" not in r.stderr, r.stderr
+    with pytest.raises(TypeError, match="unknown option.*albdo"):
+        spectrack.load_usd(USD / "refs" / "vdbVolume.usda", search_paths=[str(USD)], albdo=0.5)
 
 
 def test_a_made_stage_maps_fields_dome_texture_and_warns_by_name(tmp_path):
