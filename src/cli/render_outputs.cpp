@@ -96,14 +96,18 @@ void write_render_outputs(const RenderOutputs& o, const SceneDesc& scene, const 
     std::cerr << fmt::format("wrote {} ({} in {:.2f} s render, {:.2f} s total{}{})\n", o.image,
                              r.piece.pixel_samples.empty()
                                  ? fmt::format("{} spp", r.piece.samples())
-                                 : fmt::format("adaptive, {:.1f} spp on average, at most {}",
-                                               std::get<float>(meta["adaptive_mean_spp"]), r.piece.samples()),
+                                 : fmt::format("adaptive, {:.1f} spp on average, {} in a pixel at most (--spp {})",
+                                               std::get<float>(meta["adaptive_mean_spp"]),
+                                               *std::max_element(r.piece.pixel_samples.begin(), r.piece.pixel_samples.end()),
+                                               r.piece.samples()),
                              r.seconds_render, t.total,
                              noise ? fmt::format(", noise {:.3g}%", 100.0 * noise->error) : std::string(),
                              r.noise_target_reached         ? ", noise target reached"
                              : r.stop_reason == "spp"         ? ", noise target missed at --spp"
                              : r.stop_reason == "pixels-finished"
-                                 ? ", noise target missed: every pixel took the samples predicted for its aim"
+                                 ? ", noise target missed: every pixel took the samples predicted for its aim or "
+                                   "the per-pixel cap, or, where the target was out of its reach, those that bring it "
+                                   "near the least error its weights allow (docs/adaptive.md)"
                              : !r.piece.interrupted ? ""
                              : r.time_limit_reached ? ", stopped at the time limit"
                                                     : ", INTERRUPTED");
