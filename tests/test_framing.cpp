@@ -101,6 +101,20 @@ TEST(Framing, NothingAskedChangesNothingAndErrorsAreNamed) {
   // position straight above the media with up (0, 1, 0): parallel
   c.position = {0, 10, 0};
   EXPECT_THROW(frame_camera(c, 8, 8, {Box3{{-1, -1, -1}, {1, 1, 1}}}, "s"), Error);
+  // media that are all empty grids (degenerate boxes): nothing to fit to, refused by name; the
+  // twin: one medium with content frames as before
+  CameraDesc fit = z;
+  fit.fit = 1.0;
+  const std::vector<Box3> empty{Box3{{2, 3, 4}, {2, 3, 4}}, Box3{{0, 0, 0}, {0, 0, 0}}};
+  try {
+    frame_camera(fit, 8, 8, empty, "s.json: /camera");
+    FAIL() << "framing empty media was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("every medium is empty"), std::string::npos) << e.what();
+  }
+  std::vector<Box3> one = empty;
+  one.push_back(Box3{{-1, -1, -1}, {1, 1, 1}});
+  EXPECT_NO_THROW(frame_camera(fit, 8, 8, one, "s"));
 }
 
 TEST(Framing, ParserAcceptsMediaAutoAndFit) {

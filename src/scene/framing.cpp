@@ -52,6 +52,11 @@ CameraDesc frame_camera(const CameraDesc& in, int width, int height, const std::
   Box3 all = boxes[0];
   for (const Box3& b : boxes)
     for (int a = 0; a < 3; ++a) all.lo[a] = std::min(all.lo[a], b.lo[a]), all.hi[a] = std::max(all.hi[a], b.hi[a]);
+  // empty grids give degenerate boxes (scene/media_bounds.h): nothing to fit a view to
+  const bool all_empty = std::none_of(boxes.begin(), boxes.end(), [](const Box3& b) { return len(sub(b.hi, b.lo)) > 0; });
+  if (all_empty && (in.position_auto || in.fit > 0))
+    throw Error(context + ": the camera frames the media (position \"auto\" or fit), but every medium is empty (an "
+                          "empty grid): there is nothing to frame; give the camera a position and a look_at");
   const double diag = std::max(len(sub(all.hi, all.lo)), 1e-12);
   if (in.look_at_media) c.look_at = scaled(Vec3{all.lo[0] + all.hi[0], all.lo[1] + all.hi[1], all.lo[2] + all.hi[2]}, 0.5);
   if (in.position_auto) {  // the default direction (0, 0, 1); (0, 1, 0) for a z-up camera
