@@ -470,8 +470,22 @@ TEST(Equiangular, AutoRuleRefusalsAndFeatureMask) {
   RenderOptions g = quiet_options();
   g.guiding = kGuidingOn;
   g.equiangular = kEquiangularOn;
+  g.spp = 4;  // guiding needs samples to train on
   EXPECT_NE(error_of([&] { resolve_settings(d, g); }).find("equi-angular sampling does not work with guiding"),
             std::string::npos);
+  // a render reports what auto chose (the statistics' equiangular_used), generic kernels too
+  auto used = [&](const json& s, bool generic) {
+    SceneDesc sd = scene_from_json(s, dir);
+    sd.film.width = sd.film.height = 4;
+    RenderOptions o = quiet_options();
+    o.spp = 1;
+    o.equiangular = kEquiangularAuto;
+    o.generic_kernels = generic;
+    return Renderer(sd, o).render().equiangular_used;
+  };
+  EXPECT_TRUE(used(thin, false));
+  EXPECT_FALSE(used(dense, false));
+  EXPECT_FALSE(used(dense, true)) << "the generic kernels hold every feature, not every choice";
 }
 
 }  // namespace

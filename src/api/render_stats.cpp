@@ -29,6 +29,7 @@ nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_tota
   j["seed"] = r.seed;
   for (const RecordedChoice& c : recorded_choices()) j[c.key] = p.id.*c.field;  // as the EXR records them
   j["light_sampling_used"] = light_sampling_name(r.light_sampling_used);
+  j["equiangular_used"] = r.equiangular_used;
   // the run's automatic choices as used (renderer.h RunChoices; the first device's)
   j["path_slots"] = r.path_slots;
   j["shadow_ring"] = r.shadow_ring;

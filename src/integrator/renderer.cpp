@@ -131,6 +131,7 @@ RenderResult Renderer::Impl::result_header(int64_t sample_begin, int spp) const 
   res.kernels_from_cache = from_cache;
   res.features = ds.packed.features;
   res.light_sampling_used = st_light_sampling(ds.packed.st.light_sampling);
+  res.equiangular_used = ds.packed.st.equiangular.n_local > 0;
   res.iteration_budget = opt.iteration_budget;
   res.majorants = ds.packed.majorants;
   return res;

@@ -77,6 +77,7 @@ struct GuideInfo {
 struct RunChoices {
   uint32_t features = 0;          // st_feature mask the kernels were compiled for (ST_FEATURES_ALL: generic)
   st_light_sampling light_sampling_used{};  // the kernels' (light_sampling "auto" resolved: scene_pack.cpp)
+  bool equiangular_used = false;  // equi-angular samples towards local lights ran ("auto" resolved: pack_lights.cpp)
   std::vector<MajorantInfo> majorants;      // each VDB medium's majorant structure
   GuideInfo guide;                // volume path guiding (its training time is in seconds_render)
   uint64_t path_slots = 0;        // paths in flight (--path-slots, else by device type: batch_plan.cpp)
