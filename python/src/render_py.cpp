@@ -73,10 +73,11 @@ RenderOptions options_of(const SceneDesc& scene, const RenderArgs& a) {
     opt.spp = int(e - b);
     opt.sample_range = true;
   }
-  if (a.time_limit) {  // at most --time-limit's bound (a longer one overflows the deadline); NaN is no limit
-    const double most = option_row("time_limit").check.hi;
-    if (!(*a.time_limit > 0 && *a.time_limit <= most))
-      throw py::value_error(fmt::format("time_limit={}: seconds, more than 0 and at most {:g}", *a.time_limit, most));
+  if (a.time_limit) {  // --time-limit's range (a longer one overflows the deadline); NaN is refused
+    const OptionCheck& range = option_row("time_limit").check;
+    if (!(*a.time_limit >= range.lo && *a.time_limit <= range.hi))
+      throw py::value_error(fmt::format("time_limit={}: seconds, from {:g} to {:g} (--time-limit's range)", *a.time_limit,
+                                        range.lo, range.hi));
   }
   if (a.pixel_bounds) opt.pixel_bounds = *a.pixel_bounds;
   if (a.tracker) opt.tracker = named(a.tracker, tracker_from_name, tracker_names, "tracker");
