@@ -316,7 +316,7 @@ TEST(BlackbodyScene, FieldsAndErrors) {
   std::string dir = temp_dir("blackbody_scene");
   write_vdb(dir + "/smoke.vdb", "density", openvdb::Coord(-2), openvdb::Coord(2), [](int, int, int) { return 1.0f; });
   json v = s;
-  v["media"].push_back({{"type", "vdb"}, {"file", "smoke.vdb"}, {"emission", {{"type", "blackbody"}}}});
+  v["media"].push_back({{"type", "vdb"}, {"file", "smoke.vdb"}, {"sigma_a", {1, 1, 1}}, {"emission", {{"type", "blackbody"}}}});
   // on a vdb medium, a constant temperature excludes the grid's mapping
   json c = v;
   c["media"][0]["emission"] = {{"type", "blackbody"}, {"temperature", 1500}, {"temperature_scale", 2}};

@@ -22,6 +22,7 @@
 #include "scene/scene.h"
 #include "util/files.h"
 #include "volume/volume.h"
+#include "test_util.h"
 
 #include <sys/stat.h>
 
@@ -304,6 +305,14 @@ TEST_F(SceneTest, OptionalMediumFields) {
   j["media"][0]["density_scale"] = 3.5;
   j["media"][1]["minorant_scale"] = 2;
   j["media"][1]["emission"] = {{"radiance", {1, 2, 3}}, {"scale", 0.5}};
+  // the absorption model emits sigma_a times the colour: the haze's sigma_a of 0 would emit
+  // nothing, which is refused naming the field; the twins: a colour of 0, and sigma_a > 0
+  const std::string dark = st_test::error_of([&] { parse(j); });
+  EXPECT_NE(dark.find("/media/1/emission: the absorption model"), std::string::npos) << dark;
+  json black = j;
+  black["media"][1]["emission"]["radiance"] = {0, 0, 0};
+  EXPECT_NO_THROW(parse(black));
+  j["media"][1]["sigma_a"] = {0.01, 0.01, 0.01};
   SceneDesc s = parse(j);
   EXPECT_EQ(s.media[0].grid_index, 2);
   EXPECT_DOUBLE_EQ(s.media[0].majorant_scale, 0.5);

@@ -132,10 +132,7 @@ bool guiding_pays(const SceneDesc& scene) {
   // stop above 0) times sigma_a (the physical model) or the density (the artists' model)
   auto emits = [&](const MediumDesc& m) {
     const EmissionDesc& e = m.emission;
-    if (!e.present || !(e.scale > 0) || !(m.density_scale > 0) || !(e.per_density || positive(m.sigma_a))) return false;
-    if (e.blackbody) return !(e.temperature > 0) || e.temperature > e.temperature_cutoff;
-    if (e.ramp) return std::any_of(e.stops.begin(), e.stops.end(), [&](const auto& s) { return positive(s.second); });
-    return positive(e.radiance);
+    return e.colour_nonzero() && m.density_scale > 0 && (e.per_density || positive(m.sigma_a));
   };
   auto lamp = [&](const MediumDesc& m) { return emits(m) && !scatters(m); };
   auto glows = [&](const MediumDesc& m) { return emits(m) && scatters(m); };

@@ -70,6 +70,20 @@ struct EmissionDesc {
   // a preset's (scene/presets.h) fire grids with their temperature_scale: the first the file has
   // is the temperature grid; none: no emission (a warning)
   std::vector<std::pair<std::string, double>> temperature_grid_choices;
+
+  // Whether its colour is not 0 (before sigma_a or the density multiplies it): a radiance or a ramp
+  // stop above 0, a blackbody above its cutoff (or of a grid), a scale above 0.
+  bool colour_nonzero() const {
+    auto positive = [](const Vec3& v) { return v[0] > 0 || v[1] > 0 || v[2] > 0; };
+    if (!present || !(scale > 0)) return false;
+    if (blackbody) return !(temperature > 0) || temperature > temperature_cutoff;
+    if (ramp) {
+      for (const auto& s : stops)
+        if (positive(s.second)) return true;
+      return false;
+    }
+    return positive(radiance);
+  }
 };
 
 // A per-voxel colour (a vec3 grid of the medium's file, sharing the density grid's transform):
