@@ -228,6 +228,7 @@ TEST(LimitsMessages, TemperatureScaleBound) {
   json j = base_scene();
   j["media"].push_back({{"type", "vdb"},
                         {"file", "fire.vdb"},
+                        {"sigma_a", {1, 1, 1}},
                         {"emission", {{"type", "blackbody"}, {"temperature_scale", -1e30}}}});
   const std::string e = pack_error(j, dir);
   EXPECT_NE(e.find("is not below 1e30"), std::string::npos) << e;
