@@ -2,8 +2,9 @@
 # bench/bit_identity.sh OLD NEW: renders cloud.json and every bench scene with each tracker (and
 # schemes, generic kernels, a shard) with both binaries and compares EXR pixels and counters bit for
 # bit; a control pair (another seed) must differ. OLD and NEW are absolute paths of spectrack binaries.
-# A scene the old binary refuses while the new one renders it (a scene field newer than the old
-# binary, e.g. a preset or a ground) is listed as skipped, not compared; every other failure fails.
+# A scene the old binary refuses as having an unknown field while the new one renders it (a scene
+# field newer than the old binary, e.g. a ground) is listed as skipped, not compared; every other
+# failure fails.
 OLD=$1; NEW=$2; cd "$(dirname "$0")/.."; out=$(mktemp -d); fail=0; skipped=0
 # --no-alpha where a binary has film layers (docs/aov.md: EXRs get alpha by default): the beauty alone
 noalpha() { "$1" render --help 2>/dev/null | grep -q -- --no-alpha && echo --no-alpha; }
@@ -14,7 +15,7 @@ run() { # name scene args...
   $OLD render "$@" $NA_OLD -o $out/$name.old.exr --quiet --stats-json $out/$name.old.json >$out/$name.old.log 2>&1 || old_ok=0
   $NEW render "$@" $NA_NEW -o $out/$name.new.exr --quiet --stats-json $out/$name.new.json >/dev/null 2>&1 || { echo "NEW FAIL $name"; fail=1; return; }
   if [ $old_ok = 0 ]; then
-    if grep -q "^error: .*\.json: /" $out/$name.old.log; then  # a scene field the old binary does not know
+    if grep -q "^error: .*\.json: /.*: unknown field" $out/$name.old.log; then  # a scene field the old binary does not know
       echo "skip $name: the old binary refuses the scene ($(grep -m1 '^error' $out/$name.old.log | cut -c1-160))"
       skipped=$((skipped + 1)); return
     fi

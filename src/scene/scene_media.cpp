@@ -198,7 +198,8 @@ MediumDesc Parser::medium(const json& j, const std::string& path, size_t index) 
                                      "brightness is divided out): sigma_a is [" + num(m.sigma_a[0]) + ", " + num(m.sigma_a[1]) +
                                      ", " + num(m.sigma_a[2]) + "]");
     if (m.color.present) fail(path + "/emission/model", "\"density\" excludes a colour grid (it varies sigma_a per voxel)");
-  } else if (m.emission.colour_nonzero() && !m.color.present && !(m.sigma_a[0] > 0 || m.sigma_a[1] > 0 || m.sigma_a[2] > 0)) {
+  } else if (m.emission.colour_nonzero() && !(m.color.present && m.color.mode == ST_COLOR_ALBEDO) &&
+             !(m.sigma_a[0] > 0 || m.sigma_a[1] > 0 || m.sigma_a[2] > 0)) {  // an albedo grid makes sigma_a
     fail(path + "/emission", "the absorption model (the default \"model\") emits sigma_a times the emission's colour, "
                              "and sigma_a is [0, 0, 0]: the medium would emit nothing; give sigma_a > 0");
   }
