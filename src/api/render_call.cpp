@@ -11,9 +11,6 @@ MultiDeviceResult render_call(const SceneDesc& scene, const RenderOptions& optio
                               int chunk_spp, const std::string& json_text) {
   const RenderSettings set = resolve_settings(scene, options);
   const std::vector<std::string> devices = parse_device_list(device_spec);
-  if (set.noise_target > 0 && devices.size() > 1)
-    throw UsageError("a noise target (render.noise_target) stops one device's render at its noise: it does not work "
-                     "with several devices");
   std::future<std::string> hash = std::async(std::launch::async, [&] {
     return json_text.empty() ? scene_hash(scene) : scene_hash(scene, json_text);
   });

@@ -267,10 +267,7 @@ std::vector<SampleRange> cell_ranges(const std::vector<FilmPiece>& pieces, int c
 FilmPiece merge_layout(const std::vector<FilmPiece>& pieces, bool with_sums) {
   if (pieces.empty()) throw Error("merge: no input");
   for (const FilmPiece& p : pieces)
-    if (!p.pixel_samples.empty())
-      throw UsageError(fmt::format("{}: an adaptive render cannot be merged: each pixel holds its own number of "
-                                   "samples (layer 'samples'), so no other piece adds to it (docs/adaptive.md)",
-                                   p.source));
+    if (!p.pixel_samples.empty()) throw adaptive_merge_error(p.source);
   check_one_render(pieces, with_sums);
   const FilmPiece& a = pieces[0];
   std::vector<int> xs, ys;
@@ -313,6 +310,12 @@ FilmPiece merge_layout(const std::vector<FilmPiece>& pieces, bool with_sums) {
 }
 
 }  // namespace
+
+UsageError adaptive_merge_error(const std::string& source) {
+  return UsageError(fmt::format("{}: an adaptive render cannot be merged: each pixel holds its own number of samples "
+                                "(layer 'samples'), so no other piece adds to it (docs/adaptive.md)",
+                                source));
+}
 
 FilmPiece plan_merge(const std::vector<FilmPiece>& pieces) { return merge_layout(pieces, false); }
 

@@ -106,6 +106,8 @@ FilmPiece empty_piece(const RenderIdentity& id, const FilmWindow& w, const std::
 FilmPiece piece_from_result(const RenderResult& r, const RenderIdentity& id, const std::string& source);
 // Combines pieces into one over their bounding box; throws Error (naming the sources) as above.
 FilmPiece merge_pieces(const std::vector<FilmPiece>& pieces);
+// The refusal of an adaptive render (its 'samples' layer) as a merge input, named by `source`.
+UsageError adaptive_merge_error(const std::string& source);
 // merge_pieces' checks and result without the sums: the pieces may be headers (no sums); the
 // result has the window, ranges, identity and interrupted flag of the merge (film/merge_files.h
 // adds the sums a band of rows at a time).

@@ -244,10 +244,7 @@ FilmPiece piece_from_header(const std::string& path, const RgbImage& img) {
     throw Error(fmt::format("{}: a {} image cannot be merged: only spectrack's EXR outputs hold the float pixels and "
                             "sample ranges a merge needs",
                             path, img.format));
-  if (img.meta.count("adaptive"))
-    throw UsageError(fmt::format("{}: an adaptive render cannot be merged: each pixel holds its own number of samples "
-                                 "(layer 'samples'), so no other piece adds to it (docs/adaptive.md)",
-                                 path));
+  if (img.meta.count("adaptive")) throw adaptive_merge_error(path);
   auto str = [&](const char* key) { return meta_text(path, img.meta, key); };
   FilmPiece p;
   p.source = path;

@@ -257,6 +257,9 @@ MultiDeviceResult render_multi_device(const SceneDesc& scene, const RenderOption
   const size_t n_dev = devices.size();
   if (n_dev == 0) throw Error("internal: no device to render on");
   if (spp < 1) throw Error("internal: empty sample range");
+  if (settings.noise_target > 0 && n_dev > 1)  // the watch looks at one device's film
+    throw UsageError("a noise target (render.noise_target) stops one device's render at its noise: it does not work "
+                     "with several devices");
   if (settings.adaptive) {
     if (n_dev > 1 || sample_begin != 0 || spp != settings.spp)
       throw UsageError("adaptive sampling renders on one device, over the whole sample range");
