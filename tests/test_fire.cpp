@@ -147,27 +147,40 @@ TEST(FirePresets, BlenderRendersSmokeAndFlame) {
   EXPECT_NE(err.find("houdini-pyro, blender"), std::string::npos) << err;
 }
 
-TEST(FirePresets, InfoWarnsOfAMissingEmissionGrid) {
+TEST(FirePresets, InfoRefusesAMissingEmissionGridAsRenderDoes) {
   const std::string dir = st_cli::test_dir();
   const std::string file = st_cli::kShared + "/usd/densityAndHeat.vdb";
   json s = st_cli::vdb_scene(file);
   s["media"][0]["sigma_a"] = {0.5, 0.5, 0.5};
   s["media"][0]["emission"] = {{"type", "radiance"}, {"radiance", {1, 1, 1}}, {"grid", "flame"}};
-  st_cli::Proc p = st_cli::run({"info", st_cli::write_scene(dir, "missing.json", s)});
-  EXPECT_TRUE(p.exited && p.code == 0) << p.describe();
-  EXPECT_NE(p.out.find("warning:"), std::string::npos) << p.out;
-  EXPECT_NE(p.out.find("/media/0/emission/grid"), std::string::npos) << p.out;
-  EXPECT_NE(p.out.find("\"flame\""), std::string::npos) << p.out;
-  p = st_cli::run({"info", "--json", st_cli::write_scene(dir, "missing.json", s)});
-  EXPECT_NE(p.out.find("\"warnings\""), std::string::npos) << p.out;
+  const std::string missing = st_cli::write_scene(dir, "missing.json", s);
+  for (const std::vector<std::string>& cmd : {std::vector<std::string>{"info", missing},
+                                              std::vector<std::string>{"render", missing, "-q", "-o", dir + "/m.exr"}}) {
+    st_cli::Proc p = st_cli::run(cmd);
+    EXPECT_TRUE(p.exited && p.code == 1) << p.describe();
+    EXPECT_NE(p.out.find("/media/0/emission/grid"), std::string::npos) << p.out;
+    EXPECT_NE(p.out.find("\"flame\""), std::string::npos) << p.out;
+  }
+  st_cli::Proc p = st_cli::run({"info", "--json", missing});
+  EXPECT_NE(p.out.find("\"renders\": false"), std::string::npos) << p.out;
   s["media"][0]["emission"] = {{"type", "blackbody"}, {"temperature_grid", "temperature"}};
   p = st_cli::run({"info", st_cli::write_scene(dir, "missing_t.json", s)});
+  EXPECT_TRUE(p.exited && p.code == 1) << p.describe();
   EXPECT_NE(p.out.find("/media/0/emission/temperature_grid"), std::string::npos) << p.out;
-  // twin: the grid the file has gives no warning
+  // twin: the grid the file has passes, with no warning
   s["media"][0]["emission"] = {{"type", "radiance"}, {"radiance", {1, 1, 1}}, {"grid", "heat"}};
-  p = st_cli::run({"info", st_cli::write_scene(dir, "present.json", s)});
+  p = st_cli::run({"info", "--json", st_cli::write_scene(dir, "present.json", s)});
   EXPECT_TRUE(p.exited && p.code == 0) << p.describe();
   EXPECT_EQ(p.out.find("warning:"), std::string::npos) << p.out;
+  EXPECT_NE(p.out.find("\"renders\": true"), std::string::npos) << p.out;
+  // a preset that finds none of its fire grids renders without emission: a warning, exit 0
+  s = st_cli::vdb_scene(st_cli::kShared + "/smoke1.vdb");
+  s["media"][0]["preset"] = "houdini-pyro";
+  s["media"][0]["sigma_a"] = {0.5, 0.5, 0.5};
+  p = st_cli::run({"info", "--json", st_cli::write_scene(dir, "preset.json", s)});
+  EXPECT_TRUE(p.exited && p.code == 0) << p.describe();
+  EXPECT_NE(p.out.find("none of the preset's fire grids"), std::string::npos) << p.out;
+  EXPECT_NE(p.out.find("\"warnings\""), std::string::npos) << p.out;
 }
 
 TEST(FireControls, DensityModelMatchesItsClosedForm) {

@@ -192,4 +192,57 @@ TEST(CliInfo, SceneShowsMediaLightsAndCamera) {
   EXPECT_THAT(e.out, HasSubstr("bad.json: /media/0/sigma_x")) << e.out;
 }
 
+// A scene that render refuses for its data (a grid the medium names and the file lacks, a number
+// the kernels' floats cannot hold) is refused by info with render's message (exit 1, "renders":
+// false in --json); the same scene without the fault passes. The camera's lens and shutter are shown.
+TEST(CliInfo, SceneRefusedAsRenderRefusesIt) {
+  const std::string dir = test_dir();
+  const json base = vdb_scene(kShared + "/smoke1.vdb");
+  struct Fault {
+    const char* name;
+    json medium_patch;
+    const char* message;
+  };
+  const Fault faults[] = {
+      {"colour_grid", {{"color", {{"mode", "albedo"}, {"grid", "Cd"}}}}, "no colour grid named \"Cd\""},
+      {"velocity_grid", {{"velocity", {{"grid", "vel"}}}}, "no velocity grid named \"vel\""},
+      {"majorant_scale", {{"majorant_scale", 1e-9}}, "/media/0/majorant_scale"},
+  };
+  for (const Fault& f : faults) {
+    SCOPED_TRACE(f.name);
+    json s = base;
+    s["media"][0].update(f.medium_patch);
+    const std::string scene = write_scene(dir, std::string(f.name) + ".json", s);
+    Proc i = run({"info", scene});
+    expect_error_exit(i);
+    EXPECT_THAT(i.out, HasSubstr(f.message)) << i.out;
+    EXPECT_THAT(i.out, HasSubstr("world bbox")) << "the report comes before the error: " << i.out;
+    Proc r = run({"render", scene, "-q", "--spp", "1", "-o", dir + "/r.exr"});
+    expect_error_exit(r);
+    EXPECT_THAT(r.out, HasSubstr(f.message)) << r.out;
+    Proc j = run({"info", "--json", scene});
+    expect_error_exit(j);
+    const json doc = info_json(j);
+    ASSERT_TRUE(doc.is_array() && doc.size() == 1) << j.out;
+    EXPECT_FALSE(doc[0]["renders"].get<bool>());
+    EXPECT_THAT(doc[0]["error"].get<std::string>(), HasSubstr(f.message));
+  }
+  // twin: the scene without a fault, with a lens and a shutter
+  json s = base;
+  s["camera"]["aperture_radius"] = 0.5;
+  s["camera"]["focus_distance"] = 30.0;
+  s["camera"]["shutter"] = {-0.25, 0.25};
+  const std::string scene = write_scene(dir, "fine.json", s);
+  Proc t = run({"info", scene});
+  ASSERT_TRUE(t.exited && t.code == 0) << t.describe();
+  EXPECT_THAT(t.out, HasSubstr("thin lens      aperture radius 0.5, focus at 30")) << t.out;
+  EXPECT_THAT(t.out, HasSubstr("shutter        -0.25 .. 0.25 s")) << t.out;
+  Proc j = run({"info", "--json", scene});
+  ASSERT_TRUE(j.exited && j.code == 0) << j.describe();
+  const json doc = info_json(j);
+  EXPECT_TRUE(doc[0]["renders"].get<bool>());
+  EXPECT_EQ(doc[0]["camera"]["shutter"], json::array({-0.25, 0.25}));
+  EXPECT_EQ(doc[0]["camera"]["aperture_radius"].get<double>(), 0.5);
+}
+
 }  // namespace

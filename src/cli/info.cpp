@@ -1,5 +1,8 @@
 // info.cpp: `spectrack info` (info.h). Volumes through inspect_volume (volume/inspect.h), scenes
 // through load_scene and the loaders (scene/media_bounds.h); the camera as framing resolves it.
+// A scene is then packed as `render` packs it with the scene's own settings (resolve_settings,
+// pack_scene: host work, no device), so that every check render makes of the scene's data (grids,
+// maps, numbers the kernels' floats cannot hold) is made here too, once, in the render's words.
 #include "cli/info.h"
 
 #include <fmt/format.h>
@@ -15,6 +18,8 @@
 #include "scene/sequence_camera.h"
 #include "scene/framing.h"
 #include "scene/scene.h"
+#include "scene/scene_pack.h"
+#include "integrator/settings.h"
 #include "util/error.h"
 #include "volume/inspect.h"
 #include "volume/volume.h"
@@ -84,33 +89,21 @@ void print_volume(const std::string& file, const std::vector<GridInfo>& grids) {
   }
 }
 
-// The warning for an emission grid that a vdb medium names (or, blackbody, the default grids it
-// looks for) and its file lacks: the render refuses such a scene; empty when the grid is there.
+// For --json's "warnings": a vdb medium whose fire preset finds none of its grids in the file (the
+// render takes such a scene and it renders without emission; the pack below prints the warning on
+// stderr, and a grid the scene names and the file lacks is the pack's error). Empty otherwise.
 std::string emission_grid_warning(const SceneDesc& s, const MediumDesc& md) {
   const EmissionDesc& e = md.emission;
-  if (md.type != ST_MEDIUM_VDB || !e.present || (e.blackbody && e.temperature > 0)) return "";
-  const std::string field = e.blackbody ? "temperature_grid" : "grid", name = e.blackbody ? e.temperature_grid : e.grid;
-  if (!e.blackbody && name.empty()) return "";
+  if (md.type != ST_MEDIUM_VDB || !e.present || !e.blackbody || e.temperature > 0 || !e.temperature_grid.empty() ||
+      e.temperature_grid_choices.empty())
+    return "";
   const std::vector<std::string> grids = list_grids(md.file);
-  auto has = [&](const std::string& n) { return grid_listed(grids, n); };
+  for (const auto& choice : e.temperature_grid_choices)
+    if (grid_listed(grids, choice.first)) return "";
   std::string all;
   for (const std::string& g : grids) all += (all.empty() ? "" : ", ") + g;
-  if (name.empty() && !e.temperature_grid_choices.empty()) {
-    for (const auto& choice : e.temperature_grid_choices)
-      if (has(choice.first)) return "";
-    return fmt::format("{}: {}/preset: {} has none of the preset's fire grids (its grids: {}); the medium renders "
-                       "without emission", s.path, md.json_path, md.file, all);
-  }
-  if (name.empty()) {
-    const auto& d = default_temperature_grids();
-    if (std::any_of(d.begin(), d.end(), has)) return "";
-    return fmt::format("{}: {}/emission: {} has no grid named temperature, heat or flame (its grids: {}); the render "
-                       "refuses this scene: name the grid with emission.temperature_grid",
-                       s.path, md.json_path, md.file, all);
-  }
-  if (has(name)) return "";
-  return fmt::format("{}: {}/emission/{}: {} has no grid named \"{}\" (its grids: {}); the render refuses this scene",
-                     s.path, md.json_path, field, md.file, name, all);
+  return fmt::format("{}: {}/preset: {} has none of the preset's fire grids (its grids: {}); the medium renders "
+                     "without emission", s.path, md.json_path, md.file, all);
 }
 
 const char* light_type(int t) {
@@ -164,7 +157,6 @@ json medium_json(const SceneDesc& s, const MediumDesc& md, std::string& t, Box3*
   const std::string warning = emission_grid_warning(s, md);
   if (!warning.empty()) {
     m["warnings"] = json::array({warning});
-    std::cerr << "warning: " << warning << "\n";
   }
   t += fmt::format("  medium \"{}\" ({}{})\n", md.name, md.type == ST_MEDIUM_VDB ? "vdb " : "homogeneous",
                    md.type == ST_MEDIUM_VDB ? md.file : "");
@@ -233,12 +225,27 @@ json scene_json(const SceneDesc& s, std::string* text) {
   json in_view = json::array();
   for (const Box3& b : boxes) in_view.push_back(box_in_view(c, s.film.width, s.film.height, b, 1e-6));
   cam["media_in_view"] = in_view;
-  out["camera"] = cam;
   t += fmt::format("  camera {}{}: position {}, look_at {}, up {}, {}\n", cam["type"].get<std::string>(),
                    camera_needs_framing(c0) ? " (framed)" : "", v3(c.position), v3(c.look_at), v3(c.up),
                    c.type == ST_CAMERA_ORTHOGRAPHIC ? fmt::format("height {:.6g}", c.height) : fmt::format("fov {:.6g} deg", c.fov_deg));
+  if (c.aperture_radius > 0) {
+    cam["aperture_radius"] = c.aperture_radius;
+    cam["focus_distance"] = c.focus_distance;  // 0: the distance to look_at
+    t += fmt::format("      thin lens      aperture radius {:.6g}, focus {}\n", c.aperture_radius,
+                     c.focus_distance > 0 ? fmt::format("at {:.6g}", c.focus_distance) : std::string("on look_at"));
+  }
+  if (c.shutter) {
+    cam["shutter"] = {(*c.shutter)[0], (*c.shutter)[1]};
+    t += fmt::format("      shutter        {:.6g} .. {:.6g} s\n", (*c.shutter)[0], (*c.shutter)[1]);
+  }
+  if (c.position_close) cam["position_close"] = vec(*c.position_close);
+  if (c.look_at_close) cam["look_at_close"] = vec(*c.look_at_close);
+  if (c.position_close || c.look_at_close)
+    t += fmt::format("      at close       position {}, look_at {}\n", v3(c.position_close.value_or(c.position)),
+                     v3(c.look_at_close.value_or(c.look_at)));
   for (size_t i = 0; i < boxes.size(); ++i)
     if (!in_view[i].get<bool>()) t += fmt::format("      note: medium \"{}\" is not entirely in view (see \"look_at\": \"media\" and \"fit\")\n", s.media[i].name);
+  out["camera"] = cam;
   return out;
 }
 
@@ -284,6 +291,18 @@ int cmd_info(const std::vector<std::string>& files, bool as_json, const std::opt
           text.clear();
           all.push_back(scene_json(s, &text));
           if (!as_json) std::cout << text;
+          // render's own checks of the scene's data, with the scene's settings (no flags)
+          try {
+            const RenderOptions opt;
+            pack_scene(s, resolve_settings(s, opt),
+                       {opt.majorant_cell, opt.majorant_block, opt.iteration_budget, opt.majorant_step_cost});
+            all.back()["renders"] = true;
+          } catch (const std::exception& e) {
+            all.back()["renders"] = false;
+            all.back()["error"] = e.what();
+            std::cerr << "error: " << e.what() << "\n";
+            ++failed;
+          }
         }
       } else {
         for (const std::string& file : volume_frames(f, frames)) {

@@ -320,7 +320,7 @@ void Packer::add_emission(st_medium& m, const MediumDesc& md, const GridData& g,
   } else if (em.grid.empty()) {
     check_emission_bounds(ctx_name, md, g.value_max, 1.0);
   } else if (em.present && m.emissive) {
-    GridData e = load_float_grid(md.file, em.grid, -1, ctx_name + "/emission");
+    GridData e = load_float_grid(md.file, em.grid, -1, ctx_name + "/emission/grid");
     check_emission_bounds(ctx_name, md, g.value_max, e.value_max);
     same_transform(e, "grid");
     m.emission_grid = upload_grid(ctx_name, e);
