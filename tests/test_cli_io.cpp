@@ -34,7 +34,12 @@ std::string read_bytes(const std::string& path) {
 }
 
 // Whether process `pid` catches `sig` (SigCgt of /proc/PID/status).
+// Whether the process `pid` runs spectrack and catches `sig`: a child between fork and exec still
+// has the test process's handlers (a library loaded by an earlier test may have installed one), and
+// the SIG_DFL it sets before exec would let the signal kill it.
 bool catches(pid_t pid, int sig) {
+  std::error_code ec;
+  if (fs::read_symlink("/proc/" + std::to_string(pid) + "/exe", ec) != fs::canonical(kBinary, ec)) return false;
   std::ifstream f("/proc/" + std::to_string(pid) + "/status");
   std::string line;
   while (std::getline(f, line))

@@ -12,6 +12,7 @@
 #include <cstdlib>
 
 #include "cli_util.h"
+#include "film/film.h"
 #include "image/denoise.h"
 
 namespace {
@@ -86,6 +87,11 @@ TEST(CliDenoise, TheDenoisedLayerIsCloserToALongRenderThanTheNoisyBeauty) {
   auto in = OIIO::ImageInput::open(dir + "/d.exr");
   ASSERT_TRUE(in);
   EXPECT_EQ(in->spec().get_string_attribute("spectrack:denoised"), "oidn RT, albedo");
+  // read back as a piece (Python's spectrack.read), the denoised layer comes with it, value for value
+  const spectrack::FilmPiece piece = spectrack::read_piece(dir + "/d.exr");
+  ASSERT_EQ(piece.denoised.size(), denoised.size());
+  for (size_t i = 0; i < denoised.size(); ++i) ASSERT_EQ(piece.denoised[i], denoised[i]) << "value " << i;
+  EXPECT_TRUE(spectrack::read_piece(dir + "/plain.exr").denoised.empty());
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // image_py.cpp: the Image class and the functions that make images from others or from files:
-// merge (film.h merge_pieces: the checks of `spectrack merge`), read (read_piece) and read_exr
+// merge (film.h merge_pieces: the checks of `spectrack merge`), read (read_piece, adaptive renders
+// included) and read_exr
 // (the raw channels of an EXR, for comparing files with arrays).
 #include "image_py.h"
 
@@ -89,9 +90,14 @@ Image merge(const py::list& items) {
 
 Image read(const std::string& path) {
   Image im;
-  im.piece = read_piece(path, &im.meta);
+  im.piece = read_piece(path, &im.meta, /*keep_adaptive=*/true);  // merge() still refuses an adaptive Image
   im.stats = {{"spp", im.piece.samples()}, {"spp_ranges", format_ranges(im.piece.ranges)},
               {"interrupted", im.piece.interrupted}, {"file", path}};
+  if (!im.piece.pixel_samples.empty()) {
+    double total = 0;
+    for (float n : im.piece.pixel_samples) total += n;
+    im.stats["adaptive_mean_spp"] = total / double(im.piece.pixel_samples.size());
+  }
   return im;
 }
 

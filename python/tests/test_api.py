@@ -133,6 +133,21 @@ def test_what_the_command_line_refuses_is_refused(spectrack_binary, tmp_path):
     merged = subprocess.run([spectrack_binary, "merge", str(tmp_path / "m.exr"), str(tmp_path / "ad.exr")],
                             capture_output=True, text=True)
     assert merged.returncode == 2 and "an adaptive render cannot be merged" in merged.stderr, merged.stderr
+    # read back, it is the same image with its samples per pixel, and merge still refuses it
+    back = spectrack.read(str(tmp_path / "ad.exr"))
+    assert sorted(back.channels) == sorted(adaptive.channels)
+    for name, values in adaptive.channels.items():
+        np.testing.assert_array_equal(back.channels[name], values, err_msg=name)
+    np.testing.assert_array_equal(back.rgb, adaptive.rgb)
+    assert back.stats["adaptive_mean_spp"] == pytest.approx(float(np.mean(adaptive.channels["samples"])))
+    with pytest.raises(ValueError, match="an adaptive render cannot be merged"):
+        spectrack.merge([back])
+    with pytest.raises(ValueError, match="an adaptive render cannot be merged"):
+        spectrack.merge([str(tmp_path / "ad.exr")])
+    back.write(str(tmp_path / "ad2.exr"))
+    again = spectrack.read_exr(str(tmp_path / "ad2.exr"))
+    for name, values in spectrack.read_exr(str(tmp_path / "ad.exr")).items():
+        np.testing.assert_array_equal(again[name], values, err_msg=name)
     # a scheme the tracker ignores, chunks of samples with one device
     with pytest.raises(ValueError, match="ignores the spectral scheme"):
         spectrack.load_dict(SLAB).render(tracker="delta", scheme="average")

@@ -122,7 +122,10 @@ Metadata piece_metadata(const FilmPiece& p);
 void write_piece(const std::string& path, const FilmPiece& p, const Metadata& extra, const ExrOptions& exr = {});
 // Reads a piece written by write_piece; throws Error for PNGs and images without the metadata.
 // `meta`, when given, gets the file's other spectrack:* metadata (device, render_seconds, ...).
-FilmPiece read_piece(const std::string& path, Metadata* meta = nullptr);
+// An adaptive render's EXR (its 'samples' layer) is refused as a merge input (adaptive_merge_error)
+// unless `keep_adaptive`: then its per-pixel samples come back in pixel_samples (a piece that
+// merge_pieces still refuses). The denoised layer, when whole, comes back in `denoised`.
+FilmPiece read_piece(const std::string& path, Metadata* meta = nullptr, bool keep_adaptive = false);
 
 // The parts of write_piece and read_piece, for a merge that streams rows (film/film_io.cpp):
 // the EXR channels of p's pixels (names returned, values pixel-major in px), the beauty a PNG
@@ -132,7 +135,7 @@ std::vector<float> piece_beauty(const FilmPiece& p);
 PixelWindow piece_window(const FilmPiece& p);
 // The piece a file header describes (identity, window, ranges, layers; no sums): the refusals of
 // read_piece that need no pixel, spp, spp_begin and spp_end checked against spp_ranges.
-FilmPiece piece_from_header(const std::string& path, const RgbImage& header);
+FilmPiece piece_from_header(const std::string& path, const RgbImage& header, bool keep_adaptive = false);
 // Turns a piece file's pixels (R, G, B and the layers `extra_names`, as read) back into sums.
 class PieceDecoder {
  public:

@@ -239,12 +239,12 @@ uint32_t piece_layers(const std::string& path, const std::vector<std::string>& h
 
 }  // namespace
 
-FilmPiece piece_from_header(const std::string& path, const RgbImage& img) {
+FilmPiece piece_from_header(const std::string& path, const RgbImage& img, bool keep_adaptive) {
   if (img.format != "openexr")
     throw Error(fmt::format("{}: a {} image cannot be merged: only spectrack's EXR outputs hold the float pixels and "
                             "sample ranges a merge needs",
                             path, img.format));
-  if (img.meta.count("adaptive")) throw adaptive_merge_error(path);
+  if (img.meta.count("adaptive") && !keep_adaptive) throw adaptive_merge_error(path);
   auto str = [&](const char* key) { return meta_text(path, img.meta, key); };
   FilmPiece p;
   p.source = path;
@@ -319,14 +319,32 @@ void PieceDecoder::decode(const float* rgb, const float* extra, size_t npix, dou
   }
 }
 
-FilmPiece read_piece(const std::string& path, Metadata* meta) {
+FilmPiece read_piece(const std::string& path, Metadata* meta, bool keep_adaptive) {
   RgbImage img = read_image(path, ImageUse::kFilmPiece);
   if (meta) *meta = img.meta;
-  FilmPiece p = piece_from_header(path, img);
+  FilmPiece p = piece_from_header(path, img, keep_adaptive);
   const size_t npix = size_t(p.width) * p.height;
   p.sum.resize(npix * 3);
   p.aov_sum.resize(npix * aov_sum_channels(p.id.aovs).size());
   PieceDecoder(p, img.extra_names).decode(img.rgb.data(), img.extra.data(), npix, p.sum.data(), p.aov_sum.data());
+  const std::vector<std::string>& have = img.extra_names;
+  const size_t ne = have.size();
+  auto column = [&](const char* c) { return size_t(std::find(have.begin(), have.end(), c) - have.begin()); };
+  if (img.meta.count("adaptive")) {  // keep_adaptive (piece_from_header refuses it otherwise)
+    const size_t col = column(kSamplesChannel);
+    if (col == ne)
+      throw Error(fmt::format("{}: metadata spectrack:adaptive without the '{}' layer (the samples of each pixel); the "
+                              "file was edited or damaged",
+                              path, kSamplesChannel));
+    p.pixel_samples.resize(npix);
+    for (size_t i = 0; i < npix; ++i) p.pixel_samples[i] = img.extra[i * ne + col];
+  }
+  const size_t d[3] = {column(kDenoisedChannels[0]), column(kDenoisedChannels[1]), column(kDenoisedChannels[2])};
+  if (d[0] < ne && d[1] < ne && d[2] < ne) {
+    p.denoised.resize(npix * 3);
+    for (size_t i = 0; i < npix; ++i)
+      for (size_t c = 0; c < 3; ++c) p.denoised[i * 3 + c] = img.extra[i * ne + d[c]];
+  }
   return p;
 }
 
