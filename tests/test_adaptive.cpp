@@ -533,6 +533,10 @@ TEST(CliAdaptive, WritesTheSamplesLayerAndRefusesWhatCannotWork) {
   EXPECT_GT(in->spec().get_float_attribute("spectrack:adaptive_mean_spp", 0.0f), 16.0f);
   EXPECT_LT(in->spec().get_float_attribute("spectrack:adaptive_mean_spp", 1e9f), 512.0f);
   EXPECT_EQ(meta_text(dir + "/a.exr", "stop_reason"), "noise-target");
+  {  // the statistics count samples per pixel as a uniform render's do: the mean, rounded
+    const json j = json::parse(std::ifstream(dir + "/a.json"));
+    EXPECT_EQ(j["samples_per_device"], json::array({std::llround(j["adaptive_mean_spp"].get<double>())})) << j.dump();
+  }
   // a target out of reach at the spp: the metadata, the statistics and the summary line say so
   p = run({"render", scene, "-o", dir + "/s.exr", "--noise-target", "0.001", "--spp", "32", "--adaptive",
            "--stats-json", dir + "/s.json"}, ro);

@@ -348,7 +348,7 @@ MultiDeviceResult render_adaptive_film(const SceneDesc& scene, const RenderOptio
   out.piece = piece_from_result(f, render_identity(settings), "render");
   out.piece.pixel_samples = a.samples;
   out.devices = {renderer.device_name()};
-  out.samples_per_device = {int64_t(a.mean_samples * double(settings.window.pixels()) + 0.5)};
+  out.samples_per_device = {std::llround(a.mean_samples)};  // samples per pixel, as a uniform render's: the mean
   out.record_settings(settings);
   out.spp_requested = settings.spp;
   out.piece.interrupted = f.interrupted;
