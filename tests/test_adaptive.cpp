@@ -442,6 +442,43 @@ TEST(AdaptiveRender, ReachesItsTargetWithFewerSamplesAndAgreesWithAUniformRender
   for (size_t i = 0; i < f.sum.size(); ++i) ASSERT_EQ(again.film.sum[i], f.sum[i]) << "value " << i;
 }
 
+// A stop in the pilot leaves pixels of fewer than kNoiseMinSpp samples (most of them without a
+// sample variance): the film's noise is not measured (a film whose pixels all have a variance of 0
+// would read as noise 0%), and the round's end is the samples drawn, not the pilot's 16. The twin:
+// the same render, not stopped, measures its noise after the pilot.
+TEST(AdaptiveRender, AStopInThePilotLeavesTheNoiseUnmeasured) {
+  const std::string dir = test_dir();
+  const SceneDesc scene = st_test::scene_from_json(small_noise_scene(dir), dir);
+  for (const bool stop_in_pilot : {true, false}) {
+    SCOPED_TRACE(stop_in_pilot ? "stopped in the pilot" : "the twin: not stopped");
+    std::atomic<bool> stop{false};
+    RenderOptions o = st_test::quiet_options(64);
+    o.noise_target = 0.5;
+    o.adaptive = true;
+    o.path_slots = 64;  // many batches in the pilot, so that a stop finds some finished
+    o.batches_in_flight = 1;
+    o.stop = &stop;
+    if (stop_in_pilot) o.progress = [&](double f) { if (f > 0.15) stop = true; };
+    Renderer r(scene, o);
+    AdaptivePlan plan;
+    plan.target = 0.5;
+    plan.spp = 64;
+    bool measured_seen = false;
+    const AdaptiveResult a = render_adaptive(r, plan, [&](const AdaptiveResult& so_far) { measured_seen |= so_far.noise_measured; });
+    EXPECT_EQ(a.noise_measured, !stop_in_pilot);
+    EXPECT_EQ(measured_seen, !stop_in_pilot);
+    EXPECT_EQ(a.film.interrupted, stop_in_pilot);
+    const float least = *std::min_element(a.samples.begin(), a.samples.end());
+    if (stop_in_pilot) {
+      EXPECT_LT(least, float(kNoiseMinSpp));
+      EXPECT_LT(a.round_end, kNoiseMinSpp);
+      EXPECT_GT(a.round_end, 0);
+    } else {
+      EXPECT_GE(least, float(kNoiseMinSpp));
+    }
+  }
+}
+
 // A round renders as one list of entries (adaptive.cpp round_entries): a pixel listed twice with
 // sample offsets 0 and 4 of a 4-spp render draws the very samples of an 8-spp render of it, and one
 // listed once those of a 4-spp render; the twin lists a pixel twice at offset 0 (its first 4

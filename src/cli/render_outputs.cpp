@@ -25,6 +25,9 @@ namespace {
 // The relative error of the image (integrator/noise.h) when it has the variance layer.
 std::optional<NoiseEstimate> film_noise(const FilmPiece& p) {
   if (!(p.id.aovs & ST_AOV_BIT(VARIANCE)) || p.samples() == 0) return std::nullopt;
+  // an adaptive film whose pilot a stop cut short: pixels of fewer samples have no variance to count
+  if (!p.pixel_samples.empty() && *std::min_element(p.pixel_samples.begin(), p.pixel_samples.end()) < float(kNoiseMinSpp))
+    return std::nullopt;
   const NoiseEstimate e = estimate_film_noise(p.sum, p.aov_sum, aov_sum_channels(p.id.aovs), p.samples());
   return e.measured ? std::optional<NoiseEstimate>(e) : std::nullopt;
 }

@@ -289,6 +289,11 @@ AdaptiveResult render_adaptive(Renderer& r, const AdaptivePlan& plan,
     n += k;
     ++out.rounds;
     out.round_end = n;
+    if (stopped)  // the round's samples were not all drawn: the most a pixel took
+      out.round_end = std::max_element(film.px.begin(), film.px.end(), [](const AdaptivePixel& a, const AdaptivePixel& b) {
+                        return a.n < b.n;
+                      })->n;
+    if (out.rounds == 1) out.noise_measured = !stopped;  // the pilot
     active.erase(std::remove_if(active.begin(), active.end(), [&](uint32_t p) { return film.px[p].done(); }),
                  active.end());
     if (after_round) {
@@ -340,7 +345,7 @@ MultiDeviceResult render_adaptive_film(const SceneDesc& scene, const RenderOptio
   plan.spp = settings.spp;
   plan.pilot = kNoiseMinSpp;
   const AdaptiveResult a = render_adaptive(renderer, plan, [&](const AdaptiveResult& so_far) {
-    if (base.watch) base.watch->see(so_far.film, nullptr);  // the preview
+    if (base.watch && so_far.noise_measured) base.watch->see(so_far.film, nullptr);  // the preview, the noise
     if (base.progress) base.progress(double(so_far.round_end) / double(plan.spp));
   });
   const RenderResult& f = a.film;
