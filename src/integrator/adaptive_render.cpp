@@ -249,6 +249,13 @@ void write_pixel_trace(std::FILE* f, const std::vector<AdaptivePixel>& px) {
   }
 }
 
+// The most samples a pixel took.
+int64_t most_samples(const std::vector<AdaptivePixel>& px) {
+  int64_t most = 0;
+  for (const AdaptivePixel& x : px) most = std::max(most, int64_t(x.n));
+  return most;
+}
+
 }  // namespace
 
 AdaptiveResult render_adaptive(Renderer& r, const AdaptivePlan& plan,
@@ -289,10 +296,7 @@ AdaptiveResult render_adaptive(Renderer& r, const AdaptivePlan& plan,
     n += k;
     ++out.rounds;
     out.round_end = n;
-    if (stopped)  // the round's samples were not all drawn: the most a pixel took
-      out.round_end = std::max_element(film.px.begin(), film.px.end(), [](const AdaptivePixel& a, const AdaptivePixel& b) {
-                        return a.n < b.n;
-                      })->n;
+    if (stopped) out.round_end = most_samples(film.px);  // the round's samples were not all drawn
     if (out.rounds == 1) out.noise_measured = !stopped;  // the pilot
     active.erase(std::remove_if(active.begin(), active.end(), [&](uint32_t p) { return film.px[p].done(); }),
                  active.end());
