@@ -202,6 +202,38 @@ TEST(Resume, ContinuesTheSampleSequenceToTheUninterruptedSumsBitForBit) {
   EXPECT_GE(differ, lit * 9 / 10);
 }
 
+// The film state's key names every choice a merge compares (film.h recorded_choices): a state of a
+// render with another shutter, budget, majorant grid, equi-angular setting or framed camera is
+// another render's. The options reach the key through the settings (the twin: equal options, equal keys).
+TEST(Resume, TheFilmStatesKeyNamesEveryChoiceAMergeCompares) {
+  const std::string dir = test_dir();
+  const SceneDesc scene = st_test::scene_from_json(small_noise_scene(dir), dir);
+  const RenderOptions o = st_test::quiet_options(8);
+  const RenderSettings s = resolve_settings(scene, o);
+  const RenderIdentity id = render_identity(s);
+  const std::string key = film_state_key(id, s.window, 0, 8);
+  EXPECT_EQ(film_state_key(render_identity(resolve_settings(scene, o)), s.window, 0, 8), key);
+  for (const RecordedChoice& c : recorded_choices()) {
+    RenderIdentity other = id;
+    other.*c.field += "x";
+    EXPECT_NE(film_state_key(other, s.window, 0, 8), key) << c.key;
+  }
+  auto key_with = [&](const std::function<void(RenderOptions&)>& change) {
+    RenderOptions v = o;
+    change(v);
+    const RenderSettings vs = resolve_settings(scene, v);
+    return film_state_key(render_identity(vs), vs.window, 0, 8);
+  };
+  EXPECT_NE(key_with([](RenderOptions& v) { v.shutter = std::array<double, 2>{0.0, 1.0}; }), key);
+  EXPECT_NE(key_with([](RenderOptions& v) { v.iteration_budget = 7; }), key);
+  EXPECT_NE(key_with([](RenderOptions& v) { v.majorant_cell = 4; }), key);
+  EXPECT_NE(key_with([](RenderOptions& v) { v.majorant_block = 0; }), key);
+  EXPECT_NE(key_with([](RenderOptions& v) { v.majorant_step_cost = 50.0; }), key);
+  EXPECT_NE(key_with([](RenderOptions& v) { v.equiangular = kEquiangularOn; }), key);
+  EXPECT_NE(key_with([](RenderOptions& v) { v.transmittance = ST_TRANSMITTANCE_RAY_MARCHING; }), key);
+  EXPECT_EQ(key_with([](RenderOptions& v) { v.iteration_budget = kDefaultIterationBudget; }), key);
+}
+
 // A damaged film state is refused naming the file, never resumed into a wrong image: a changed
 // sample count, flipped bits, a non-finite value, a header cut short, a FIFO, a folder.
 TEST(Resume, DamagedFilmStatesAreRefusedNamingTheFile) {
@@ -350,7 +382,8 @@ TEST(CliResume, AnInterruptedCheckpointedRenderResumesToTheUninterruptedImage) {
   ASSERT_EQ(i.code, 130) << "the render finished before the signal: make it longer\n" << i.describe();
   ASSERT_TRUE(fs::exists(dir + "/part.exr.resume")) << i.describe();
   EXPECT_EQ(meta_int(dir + "/part.exr", "interrupted"), 1);
-  args.push_back("--resume");
+  // resumed without --checkpoint: a render that completes removes the state it resumed from
+  args = with({"-o", dir + "/part.exr", "--resume"});
   Proc r = run(args, ro);
   ASSERT_TRUE(r.exited && r.code == 0) << r.describe();
   EXPECT_THAT(r.out, HasSubstr("resuming from"));

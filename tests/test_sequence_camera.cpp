@@ -68,6 +68,30 @@ TEST(SequenceCamera, RenderWarnsOfTheEmptyFrameAndRecordsFrameAndShutter) {
   EXPECT_THAT(m.out, HasSubstr("the frame differs")) << m.out;
 }
 
+// A camera framed over the sequence depends on the frames: frame 1 of `--frames 1:1` is framed on
+// its own cube, of `--frames 1:2` on both. Each piece records its camera, so merge refuses the two
+// (they would average two framings), and takes two pieces of the same range (the twin).
+TEST(SequenceCamera, PiecesOfAFrameFramedOverOtherRangesDoNotMerge) {
+  const std::string dir = test_dir();
+  const std::string scene = write_scene(dir, "seq.json", framed_sequence(write_frames(dir)));
+  RunOptions o;
+  o.timeout_s = 600;
+  for (const auto& [frames, range, out] : {std::tuple<const char*, const char*, const char*>{"1:1", "0:1", "/a_####.exr"},
+                                           {"1:2", "1:2", "/b_####.exr"}, {"1:2", "0:1", "/c_####.exr"}}) {
+    Proc p = run({"render", scene, "--frames", frames, "--spp-range", range, "-q", "-o", dir + out}, o);
+    ASSERT_TRUE(p.exited && p.code == 0) << p.describe();
+  }
+  const auto a = spectrack::read_image(dir + "/a_0001.exr", spectrack::ImageUse::kFilmPiece);
+  const auto b = spectrack::read_image(dir + "/b_0001.exr", spectrack::ImageUse::kFilmPiece);
+  EXPECT_THAT(meta_string(a, "camera"), HasSubstr("position ("));
+  EXPECT_NE(meta_string(a, "camera"), meta_string(b, "camera"));
+  Proc m = run({"merge", dir + "/m.exr", dir + "/a_0001.exr", dir + "/b_0001.exr"});
+  expect_error_exit(m);
+  EXPECT_THAT(m.out, HasSubstr("the camera (framed over the sequence's frames) differs")) << m.out;
+  Proc twin = run({"merge", dir + "/m.exr", dir + "/c_0001.exr", dir + "/b_0001.exr"});
+  EXPECT_TRUE(twin.exited && twin.code == 0) << twin.describe();
+}
+
 TEST(SequenceCamera, InfoTakesAFramePatternAndARange) {
   const std::string dir = test_dir();
   const std::string pattern = write_frames(dir);

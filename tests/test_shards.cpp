@@ -367,6 +367,12 @@ TEST(CliMerge, RefusesInputsOfDifferentRendersOverlapsAndGaps) {
   std::string other_tracker = dir + "/tracker.exr";
   render_ok({scene, "--tracker", "delta-per-channel", "--spp-range", "2:4", "-o", other_tracker});
   std::string other_lookup = piece("lookup.exr", {"--spp-range", "2:4", "--lookup", "stochastic"});
+  // the budget and the majorant grid change which random numbers a sample draws: other renders
+  std::string other_budget = piece("budget.exr", {"--spp-range", "2:4", "--budget", "7"});
+  std::string other_majorant = piece("majorant.exr", {"--spp-range", "2:4", "--majorant-cell", "4"});
+  // a time limit in the scene changes no image: the same scene
+  std::string limited = piece("limited.exr", {"--spp-range", "2:4"},
+                              shard_scene(dir, "scene_tl.json", [](json& s) { s["render"]["time_limit"] = 86400; }));
   std::string other_scene = piece("scene2.exr", {"--spp-range", "2:4"},
                                   shard_scene(dir, "scene2.json", [](json& s) { s["media"][0]["sigma_a"][0] = 0.06; }));
   std::string other_res = piece("res.exr", {"--spp-range", "2:4"},
@@ -381,6 +387,9 @@ TEST(CliMerge, RefusesInputsOfDifferentRendersOverlapsAndGaps) {
                             }));
   EXPECT_EQ(merge(dir + "/ok.exr", {a, b}).code, 0);
   EXPECT_EQ(merge(dir + "/ok2.exr", {a, moved}).code, 0) << "a moved scene must keep its hash";
+  EXPECT_EQ(merge(dir + "/ok3.exr", {a, limited}).code, 0) << "render.time_limit changes no image";
+  expect_merge_refused(dir, {a, other_budget}, {"iteration budget (--budget)", "256 vs 7"});
+  expect_merge_refused(dir, {a, other_majorant}, {"majorant grid", "cell auto", "cell 4"});
 
   expect_merge_refused(dir, {a, other_seed}, {"seed", "a.exr", "seed.exr"});
   expect_merge_refused(dir, {a, other_tracker}, {"tracker", "delta-per-channel"});

@@ -27,7 +27,8 @@ nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_tota
   if (auto t = meta.find("noise_pixels"); t != meta.end()) j["noise_pixels"] = std::get<int>(t->second);
   if (auto t = meta.find("adaptive_rounds"); t != meta.end()) j["adaptive_rounds"] = std::get<int>(t->second);
   j["seed"] = r.seed;
-  for (const RecordedChoice& c : recorded_choices()) j[c.key] = p.id.*c.field;  // as the EXR records them
+  for (const RecordedChoice& c : recorded_choices())  // as the EXR records them
+    if (!c.only_when_set || !(p.id.*c.field).empty()) j[c.key] = p.id.*c.field;
   j["light_sampling_used"] = light_sampling_name(r.light_sampling_used);
   j["equiangular_used"] = r.equiangular_used;
   // the run's automatic choices as used (renderer.h RunChoices; the first device's)

@@ -293,9 +293,8 @@ int cmd_info(const std::vector<std::string>& files, bool as_json, const std::opt
           if (!as_json) std::cout << text;
           // render's own checks of the scene's data, with the scene's settings (no flags)
           try {
-            const RenderOptions opt;
-            pack_scene(s, resolve_settings(s, opt),
-                       {opt.majorant_cell, opt.majorant_block, opt.iteration_budget, opt.majorant_step_cost});
+            const RenderSettings set = resolve_settings(s, RenderOptions());
+            pack_scene(s, set, pack_options(set));
             all.back()["renders"] = true;
           } catch (const std::exception& e) {
             all.back()["renders"] = false;

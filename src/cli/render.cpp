@@ -36,6 +36,7 @@
 #include "integrator/multi_device.h"
 #include "integrator/renderer.h"
 #include "scene/frames.h"
+#include "scene/framing.h"
 #include "scene/sequence_camera.h"
 #include "scene/scene.h"
 #include "util/strings.h"
@@ -189,6 +190,13 @@ ExrOptions exr_options(bool half, const std::string& compression, const FilmDesc
   return o;
 }
 
+// A sequence frame's part of the film's identity: its number, and its camera where the camera was
+// framed over the sequence's frames (the framing depends on the frame range: pieces of other ranges differ).
+void set_frame_identity(const RenderArgs& a, RenderIdentity& id) {
+  if (a.frame) id.frame = std::to_string(*a.frame);
+  id.camera = a.framed_camera;
+}
+
 // What the watch of a render (integrator/render_watch.h) needs, or nothing when no flag asks for it. It
 // looks at one device's film in one process: a noise target, checkpoints and --resume refuse
 // several devices and --mpi (exit 2; shards and tiles are refused by resolve_settings, for the
@@ -216,6 +224,7 @@ std::unique_ptr<RenderWatch> make_watch(const RenderArgs& a, const MpiArg& mpi, 
   c.checkpoint_seconds = a.checkpoint.value_or(0);
   c.state_path = film_state_path(output);
   c.id = render_identity(set);
+  set_frame_identity(a, c.id);
   c.exr = exr_options(a.half, a.compression, scene.film);
   c.meta["scene"] = scene.path;
   c.meta["spp_requested"] = set.spp;
@@ -299,7 +308,7 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   const bool signalled = stop_flag()->load();
   if (!root) return signalled || (r.piece.interrupted && !r.time_limit_reached) ? kExitInterrupted : 0;
   if (r.piece.samples() > 0) r.piece.id.scene_hash = get_hash();
-  if (a.frame) r.piece.id.frame = std::to_string(*a.frame);
+  set_frame_identity(a, r.piece.id);
   const RenderOutputs out{output, a.preview, a.stats_json, exr_options(a.half, a.compression, scene.film), a.quiet, a.mpi,
                           set.noise_target, a.denoise};
   const RenderTimes times{std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), seconds_to_renderer};
@@ -350,6 +359,7 @@ int cmd_render(const RenderArgs& a, MpiArg& mpi) {
     // frames share one kernel build
     if (a.majorant_block.value_or(RenderOptions().majorant_block) > 1) fa.feature_floor = ST_FEATURE_COARSE_MAJORANT;
     fa.frame = f;
+    if (camera_needs_framing(scene.camera)) fa.framed_camera = camera_identity(camera);
     fa.preview = expand_frame(a.preview, f);
     fa.stats_json = expand_frame(a.stats_json, f);
     if (!a.quiet && mpi.rank == 0) std::cerr << fmt::format("frame {} ({} of {})\n", f, f - first + 1, last - first + 1);

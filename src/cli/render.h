@@ -33,6 +33,7 @@ struct RenderArgs {
 #undef ST_OPTION
   uint32_t feature_floor = 0;  // RenderOptions::feature_floor (frame sequences)
   std::optional<long long> frame;  // the frame a sequence renders (EXR metadata spectrack:frame)
+  std::string framed_camera;       // its camera framed over the sequence's frames (RenderIdentity::camera), or ""
 };
 
 struct MpiArg {

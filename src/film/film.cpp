@@ -103,7 +103,7 @@ std::string scene_hash(const SceneDesc& scene, const std::string& json_text) {
     }
     if (j.contains("render") && j["render"].is_object())
       for (const char* k : {"seed", "tracker", "spectral_scheme", "absorption", "light_sampling", "transmittance", "lookup", "color",
-                            "noise_target", "equiangular"})
+                            "noise_target", "equiangular", "time_limit"})
         j["render"].erase(k);
     // file names stand for their contents, hashed below: a scene whose assets moved is the same scene
     for (const char* list : {"media", "lights"})
@@ -138,8 +138,17 @@ RenderIdentity render_identity(const RenderSettings& s) {
   id.equiangular = guiding_name(s.equiangular);
   id.aovs = s.aovs;
   if (s.shutter) id.shutter = fmt::format("{}:{}/{}", (*s.shutter)[0], (*s.shutter)[1], s.time_strata);
+  id.iteration_budget = std::to_string(s.iteration_budget);
+  id.majorant = majorant_identity(s.majorant_cell, s.majorant_block, s.majorant_step_cost);
+  if (s.transmittance == ST_TRANSMITTANCE_RAY_MARCHING)
+    id.ray_marching = fmt::format("spacing {}, pilot {}", s.march_spacing, s.pilot_spacing);
   id.version = SPECTRACK_VERSION;
   return id;
+}
+
+std::string majorant_identity(int cell, int block, const std::optional<double>& step_cost) {
+  return fmt::format("cell {}, block {}, step cost {}", cell > 0 ? std::to_string(cell) : "auto", block,
+                     step_cost ? fmt::format("{}", *step_cost) : std::string("auto"));
 }
 
 const std::vector<RecordedChoice>& recorded_choices() {
@@ -154,6 +163,14 @@ const std::vector<RecordedChoice>& recorded_choices() {
       {"guided", &RenderIdentity::guided, "volume path guiding (as run)", false},
       {"guide_splitting", &RenderIdentity::guide_splitting, "guided roulette and splitting", false},
       {"equiangular", &RenderIdentity::equiangular, "equi-angular sampling", false},
+      {"iteration_budget", &RenderIdentity::iteration_budget, "the iteration budget (--budget)", false},
+      {"majorant", &RenderIdentity::majorant, "the majorant grid (--majorant-cell, --majorant-block, --majorant-step-cost)",
+       false},
+      {"ray_marching", &RenderIdentity::ray_marching, "the ray-marching spacings (--march-spacing, --pilot-spacing)", false,
+       true},
+      {"shutter", &RenderIdentity::shutter, "the shutter (open:close/strata)", false, true},
+      {"frame", &RenderIdentity::frame, "the frame", false, true},
+      {"camera", &RenderIdentity::camera, "the camera (framed over the sequence's frames)", false, true},
   };
   return list;
 }
@@ -217,13 +234,9 @@ void check_one_render(const std::vector<FilmPiece>& pieces, bool with_sums) {
       differ("the resolution", fmt::format("{}x{}", a.id.full_width, a.id.full_height),
              fmt::format("{}x{}", p.id.full_width, p.id.full_height));
     if (p.id.seed != a.id.seed) differ("the seed", std::to_string(a.id.seed), std::to_string(p.id.seed));
+    auto shown = [](const std::string& v) { return v.empty() ? std::string("none") : v; };
     for (const RecordedChoice& c : recorded_choices())
-      if (p.id.*c.field != a.id.*c.field) differ(c.what, a.id.*c.field, p.id.*c.field);
-    if (p.id.frame != a.id.frame)
-      differ("the frame", a.id.frame.empty() ? "none" : a.id.frame, p.id.frame.empty() ? "none" : p.id.frame);
-    if (p.id.shutter != a.id.shutter)
-      differ("the shutter (open:close/strata)", a.id.shutter.empty() ? "none" : a.id.shutter,
-             p.id.shutter.empty() ? "none" : p.id.shutter);
+      if (p.id.*c.field != a.id.*c.field) differ(c.what, shown(a.id.*c.field), shown(p.id.*c.field));
     if (p.id.aovs != a.id.aovs) differ("the film layers", layer_list(a.id.aovs), layer_list(p.id.aovs));
     if (p.id.version != a.id.version) differ("the spectrack version", a.id.version, p.id.version);
     if (p.id.scene_hash != a.id.scene_hash) differ("the scene (spectrack:scene_hash)", a.id.scene_hash, p.id.scene_hash);

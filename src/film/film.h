@@ -15,6 +15,7 @@
 // merged the same way; pieces with different layers are refused.
 #pragma once
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,9 @@ std::vector<SampleRange> parse_ranges(const std::string& text, const std::string
 // Sorted, with touching ranges joined; empty ranges dropped (overlaps are the caller's check).
 std::vector<SampleRange> join_ranges(std::vector<SampleRange> ranges);
 int64_t count_samples(const std::vector<SampleRange>& ranges);
+
+// The identity text of the majorant choices (RenderSettings::majorant_*; 0 and none: automatic).
+std::string majorant_identity(int cell, int block, const std::optional<double>& step_cost);
 
 // What pieces of one render share.
 struct RenderIdentity {
@@ -53,12 +57,22 @@ struct RenderIdentity {
   // ("0:0.02/64"); empty: no shutter (pieces written before it: none)
   std::string shutter;
   std::string frame;  // the frame number of a sequence's frame (--frames); empty: not a sequence
+  // A sequence frame's camera as framed over the sequence's frames (--frames with a camera that
+  // frames the media, whose framing depends on the frame range); empty otherwise
+  std::string camera;
+  // The choices that change which random numbers a sample draws or what a ray-marching sample
+  // weighs (RenderSettings): pieces written before they were recorded hold the defaults
+  std::string iteration_budget = std::to_string(kDefaultIterationBudget);
+  std::string majorant = majorant_identity(0, kDefaultMajorantBlock, std::nullopt);
+  std::string ray_marching;  // with ray-marching transmittance: its spacings; empty otherwise
 };
 
 // A SHA-1 of the scene as it shapes the image: the scene file's JSON (keys sorted, whitespace
 // dropped; without film.output, film.spp, the film's storage and layer fields (alpha, aovs, half,
 // compression: the layers are compared on their own), the render fields that are recorded on their own:
-// seed, tracker, spectral_scheme, absorption, light_sampling, transmittance, lookup, and the names of referenced files) and the contents of every
+// seed, tracker, spectral_scheme, absorption, light_sampling, transmittance, lookup, color,
+// noise_target, equiangular, the run control render.time_limit (no image changes with it), and the
+// names of referenced files) and the contents of every
 // file it references (VDB files, environment maps), so a scene moved to another folder or
 // machine keeps its hash.
 std::string scene_hash(const SceneDesc& scene);
@@ -69,15 +83,17 @@ std::string scene_hash(const SceneDesc& scene, const std::string& json_text);
 // it with rendering, on the rank that writes).
 RenderIdentity render_identity(const RenderSettings& settings);
 
-// The estimator choices a render records by name, in one list: EXR metadata spectrack:<key> (film_io.cpp
-// writes and reads them), the statistics JSON's <key> (api/render_stats.cpp) and merge's
-// comparison (check_one_render names `what`). `required`: every piece has it; the others may be
-// missing from pieces written before the option, which then hold RenderIdentity's default.
+// The choices a render records by name, in one list: EXR metadata spectrack:<key> (film_io.cpp
+// writes and reads them), the statistics JSON's <key> (api/render_stats.cpp), merge's comparison
+// (check_one_render names `what`) and the film state's key (film_watch.h film_state_key).
+// `required`: every piece has it; the others may be missing from pieces written before the
+// option, which then hold RenderIdentity's default.
 struct RecordedChoice {
   const char* key;
   std::string RenderIdentity::*field;
   const char* what;
   bool required;
+  bool only_when_set = false;  // written only where not empty (empty: "none" in messages)
 };
 const std::vector<RecordedChoice>& recorded_choices();
 

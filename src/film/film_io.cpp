@@ -36,9 +36,8 @@ Metadata piece_metadata(const FilmPiece& p) {
   // an int where it fits (every seed below 2^31), else the decimal text
   if (p.id.seed <= 2147483647) m["seed"] = int(p.id.seed);
   else m["seed"] = std::to_string(p.id.seed);
-  for (const RecordedChoice& c : recorded_choices()) m[c.key] = p.id.*c.field;
-  if (!p.id.shutter.empty()) m["shutter"] = p.id.shutter;
-  if (!p.id.frame.empty()) m["frame"] = p.id.frame;
+  for (const RecordedChoice& c : recorded_choices())
+    if (!c.only_when_set || !(p.id.*c.field).empty()) m[c.key] = p.id.*c.field;
   m["version"] = p.id.version;
   m["scene_hash"] = p.id.scene_hash;
   m["pixel_bounds"] = fmt::format("{},{},{},{}", p.x0, p.x0 + p.width, p.y0, p.y0 + p.height);
@@ -251,8 +250,6 @@ FilmPiece piece_from_header(const std::string& path, const RgbImage& img, bool k
   p.id.scene_hash = str("scene_hash");
   for (const RecordedChoice& c : recorded_choices())
     if (c.required || img.meta.count(c.key)) p.id.*c.field = str(c.key);
-  if (img.meta.count("shutter")) p.id.shutter = str("shutter");
-  if (img.meta.count("frame")) p.id.frame = str("frame");
   p.id.version = str("version");
   try {
     p.id.seed = std::stoll(str("seed"));

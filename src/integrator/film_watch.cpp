@@ -33,11 +33,11 @@ std::string film_state_digest(const std::string& shape, const std::vector<float>
 }  // namespace
 
 std::string film_state_key(const RenderIdentity& id, const FilmWindow& w, int64_t sample_begin, int spp) {
-  return fmt::format("scene_hash={} film={}x{} seed={} tracker={} scheme={} absorption={} light_sampling={} "
-                     "transmittance={} lookup={} color={} aovs={} version={} window={},{},{},{} samples={}:{} little_endian={}",
-                     id.scene_hash, id.full_width, id.full_height, id.seed, id.tracker, id.scheme, id.absorption,
-                     id.light_sampling, id.transmittance, id.lookup, id.color, id.aovs, id.version, w.x0, w.y0,
-                     w.width, w.height, sample_begin, sample_begin + spp, __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__);
+  std::string key = fmt::format("scene_hash={} film={}x{} seed={}", id.scene_hash, id.full_width, id.full_height, id.seed);
+  for (const RecordedChoice& c : recorded_choices()) key += fmt::format(" {}={}", c.key, id.*c.field);  // as merge compares them
+  return key + fmt::format(" aovs={} version={} window={},{},{},{} samples={}:{} little_endian={}", id.aovs, id.version,
+                           w.x0, w.y0, w.width, w.height, sample_begin, sample_begin + spp,
+                           __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__);
 }
 
 void write_film_state(const std::string& path, const FilmState& st, const std::string& key) {
@@ -59,8 +59,8 @@ FilmState read_film_state(const std::string& path, const std::string& key) {
   if (!std::getline(in, file_key) || !std::getline(in, shape) || !std::getline(in, digest))
     throw Error(fmt::format("{}: the film state's header is cut short (it ends before its fourth line)", path));
   if (file_key != key)
-    throw Error(fmt::format("{}: the film state belongs to another render (a different scene, film, seed, estimator, "
-                            "layers, version or sample range):\n  file:   {}\n  render: {}",
+    throw Error(fmt::format("{}: the film state belongs to another render (a different scene, film, seed, estimator or "
+                            "schedule choice, shutter, camera, layers, version or sample range):\n  file:   {}\n  render: {}",
                             path, file_key, key));
   FilmState st;
   std::istringstream ss(shape);

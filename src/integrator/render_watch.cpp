@@ -58,7 +58,7 @@ void RenderWatch::final_state(const FilmState& state) {
     std::filesystem::remove(c_.state_path, ec);
     return;
   }
-  write_film_state(c_.state_path, state, c_.state_key);
+  if (c_.checkpoint_seconds > 0) write_film_state(c_.state_path, state, c_.state_key);
 }
 
 bool RenderWatch::load_resume() {

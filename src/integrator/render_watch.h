@@ -43,7 +43,8 @@ class RenderWatch : public FilmWatch {
   explicit RenderWatch(WatchConfig c);
   int wants(int64_t samples_done) override;
   bool see(const RenderResult& film, const FilmState* state) override;
-  bool wants_final_state() const override { return c_.checkpoint_seconds > 0; }
+  // checkpoints write the last state; a resumed render removes the state it completes
+  bool wants_final_state() const override { return c_.checkpoint_seconds > 0 || resumed_.has_value(); }
   void final_state(const FilmState& state) override;
   int64_t samples_needed() const override { return c_.noise_target > 0 ? next_check_ : INT64_MAX; }
   const FilmState* resume() const override { return resumed_ ? &*resumed_ : nullptr; }

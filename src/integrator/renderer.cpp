@@ -36,7 +36,7 @@ namespace spectrack {
 void Renderer::Impl::setup() {
   auto t0 = Clock::now();
   set_phase("scene packing (volumes, environment maps and their CDFs, majorant grids)");
-  PackedScene packed = pack_scene(scene, settings, {opt.majorant_cell, opt.majorant_block, opt.iteration_budget, opt.majorant_step_cost});
+  PackedScene packed = pack_scene(scene, settings, pack_options(settings));
   // the feature mask is in the source, hence in the kernel-cache key
   if (opt.generic_kernels) packed.features = ST_FEATURES_ALL;
   packed.features |= opt.feature_floor & uint32_t(ST_FEATURES_ALL);
@@ -132,7 +132,7 @@ RenderResult Renderer::Impl::result_header(int64_t sample_begin, int spp) const 
   res.features = ds.packed.features;
   res.light_sampling_used = st_light_sampling(ds.packed.st.light_sampling);
   res.equiangular_used = ds.packed.st.equiangular.n_local > 0;
-  res.iteration_budget = opt.iteration_budget;
+  res.iteration_budget = settings.iteration_budget;
   res.majorants = ds.packed.majorants;
   return res;
 }

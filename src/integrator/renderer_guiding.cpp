@@ -178,6 +178,9 @@ nlohmann::json Renderer::Impl::guide_cache_key() const {
           {"color", id.color},
           {"equiangular", id.equiangular},
           {"shutter", id.shutter},
+          {"iteration_budget", id.iteration_budget},  // the training passes' random numbers
+          {"majorant", id.majorant},
+          {"ray_marching", id.ray_marching},
           {"spectrack_version", id.version},
           {"guided_depth", guide.header.guided_depth},
           {"phase_product", guide.header.phase_product},

@@ -180,6 +180,10 @@ RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) 
   if (s.shutter && !(std::isfinite((*s.shutter)[0]) && std::isfinite((*s.shutter)[1]) && (*s.shutter)[1] >= (*s.shutter)[0]))
     throw Error(fmt::format("shutter {}:{}: expected finite open <= close (seconds)", (*s.shutter)[0], (*s.shutter)[1]));
   s.time_strata = scene.film.spp;
+  s.iteration_budget = o.iteration_budget;
+  s.majorant_cell = o.majorant_cell;
+  s.majorant_block = o.majorant_block;
+  s.majorant_step_cost = o.majorant_step_cost;
   s.sample_begin = o.sample_begin;
   if (s.sample_begin < 0 || s.spp < 1 || uint64_t(s.sample_begin) + uint64_t(s.spp) > (uint64_t(1) << 32))
     throw Error(fmt::format("sample range {}:{} is not a non-empty range of sample indices 0 .. 2^32", s.sample_begin,

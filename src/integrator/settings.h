@@ -178,6 +178,11 @@ struct RenderSettings {
   int time_strata = 1;
   double noise_target = 0;      // relative error at which the render stops (integrator/noise.h); 0: none
   bool adaptive = false;        // adaptive sampling to the noise target (integrator/adaptive.h)
+  // The iteration budget and the majorant grid's choices (RenderOptions): they change which random
+  // numbers a sample draws, so a film records them (film.h RenderIdentity) and the packer reads them here
+  int iteration_budget = kDefaultIterationBudget;
+  int majorant_cell = 0, majorant_block = kDefaultMajorantBlock;
+  std::optional<double> majorant_step_cost;
 };
 
 // A boundary between two parts of a render's samples (MPI ranks, device chunks) that keeps the

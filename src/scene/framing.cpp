@@ -3,6 +3,8 @@
 // the half extent of the frame at unit depth is tan(fov/2) across the shorter image side.
 #include "scene/framing.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -41,6 +43,13 @@ Basis basis(const CameraDesc& c, int width, int height) {
 }  // namespace
 
 bool camera_needs_framing(const CameraDesc& c) { return c.look_at_media || c.position_auto || c.fit > 0; }
+
+std::string camera_identity(const CameraDesc& c) {
+  auto v = [](const Vec3& p) { return fmt::format("({:.9g}, {:.9g}, {:.9g})", p[0], p[1], p[2]); };
+  return fmt::format("position {} look_at {} up {} {}", v(c.position), v(c.look_at), v(c.up),
+                     c.type == ST_CAMERA_ORTHOGRAPHIC ? fmt::format("height {:.9g}", c.height)
+                                                      : fmt::format("fov {:.9g}", c.fov_deg));
+}
 
 CameraDesc frame_camera(const CameraDesc& in, int width, int height, const std::vector<Box3>& boxes,
                         const std::string& context) {

@@ -6,6 +6,7 @@
 // every medium's box spans at most 1/fit of the frame on each side of the centre). pack_scene
 // resolves it (scene/scene_pack.cpp set_camera) with the boxes of scene/media_bounds.h.
 #pragma once
+#include <string>
 #include <vector>
 
 #include "scene/scene.h"
@@ -24,6 +25,11 @@ bool camera_needs_framing(const CameraDesc& c);
 // when framing is asked without media, or the resolved view direction is degenerate.
 CameraDesc frame_camera(const CameraDesc& c, int width, int height, const std::vector<Box3>& boxes,
                         const std::string& context);
+
+// A resolved camera as one line of text, to 9 significant digits: position, look_at, up and the
+// field of view (or an orthographic camera's height). A film records it where the framing of a
+// sequence's camera depends on the frame range (film.h RenderIdentity::camera).
+std::string camera_identity(const CameraDesc& c);
 
 // Whether the 8 corners of `b` lie inside the camera's view (in front of it, within the frame,
 // widened by `slack`, a relative tolerance). For tests and `spectrack info`.

@@ -32,6 +32,11 @@ struct PackOptions {
   std::optional<double> majorant_step_cost;  // the hierarchy's cost model: one DDA step, in density lookups; else automatic
 };
 
+// The packer's options of a render's settings.
+inline PackOptions pack_options(const RenderSettings& s) {
+  return {s.majorant_cell, s.majorant_block, s.iteration_budget, s.majorant_step_cost};
+}
+
 // Loads every grid and map the scene references and packs it; throws Error naming the file and
 // field for bad data (singular transforms, unreadable grids and maps, negative texels, > 4 GiB).
 PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& settings, const PackOptions& options);
