@@ -61,11 +61,16 @@ inline int cdf_find(__global const float* cdf, int n, float u) {
   return lo;
 }
 
+/* The solid-angle pdf of light_sample's direction d. The CDFs draw a texel by f = max(rgb) x
+ * sin(theta_c), theta_c its row's centre (src/scene/pack_lights.cpp add_env_cdf), then (u, v)
+ * uniformly in it: the density in (u, v) is f / map_integral, constant over the texel, and a
+ * direction's solid angle is 2 pi^2 sin(theta) du dv at its own theta. */
 inline float env_map_pdf(__constant const st_light* l, __global const float* env, float3 d) {
   float2 uv = env_dir_to_uv(d);
   float s = sqrt(fmax(0.0f, 1.0f - d.y * d.y));
   if (s <= 0.0f || l->map_integral <= 0.0f) return 0.0f;
-  float f = env_texel_max(l, env, uv) * s;
+  int row = min((int)(uv.y * l->map_height), l->map_height - 1);
+  float f = env_texel_max(l, env, uv) * sin(ST_PI * ((float)row + 0.5f) / (float)l->map_height);
   return f / l->map_integral / (2.0f * ST_PI * ST_PI * s);
 }
 

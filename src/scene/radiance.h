@@ -6,7 +6,8 @@
 // throughput x (radiance / pdf) x (phase x MIS weight) x transmittance. For each light the
 // largest factor it can put into one such term per unit throughput, its peak P, is
 //   uniform environment:  4 pi x radiance              (next-event estimation: Le / pdf)
-//   environment map:      scale x max(texel), 2 pi^2 x scale x the map's integral (Le / pdf)
+//   environment map:      scale x max(texel), 2 pi^2 x scale x the map's integral (Le / pdf, times
+//                         sin(theta) / sin(theta_c) within a texel's row, at most 2: in the margin)
 //   delta directional:    irradiance x the scene's largest phase value (no pdf, no MIS)
 //   directional disc:     its radiance irradiance / (pi sin^2(angle / 2))
 //   emission:             radiance x scale (x the emission grid's largest value)
