@@ -245,4 +245,49 @@ TEST(CliInfo, SceneRefusedAsRenderRefusesIt) {
   EXPECT_EQ(doc[0]["camera"]["aperture_radius"].get<double>(), 0.5);
 }
 
+// Settings of the scene alone that do not go together are the scene's errors: exit 1, its file and
+// field named, by render and by info alike; the same asked for on the command line is a usage error
+// (exit 2). The twin: each scene renders once the fault is taken out.
+TEST(CliInfo, SettingsOfTheSceneThatDoNotGoTogetherAreItsErrors) {
+  const std::string dir = test_dir();
+  json base = vdb_scene(kShared + "/smoke1.vdb");
+  base["film"]["width"] = 8;
+  base["film"]["height"] = 8;
+  base["film"]["spp"] = 2;
+  struct Case {
+    const char* name;
+    std::function<void(json&)> fault, twin;
+    const char* field;
+    std::vector<std::string> flags;  // the same fault from the command line
+  };
+  const Case cases[] = {
+      {"png_layers", [](json& s) { s["film"]["output"] = "x.png", s["film"]["aovs"] = {"depth"}; },
+       [](json& s) { s["film"]["output"] = "x.exr"; }, "/film/output", {"-o", "PNG", "--aov", "depth"}},
+      {"adaptive", [](json& s) { s["render"]["adaptive"] = true; }, [](json& s) { s["render"]["noise_target"] = 0.5; },
+       "/render/adaptive", {"--adaptive"}},
+      {"guiding_one_sample", [](json& s) { s["render"]["guiding"] = "on", s["film"]["spp"] = 1; },
+       [](json& s) { s["film"]["spp"] = 2; }, "/render/guiding", {"--guiding", "on", "--spp", "1"}},
+      {"equiangular_guided", [](json& s) { s["render"]["guiding"] = "on", s["render"]["equiangular"] = "on"; },
+       [](json& s) { s["render"]["equiangular"] = "off"; }, "/render/equiangular", {"--guiding", "on", "--equiangular", "on"}},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    json s = base;
+    c.fault(s);
+    const std::string scene = write_scene(dir, std::string(c.name) + ".json", s);
+    for (const std::vector<std::string>& cmd : {std::vector<std::string>{"info", scene}, std::vector<std::string>{"render", scene, "-q"}}) {
+      Proc p = run(cmd);
+      expect_error_exit(p);
+      EXPECT_THAT(p.out, HasSubstr(std::string(c.name) + ".json: " + c.field + ": ")) << p.out;
+    }
+    std::vector<std::string> flagged = {"render", write_scene(dir, std::string(c.name) + "_plain.json", base), "-q", "-o", dir + "/f.exr"};
+    for (const std::string& f : c.flags) flagged.push_back(f == "PNG" ? dir + "/f.png" : f);
+    expect_error_exit(run(flagged), 2);
+    c.twin(s);
+    const std::string fixed = write_scene(dir, std::string(c.name) + "_twin.json", s);
+    Proc t = run({"info", fixed});
+    EXPECT_TRUE(t.exited && t.code == 0) << t.describe();
+  }
+}
+
 }  // namespace

@@ -4,6 +4,7 @@
 // pack_scene: host work, no device), so that every check render makes of the scene's data (grids,
 // maps, numbers the kernels' floats cannot hold) is made here too, once, in the render's words.
 #include "cli/info.h"
+#include "cli/render.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -293,7 +294,9 @@ int cmd_info(const std::vector<std::string>& files, bool as_json, const std::opt
           if (!as_json) std::cout << text;
           // render's own checks of the scene's data, with the scene's settings (no flags)
           try {
-            const RenderSettings set = resolve_settings(s, RenderOptions());
+            RenderOptions opt;
+            opt.aovs = film_layers(RenderArgs(), s, s.film.output);  // the scene's own output
+            const RenderSettings set = resolve_settings(s, opt);
             pack_scene(s, set, pack_options(set));
             all.back()["renders"] = true;
           } catch (const std::exception& e) {

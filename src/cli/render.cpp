@@ -154,6 +154,8 @@ MultiDeviceResult render_share(const SceneDesc& scene, const RenderOptions& opt,
   return r;
 }
 
+}  // namespace
+
 // The film layers of a render to `output` (docs/aov.md): film.aovs and --aov; alpha from --alpha /
 // --no-alpha, else film.alpha, else on for an EXR output. Layers need an EXR (a PNG holds the beauty).
 uint32_t film_layers(const RenderArgs& a, const SceneDesc& scene, const std::string& output) {
@@ -175,13 +177,19 @@ uint32_t film_layers(const RenderArgs& a, const SceneDesc& scene, const std::str
     throw UsageError(fmt::format("{}: --denoise writes the denoised beauty as an EXR layer: write an EXR", output));
   if (a.denoise) aovs |= ST_AOV_BIT(ALBEDO);  // the denoiser's auxiliary input
   bool alpha = a.alpha || alpha_listed ? true : a.no_alpha ? false : scene.film.alpha.value_or(exr);
-  if (!exr && (aovs || ((a.alpha || alpha_listed || scene.film.alpha.value_or(false)) && !a.no_alpha)))
-    throw UsageError(fmt::format("{}: film layers ({}) need an EXR output; a PNG holds the beauty only (write an EXR and add "
-                            "--preview for a PNG)",
-                            output, a.aov.empty() ? std::string("film.aovs / film.alpha of ") + scene.path : "--aov " + a.aov));
+  if (!exr && (aovs || ((a.alpha || alpha_listed || scene.film.alpha.value_or(false)) && !a.no_alpha))) {
+    const std::string why = fmt::format("{}: film layers ({}) need an EXR output; a PNG holds the beauty only (write an EXR "
+                                        "and add --preview for a PNG)",
+                                        output, a.aov.empty() ? std::string("film.aovs / film.alpha of ") + scene.path : "--aov " + a.aov);
+    // the scene's own output and layers: an error of the scene (exit 1); with -o, --aov or --alpha: of the command line
+    if (a.output.empty() && a.aov.empty() && !a.alpha) throw Error(fmt::format("{}: /film/output: {}", scene.path, why));
+    throw UsageError(why);
+  }
   if (!exr) alpha = false;
   return aovs | (alpha ? uint32_t(ST_AOV_BIT(ALPHA)) : 0u);
 }
+
+namespace {
 
 ExrOptions exr_options(bool half, const std::string& compression, const FilmDesc& film) {
   ExrOptions o;

@@ -36,6 +36,11 @@ struct RenderArgs {
   std::string framed_camera;       // its camera framed over the sequence's frames (RenderIdentity::camera), or ""
 };
 
+// The film layers of a render of `scene` to `output` (docs/aov.md): film.aovs and --aov; alpha from
+// --alpha / --no-alpha, else film.alpha, else on for an EXR output. Layers need an EXR: with a PNG
+// output an Error naming the scene's /film/output when the scene asked for both, else a UsageError.
+uint32_t film_layers(const RenderArgs& a, const SceneDesc& scene, const std::string& output);
+
 struct MpiArg {
   bool on = false;
   int rank = 0, size = 1;

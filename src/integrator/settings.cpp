@@ -35,6 +35,13 @@ FilmWindow resolve_window(const SceneDesc& scene, const RenderOptions& o) {
 
 // The noise target and adaptive sampling; a noise target is measured from the variance layer
 // (integrator/noise.h), which it adds.
+// Settings that do not go together: an error of the scene (exit 1, naming its file and `field`)
+// when the scene alone asked for them, else a usage error of the options (exit 2).
+[[noreturn]] void conflict(bool from_options, const SceneDesc& scene, const char* field, const std::string& why) {
+  if (from_options) throw UsageError(why);
+  throw Error(fmt::format("{}: {}: {}", scene.path, field, why));
+}
+
 void resolve_noise_target(const SceneDesc& scene, const RenderOptions& o, RenderSettings& s) {
   s.noise_target = o.noise_target.value_or(scene.render.noise_target);
   if (!(s.noise_target >= 0 && s.noise_target <= 1))
@@ -48,8 +55,9 @@ void resolve_noise_target(const SceneDesc& scene, const RenderOptions& o, Render
                      "render the whole film");
   s.adaptive = o.adaptive.value_or(scene.render.adaptive);
   if (s.adaptive && s.noise_target <= 0)
-    throw UsageError("adaptive sampling (--adaptive, render.adaptive) needs a noise target (--noise-target, "
-                     "render.noise_target): it gives each pixel the samples that bring it to that target");
+    conflict(o.adaptive || o.noise_target, scene, "/render/adaptive",
+             "adaptive sampling (--adaptive, render.adaptive) needs a noise target (--noise-target, "
+             "render.noise_target): it gives each pixel the samples that bring it to that target");
 }
 
 // Equi-angular sampling asked for (the scene packer resolves auto): the option, else the scene,
@@ -58,8 +66,9 @@ EquiangularMode resolve_equiangular(const SceneDesc& scene, const RenderOptions&
   const EquiangularMode e = o.equiangular ? checked_enum<EquiangularMode>(*o.equiangular, kEquiangularAuto + 1, "equi-angular mode")
                                           : scene.render.equiangular.value_or(kDefaultEquiangular);
   if (guiding && e == kEquiangularOn)
-    throw UsageError("equi-angular sampling does not work with guiding yet (its MIS weights assume phase "
-                     "sampling); use --equiangular off or auto, or --guiding off");
+    conflict(o.equiangular || o.guiding, scene, "/render/equiangular",
+             "equi-angular sampling does not work with guiding yet (its MIS weights assume phase "
+             "sampling); use --equiangular off or auto, or --guiding off");
   return e;
 }
 
@@ -103,8 +112,9 @@ void resolve_guiding(const RenderOptions& o, RenderSettings& s, const SceneDesc&
   const int64_t begin = s.sample_begin, end = s.sample_begin + s.spp;
   if (begin == 0 && !o.sample_range) {
     if (s.spp <= 1)  // auto is off there (refused above), so guiding was asked for
-      throw UsageError("--guiding on (render.guiding \"on\") needs at least 2 samples per pixel: the first trains "
-                       "the guide cache and the render's own samples follow it; with --spp 1 use --guiding off or auto");
+      conflict(o.guiding || o.spp, scene, "/render/guiding",
+               "--guiding on (render.guiding \"on\") needs at least 2 samples per pixel: the first trains "
+               "the guide cache and the render's own samples follow it; with --spp 1 use --guiding off or auto");
     s.guide_training_samples = std::min(T, s.spp - 1);
   } else if (begin == 0 ? end <= T : begin < T) {
     throw UsageError(fmt::format("guiding{}: samples {}:{} cut the training pass's samples 0:{}; a shard of a guided "
