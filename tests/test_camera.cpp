@@ -273,6 +273,11 @@ TEST(Shutter, BadLensAndShutterFieldsAreRefusedByName) {
               s["camera"]["position_close"] = {0, 0, -3};
             }).find("/camera/position_close: camera motion needs"),
             std::string::npos);
+  EXPECT_NE(err([](json& s) {  // fit frames the open position alone: the path would be another
+              s["camera"]["fit"] = 1.2;
+              s["camera"]["position_close"] = {0, 0, -3};
+            }).find("/camera/position_close: camera motion needs a position and look_at given as points and no fit"),
+            std::string::npos);
   // times the kernels cannot hold as floats
   EXPECT_NE(err([](json& s) { s["camera"]["shutter"] = {0, 1e300}; }).find("/camera/shutter/1: value 1e+300 is out of range"),
             std::string::npos);

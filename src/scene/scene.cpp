@@ -183,8 +183,9 @@ void Parser::camera_lens_time(const json& j, const std::string& path, CameraDesc
   if (find(j, "position_close")) c.position_close = vec3(j, path, "position_close", c.position, kAny);
   if (find(j, "look_at_close")) c.look_at_close = vec3(j, path, "look_at_close", c.look_at, kAny);
   const char* moving = c.position_close ? "/position_close" : "/look_at_close";
-  if ((c.position_close || c.look_at_close) && (c.position_auto || c.look_at_media))
-    fail(path + moving, "camera motion needs a position and look_at given as points (no framing)");
+  if ((c.position_close || c.look_at_close) && (c.position_auto || c.look_at_media || c.fit > 0))
+    fail(path + moving, "camera motion needs a position and look_at given as points and no fit (no framing: a framed "
+                        "position would move the camera's path away from the one written)");
 }
 
 // Framing (docs/scene-format.md, scene/framing.h): "look_at": "media", "position": "auto", "fit".
