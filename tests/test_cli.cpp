@@ -954,6 +954,33 @@ TEST_F(CliFlags, SchemeWithATrackerThatIgnoresItIsAUsageError) {
   EXPECT_FALSE(fs::exists(dir + "/out.exr"));
 }
 
+// A testing aid that leaves the variance unbounded warns, once per command (info packs the scene
+// after its report: still one line), and -q hides the warning.
+TEST(CliRender, TestingAidsWarnOnceAndQuietHidesIt) {
+  std::string dir = test_dir();
+  json s = homogeneous_scene(8, 8, 1, 1.0, 0.0);
+  s["media"][0]["majorant_scale"] = 0.5;
+  std::string scene = write_scene(dir, "aid.json", s);
+  auto count = [](const std::string& out, const std::string& what) {
+    size_t n = 0;
+    for (size_t at = out.find(what); at != std::string::npos; at = out.find(what, at + 1)) ++n;
+    return n;
+  };
+  const std::string warning = "warning: " + scene + ": /media/0/majorant_scale: 0.5 < 1";
+  for (const std::vector<std::string>& cmd : {std::vector<std::string>{"render", scene, "-o", dir + "/a.exr"},
+                                              std::vector<std::string>{"info", scene}}) {
+    Proc p = run(cmd, slow_ok());
+    ASSERT_TRUE(p.exited && p.code == 0) << p.describe();
+    EXPECT_EQ(count(p.out, warning), 1u) << p.describe();
+  }
+  Proc q = run({"render", scene, "-o", dir + "/q.exr", "-q"}, slow_ok());
+  ASSERT_TRUE(q.exited && q.code == 0) << q.describe();
+  EXPECT_EQ(q.out.find("warning:"), std::string::npos) << q.describe();
+  s["media"][0]["majorant_scale"] = 1.0;  // the twin: no warning
+  Proc t = run({"render", write_scene(dir, "plain.json", s), "-o", dir + "/t.exr"}, slow_ok());
+  EXPECT_EQ(t.out.find("warning:"), std::string::npos) << t.describe();
+}
+
 TEST(CliRender, SceneSchemeWithATrackerThatIgnoresItWarnsAndRecordsMax) {
   std::string dir = test_dir();
   json s = homogeneous_scene(8, 8, 1, 1.0, 0.0);

@@ -23,6 +23,7 @@
 #include "integrator/memory_budget.h"
 #include "scene/framing.h"
 #include "volume/volume.h"
+#include "util/warning.h"
 
 namespace spectrack {
 namespace packing {
@@ -140,6 +141,15 @@ void Packer::add_medium(int i, const MediumDesc& md) {
   m.phase = f4(md.phase.blend[0], md.phase.blend[1], md.phase.blend[2], md.phase.blend[3]);
   m.majorant_scale = float(md.majorant_scale);
   m.minorant_scale = float(md.minorant_scale);
+  // testing aids that keep the expectation but not a bounded variance (docs/scene-format.md)
+  if (md.majorant_scale < 1)
+    warn(fmt::format("{}/majorant_scale: {:g} < 1 under-estimates the majorant: where the density exceeds it the "
+                     "null-collision weights turn negative and the image's variance can be unbounded (a testing aid "
+                     "for the estimators, not for images)", ctx_name, md.majorant_scale));
+  if (md.minorant_scale > 1 && st_tracker_decomposes(tracker))
+    warn(fmt::format("{}/minorant_scale: {:g} > 1 over-estimates the minorant: the residual's weights turn negative "
+                     "where the density is below it and the image's variance can be unbounded (a testing aid)",
+                     ctx_name, md.minorant_scale));
   m.sigma_a = f4(md.sigma_a[0] * md.density_scale, md.sigma_a[1] * md.density_scale, md.sigma_a[2] * md.density_scale);
   m.sigma_s = f4(md.sigma_s[0] * md.density_scale, md.sigma_s[1] * md.density_scale, md.sigma_s[2] * md.density_scale);
   m.density_grid = ST_NO_GRID;
@@ -344,8 +354,7 @@ GridData Packer::add_temperature_grid(st_medium& m, const MediumDesc& md, const 
       break;
     }
     if (name.empty()) {
-      std::fprintf(stderr, "warning: %s/preset: %s has none of the preset's fire grids: the medium does not emit\n",
-                   ctx_name.c_str(), md.file.c_str());
+      warn(fmt::format("{}/preset: {} has none of the preset's fire grids: the medium does not emit", ctx_name, md.file));
       m.emissive = 0;
       return GridData{};
     }
@@ -379,8 +388,8 @@ GridData Packer::add_temperature_grid(st_medium& m, const MediumDesc& md, const 
                             "1e30, the bound on the float coefficients of T = value x temperature_scale - "
                             "temperature_offset x temperature_scale in the kernels", ctx, ta, -tb));
   if (!(T_hi > e.temperature_cutoff)) {
-    std::fprintf(stderr, "warning: %s: grid '%s' maps to temperatures of at most %g K, at or below the cutoff %g K: "
-                 "the medium does not emit\n", ctx.c_str(), name.c_str(), T_hi, e.temperature_cutoff);
+    warn(fmt::format("{}: grid '{}' maps to temperatures of at most {:g} K, at or below the cutoff {:g} K: the medium "
+                     "does not emit", ctx, name, T_hi, e.temperature_cutoff));
     m.emissive = 0;
     return t;
   }

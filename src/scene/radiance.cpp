@@ -1,6 +1,9 @@
 // radiance.cpp: see radiance.h for the bounds and their derivation.
 #include "scene/radiance.h"
 #include "scene/phase_models.h"
+#include "util/warning.h"
+
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <cfloat>
@@ -108,8 +111,8 @@ void check_radiance_bounds(const SceneDesc& s) {
     if (!m.emission.present) continue;
     const EmissionDesc& e = m.emission;
     if (e.blackbody && e.temperature > 0 && !(e.temperature > e.temperature_cutoff))
-      std::fprintf(stderr, "warning: %s: %s/emission/temperature: %g K is at or below the cutoff %g K: the medium does "
-                   "not emit\n", s.path.c_str(), m.json_path.c_str(), e.temperature, e.temperature_cutoff);
+      warn(fmt::format("{}: {}/emission/temperature: {:g} K is at or below the cutoff {:g} K: the medium does not emit",
+                       s.path, m.json_path, e.temperature, e.temperature_cutoff));
     const double le = max3(m.emission.radiance) * m.emission.scale;
     if (le > kMaxRadiance)
       fail(s, m.json_path + "/emission",

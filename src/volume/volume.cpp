@@ -11,6 +11,7 @@
 // after checking their headers, and the decoded grid is validated (checksum, node pointers).
 #include "volume/volume.h"
 #include "volume/volume_detail.h"
+#include "util/warning.h"
 #include "util/files.h"
 #include "volume/vdb_open.h"
 #include "volume/vdb_prescan.h"
@@ -142,8 +143,8 @@ const Entry& select(const std::vector<Entry>& entries, const std::string& grid_n
     int floats = 0;
     for (const Entry& e : entries) floats += e.is_float;
     if (!grid_name.empty() && unnamed.size() == 1 && floats == 1 && grid_index <= 0) {
-      std::cerr << "warning: " << (fail.context.empty() ? "" : fail.context + ": ") << fail.file << ": no grid named "
-                << in_quotes(grid_name) << "; using the file's only float grid, which has no name\n";
+      warn((fail.context.empty() ? "" : fail.context + ": ") + fail.file + ": no grid named " + in_quotes(grid_name) +
+           "; using the file's only float grid, which has no name");
       return *unnamed[0];
     }
     std::string list;
@@ -158,9 +159,8 @@ const Entry& select(const std::vector<Entry>& entries, const std::string& grid_n
     return *hits[size_t(grid_index)];
   }
   if (hits.size() > 1) {
-    std::cerr << "warning: " << (fail.context.empty() ? "" : fail.context + ": ") << fail.file << ": "
-              << hits.size() << " grids are named " << in_quotes(grid_name)
-              << "; using the first (set grid_index to select another, 0-based)\n";
+    warn((fail.context.empty() ? "" : fail.context + ": ") + fail.file + ": " + std::to_string(hits.size()) +
+         " grids are named " + in_quotes(grid_name) + "; using the first (set grid_index to select another, 0-based)");
   }
   return *hits[0];
 }
