@@ -55,7 +55,7 @@ class Scene:
         return _spectrack.render(self._desc, spp=spp, seed=seed, device=device, spp_range=spp_range,
                                  pixel_bounds=pixel_bounds, tracker=tracker, scheme=scheme, guiding=guiding,
                                  guide_cache=os.fspath(guide_cache) if guide_cache is not None else "", alpha=alpha,
-                                 aovs=list(aovs), time_limit=time_limit, chunk_spp=chunk_spp, verbose=verbose,
+                                 aovs=[aovs] if isinstance(aovs, str) else list(aovs), time_limit=time_limit, chunk_spp=chunk_spp, verbose=verbose,
                                  progress=progress, json_text=self._text, guide_splitting=guide_splitting)
 
     def __repr__(self):
@@ -97,11 +97,43 @@ def _merge_patch(target, patch):
     return out
 
 
+def _json_value(value):
+    """numpy scalars and arrays (a sweep over np.linspace) as the JSON numbers and lists they hold."""
+    if hasattr(value, "tolist") and type(value).__module__ == "numpy":
+        return value.tolist()
+    raise TypeError(f"Object of type {type(value).__name__} is not JSON serializable")
+
+
+def _not_json(value, path="", numpy_ok=True):
+    """The JSON path and reason of the first value JSON cannot hold (NaN, inf, a non-JSON type), or None."""
+    if isinstance(value, dict):
+        for k, v in value.items():
+            if not isinstance(k, str):
+                return f"{path or '/'}: key {k!r} is not a string"
+            found = _not_json(v, f"{path}/{k}")
+            if found:
+                return found
+        return None
+    if isinstance(value, (list, tuple)):
+        for i, v in enumerate(value):
+            found = _not_json(v, f"{path}/{i}")
+            if found:
+                return found
+        return None
+    if hasattr(value, "tolist") and type(value).__module__ == "numpy":
+        return _not_json(value.tolist(), path)
+    if isinstance(value, float) and (value != value or value in (float("inf"), float("-inf"))):
+        return f"{path}: {value} is not a number JSON can hold"
+    if value is None or isinstance(value, (str, int, float, bool)):
+        return None
+    return f"{path}: a {type(value).__name__} is not a JSON value"
+
+
 def _to_json(scene_dict, name):
-    try:
-        return json.dumps(scene_dict, allow_nan=False)
-    except (TypeError, ValueError) as e:
-        raise ValueError(f"{name}: the scene dict is not JSON: {e}") from None
+    found = _not_json(scene_dict)
+    if found:
+        raise ValueError(f"{name}: {found}")
+    return json.dumps(scene_dict, allow_nan=False, default=_json_value)
 
 
 def load_dict(scene_dict, base_dir=None, name="<dict>"):
@@ -120,7 +152,7 @@ def load_file(path, **overrides):
     """A scene file; each keyword (a top-level section: film, render, camera, lights, media) is merged
     into the file's JSON as an RFC 7386 merge patch, e.g. ``load_file(p, film={"spp": 16})``."""
     path = os.fspath(path)
-    if not overrides:
+    if not overrides or not os.path.isfile(path):  # a missing file: the loader's ValueError either way
         return Scene(_spectrack.load_scene(path))
     with open(path, encoding="utf-8") as f:
         try:

@@ -11,6 +11,7 @@ could shape the image (meshes, other lights, a sphere light's size, the camera's
 aperture offsets, velocity fields, shears, dome rotations) is named in a warning. The stage's axes and units are kept: coefficients are per stage unit.
 """
 import math
+import numbers
 import os
 
 try:
@@ -83,8 +84,8 @@ def _asset_path(mp, prim, attr):
         p = os.path.join(d, os.path.basename(authored))
         if os.path.isfile(p):
             return os.path.abspath(p)
-    raise ValueError(f"{prim.GetPath()}: {attr.GetName()} @{authored}@ not found next to the stage, in `assets` or in "
-                     f"`search_paths`")
+    raise ValueError(f"{mp.stage.GetRootLayer().identifier}: {prim.GetPath()}: {attr.GetName()} @{authored}@ not found "
+                     f"next to the stage, in `assets` or in `search_paths`")
 
 
 def _field(mp, path):
@@ -266,6 +267,26 @@ OPTIONS = ("sigma_t", "albedo", "temperature_scale", "emission_scale", "blackbod
            "assets")
 
 
+def _check_options(frame, width, spp, options):
+    """The options' types and ranges: TypeError for a wrong type, ValueError naming the option."""
+    def number(name, value):
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
+            raise TypeError(f"load_usd: {name}={value!r}: a number is needed")
+        if not math.isfinite(value):
+            raise ValueError(f"load_usd: {name}={value!r}: must be finite")
+        return float(value)
+    if frame is not None:
+        number("frame", frame)
+    for name, value, lo in (("width", width, 1), ("spp", spp, 1)):
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < lo:
+            raise ValueError(f"load_usd: {name}={value!r}: a whole number >= {lo} is needed")
+    if "albedo" in options and not 0 <= number("albedo", options["albedo"]) <= 1:
+        raise ValueError(f"load_usd: albedo={options['albedo']!r}: the single-scattering albedo is in [0, 1]")
+    for name in ("sigma_t", "temperature_scale", "emission_scale"):
+        if name in options and not number(name, options[name]) >= 0:
+            raise ValueError(f"load_usd: {name}={options[name]!r}: must be >= 0")
+
+
 def stage_to_dict(path, frame=None, camera=None, width=512, spp=64, **options):
     """The scene dict of a stage at `frame` (default: the stage's default time) and the warnings.
     options: sigma_t (1, per stage unit), albedo (0.8), temperature_scale (1: the grid in kelvin),
@@ -275,10 +296,16 @@ def stage_to_dict(path, frame=None, camera=None, width=512, spp=64, **options):
     if unknown:
         raise TypeError(f"load_usd: unknown option(s) {', '.join(unknown)} (the options: frame, camera, width, spp, "
                         f"{', '.join(OPTIONS)})")
-    stage = Usd.Stage.Open(os.fspath(path))
+    _check_options(frame, width, spp, options)
+    if not os.path.isfile(os.fspath(path)):
+        raise FileNotFoundError(f"{path}: no such USD stage")
+    try:
+        stage = Usd.Stage.Open(os.fspath(path))
+    except Exception as e:  # pxr.Tf.ErrorException: a file USD cannot parse
+        raise ValueError(f"{path}: not a USD stage USD can open: {str(e).strip()}") from None
     if stage is None:
         raise ValueError(f"{path}: not a USD stage")
-    time = Usd.TimeCode(frame) if frame is not None else Usd.TimeCode.Default()
+    time = Usd.TimeCode(float(frame)) if frame is not None else Usd.TimeCode.Default()
     mp = _Mapper(stage, time, options)
     media, lights, cams = [], [], []
     for prim in stage.Traverse():
@@ -297,6 +324,12 @@ def stage_to_dict(path, frame=None, camera=None, width=512, spp=64, **options):
     scene = {"format": "spectrack-scene/1", "film": {"width": width, "height": width, "spp": spp},
              "render": {}, "lights": lights, "media": media}
     chosen = stage.GetPrimAtPath(camera) if camera else (cams[0] if cams else None)
+    if camera and not (chosen and chosen.IsValid()):
+        raise ValueError(f"{path}: camera={camera!r}: no prim at that path (the stage's cameras: "
+                         f"{', '.join(str(c.GetPath()) for c in cams) or 'none'})")
+    if camera and not chosen.IsA(UsdGeom.Camera):
+        raise ValueError(f"{path}: camera={camera!r}: the prim is a {chosen.GetTypeName() or 'typeless prim'}, not a "
+                         f"Camera")
     if chosen:
         scene["camera"], scene["film"]["height"] = _camera(mp, chosen, width)
     else:

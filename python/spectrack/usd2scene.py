@@ -37,7 +37,7 @@ def main(argv=None):
                                         emission_scale=a.emission_scale,
                                         blackbody_normalization=a.blackbody_normalization,
                                         search_paths=a.search_path, assets=assets)
-    except (ImportError, ValueError) as e:
+    except (ImportError, ValueError, TypeError, OSError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
     for w in warnings:

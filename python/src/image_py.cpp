@@ -62,19 +62,20 @@ py::dict layers(const Image& im) {
 
 py::object to_python(const nlohmann::json& j) { return py::module_::import("json").attr("loads")(j.dump()); }
 
-Image merge(const py::list& items) {
+Image merge(const py::iterable& items) {
   std::vector<FilmPiece> pieces;
   Image out;
   for (const py::handle& h : items) {
-    if (py::isinstance<py::str>(h)) {
-      pieces.push_back(read_piece(h.cast<std::string>()));
-    } else if (!py::isinstance<Image>(h)) {
-      throw py::type_error(fmt::format("merge: {} is neither a spectrack.Image nor an EXR file's path",
-                                       py::repr(h).cast<std::string>()));
-    } else {
+    if (py::isinstance<Image>(h)) {
       const Image& im = h.cast<const Image&>();
       pieces.push_back(im.piece);
+      pieces.back().source = fmt::format("image {} of the list", pieces.size());  // messages name which
       out.counters.add(im.counters);
+    } else if (py::isinstance<py::str>(h) || py::hasattr(h, "__fspath__")) {
+      pieces.push_back(read_piece(path_arg(h, "merge")));
+    } else {
+      throw py::type_error(fmt::format("merge: {} is neither a spectrack.Image nor an EXR file's path",
+                                       py::repr(h).cast<std::string>()));
     }
   }
   if (pieces.empty()) throw Error("merge: no image given");
@@ -88,7 +89,8 @@ Image merge(const py::list& items) {
   return out;
 }
 
-Image read(const std::string& path) {
+Image read(const py::object& path_object) {
+  const std::string path = path_arg(path_object, "read");
   Image im;
   im.piece = read_piece(path, &im.meta, /*keep_adaptive=*/true);  // merge() still refuses an adaptive Image
   im.stats = {{"spp", im.piece.samples()}, {"spp_ranges", format_ranges(im.piece.ranges)},
@@ -101,8 +103,9 @@ Image read(const std::string& path) {
   return im;
 }
 
-py::dict read_exr(const std::string& path) {
-  const RgbImage img = read_image(path, ImageUse::kFilmPiece);
+py::dict read_exr(const py::object& path_object) {
+  const std::string path = path_arg(path_object, "read_exr");
+  const RgbImage img = read_image(path, ImageUse::kSpectrackExr);
   py::dict d = channel_dict({"R", "G", "B"}, img.rgb, img.width, img.height);
   for (auto item : channel_dict(img.extra_names, img.extra, img.width, img.height)) d[item.first] = item.second;
   return d;
@@ -115,6 +118,16 @@ py::list ranges(const Image& im) {
 }
 
 }  // namespace
+
+std::string path_arg(const py::handle& path, const char* what) {
+  if (py::isinstance<py::str>(path)) return path.cast<std::string>();
+  if (!py::hasattr(path, "__fspath__"))
+    throw py::type_error(fmt::format("{}: a path (str or os.PathLike) is needed, not {}", what,
+                                     py::repr(path).cast<std::string>()));
+  const py::object s = py::module_::import("os").attr("fspath")(path);
+  if (!py::isinstance<py::str>(s)) throw py::type_error(fmt::format("{}: a str path is needed (bytes given)", what));
+  return s.cast<std::string>();
+}
 
 void bind_image(py::module_& m) {
   py::class_<Image>(m, "Image", "A render (or a merge of renders): a pixel window of the film with exact sums")
@@ -133,7 +146,11 @@ void bind_image(py::module_& m) {
         const FilmPiece& p = im.piece;
         return py::make_tuple(p.x0, p.x0 + p.width, p.y0, p.y0 + p.height);
       })
-      .def("write", [](const Image& im, const std::string& path, bool half, const std::string& compression) {
+      .def("write", [](const Image& im, const py::object& path_object, bool half, const std::string& compression) {
+        const std::string path = path_arg(path_object, "write");
+        if (im.piece.samples() == 0)  // as the command line writes nothing when no sample finished
+          throw py::value_error(fmt::format("write: {}: the image holds no finished sample (a render stopped before its "
+                                            "first batch): nothing to write", path));
         ExrOptions exr;
         exr.half = half;
         const std::vector<std::string>& known = exr_compressions();  // the CLI's --compression names

@@ -20,6 +20,9 @@ struct Image {
   Metadata meta;            // written beside the piece's own metadata
 };
 
+// A file path argument: a str or any os.PathLike (pathlib.Path); TypeError naming `what` otherwise.
+std::string path_arg(const pybind11::handle& path, const char* what);
+
 // Binds Image, merge, read and read_exr to module `m`.
 void bind_image(pybind11::module_& m);
 

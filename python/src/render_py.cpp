@@ -12,6 +12,7 @@
 #include <pybind11/stl.h>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <atomic>
 #include <chrono>
@@ -39,17 +40,20 @@ int named(const std::optional<std::string>& v, int (*from_name)(const std::strin
   return k;
 }
 
-// The film layers: the scene's film.aovs, the names in `aovs`, and alpha when `alpha` says (else
-// film.alpha, else off: an array holds the whole beauty).
+// The film layers: the scene's film.aovs, the names in `aovs`, and alpha when `alpha` or `aovs`
+// says (else film.alpha, else off: an array holds the whole beauty); "alpha" in `aovs` with
+// alpha=False is refused, as the command line refuses --aov alpha with --no-alpha.
 uint32_t film_layers(const SceneDesc& scene, const std::vector<std::string>& aovs, std::optional<bool> alpha) {
   uint32_t bits = scene.film.aovs & ~uint32_t(ST_AOV_BIT(ALPHA));
+  bool alpha_listed = false;
   for (const std::string& n : aovs) {
     const int k = aov_from_name(n);
     if (k < 0) throw py::value_error(fmt::format("aovs: unknown layer '{}' (one of: {})", n, aov_names()));
-    bits |= 1u << k;
+    if (k == ST_AOV_INDEX_ALPHA) alpha_listed = true;
+    else bits |= 1u << k;
   }
-  if (alpha.value_or(scene.film.alpha.value_or(false))) bits |= uint32_t(ST_AOV_BIT(ALPHA));
-  else bits &= ~uint32_t(ST_AOV_BIT(ALPHA));
+  if (alpha_listed && alpha == false) throw py::value_error("aovs lists alpha, which alpha=False turns off");
+  if (alpha_listed || alpha.value_or(scene.film.alpha.value_or(false))) bits |= uint32_t(ST_AOV_BIT(ALPHA));
   return bits;
 }
 
@@ -89,6 +93,10 @@ RenderOptions options_of(const SceneDesc& scene, const RenderArgs& a) {
   opt.aovs = film_layers(scene, a.aovs, a.alpha);
   // the command line's refusals of what would be ignored (ValueError, as the CLI's exit 2)
   check_tracker_scheme(scene, opt, a.scheme.value_or(""), a.tracker.value_or(""));
+  const OptionCheck& chunk = option_row("chunk_spp").check;  // --chunk-spp's range; 0: by the device count
+  if (a.chunk_spp != 0 && !(a.chunk_spp >= chunk.lo && a.chunk_spp <= chunk.hi))
+    throw py::value_error(fmt::format("chunk_spp={}: 0 (by the device count) or {:g} to {:g} (--chunk-spp's range)",
+                                      a.chunk_spp, chunk.lo, chunk.hi));
   check_chunk_spp(a.chunk_spp > 0 ? std::optional<int>(a.chunk_spp) : std::nullopt, parse_device_list(a.device),
                   a.device);
   return opt;
@@ -157,12 +165,31 @@ Image render(const SceneDesc& scene, const RenderArgs& args) {
   im.meta["render_seconds"] = float(r.seconds_render);
   im.meta["scene"] = scene.path;
   if (const std::string why = render_stop_reason(r); !why.empty()) im.meta["stop_reason"] = why;
+  if (args.verbose) {  // the command line's summary, on Python's stderr
+    const std::string noise = im.stats.contains("noise_error") && im.stats["noise_error"].is_number()
+                                  ? fmt::format(", noise {:.3g}%", 100.0 * im.stats["noise_error"].get<double>())
+                                  : std::string();
+    py::module_::import("sys").attr("stderr").attr("write")(fmt::format(
+        "spectrack: {} on {}: {} spp of {}x{} pixels in {:.3g} s render{}{}\n", scene.path, fmt::join(r.devices, ", "),
+        r.piece.samples(), r.piece.width, r.piece.height, r.seconds_render, noise, r.piece.interrupted ? ", interrupted" : ""));
+  }
+  // the image rides on an exception of the progress callback, the last call's included
+  auto with_image = [&](py::error_already_set& e) {
+    py::object value = e.value();
+    if (value && PyObject_HasAttrString(value.ptr(), "__dict__")) value.attr("image") = py::cast(im);
+  };
   if (pending) {
-    py::object value = pending->value();
-    if (value && PyObject_HasAttrString(value.ptr(), "__dict__")) value.attr("image") = py::cast(std::move(im));
+    with_image(*pending);
     throw std::move(*pending);
   }
-  if (!args.progress.is_none()) args.progress(1.0);
+  if (!args.progress.is_none()) {
+    try {
+      args.progress(1.0);
+    } catch (py::error_already_set& e) {
+      with_image(e);
+      throw;
+    }
+  }
   return im;
 }
 

@@ -2,6 +2,7 @@
 // centres sit at origin + (i, j, k) * voxel_size in world units, the renderer's convention
 // (src/volume/volume.h: values at integer index coordinates, trilinear between them).
 #include "volume_py.h"
+#include "image_py.h"
 
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
@@ -59,6 +60,15 @@ std::unique_ptr<Volume> from_numpy(const py::array& density, double voxel_size, 
   if (!(voxel_size > 0) || !std::isfinite(voxel_size))
     throw py::value_error(fmt::format("Volume.from_numpy: voxel_size {} must be a positive finite number", voxel_size));
   const std::array<double, 3> origin = checked_origin(origin_v);
+  if (grid_name.empty()) throw py::value_error("Volume.from_numpy: grid must not be empty (a medium names its grid)");
+  // what a VDB transform holds (OpenVDB refuses a scale below ~1e-15 as singular) and the kernels'
+  // float coordinates can place (volume/float_limits.h checks the world box again when packing)
+  if (voxel_size < 1e-12 || voxel_size > 1e12)
+    throw py::value_error(fmt::format("Volume.from_numpy: voxel_size {} is outside [1e-12, 1e12]", voxel_size));
+  for (int a = 0; a < 3; ++a)
+    if (std::abs(origin[size_t(a)]) > 1e15)
+      throw py::value_error(fmt::format("Volume.from_numpy: origin {} = {} is beyond 1e15 (float coordinates cannot "
+                                        "place voxels there)", "xyz"[a], origin[size_t(a)]));
   auto v = std::make_unique<Volume>();
   v->grid = grid_name;
   for (int d = 0; d < 3; ++d) v->shape[size_t(d)] = int(arr.shape(d));
@@ -77,9 +87,9 @@ std::unique_ptr<Volume> from_numpy(const py::array& density, double voxel_size, 
       for (int j = 0; j < ny; ++j)
         for (int k = 0; k < nz; ++k) {
           const double d = src[(size_t(i) * ny + j) * nz + k];
-          if (!std::isfinite(d) || d < 0)
-            throw Error(fmt::format("Volume.from_numpy: density[{}, {}, {}] = {}: values must be finite and >= 0", i,
-                                    j, k, d));
+          if (!std::isfinite(d) || d < 0 || !std::isfinite(float(d)))
+            throw Error(fmt::format("Volume.from_numpy: density[{}, {}, {}] = {}: values must be finite and >= 0 (and "
+                                    "within float32's range, which the grid holds)", i, j, k, d));
           if (d == 0) continue;
           acc.setValue(openvdb::Coord(i, j, k), float(d));
           ++v->active_voxels;
@@ -95,7 +105,8 @@ std::unique_ptr<Volume> from_numpy(const py::array& density, double voxel_size, 
 
 // The grid of a file, checked as `spectrack info` reads it (volume/inspect.h): the file a VDB or
 // NanoVDB one, the grid present and usable as a density; its shape is the active voxels' box.
-std::unique_ptr<Volume> from_file(const std::string& path, const std::string& grid) {
+std::unique_ptr<Volume> from_file(const py::object& path_object, const std::string& grid) {
+  const std::string path = path_arg(path_object, "Volume.from_file");
   if (!fs::exists(path)) throw Error(fmt::format("{}: no such volume file", path));
   std::vector<std::string> names;
   for (const GridInfo& g : inspect_volume(path)) {

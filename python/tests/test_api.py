@@ -193,6 +193,65 @@ def test_wrong_arrays_are_refused():
         spectrack.Volume.from_numpy(np.ones((2, 2, 2), dtype=np.float32), voxel_size=0)
 
 
+def test_arguments_a_user_passes_from_numpy_and_pathlib(tmp_path):
+    import pathlib
+    cube = np.ones((2, 2, 2), dtype=np.float32)
+    # the transform OpenVDB takes and the float coordinates: refused by name, not a RuntimeError
+    with pytest.raises(ValueError, match="voxel_size 1e-20 is outside"):
+        spectrack.Volume.from_numpy(cube, voxel_size=1e-20)
+    with pytest.raises(ValueError, match="origin x = 1e"):
+        spectrack.Volume.from_numpy(cube, origin=(1e30, 0, 0))
+    with pytest.raises(ValueError, match="float32's range"):
+        spectrack.Volume.from_numpy(np.full((2, 2, 2), 1e39))
+    with pytest.raises(ValueError, match="grid must not be empty"):
+        spectrack.Volume.from_numpy(cube, grid="")
+    # numpy scalars are JSON numbers; a NaN is named by its path
+    scene = spectrack.load_dict({**SLAB, "camera": {**SLAB["camera"], "height": np.float32(3)}})
+    assert scene.width == SLAB["film"]["width"]
+    with pytest.raises(ValueError, match=r"<dict>: /film/spp: nan"):
+        spectrack.load_dict({**SLAB, "film": {**SLAB["film"], "spp": float("nan")}})
+    # aovs: one name, "alpha" among them; and what the command line refuses
+    s = spectrack.load_dict(SLAB)
+    assert "depth" in s.render(spp=1, aovs="depth").layers
+    assert "alpha" in s.render(spp=1, aovs=["alpha"]).layers
+    with pytest.raises(ValueError, match="alpha=False"):
+        s.render(spp=1, aovs=["alpha"], alpha=False)
+    with pytest.raises(ValueError, match="chunk_spp=-1"):
+        s.render(spp=2, chunk_spp=-1, device="0:0,0:0")
+    # paths: pathlib everywhere, any iterable for merge
+    img = s.render(spp=2)
+    img.write(pathlib.Path(tmp_path) / "p.exr")
+    back = spectrack.read(pathlib.Path(tmp_path) / "p.exr")
+    assert back.spp == 2 and "R" in spectrack.read_exr(pathlib.Path(tmp_path) / "p.exr")
+    assert spectrack.merge((img,)).spp == 2
+    # a half-float file is read for its channels (merge still refuses it)
+    img.write(str(tmp_path / "h.exr"), half=True)
+    np.testing.assert_allclose(spectrack.read_exr(str(tmp_path / "h.exr"))["R"], img.channels["R"], rtol=1e-3, atol=1e-3)
+    with pytest.raises(ValueError, match="32-bit float"):
+        spectrack.read(str(tmp_path / "h.exr"))
+
+
+def test_progress_exceptions_carry_the_image_and_nothing_empty_is_written(tmp_path):
+    s = spectrack.load_dict(SLAB)
+    def at_the_end(f):
+        if f >= 1.0:
+            raise RuntimeError("stop")
+    with pytest.raises(RuntimeError) as e:
+        s.render(spp=2, progress=at_the_end)
+    assert e.value.image.spp == 2 and not e.value.image.interrupted
+    def at_once(f):
+        raise RuntimeError("stop")
+    with pytest.raises(RuntimeError) as e:
+        s.render(spp=2, progress=at_once)
+    img = e.value.image
+    if img.spp == 0:  # stopped before the first batch: nothing to write, as the command line
+        with pytest.raises(ValueError, match="no finished sample"):
+            img.write(str(tmp_path / "z.exr"))
+    else:
+        img.write(str(tmp_path / "z.exr"))
+        assert spectrack.read(str(tmp_path / "z.exr")).spp == img.spp
+
+
 def test_sparse_volume_and_devices():
     d = np.zeros((8, 8, 8), dtype=np.float32)
     d[2:4, 2:5, 3] = 0.5

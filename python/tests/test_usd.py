@@ -157,3 +157,23 @@ def test_a_made_stage_maps_fields_dome_texture_and_warns_by_name(tmp_path):
         warnings.simplefilter("always")
         img = spectrack.load_usd(tmp_path / "made.usda", width=32, spp=1, temperature_scale=2600).render()
     assert img.rgb.max() > 0
+
+
+def test_options_and_paths_are_checked_by_name():
+    stage = USD / "refs" / "vdbVolume.usda"
+    with pytest.raises(FileNotFoundError, match="no such USD stage"):
+        stage_to_dict(USD / "nope.usda")
+    with pytest.raises(ValueError, match="camera='/nope': no prim"):
+        stage_to_dict(stage, camera="/nope", search_paths=[str(USD)])
+    with pytest.raises(ValueError, match="not a Camera"):
+        stage_to_dict(stage, camera="/Lights/Left", search_paths=[str(USD)])
+    with pytest.raises(TypeError, match="frame='abc'"):
+        stage_to_dict(stage, frame="abc", search_paths=[str(USD)])
+    with pytest.raises(ValueError, match="frame=nan"):
+        stage_to_dict(stage, frame=float("nan"), search_paths=[str(USD)])
+    with pytest.raises(ValueError, match="albedo=2"):
+        stage_to_dict(stage, albedo=2, search_paths=[str(USD)])
+    with pytest.raises(ValueError, match="vdbVolume.usda: .*not found"):
+        stage_to_dict(stage)  # the file it names is one folder up: not found without search_paths
+    scene, _ = stage_to_dict(stage, camera="/main_cam", search_paths=[str(USD)], width=16, spp=1)  # the twin
+    assert scene["camera"]["type"] == "perspective"

@@ -241,7 +241,8 @@ void check_environment_spec(OpenedImage& o, bool cropped, bool rgb_named, const 
 }
 
 // A merge input: spectrack's channels only, 32-bit float, its data window inside its display window.
-void check_film_piece_spec(const OpenedImage& o, bool rgb_named, const std::function<void(const std::string&)>& fail) {
+void check_film_piece_spec(const OpenedImage& o, bool rgb_named, bool half_allowed,
+                           const std::function<void(const std::string&)>& fail) {
   const OIIO::ImageSpec& spec = o.spec;
   const RgbImage& img = o.img;
   const int nc = spec.nchannels;
@@ -260,11 +261,14 @@ void check_film_piece_spec(const OpenedImage& o, bool rgb_named, const std::func
   if (size_t(spec.width) * size_t(spec.height) * size_t(nc) > 3 * max_pixels)
     fail(fmt::format("{}x{} pixels of {} channels are more than a merge input can hold (3 * 2^28 values)", spec.width,
                      spec.height, nc));
-  bool all_float = spec.format == OIIO::TypeDesc::FLOAT;
-  for (auto& t : spec.channelformats) all_float = all_float && t == OIIO::TypeDesc::FLOAT;
-  if (!all_float)
-    fail(fmt::format("holds {} pixels; spectrack's EXR outputs hold 32-bit float (a converted file loses the exact "
-                     "sums a merge needs)",
+  auto allowed = [&](const OIIO::TypeDesc& t) {
+    return t == OIIO::TypeDesc::FLOAT || (half_allowed && t == OIIO::TypeDesc::HALF);
+  };
+  bool all_allowed = allowed(spec.format);
+  for (auto& t : spec.channelformats) all_allowed = all_allowed && allowed(t);
+  if (!all_allowed)
+    fail(fmt::format("holds {} pixels; a merge takes 32-bit float EXRs only (a half-float file, --half, or a converted "
+                     "one has lost the exact sums a merge needs)",
                      spec.format.c_str()));
   if (img.window.x0 < 0 || img.window.y0 < 0 || int64_t(img.window.x0) + img.width > img.window.full_width ||
       int64_t(img.window.y0) + img.height > img.window.full_height)
@@ -315,7 +319,7 @@ OpenedImage open_checked(const std::string& path, ImageUse use) {
   auto base = [&](int c) { return c < int(spec.channelnames.size()) ? channel_base(spec.channelnames[c]) : ""; };
   const bool rgb_named = nc >= 3 && base(0) == "R" && base(1) == "G" && base(2) == "B";
   if (env) check_environment_spec(o, cropped, rgb_named, fail);
-  else check_film_piece_spec(o, rgb_named, fail);
+  else check_film_piece_spec(o, rgb_named, use == ImageUse::kSpectrackExr, fail);
   if (!env && nc > 3) img.extra_names.assign(spec.channelnames.begin() + 3, spec.channelnames.begin() + nc);
   for (const auto& a : spec.extra_attribs) {
     std::string n = a.name().string();
