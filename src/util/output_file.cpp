@@ -66,7 +66,8 @@ const char* kind_of(mode_t m) {
 
 // Why a file cannot be created in `dir`, in words.
 std::string create_failure(const fs::path& dir, int err) {
-  if (err == ENOENT) return fmt::format("its folder {} does not exist", dir.string());
+  std::error_code ec;
+  if (err == ENOENT && !fs::is_directory(dir, ec)) return fmt::format("its folder {} does not exist", dir.string());
   if (err == ENOTDIR) return fmt::format("{} is not a folder (a part of the path is a file)", dir.string());
   return fmt::format("cannot create a file in its folder {}: {}", dir.string(), std::strerror(err));
 }
