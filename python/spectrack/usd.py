@@ -278,8 +278,10 @@ def _check_options(frame, width, spp, options):
     if frame is not None:
         number("frame", frame)
     for name, value, lo in (("width", width, 1), ("spp", spp, 1)):
-        if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < lo:
-            raise ValueError(f"load_usd: {name}={value!r}: a whole number >= {lo} is needed")
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+            raise TypeError(f"load_usd: {name}={value!r}: a whole number is needed")
+        if value < lo:
+            raise ValueError(f"load_usd: {name}={value!r}: must be >= {lo}")
     if "albedo" in options and not 0 <= number("albedo", options["albedo"]) <= 1:
         raise ValueError(f"load_usd: albedo={options['albedo']!r}: the single-scattering albedo is in [0, 1]")
     for name in ("sigma_t", "temperature_scale", "emission_scale"):

@@ -63,6 +63,8 @@ py::dict layers(const Image& im) {
 py::object to_python(const nlohmann::json& j) { return py::module_::import("json").attr("loads")(j.dump()); }
 
 Image merge(const py::iterable& items) {
+  if (py::isinstance<py::str>(items) || py::isinstance<py::bytes>(items) || py::hasattr(items, "__fspath__"))
+    throw py::type_error("merge: a list of images or paths is needed (one path alone: [path])");
   std::vector<FilmPiece> pieces;
   Image out;
   for (const py::handle& h : items) {

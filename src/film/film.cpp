@@ -147,7 +147,8 @@ RenderIdentity render_identity(const RenderSettings& s) {
 }
 
 std::string majorant_identity(int cell, int block, const std::optional<double>& step_cost) {
-  return fmt::format("cell {}, block {}, step cost {}", cell > 0 ? std::to_string(cell) : "auto", block,
+  return fmt::format("cell {}, block {}, step cost {}", cell > 0 ? std::to_string(cell) : "auto",
+                     std::max(block, 1),  // 0 and 1: one level alike
                      step_cost ? fmt::format("{}", *step_cost) : std::string("auto"));
 }
 

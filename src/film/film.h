@@ -35,7 +35,9 @@ std::vector<SampleRange> parse_ranges(const std::string& text, const std::string
 std::vector<SampleRange> join_ranges(std::vector<SampleRange> ranges);
 int64_t count_samples(const std::vector<SampleRange>& ranges);
 
-// The identity text of the majorant choices (RenderSettings::majorant_*; 0 and none: automatic).
+// The identity text of the majorant choices (RenderSettings::majorant_*; 0 and none: automatic;
+// blocks of 0 and 1 are one level alike). The choices as given: a cell given as the number the
+// automatic choice would take is recorded as another choice (merge refuses such pieces, safely).
 std::string majorant_identity(int cell, int block, const std::optional<double>& step_cost);
 
 // What pieces of one render share.
@@ -61,7 +63,8 @@ struct RenderIdentity {
   // frames the media, whose framing depends on the frame range); empty otherwise
   std::string camera;
   // The choices that change which random numbers a sample draws or what a ray-marching sample
-  // weighs (RenderSettings): pieces written before they were recorded hold the defaults
+  // weighs (RenderSettings): pieces written before they were recorded hold the defaults (none for
+  // ray marching: an older ray-marching piece matches no newer one)
   std::string iteration_budget = std::to_string(kDefaultIterationBudget);
   std::string majorant = majorant_identity(0, kDefaultMajorantBlock, std::nullopt);
   std::string ray_marching;  // with ray-marching transmittance: its spacings; empty otherwise

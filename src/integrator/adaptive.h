@@ -167,8 +167,8 @@ struct AdaptiveResult {
   int64_t cap = 0;             // the last round's per-pixel cap (adaptive_cap)
   int64_t round_end = 0;       // the sample count the last round ended at
   double mean_samples = 0;     // over the window's pixels
-  // The pilot was drawn whole (every pixel has its kNoiseMinSpp samples), so the film's variance
-  // layer measures its noise (integrator/noise.h); false when a stop cut the pilot short.
+  // The pilot was drawn whole (no stop cut it short), so the film's variance layer measures its
+  // noise (integrator/noise.h) as far as the pilot's samples allow; false when a stop cut it.
   bool noise_measured = false;
   // Why the rounds ended with the target missed (multi_device.h MultiDeviceResult::stop_reason):
   // "spp" when some pixel took plan.spp samples, else "pixels-finished"; "" when the target was

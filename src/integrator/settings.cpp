@@ -33,8 +33,6 @@ FilmWindow resolve_window(const SceneDesc& scene, const RenderOptions& o) {
   return FilmWindow{x0, y0, x1 - x0, y1 - y0};
 }
 
-// The noise target and adaptive sampling; a noise target is measured from the variance layer
-// (integrator/noise.h), which it adds.
 // Settings that do not go together: an error of the scene (exit 1, naming its file and `field`)
 // when the scene alone asked for them, else a usage error of the options (exit 2).
 [[noreturn]] void conflict(bool from_options, const SceneDesc& scene, const char* field, const std::string& why) {
@@ -42,6 +40,8 @@ FilmWindow resolve_window(const SceneDesc& scene, const RenderOptions& o) {
   throw Error(fmt::format("{}: {}: {}", scene.path, field, why));
 }
 
+// The noise target and adaptive sampling; a noise target is measured from the variance layer
+// (integrator/noise.h), which it adds.
 void resolve_noise_target(const SceneDesc& scene, const RenderOptions& o, RenderSettings& s) {
   s.noise_target = o.noise_target.value_or(scene.render.noise_target);
   if (!(s.noise_target >= 0 && s.noise_target <= 1))
