@@ -336,7 +336,7 @@ int cmd_render(const RenderArgs& a, MpiArg& mpi) {
     deadline_watch().arm(t0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                   std::chrono::duration<double>(*a.time_limit)),
                          *a.time_limit);
-  set_warnings_quiet(a.quiet);  // -q: no warnings (cli.md)
+  set_warnings_quiet(a.quiet || mpi.rank != 0);  // -q: no warnings (cli.md); under MPI the writing rank warns alone
   set_phase("scene loading");
   SceneDesc scene = load_scene(a.scene);
   const std::string output = a.output.empty() ? scene.film.output : a.output;
