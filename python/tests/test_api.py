@@ -244,6 +244,8 @@ def test_progress_exceptions_carry_the_image_and_nothing_empty_is_written(tmp_pa
     with pytest.raises(RuntimeError) as e:
         s.render(spp=2, progress=at_once)
     img = e.value.image
+    if img.interrupted:  # stopped before the render's end (else the last call raised): a stop from outside, as Ctrl-C
+        assert img.stats["stop_reason"] == "signal"
     if img.spp == 0:  # stopped before the first batch: nothing to write, as the command line
         with pytest.raises(ValueError, match="no finished sample"):
             img.write(str(tmp_path / "z.exr"))

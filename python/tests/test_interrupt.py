@@ -38,7 +38,7 @@ def test_keyboard_interrupt_stops_within_a_second():
     assert waited < 1.0, f"the render took {waited:.2f} s to stop"
     img = info.value.image
     assert img.interrupted and 0 < img.spp < (1 << 20)
-    assert img.stats["interrupted"] and img.stats["spp"] == img.spp
+    assert img.stats["interrupted"] and img.stats["spp"] == img.spp and img.stats["stop_reason"] == "signal"
     assert len(ticks) > 20, "another thread did not run while rendering (the GIL was held)"
 
 
