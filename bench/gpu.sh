@@ -197,6 +197,8 @@ if step 8; then
   # PTX each binary's kernel cache holds (NVIDIA's program binaries are PTX)
   # the new binary in both path state layouts (SPECTRACK_STATE_LAYOUT; SoA is a GPU's default)
   : > "$OUT/registers.txt"
+  # NVIDIA's verbose build log is an option other OpenCL platforms refuse (PoCL in a dry run)
+  nv_options=$(command -v nvidia-smi >/dev/null 2>&1 && echo -cl-nv-verbose || true)
   for bin in "${bins[@]}"; do
     layouts=(default); [ "$bin" = build/spectrack ] && layouts=(soa aos)
     for layout in "${layouts[@]}"; do
@@ -205,7 +207,7 @@ if step 8; then
       # k_shadow with ray marching's fields (a feature of its own) and without them
       for s in bench/scenes/dense_chromatic.json bench/scenes/smoke1.json "bench/scenes/smoke1.json --transmittance ray-marching"; do
         env $([ $layout != default ] && echo SPECTRACK_STATE_LAYOUT=$layout) SPECTRACK_KERNEL_CACHE_DIR="$kc" \
-          SPECTRACK_CL_OPTIONS=-cl-nv-verbose SPECTRACK_CL_BUILD_LOG="$OUT/build_log_$tag.txt" \
+          ${nv_options:+SPECTRACK_CL_OPTIONS=$nv_options} SPECTRACK_CL_BUILD_LOG="$OUT/build_log_$tag.txt" \
           $bin render $s --spp 1 -q --no-alpha -o "$OUT/warm.exr" >/dev/null 2>&1 || fail "registers: $tag $s"
       done
       if command -v ptxas >/dev/null; then

@@ -1048,3 +1048,37 @@ TEST(CliFilmLayers, DefaultsFlagsAndRefusals) {
   ASSERT_TRUE(ok.exited && ok.code == 0) << ok.describe();
   EXPECT_EQ(channels(dir + "/ok.exr"), channels(dir + "/a.exr"));
 }
+
+// Pieces stored so that their float sums change (half floats, pxr24, dwaa, dwab) cannot merge to
+// the single render: render warns before it renders such a piece and merge refuses it naming the
+// compression; the lossless compressions (b44 keeps floats verbatim) merge to the single render.
+TEST(CliMerge, RefusesPiecesWhoseCompressionChangesFloats) {
+  std::string dir = test_dir();
+  std::string scene = write_scene(dir, "s.json", homogeneous_scene(8, 6, 4, 1.0, 0.5));
+  Proc full = run({"render", scene, "-o", dir + "/full.exr", "--spp", "4", "--quiet"}, slow_ok());
+  Proc s1 = run({"render", scene, "-o", dir + "/s1.exr", "--spp-range", "0:2", "--quiet"}, slow_ok());
+  ASSERT_TRUE(full.code == 0 && s1.code == 0) << full.describe() << s1.describe();
+  for (const char* c : {"pxr24", "dwaa", "dwab"}) {
+    const std::string piece = dir + "/s2_" + c + ".exr";
+    Proc s2 = run({"render", scene, "-o", piece, "--spp-range", "2:4", "--compression", c}, slow_ok());
+    ASSERT_TRUE(s2.exited && s2.code == 0) << s2.describe();
+    EXPECT_THAT(s2.out, HasSubstr(std::string("compressed with ") + c + ", which changes float pixels")) << s2.describe();
+    Proc m = run({"merge", dir + "/m.exr", dir + "/s1.exr", piece, "--quiet"}, slow_ok());
+    EXPECT_TRUE(m.exited && m.code == 1) << c << m.describe();
+    EXPECT_THAT(m.out, HasSubstr(piece + ": is compressed with " + c)) << m.describe();
+  }
+  Proc h = run({"render", scene, "-o", dir + "/h.exr", "--spp-range", "2:4", "--half"}, slow_ok());
+  EXPECT_THAT(h.out, HasSubstr("stored as half floats")) << h.describe();
+  for (const char* c : {"b44", "piz", "none"}) {  // the twin: these keep floats, merge and say nothing
+    const std::string piece = dir + "/s2_" + c + ".exr";
+    Proc s2 = run({"render", scene, "-o", piece, "--spp-range", "2:4", "--compression", c}, slow_ok());
+    ASSERT_TRUE(s2.exited && s2.code == 0) << s2.describe();
+    EXPECT_THAT(s2.out, Not(HasSubstr("merge refuses"))) << s2.describe();
+    Proc m = run({"merge", dir + "/m.exr", dir + "/s1.exr", piece, "--quiet"}, slow_ok());
+    ASSERT_TRUE(m.exited && m.code == 0) << c << m.describe();
+    const std::vector<float> merged = image_pixels(dir + "/m.exr"), single = image_pixels(dir + "/full.exr");
+    ASSERT_EQ(merged.size(), single.size()) << c;
+    for (size_t i = 0; i < merged.size(); ++i)  // shards merge to float rounding (docs/farms.md)
+      ASSERT_NEAR(merged[i], single[i], 1e-6 * (1 + std::fabs(single[i]))) << c << " value " << i;
+  }
+}

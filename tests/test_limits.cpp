@@ -112,12 +112,15 @@ TEST(LimitsCoordinates, CameraBeyondTheFloatRange) {
 TEST(LimitsCoordinates, TranslatesThatLoseTheMedium) {
   const std::string dir = temp_dir("limits_tr");
   const std::string f = small_vdb(dir);
-  for (double t : {1e39, 1e30, 1e12}) {
-    json j = base_scene();
-    j["media"].push_back({{"type", "vdb"}, {"file", f}, {"transform", {{"translate", {t, 0, 0}}}}});
-    const std::string e = pack_error(j, dir);
-    EXPECT_NE(e.find("/media/0/transform/translate"), std::string::npos) << t << ": " << e;
-  }
+  for (double t : {1e39, 1e30, 1e12})
+    for (bool framed : {false, true}) {  // a camera framed on the medium lies where the medium is
+      json j = base_scene();
+      if (framed) j["camera"] = {{"position", "auto"}, {"look_at", "media"}};
+      j["media"].push_back({{"type", "vdb"}, {"file", f}, {"transform", {{"translate", {t, 0, 0}}}}});
+      const std::string e = pack_error(j, dir);
+      EXPECT_NE(e.find("/media/0/transform/translate"), std::string::npos) << t << (framed ? " framed" : "") << ": " << e;
+      EXPECT_EQ(e.find("/camera"), std::string::npos) << t << (framed ? " framed" : "") << ": " << e;
+    }
   json j = base_scene();  // a grid scaled below the float spacing where it sits
   j["media"].push_back({{"type", "vdb"}, {"file", f}, {"transform", {{"scale", 1e-9}, {"translate", {1, 0, 0}}}}});
   const std::string e = pack_error(j, dir);

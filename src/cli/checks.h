@@ -8,6 +8,8 @@
 //   - render_outputs / scene_inputs / merge inputs feed check_distinct_paths (util/files.h).
 //   - check_no_nul, check_frame_files, check_half: scene paths with a NUL byte, every frame's
 //     volume files before a sequence renders, --half with a PNG output.
+//   - check_piece_storage: a piece (--spp-range, --pixel-bounds) stored so that merge will refuse
+//     it (half floats, a compression that changes floats) is a warning before it renders.
 //   - nonfinite_verdict: a render that dropped non-finite samples exits 1. Its image is still
 //     written, marked with spectrack:nonfinite_samples, for diagnosis; dropping samples is never a
 //     success (it is a bug, or an input the float kernels cannot represent).
@@ -32,6 +34,7 @@
 #include "scene/scene.h"
 #include "util/files.h"
 #include "util/strings.h"
+#include "util/warning.h"
 
 namespace spectrack {
 
@@ -125,6 +128,21 @@ inline void check_half(bool half_flag, const SceneDesc& scene, const std::string
   if (scene.film.half && !quiet)
     std::cerr << fmt::format("warning: {}: /film/half is ignored for the PNG output {} (8-bit values)\n", scene.path,
                              output);
+}
+
+// A piece of an image (a sample range or a pixel window) is rendered to be merged, and merge takes
+// only files whose float sums are exact (image.cpp check_film_piece_spec): warn before the render
+// rather than at the merge, hours later. A PNG piece is merge's own refusal (its message says why).
+inline void check_piece_storage(bool piece, const ExrOptions& exr, const std::string& output) {
+  if (!piece || lower_extension(output) != ".exr") return;
+  if (exr.half)
+    warn(fmt::format("{} is a piece of an image (--spp-range / --pixel-bounds) stored as half floats (--half or "
+                     "film.half): merge refuses it, since it needs the exact float sums",
+                     output));
+  else if (!exr_compression_keeps_floats(exr.compression))
+    warn(fmt::format("{} is a piece of an image (--spp-range / --pixel-bounds) compressed with {}, which changes "
+                     "float pixels: merge refuses it (a lossless compression: zip, the default, zips, piz, rle or none)",
+                     output, exr.compression));
 }
 
 inline std::vector<NamedPath> merge_inputs(const std::vector<std::string>& files) {

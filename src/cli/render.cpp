@@ -261,6 +261,8 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   RenderOptions opt = render_options(a, quiet);
   opt.aovs = film_layers(a, scene, output);
   check_half(a.half, scene, output, quiet);  // --half with a PNG: exit 2
+  check_piece_storage(!a.spp_range.empty() || !a.pixel_bounds.empty(), exr_options(a.half, a.compression, scene.film),
+                      output);
   check_tracker_scheme(scene, opt, a.scheme, a.tracker);  // --scheme with a tracker that ignores it: exit 2
   const RenderSettings set = resolve_settings(scene, opt);
   const double time_limit = a.time_limit.value_or(scene.render.time_limit);

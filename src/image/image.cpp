@@ -270,6 +270,13 @@ void check_film_piece_spec(const OpenedImage& o, bool rgb_named, bool half_allow
     fail(fmt::format("holds {} pixels; a merge takes 32-bit float EXRs only (a half-float file, --half, or a converted "
                      "one has lost the exact sums a merge needs)",
                      spec.format.c_str()));
+  // OpenImageIO names it as --compression does, a DWA level after a colon ("dwaa:45")
+  std::string compression = spec.get_string_attribute("compression");
+  compression = compression.substr(0, compression.find(':'));
+  if (!half_allowed && !exr_compression_keeps_floats(compression))
+    fail(fmt::format("is compressed with {}, which changes float pixels: it has lost the exact sums a merge needs "
+                     "(render pieces with a lossless --compression: zip, the default, zips, piz, rle or none)",
+                     compression));
   if (img.window.x0 < 0 || img.window.y0 < 0 || int64_t(img.window.x0) + img.width > img.window.full_width ||
       int64_t(img.window.y0) + img.height > img.window.full_height)
     fail(fmt::format("its data window ({}x{} pixels at {},{}) leaves its {}x{} display window", img.width, img.height,

@@ -50,8 +50,8 @@ void resolve_noise_target(const SceneDesc& scene, const RenderOptions& o, Render
   // the command line's and the Python module's one check: a shard or tile would stop at its own
   // noise (and an adaptive one take its own rounds), so the pieces would not merge to the render
   if (s.noise_target > 0 && (o.sample_range || o.pixel_bounds))
-    throw UsageError("--noise-target (render.noise_target) with --spp-range or --pixel-bounds (spp_range=, "
-                     "pixel_bounds=): each shard or tile would stop at its own noise, and the pieces would not merge; "
+    throw UsageError("--noise-target (render.noise_target) with --spp-range or --pixel-bounds (in Python: "
+                     "spp_range=, pixel_bounds=): each shard or tile would stop at its own noise, and the pieces would not merge; "
                      "render the whole film");
   s.adaptive = o.adaptive.value_or(scene.render.adaptive);
   if (s.adaptive && s.noise_target <= 0)

@@ -118,10 +118,31 @@ const std::vector<std::string>& aov_exr_channels(int index) {
   static const std::vector<std::string> none;
   return index >= 0 && index < ST_AOV_COUNT ? table[size_t(index)] : none;
 }
+namespace {
+// OpenEXR's compressions as OpenImageIO names them (its "compression" attribute), and whether
+// 32-bit float channels come back bit for bit: pxr24 rounds floats to 24 bits and the DWA
+// compressions quantise R, G, B; b44 and b44a compress half channels only (floats verbatim).
+struct ExrCompression {
+  const char* name;
+  bool floats_exact;
+};
+constexpr std::array<ExrCompression, 10> kExrCompressions = {{{"none", true}, {"rle", true}, {"zips", true},
+                                                              {"zip", true}, {"piz", true}, {"pxr24", false},
+                                                              {"b44", true}, {"b44a", true}, {"dwaa", false},
+                                                              {"dwab", false}}};
+}  // namespace
 const std::vector<std::string>& exr_compressions() {
-  // OpenEXR's compressions as OpenImageIO names them (its "compression" attribute)
-  static const std::vector<std::string> names = {"none", "rle", "zips", "zip", "piz", "pxr24", "b44", "b44a", "dwaa", "dwab"};
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> n;
+    for (const ExrCompression& c : kExrCompressions) n.push_back(c.name);
+    return n;
+  }();
   return names;
+}
+bool exr_compression_keeps_floats(const std::string& name) {
+  for (const ExrCompression& c : kExrCompressions)
+    if (name == c.name) return c.floats_exact;
+  return true;  // a compression OpenEXR added later: not known to be lossy
 }
 bool tracker_uses_scheme(int tracker) { return st_tracker_uses_scheme(tracker) != 0; }
 

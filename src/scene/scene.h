@@ -313,7 +313,9 @@ std::vector<std::string> aov_name_list();
 const std::vector<std::string>& aov_exr_channels(int index);
 inline constexpr const char* kCollisionChannel = "collision.fraction";
 // OpenEXR compressions (film.compression, --compression): none, rle, zips, zip, piz, pxr24, b44,
-// b44a, dwaa, dwab. The lossy ones (pxr24 on floats, b44*, dwa*) lose what a merge needs.
+// b44a, dwaa, dwab. Those that change 32-bit floats (pxr24, dwaa, dwab; b44* only touch half
+// channels, which a merge refuses anyway) lose the sums a merge needs: exr_compression_keeps_floats.
 const std::vector<std::string>& exr_compressions();
+bool exr_compression_keeps_floats(const std::string& name);  // name as exr_compressions() spells it
 
 }  // namespace spectrack

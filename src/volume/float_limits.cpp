@@ -199,6 +199,15 @@ void check_coordinates(const SceneDesc& scene, const st_scene& st, const std::ve
                        const Vec3& camera_position) {
   const std::string why = " (about 1.2e18): the kernels square differences of float coordinates (distances, "
                           "ray-box tests), which would overflow";
+  // the media first: a camera framed on them (position auto, fit) lies where they are, and the field
+  // to name is the one that placed them, not the position the framing derived
+  for (size_t i = 0; i < scene.media.size() && i < boxes.size(); ++i) {
+    const MediumDesc& md = scene.media[i];
+    const double far = box_max_norm(boxes[i]);
+    if (!(far <= kMaxCoordinate))
+      throw Error(fmt::format("{}: {}: the medium's world box reaches {:g}, beyond 2^60{}, in medium \"{}\"",
+                              scene.path, placing_field(md, kMaxCoordinate), far, why, md.name));
+  }
   const double cam = max_norm(camera_position);
   if (!(cam <= kMaxCoordinate))
     throw Error(fmt::format("{}: /camera/position: ({:g}, {:g}, {:g}) is beyond 2^60{}", scene.path,
@@ -217,13 +226,6 @@ void check_coordinates(const SceneDesc& scene, const st_scene& st, const std::ve
     if (l.type >= ST_LIGHT_POINT && !(max_norm(l.position) <= kMaxCoordinate))
       throw Error(fmt::format("{}: {}/position: ({:g}, {:g}, {:g}) is beyond 2^60{}", scene.path, l.json_path,
                               l.position[0], l.position[1], l.position[2], why));
-  for (size_t i = 0; i < scene.media.size() && i < boxes.size(); ++i) {
-    const MediumDesc& md = scene.media[i];
-    const double far = box_max_norm(boxes[i]);
-    if (!(far <= kMaxCoordinate))
-      throw Error(fmt::format("{}: {}: the medium's world box reaches {:g}, beyond 2^60{}, in medium \"{}\"",
-                              scene.path, placing_field(md, kMaxCoordinate), far, why, md.name));
-  }
   for (size_t i = 0; i < scene.media.size() && i < boxes.size(); ++i) {
     const MediumDesc& md = scene.media[i];
     const double far = box_max_norm(boxes[i]);
