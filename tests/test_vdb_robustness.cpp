@@ -334,3 +334,24 @@ TEST(VolumeInfo, NanoVdbChecksumRefusedByInfoAsByRender) {
   EXPECT_TRUE(contains(render_msg, "checksum")) << render_msg;
   EXPECT_TRUE(contains(info_msg, "checksum") && contains(info_msg, bad)) << info_msg;
 }
+
+// A NanoVDB lookup finds a voxel through the tree's slots, while the active box, the value range
+// and the majorant grid's occupancy read the nodes' stored origins: a leaf whose origin disagrees
+// with its slot (a flipped byte that a partial or absent checksum does not cover) rendered voxels
+// where every bound read 0 (fuzz_nvdb: a majorant of 0 under a density of 1.05). Such a file is
+// refused naming the two coordinates; the same grid unmodified loads (the twin).
+TEST(VolumeInfo, NanoVdbNodeWhoseOriginIsNotItsPlaceIsRefused) {
+  TempDir d;
+  auto h = nanovdb::openToNanoVDB(*blob(), nanovdb::StatsMode::Default, nanovdb::ChecksumMode::Disable);
+  const std::string good = d.file("good.nvdb"), bad = d.file("bad.nvdb");
+  nanovdb::io::writeGrid(good, h, nanovdb::io::Codec::NONE);
+  EXPECT_NO_THROW(spectrack::load_float_grid(good, "density", -1, "test"));
+  auto* leaf = const_cast<nanovdb::NanoLeaf<float>*>(h.grid<float>()->tree().getFirstNode<0>());
+  ASSERT_NE(leaf, nullptr);
+  leaf->data()->mBBoxMin += nanovdb::Coord(4096, 0, 0);  // the leaf claims to lie 4096 voxels away
+  nanovdb::io::writeGrid(bad, h, nanovdb::io::Codec::NONE);
+  const std::string render_msg = error_of([&] { spectrack::load_float_grid(bad, "density", -1, "test"); });
+  const std::string info_msg = error_of([&] { spectrack::inspect_volume(bad); });
+  EXPECT_TRUE(contains(render_msg, "corrupt NanoVDB grid") && contains(render_msg, "sits at")) << render_msg;
+  EXPECT_TRUE(contains(info_msg, "sits at") && contains(info_msg, bad)) << info_msg;
+}

@@ -27,6 +27,11 @@ namespace {
 
 // ---- checks on the NanoVDB tree ---------------------------------------------------------------
 
+template <typename T>
+struct NodeTag {
+  using type = T;
+};
+
 // Active bbox, value range and the first bad (negative or non-finite) active value.
 struct Scan {
   int lo[3] = {INT_MAX, INT_MAX, INT_MAX}, hi[3] = {INT_MIN, INT_MIN, INT_MIN};
@@ -59,7 +64,14 @@ struct Scan {
   }
 };
 
-// Walks the tree through child pointers, checking that each lies inside the grid buffer.
+// Walks the tree through child pointers, checking that each lies inside the grid buffer and that
+// each node holding active values stores as its origin its place in the tree (the root's key,
+// then the slots of its parents). A lookup finds a voxel through those slots, while this scan,
+// the majorant grid's occupancy and the renderer's bounds read positions from the stored origins
+// (NanoVDB 32.4 keeps an internal node's origin in its active box, which a node without active
+// values leaves empty: those are not checked and never read). A file whose origins disagree with
+// the slots (a flipped byte that a partial or absent checksum does not cover) would render voxels
+// where every bound reads 0 (fuzz_nvdb found one: a majorant of 0 under a density of 1.05).
 Scan scan_tree(const FloatGrid& g, const Fail& fail) {
   const char* begin = reinterpret_cast<const char*>(&g);
   const char* end = begin + g.gridSize();
@@ -75,6 +87,18 @@ Scan scan_tree(const FloatGrid& g, const Fail& fail) {
       fail("corrupt NanoVDB grid (node pointer outside the grid or misaligned)");
     return begin + (at + off);
   };
+  auto check_origin = [&](const nanovdb::Coord& stored, const nanovdb::Coord& place) {
+    if (stored != place)
+      fail("corrupt NanoVDB grid (a node stores the origin " + coord_str(stored[0], stored[1], stored[2]) +
+           " but sits at " + coord_str(place[0], place[1], place[2]) + " in the tree)");
+  };
+  // the origin of child n of a node at `origin` (NanoVDB's InternalNode::offsetToGlobalCoord)
+  auto child_origin = [](const nanovdb::Coord& origin, uint32_t n, auto node_tag) {
+    using Node = typename decltype(node_tag)::type;
+    nanovdb::Coord ijk = Node::OffsetToLocalCoord(n);
+    ijk <<= Node::ChildNodeType::TOTAL;
+    return ijk + origin;
+  };
   Scan tiles;
   std::vector<const Leaf*> leaves;
   const Root& root = g.tree().root();
@@ -87,23 +111,40 @@ Scan scan_tree(const FloatGrid& g, const Fail& fail) {
     }
     const Upper* u = reinterpret_cast<const Upper*>(child_at(root.data(), t->child, sizeof(Upper)));
     if (!inside(u, sizeof(Upper))) fail("corrupt NanoVDB grid (node pointer outside the grid)");
+    const nanovdb::Coord u_place = t->origin();
+    bool u_active = false;
     for (uint32_t n = 0; n < Upper::SIZE; ++n) {
       if (!u->data()->isChild(n)) {
-        if (u->data()->isActive(n)) tiles.add(u->offsetToGlobalCoord(n), Lower::DIM, u->data()->getValue(n), order++);
+        if (u->data()->isActive(n)) {
+          check_origin(u->origin(), u_place);
+          u_active = true;
+          tiles.add(u->offsetToGlobalCoord(n), Lower::DIM, u->data()->getValue(n), order++);
+        }
         continue;
       }
       const Lower* l = reinterpret_cast<const Lower*>(child_at(u->data(), u->data()->mTable[n].child, sizeof(Lower)));
       if (!inside(l, sizeof(Lower))) fail("corrupt NanoVDB grid (node pointer outside the grid)");
+      const nanovdb::Coord l_place = child_origin(u_place, n, NodeTag<Upper>{});
+      bool l_active = false;
       for (uint32_t m = 0; m < Lower::SIZE; ++m) {
         if (!l->data()->isChild(m)) {
-          if (l->data()->isActive(m)) tiles.add(l->offsetToGlobalCoord(m), Leaf::DIM, l->data()->getValue(m), order++);
+          if (l->data()->isActive(m)) {
+            check_origin(l->origin(), l_place);
+            l_active = true;
+            tiles.add(l->offsetToGlobalCoord(m), Leaf::DIM, l->data()->getValue(m), order++);
+          }
           continue;
         }
         const Leaf* leaf = reinterpret_cast<const Leaf*>(child_at(l->data(), l->data()->mTable[m].child, sizeof(Leaf)));
         if (!inside(leaf, sizeof(Leaf))) fail("corrupt NanoVDB grid (node pointer outside the grid)");
+        if (leaf->valueMask().isOff()) continue;  // no active voxel: nothing of it is read
+        check_origin(leaf->origin(), child_origin(l_place, m, NodeTag<Lower>{}));
+        l_active = true;
         leaves.push_back(leaf);
       }
+      if (l_active) check_origin(l->origin(), l_place), u_active = true;
     }
+    if (u_active) check_origin(u->origin(), u_place);
   }
   Scan s = tbb::parallel_reduce(
       tbb::blocked_range<size_t>(0, leaves.size(), 64), Scan{},
