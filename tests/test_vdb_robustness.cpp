@@ -150,6 +150,34 @@ TEST(VolumePrescan, MetadataSizeDisagreeingWithItsTypeIsRefused) {
   EXPECT_THROW(spectrack::list_grids(path), spectrack::Error);
 }
 
+// DelayedLoadMetadata allocates each of its arrays by a size stored in the file before reading it
+// (fuzz_vdb: 2 GB for a 21-byte value): a stored size beyond the value is refused, naming it,
+// before OpenVDB reads the metadata; the file as written loads (the twin).
+TEST(VolumePrescan, DelayedLoadArrayLargerThanItsValueIsRefused) {
+  TempDir d;
+  const std::string src = d.file("delayed.vdb");
+  write_vdb(src, blob(), openvdb::io::COMPRESS_BLOSC);
+  EXPECT_NO_THROW(spectrack::load_float_grid(src, "density", -1, "test"));
+  std::string bytes = read_bytes(src);
+  const size_t at = bytes.find("__delayedload");
+  ASSERT_NE(at, std::string::npos) << "OpenVDB no longer writes delayed-load metadata";
+  // the type, then the value's size, the leaf count and the masks' stored size (0: raw, one byte a leaf)
+  size_t p = at + std::string("__delayedload").size();
+  uint32_t size = 0, count = 0, masks = 0;
+  std::memcpy(&size, &bytes[p], 4);
+  std::memcpy(&count, &bytes[p + 4], 4);
+  std::memcpy(&masks, &bytes[p + 8], 4);
+  p += 12 + (masks == 0 ? count : masks);  // the sizes' stored size (0xffffffff: none stored)
+  ASSERT_LE(p + 4, at + std::string("__delayedload").size() + 4 + size);
+  const uint32_t huge = 0x82000000u;
+  std::memcpy(&bytes[p], &huge, 4);
+  const std::string path = d.file("bad.vdb");
+  write_bytes(path, bytes);
+  const std::string msg = error_of([&] { spectrack::list_grids(path); });
+  EXPECT_TRUE(contains(msg, "delayed-load sizes") && contains(msg, "2181038080")) << msg;
+  EXPECT_THROW(spectrack::load_float_grid(path, "density", -1, "test"), spectrack::Error);
+}
+
 // Every bit of the tree data, flipped one at a time, in blosc, zip, uncompressed and half-float
 // files: each load either succeeds or ends in an Error (under ASan: no out-of-bounds access).
 TEST(VolumePrescan, FlippedBitsLoadOrAreRefused) {

@@ -83,6 +83,47 @@ uint32_t fixed_metadata_size(const std::string& type) {
   return it == sizes.end() ? 0 : it->second;
 }
 
+// DelayedLoadMetadata::readValue: a count of the grid's leaves, then two arrays of that many
+// entries (a 1-byte mask each, an 8-byte compressed size each; the second may be absent, a size of
+// 0xffffffff), each stored raw (a stored size of 0) or as one blosc chunk of the stored size.
+// OpenVDB sizes both arrays by the count and allocates each chunk by its stored size before it
+// reads them, and it reads all of it whatever the value's size says, so every part must lie in the
+// value: a count beyond what the file can hold, a chunk larger than the value or one that decodes
+// to more than its array (padded to 128 bytes) would allocate gigabytes or misread the stream.
+void check_delayed_load(Reader& r, uint32_t size) {
+  const uint64_t outer = r.limit;
+  r.limit = r.pos + size;  // every read below must stay inside the value
+  const uint32_t n = r.get<uint32_t>("delayed-load count");
+  // every leaf stores its 64-byte value mask in the file
+  if (n > r.size / 64)
+    r.corrupt("delayed-load metadata claims " + std::to_string(n) + " leaves, more than a " + std::to_string(r.size) +
+              "-byte file can hold (64 bytes a leaf)");
+  auto array = [&](uint64_t raw, const char* what) {
+    const uint32_t stored = r.get<uint32_t>(what);
+    if (stored == 0) return r.skip(raw, what);
+    if (stored < 16 || stored > r.limit - r.pos)
+      r.corrupt(std::string(what) + ": a blosc chunk of " + std::to_string(stored) + " bytes in a metadata value of " +
+                std::to_string(size));
+    unsigned char h[16];
+    r.bytes(h, 16, "blosc header");
+    auto le32 = [&](int at) { return uint32_t(h[at]) | uint32_t(h[at + 1]) << 8 | uint32_t(h[at + 2]) << 16 | uint32_t(h[at + 3]) << 24; };
+    // OpenVDB pads an array of fewer than 128 bytes to 128 before it compresses it (BLOSC_PAD_BYTES)
+    if (le32(12) != stored || le32(4) < raw || le32(4) > std::max<uint64_t>(raw, 128))
+      r.corrupt(std::string(what) + ": its blosc chunk claims " + std::to_string(le32(12)) + " compressed and " +
+                std::to_string(le32(4)) + " decoded bytes where it has " + std::to_string(stored) + " and the array " +
+                std::to_string(raw));
+    r.skip(uint64_t(stored) - 16, what);
+  };
+  array(uint64_t(n), "delayed-load masks");
+  const uint64_t at = r.pos;
+  if (r.get<uint32_t>("delayed-load sizes") != 0xffffffffu) {  // else no sizes are stored
+    r.seek(at);
+    array(uint64_t(n) * 8, "delayed-load sizes");
+  }
+  r.skip(r.limit - r.pos, "metadata value");  // what a later version adds, which OpenVDB skips
+  r.limit = outer;
+}
+
 void skip_metamap(Reader& r) {
   const uint32_t count = r.get<uint32_t>("metadata count");
   if (count > (r.limit - r.pos) / 12) r.corrupt("implausible metadata count " + std::to_string(count));
@@ -92,15 +133,8 @@ void skip_metamap(Reader& r) {
     const uint32_t size = r.get<uint32_t>("metadata value"), fixed = fixed_metadata_size(type);
     if (fixed != 0 && size != fixed)
       r.corrupt("a " + printable(type) + " metadata value of " + std::to_string(size) + " bytes (it has " + std::to_string(fixed) + ")");
-    if (type == "__delayedload" && size >= 4) {
-      // DelayedLoadMetadata sizes two arrays (9 bytes an entry) by its leading count before reading
-      // them, and its entries may be blosc-compressed, so the count is not bounded by the value's
-      // bytes. It counts the grid's leaves, and every leaf stores its 64-byte value mask in the file.
-      const uint32_t n = r.get<uint32_t>("delayed-load count");
-      if (n > r.size / 64)
-        r.corrupt("delayed-load metadata claims " + std::to_string(n) + " leaves, more than a " + std::to_string(r.size) +
-                  "-byte file can hold (64 bytes a leaf)");
-      r.skip(size - 4, "metadata value");
+    if (type == "__delayedload" && size > 0) {
+      check_delayed_load(r, size);
       continue;
     }
     r.skip(size, "metadata value");
