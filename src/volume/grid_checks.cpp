@@ -27,11 +27,6 @@ namespace {
 
 // ---- checks on the NanoVDB tree ---------------------------------------------------------------
 
-template <typename T>
-struct NodeTag {
-  using type = T;
-};
-
 // Active bbox, value range and the first bad (negative or non-finite) active value.
 struct Scan {
   int lo[3] = {INT_MAX, INT_MAX, INT_MAX}, hi[3] = {INT_MIN, INT_MIN, INT_MIN};
@@ -64,6 +59,20 @@ struct Scan {
   }
 };
 
+// The origin of child n of an internal node at `origin` (NanoVDB's offsetToGlobalCoord, from the
+// place in the tree instead of the stored origin).
+template <typename Node>
+nanovdb::Coord child_origin(const nanovdb::Coord& origin, uint32_t n) {
+  nanovdb::Coord ijk = Node::OffsetToLocalCoord(n);
+  ijk <<= Node::ChildNodeType::TOTAL;
+  return ijk + origin;
+}
+
+[[noreturn]] void misplaced_node(const nanovdb::Coord& stored, const nanovdb::Coord& place, const Fail& fail) {
+  fail("corrupt NanoVDB grid (a node stores the origin " + coord_str(stored[0], stored[1], stored[2]) + " but sits at " +
+       coord_str(place[0], place[1], place[2]) + " in the tree)");
+}
+
 // Walks the tree through child pointers, checking that each lies inside the grid buffer and that
 // each node holding active values stores as its origin its place in the tree (the root's key,
 // then the slots of its parents). A lookup finds a voxel through those slots, while this scan,
@@ -88,16 +97,7 @@ Scan scan_tree(const FloatGrid& g, const Fail& fail) {
     return begin + (at + off);
   };
   auto check_origin = [&](const nanovdb::Coord& stored, const nanovdb::Coord& place) {
-    if (stored != place)
-      fail("corrupt NanoVDB grid (a node stores the origin " + coord_str(stored[0], stored[1], stored[2]) +
-           " but sits at " + coord_str(place[0], place[1], place[2]) + " in the tree)");
-  };
-  // the origin of child n of a node at `origin` (NanoVDB's InternalNode::offsetToGlobalCoord)
-  auto child_origin = [](const nanovdb::Coord& origin, uint32_t n, auto node_tag) {
-    using Node = typename decltype(node_tag)::type;
-    nanovdb::Coord ijk = Node::OffsetToLocalCoord(n);
-    ijk <<= Node::ChildNodeType::TOTAL;
-    return ijk + origin;
+    if (stored != place) misplaced_node(stored, place, fail);
   };
   Scan tiles;
   std::vector<const Leaf*> leaves;
@@ -124,7 +124,7 @@ Scan scan_tree(const FloatGrid& g, const Fail& fail) {
       }
       const Lower* l = reinterpret_cast<const Lower*>(child_at(u->data(), u->data()->mTable[n].child, sizeof(Lower)));
       if (!inside(l, sizeof(Lower))) fail("corrupt NanoVDB grid (node pointer outside the grid)");
-      const nanovdb::Coord l_place = child_origin(u_place, n, NodeTag<Upper>{});
+      const nanovdb::Coord l_place = child_origin<Upper>(u_place, n);
       bool l_active = false;
       for (uint32_t m = 0; m < Lower::SIZE; ++m) {
         if (!l->data()->isChild(m)) {
@@ -138,7 +138,7 @@ Scan scan_tree(const FloatGrid& g, const Fail& fail) {
         const Leaf* leaf = reinterpret_cast<const Leaf*>(child_at(l->data(), l->data()->mTable[m].child, sizeof(Leaf)));
         if (!inside(leaf, sizeof(Leaf))) fail("corrupt NanoVDB grid (node pointer outside the grid)");
         if (leaf->valueMask().isOff()) continue;  // no active voxel: nothing of it is read
-        check_origin(leaf->origin(), child_origin(l_place, m, NodeTag<Lower>{}));
+        check_origin(leaf->origin(), child_origin<Lower>(l_place, m));
         l_active = true;
         leaves.push_back(leaf);
       }
