@@ -83,6 +83,19 @@ uint32_t fixed_metadata_size(const std::string& type) {
   return it == sizes.end() ? 0 : it->second;
 }
 
+// The blosc header (version, versionlz, flags, typesize, nbytes, blocksize, cbytes; little
+// endian): blosc trusts cbytes and nbytes, so both must match what OpenVDB gives it.
+struct BloscHeader {
+  uint8_t version;
+  uint32_t nbytes, blocksize, cbytes;
+};
+BloscHeader read_blosc_header(Reader& r) {
+  unsigned char h[16];
+  r.bytes(h, 16, "blosc header");
+  auto le32 = [&](int at) { return uint32_t(h[at]) | uint32_t(h[at + 1]) << 8 | uint32_t(h[at + 2]) << 16 | uint32_t(h[at + 3]) << 24; };
+  return {h[0], le32(4), le32(8), le32(12)};
+}
+
 // DelayedLoadMetadata::readValue: a count of the grid's leaves, then two arrays of that many
 // entries (a 1-byte mask each, an 8-byte compressed size each; the second may be absent, a size of
 // 0xffffffff), each stored raw (a stored size of 0) or as one blosc chunk of the stored size.
@@ -104,13 +117,11 @@ void check_delayed_load(Reader& r, uint32_t size) {
     if (stored < 16 || stored > r.limit - r.pos)
       r.corrupt(std::string(what) + ": a blosc chunk of " + std::to_string(stored) + " bytes in a metadata value of " +
                 std::to_string(size));
-    unsigned char h[16];
-    r.bytes(h, 16, "blosc header");
-    auto le32 = [&](int at) { return uint32_t(h[at]) | uint32_t(h[at + 1]) << 8 | uint32_t(h[at + 2]) << 16 | uint32_t(h[at + 3]) << 24; };
+    const BloscHeader h = read_blosc_header(r);
     // OpenVDB pads an array of fewer than 128 bytes to 128 before it compresses it (BLOSC_PAD_BYTES)
-    if (le32(12) != stored || le32(4) < raw || le32(4) > std::max<uint64_t>(raw, 128))
-      r.corrupt(std::string(what) + ": its blosc chunk claims " + std::to_string(le32(12)) + " compressed and " +
-                std::to_string(le32(4)) + " decoded bytes where it has " + std::to_string(stored) + " and the array " +
+    if (h.cbytes != stored || h.nbytes < raw || h.nbytes > std::max<uint64_t>(raw, 128))
+      r.corrupt(std::string(what) + ": its blosc chunk claims " + std::to_string(h.cbytes) + " compressed and " +
+                std::to_string(h.nbytes) + " decoded bytes where it has " + std::to_string(stored) + " and the array " +
                 std::to_string(raw));
     r.skip(uint64_t(stored) - 16, what);
   };
@@ -179,14 +190,9 @@ void check_chunk(Reader& r, const Values& v, uint64_t bytes) {
   }
   if (uint64_t(n) > r.limit - r.pos) r.corrupt(std::string(kind) + " chunk of " + std::to_string(n) + " bytes runs past the end of its data");
   if (v.compression & COMPRESS_BLOSC) {
-    // The blosc header (version, versionlz, flags, typesize, nbytes, blocksize, cbytes; little
-    // endian): blosc trusts cbytes and nbytes, so both must match what OpenVDB gives it.
     if (n < 16) r.corrupt("blosc chunk of " + std::to_string(n) + " bytes is shorter than its header");
-    unsigned char h[16];
-    r.bytes(h, 16, "blosc header");
-    auto le32 = [&](int at) { return uint32_t(h[at]) | uint32_t(h[at + 1]) << 8 | uint32_t(h[at + 2]) << 16 | uint32_t(h[at + 3]) << 24; };
-    const uint32_t nbytes = le32(4), blocksize = le32(8), cbytes = le32(12);
-    if (cbytes != uint64_t(n) || nbytes != bytes || h[0] > 2 || (nbytes > 0 && blocksize == 0)) {
+    const auto [version, nbytes, blocksize, cbytes] = read_blosc_header(r);
+    if (cbytes != uint64_t(n) || nbytes != bytes || version > 2 || (nbytes > 0 && blocksize == 0)) {
       r.corrupt("blosc chunk header claims " + std::to_string(cbytes) + " compressed and " + std::to_string(nbytes) +
                 " decoded bytes where the chunk has " + std::to_string(n) + " and the node holds " + std::to_string(bytes));
     }
