@@ -62,8 +62,8 @@ enum class ImageUse {
                     // sRGB / gamma-encoded files are decoded to linear; the whole display window
   kFilmPiece,       // a spectrack EXR: float R, G, B and spectrack's layers only (film_layer_channel), finite,
                     // its data window inside the display window
-  kSpectrackExr,    // the same, half floats allowed (--half, write(half=True)): a file read for its channels
-                    // (the Python module's read_exr), not merged
+  kSpectrackExr,    // the same, half floats and lossy compressions allowed (--half, write(half=True), dwaa):
+                    // a file read for its channels (the Python module's read_exr), not merged
 };
 // Reads one 2-D image (subimage 0, MIP level 0) as linear float RGB. Throws Error naming the
 // file and the reason for anything it cannot read as `use` says: not a regular file, volumes
