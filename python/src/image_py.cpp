@@ -12,6 +12,7 @@
 
 #include <algorithm>
 
+#include "cli/checks.h"
 #include "integrator/stats_json.h"
 
 namespace py = pybind11;
@@ -119,6 +120,14 @@ py::list ranges(const Image& im) {
   return l;
 }
 
+// A piece to merge: rendered with spp_range or pixel_bounds, or a window or samples that are not
+// the whole film's from sample 0 (a read or merged piece).
+bool is_piece(const Image& im) {
+  const FilmPiece& p = im.piece;
+  return im.spp_or_pixel_range || p.x0 != 0 || p.y0 != 0 || p.width != p.id.full_width ||
+         p.height != p.id.full_height || (!p.ranges.empty() && p.ranges.front().begin != 0);
+}
+
 }  // namespace
 
 std::string path_arg(const py::handle& path, const char* what) {
@@ -160,6 +169,9 @@ void bind_image(py::module_& m) {
           throw py::value_error(fmt::format("write: compression=\"{}\": unknown (one of: {})", compression,
                                             fmt::join(known, ", ")));
         exr.compression = compression;
+        if (is_piece(im))  // the command line's warning before a piece renders (cli/checks.h)
+          if (const std::string w = piece_storage_warning(exr, path); !w.empty())
+            if (PyErr_WarnEx(PyExc_UserWarning, w.c_str(), 1) != 0) throw py::error_already_set();
         write_piece(path, im.piece, im.meta, exr);
       }, py::arg("path"), py::arg("half") = false, py::arg("compression") = "zip",
          "writes an EXR (every layer, mergeable) or a PNG (the beauty)")

@@ -18,6 +18,7 @@ struct Image {
   RenderStats counters;     // summed over the pieces merged into this one
   nlohmann::json stats;     // render_stats_json of a render; the merge's summary for a merge
   Metadata meta;            // written beside the piece's own metadata
+  bool spp_or_pixel_range = false;  // rendered with spp_range or pixel_bounds: a piece to merge
 };
 
 // A file path argument: a str or any os.PathLike (pathlib.Path); TypeError naming `what` otherwise.

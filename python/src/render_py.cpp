@@ -159,6 +159,7 @@ Image render(const SceneDesc& scene, const RenderArgs& args) {
   Image im;
   im.piece = r.piece;
   im.counters = r.stats;
+  im.spp_or_pixel_range = args.spp_range.has_value() || args.pixel_bounds.has_value();
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   im.stats = render_stats_json(r, seconds, 0.0, 1, {});
   im.meta["spp_requested"] = r.spp_requested;

@@ -114,6 +114,30 @@ def test_write_and_read_back(tmp_path):
     assert img.stats["spp"] == 2 and img.stats["tracker"] == "spectral-decomposition" and img.stats["paths"] > 0
 
 
+def test_a_piece_written_so_that_merge_refuses_it_warns(tmp_path, recwarn):
+    """As the command line warns before a piece renders: merge refuses lossy or half pieces."""
+    scene = spectrack.load_dict(SLAB)
+    piece = scene.render(spp_range=(0, 2))
+    for name, kwargs in [("dwaa", {"compression": "dwaa"}), ("pxr24", {"compression": "pxr24"}),
+                         ("half", {"half": True})]:
+        with pytest.warns(UserWarning, match="merge refuses it"):
+            piece.write(str(tmp_path / f"{name}.exr"), **kwargs)
+    tile = scene.render(spp=2, pixel_bounds=(0, 12, 0, 20))
+    with pytest.warns(UserWarning, match="compressed with dwab"):
+        tile.write(str(tmp_path / "tile.exr"), compression="dwab")
+    # a piece read back is still a piece where its samples or window show it (a shard from sample 0
+    # reads as a whole render of fewer samples); a whole render, or a lossless piece, writes silently
+    scene.render(spp_range=(2, 4)).write(str(tmp_path / "zip.exr"))
+    back = spectrack.read(str(tmp_path / "zip.exr"))
+    with pytest.warns(UserWarning, match="stored as half floats"):
+        back.write(str(tmp_path / "back.exr"), half=True)
+    recwarn.clear()
+    scene.render(spp=2).write(str(tmp_path / "whole.exr"), compression="dwaa")
+    piece.write(str(tmp_path / "piz.exr"), compression="piz")
+    piece.write(str(tmp_path / "piece.png"))
+    assert not [w for w in recwarn if issubclass(w.category, UserWarning)]
+
+
 def test_what_the_command_line_refuses_is_refused(spectrack_binary, tmp_path):
     # a noise target on a tile or a shard (each would stop at its own noise), on several devices
     target = spectrack.load_dict(dict(SLAB, render=dict(SLAB["render"], noise_target=0.2, adaptive=True),

@@ -133,16 +133,25 @@ inline void check_half(bool half_flag, const SceneDesc& scene, const std::string
 // A piece of an image (a sample range or a pixel window) is rendered to be merged, and merge takes
 // only files whose float sums are exact (image.cpp check_film_piece_spec): warn before the render
 // rather than at the merge, hours later. A PNG piece is merge's own refusal (its message says why).
-inline void check_piece_storage(bool piece, const ExrOptions& exr, const std::string& output) {
-  if (!piece || lower_extension(output) != ".exr") return;
+// The warning for a piece stored at `output` with `exr`, empty where merge takes it (the Python
+// module's Image.write gives the same text as a UserWarning).
+inline std::string piece_storage_warning(const ExrOptions& exr, const std::string& output) {
+  if (lower_extension(output) != ".exr") return {};
   if (exr.half)
-    warn(fmt::format("{} is a piece of an image (--spp-range / --pixel-bounds) stored as half floats (--half or "
-                     "film.half): merge refuses it, since it needs the exact float sums",
-                     output));
-  else if (!exr_compression_keeps_floats(exr.compression))
-    warn(fmt::format("{} is a piece of an image (--spp-range / --pixel-bounds) compressed with {}, which changes "
-                     "float pixels: merge refuses it (a lossless compression: zip, the default, zips, piz, rle or none)",
-                     output, exr.compression));
+    return fmt::format("{} is a piece of an image (--spp-range / --pixel-bounds) stored as half floats (--half or "
+                       "film.half): merge refuses it, since it needs the exact float sums",
+                       output);
+  if (!exr_compression_keeps_floats(exr.compression))
+    return fmt::format("{} is a piece of an image (--spp-range / --pixel-bounds) compressed with {}, which changes "
+                       "float pixels: merge refuses it (a lossless compression: zip, the default, zips, piz, rle or "
+                       "none)",
+                       output, exr.compression);
+  return {};
+}
+
+inline void check_piece_storage(bool piece, const ExrOptions& exr, const std::string& output) {
+  if (!piece) return;
+  if (const std::string w = piece_storage_warning(exr, output); !w.empty()) warn(w);
 }
 
 inline std::vector<NamedPath> merge_inputs(const std::vector<std::string>& files) {
