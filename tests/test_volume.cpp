@@ -26,6 +26,7 @@
 #include <nanovdb/util/IO.h>
 #include <nanovdb/util/OpenToNanoVDB.h>
 
+#include "scene/scene_pack.h"
 #include "volume/volume.h"
 #include "test_util.h"
 
@@ -280,6 +281,48 @@ TEST(VolumeLoad, DuplicateGridNames) {
   EXPECT_TRUE(differ);
   const std::string msg = error_of([&] { spectrack::load_float_grid(path, "density", 3, "test"); });
   EXPECT_TRUE(contains(msg, "out of range")) << msg;
+}
+
+// `info` reports a grid, then packs the scene as render does: the pack takes the kept grid instead
+// of reading the file again (the file is removed in between: a second read would fail).
+TEST(VolumeLoad, KeptGridIsHandedOverOnceWithoutReadingTheFileAgain) {
+  using namespace st_test;
+  const std::string dir = temp_dir("kept_grids");
+  const std::string path = dir + "/lumpy.vdb";
+  write_lumpy(path);
+  const GridData fresh = spectrack::load_float_grid(path, "density", -1, "test");
+  {
+    spectrack::KeptGrids kept;
+    const GridData& g = kept.load(path, "density", -1, "test");
+    EXPECT_EQ(&g, &kept.load(path, "density", -1, "test"));  // kept: not loaded twice
+    EXPECT_THROW(spectrack::KeptGrids(), std::logic_error);  // one at a time
+    std::filesystem::remove(path);
+    const GridData taken = spectrack::load_float_grid(path, "density", -1, "test");
+    EXPECT_EQ(taken.index_min, fresh.index_min);
+    EXPECT_EQ(taken.index_max, fresh.index_max);
+    EXPECT_EQ(taken.value_max, fresh.value_max);
+    EXPECT_EQ(taken.handle.size(), fresh.handle.size());
+    // handed over once; a load that fails keeps nothing
+    EXPECT_TRUE(contains(error_of([&] { spectrack::load_float_grid(path, "density", -1, "test"); }), path));
+    EXPECT_THROW(kept.load(path, "density", -1, "test"), spectrack::Error);
+  }
+  // the scene's pack takes it: a scene packed while the file is gone
+  write_lumpy(path);
+  const nlohmann::json j = {
+      {"format", "spectrack-scene/1"},
+      {"camera", {{"type", "perspective"}, {"position", {0, 0, -4}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 40}}},
+      {"film", {{"width", 8}, {"height", 8}, {"spp", 1}}},
+      {"lights", {{{"type", "environment"}, {"radiance", {1, 1, 1}}}}},
+      {"media", {{{"type", "vdb"}, {"file", "lumpy.vdb"}, {"sigma_s", {1, 1, 1}}, {"sigma_a", {0, 0, 0}}}}}};
+  const spectrack::SceneDesc scene = scene_from_json(j, dir);
+  const spectrack::RenderSettings set = spectrack::resolve_settings(scene, quiet_options());
+  {
+    spectrack::KeptGrids kept;
+    kept.load(scene.media[0].file, scene.media[0].grid, scene.media[0].grid_index, "test");
+    std::filesystem::remove(path);
+    EXPECT_NO_THROW(spectrack::pack_scene(scene, set, spectrack::pack_options(set)));
+    EXPECT_THROW(spectrack::pack_scene(scene, set, spectrack::pack_options(set)), spectrack::Error);
+  }
 }
 
 // ---- errors -----------------------------------------------------------------------------------

@@ -3,6 +3,8 @@
 // A scene is then packed as `render` packs it with the scene's own settings (resolve_settings,
 // pack_scene: host work, no device), so that every check render makes of the scene's data (grids,
 // maps, numbers the kernels' floats cannot hold) is made here too, once, in the render's words.
+// The report's density grids stay loaded (volume.h KeptGrids) and the pack takes them: one read of
+// each file, which matters for VDB files of gigabytes.
 #include "cli/info.h"
 #include "cli/render.h"
 
@@ -117,13 +119,14 @@ const char* light_type(int t) {
 }
 
 // One medium of `info`'s scene report: its world box (in *box), largest extinction and optical
-// depths, as JSON and as lines of text appended to t.
-json medium_json(const SceneDesc& s, const MediumDesc& md, std::string& t, Box3* box) {
+// depths, as JSON and as lines of text appended to t. A VDB medium's grid is loaded into `kept`,
+// where the pack that follows finds it.
+json medium_json(const SceneDesc& s, const MediumDesc& md, std::string& t, Box3* box, KeptGrids& kept) {
   json m = {{"name", md.name}, {"type", md.type == ST_MEDIUM_VDB ? "vdb" : "homogeneous"}};
   Box3 b;
   double dmax = 1, voxel = 0;
   if (md.type == ST_MEDIUM_VDB) {
-    GridData g = load_float_grid(md.file, md.grid, md.grid_index, s.path + ": " + md.json_path);
+    const GridData& g = kept.load(md.file, md.grid, md.grid_index, s.path + ": " + md.json_path);
     b = medium_world_box(md, g);
     dmax = g.value_max;
     // the longest world step of one index unit along an axis
@@ -169,7 +172,7 @@ json medium_json(const SceneDesc& s, const MediumDesc& md, std::string& t, Box3*
   return m;
 }
 
-json scene_json(const SceneDesc& s, std::string* text) {
+json scene_json(const SceneDesc& s, std::string* text, KeptGrids& kept) {
   json out = {{"file", s.path}, {"kind", "scene"}, {"media", json::array()}, {"lights", json::array()}};
   std::string& t = *text;
   t += fmt::format("{}: scene, {}x{} film, {} spp, tracker {}\n", s.path, s.film.width, s.film.height, s.film.spp,
@@ -177,7 +180,7 @@ json scene_json(const SceneDesc& s, std::string* text) {
   std::vector<Box3> boxes;
   for (const MediumDesc& md : s.media) {
     Box3 b;
-    out["media"].push_back(medium_json(s, md, t, &b));
+    out["media"].push_back(medium_json(s, md, t, &b, kept));
     boxes.push_back(b);
   }
   for (const LightDesc& l : s.lights) {
@@ -290,7 +293,8 @@ int cmd_info(const std::vector<std::string>& files, bool as_json, const std::opt
         std::string text;
         for (const SceneDesc& s : scene_frames(load_scene(f), frames, as_json)) {
           text.clear();
-          all.push_back(scene_json(s, &text));
+          KeptGrids kept;  // the report's grids, read once: the pack takes them
+          all.push_back(scene_json(s, &text, kept));
           if (!as_json) std::cout << text;
           // render's own checks of the scene's data, with the scene's settings (no flags)
           try {

@@ -12,6 +12,7 @@
 #pragma once
 #include <array>
 #include <functional>
+#include <list>
 #include <string>
 #include <vector>
 
@@ -40,6 +41,32 @@ struct GridData {
 // a level set, a non-affine transform, a non-zero background, and negative or NaN values.
 GridData load_float_grid(const std::string& file, const std::string& grid_name, int grid_index,
                          const std::string& context);
+
+// While a KeptGrids lives (one at a time, in any thread), the grids loaded through its load() stay
+// in memory, and the next load_float_grid of the same file, grid name and index hands the kept grid
+// over (moved out, once) instead of reading the file again: `spectrack info` reports a grid and
+// then packs the scene as `render` does with one read of each file.
+class KeptGrids {
+ public:
+  KeptGrids();
+  ~KeptGrids();
+  KeptGrids(const KeptGrids&) = delete;
+  KeptGrids& operator=(const KeptGrids&) = delete;
+  // load_float_grid's grid (its checks and messages), kept; a grid kept already is not read again.
+  // The reference holds until the grid is handed over or the KeptGrids dies.
+  const GridData& load(const std::string& file, const std::string& grid_name, int grid_index,
+                       const std::string& context);
+
+  struct Entry {
+    std::string file, grid_name;
+    int grid_index;
+    GridData grid;
+  };
+
+ private:
+  std::list<Entry> entries_;
+  friend bool take_kept_grid(const std::string&, const std::string&, int, GridData*);
+};
 
 // Loads the vec3s grid `grid_name` of a .vdb file (a medium's colour, e.g. Houdini's Cd) as three
 // float grids, its x, y and z components, each with the vec3 grid's transform and background
