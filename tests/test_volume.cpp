@@ -27,6 +27,7 @@
 #include <nanovdb/util/OpenToNanoVDB.h>
 
 #include "scene/scene_pack.h"
+#include "volume/inspect.h"
 #include "volume/volume.h"
 #include "test_util.h"
 
@@ -281,6 +282,59 @@ TEST(VolumeLoad, DuplicateGridNames) {
   EXPECT_TRUE(differ);
   const std::string msg = error_of([&] { spectrack::load_float_grid(path, "density", 3, "test"); });
   EXPECT_TRUE(contains(msg, "out of range")) << msg;
+}
+
+// A double grid (Houdini's 64-bit volumes) is read as float: the same grid as its float copy, and a
+// value no float holds is refused by name rather than read as infinity.
+TEST(VolumeLoad, DoubleGridIsReadAsFloat) {
+  using namespace st_test;
+  const std::string dir = temp_dir("double_grid");
+  auto value = [](int i, int j, int k) { return 0.1 + 0.01 * ((i * 7 + j * 3 + k) % 50); };
+  auto write = [&](const std::string& path, bool as_double, double big) {
+    openvdb::initialize();
+    openvdb::GridBase::Ptr out;
+    auto fill = [&](auto grid) {
+      grid->setName("density");
+      grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+      grid->setTransform(openvdb::math::Transform::createLinearTransform(0.25));
+      auto acc = grid->getAccessor();
+      for (int k = -5; k < 9; ++k)
+        for (int j = 0; j < 6; ++j)
+          for (int i = 3; i < 20; ++i) acc.setValue(openvdb::Coord(i, j, k), value(i, j, k));
+      grid->tree().addTile(1, openvdb::Coord(32, 0, 0), 0.5, true);
+      if (big != 0) acc.setValue(openvdb::Coord(4, 2, 1), big);
+      out = grid;
+    };
+    if (as_double) fill(openvdb::DoubleGrid::create(0.0));
+    else fill(openvdb::FloatGrid::create(0.0f));
+    openvdb::io::File f(path);
+    f.write({out});
+    f.close();
+  };
+  write(dir + "/f.vdb", false, 0);
+  write(dir + "/d.vdb", true, 0);
+  const GridData f = spectrack::load_float_grid(dir + "/f.vdb", "density", -1, "test");
+  const GridData d = spectrack::load_float_grid(dir + "/d.vdb", "density", -1, "test");
+  EXPECT_EQ(d.index_min, f.index_min);
+  EXPECT_EQ(d.index_max, f.index_max);
+  EXPECT_EQ(d.value_min, f.value_min);
+  EXPECT_EQ(d.value_max, f.value_max);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) EXPECT_EQ(d.index_to_world[r][c], f.index_to_world[r][c]);
+  for (double x : {3.5, 7.25, 12.0, 19.5, 36.0})
+    EXPECT_EQ(spectrack::sample_index_trilinear(d, x, 2.5, 1.5), spectrack::sample_index_trilinear(f, x, 2.5, 1.5)) << x;
+  EXPECT_EQ(spectrack::sample_index_trilinear(d, 36.0, 2.5, 1.5), 0.5f);  // the active tile
+  const std::vector<spectrack::GridInfo> info = spectrack::inspect_volume(dir + "/d.vdb");  // `info`
+  ASSERT_EQ(info.size(), 1u);
+  EXPECT_EQ(info[0].density_use, "yes (64-bit values, read as 32-bit floats)");
+  EXPECT_EQ(info[0].nanovdb_bytes, spectrack::inspect_volume(dir + "/f.vdb")[0].nanovdb_bytes);
+  write(dir + "/big.vdb", true, 1e300);
+  std::string msg = error_of([&] { spectrack::load_float_grid(dir + "/big.vdb", "density", -1, "test"); });
+  EXPECT_TRUE(contains(msg, "value 1e+300 at active voxel (4, 2, 1) is beyond a 32-bit float's range")) << msg;
+  EXPECT_EQ(spectrack::inspect_volume(dir + "/big.vdb")[0].density_use, "no: values beyond a 32-bit float's range");
+  write(dir + "/neg.vdb", true, -2);
+  msg = error_of([&] { spectrack::load_float_grid(dir + "/neg.vdb", "density", -1, "test"); });
+  EXPECT_TRUE(contains(msg, "-2 at active voxel (4, 2, 1) is negative")) << msg;
 }
 
 // `info` reports a grid, then packs the scene as render does: the pack takes the kept grid instead

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <iostream>
 #include <limits>
+#include <memory>
 #include <type_traits>
 
 #include <fmt/format.h>
@@ -53,6 +54,10 @@ void vector_range(const openvdb::GridBase& base, GridInfo& out) {
 template <class GridT>
 int64_t nano_bytes(const openvdb::GridBase& base) {
   try {
+    if constexpr (std::is_same_v<GridT, openvdb::DoubleGrid>) {  // loaded as float (volume.cpp to_float_grid)
+      const openvdb::FloatGrid f(std::make_shared<openvdb::FloatTree>(static_cast<const GridT&>(base).tree()));
+      return int64_t(nanovdb::openToNanoVDB(f).size());
+    }
     return int64_t(nanovdb::openToNanoVDB(static_cast<const GridT&>(base)).size());
   } catch (const std::exception&) {
     return -1;
@@ -106,18 +111,22 @@ GridInfo vdb_grid(const openvdb::GridBase& g, const Fail& fail) {
                                      printable(out.name));
   }
   // The loader's refusals (volume.cpp), as a note rather than an error.
-  if (!g.isType<openvdb::FloatGrid>()) {
+  const bool is_double = g.isType<openvdb::DoubleGrid>();  // read as float (volume.cpp to_float_grid)
+  if (!g.isType<openvdb::FloatGrid>() && !is_double) {
     out.density_use = out.type == "vec3s" ? "no: value type vec3s; usable as a medium's colour grid (\"color\": {\"grid\": \"" + out.name + "\"})" : "no: value type " + out.type + " (only float density grids)";
   } else if (g.getGridClass() == openvdb::GRID_LEVEL_SET) {
     out.density_use = "no: a level set, not a fog volume";
   } else if (!g.transform().isLinear()) {
     out.density_use = "no: non-affine transform";
-  } else if (static_cast<const openvdb::FloatGrid&>(g).background() != 0.0f) {
+  } else if ((is_double ? static_cast<const openvdb::DoubleGrid&>(g).background()
+                        : static_cast<const openvdb::FloatGrid&>(g).background()) != 0.0) {
     out.density_use = "no: background is not 0";
   } else if (out.has_range && (!(out.value_min >= 0) || !std::isfinite(out.value_max))) {
     out.density_use = "no: negative or non-finite values";
+  } else if (is_double && out.has_range && out.value_max > std::numeric_limits<float>::max()) {
+    out.density_use = "no: values beyond a 32-bit float's range";
   } else {
-    out.density_use = "yes";
+    out.density_use = is_double ? "yes (64-bit values, read as 32-bit floats)" : "yes";
   }
   return out;
 }

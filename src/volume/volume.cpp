@@ -24,6 +24,7 @@
 #include <cerrno>
 #include <climits>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -86,7 +87,8 @@ std::vector<Entry> vdb_entries(openvdb::io::File& f) {
     e.name = g->getName();
     e.type = g->valueType();
     e.cls = openvdb::GridBase::gridClassToString(g->getGridClass());
-    e.is_float = g->isType<openvdb::FloatGrid>();
+    // a double grid is read as float (load_vdb): a density grid like a float one
+    e.is_float = g->isType<openvdb::FloatGrid>() || g->isType<openvdb::DoubleGrid>();
     e.level_set = g->getGridClass() == openvdb::GRID_LEVEL_SET;
   }
   return out;
@@ -168,12 +170,33 @@ const Entry& select(const std::vector<Entry>& entries, const std::string& grid_n
 void check_entry(const Entry& e, const Fail& fail) {
   if (!e.is_float) {
     fail("grid " + in_quotes(e.name) + " has value type " + e.type + " (class " + e.cls +
-         "); only scalar float density grids are supported");
+         "); only scalar float (or double) density grids are supported");
   }
   if (e.level_set) {
     fail("grid " + in_quotes(e.name) + " is a level set (signed distance field), not a fog volume; convert it to a "
          "fog volume (density) grid first");
   }
+}
+
+// A double grid as the float grid the device reads (its metadata, transform and tree, every value
+// rounded to the nearest float). A value a float cannot hold is refused here, naming it, rather than
+// as the infinity it would round to.
+openvdb::FloatGrid::Ptr to_float_grid(const openvdb::DoubleGrid& d, const Fail& fail) {
+  const double limit = std::numeric_limits<float>::max();
+  for (auto v = d.tree().cbeginValueOn(); v; ++v)
+    if (std::abs(*v) > limit) {
+      const openvdb::Coord p = v.getCoord();
+      char value[32];
+      std::snprintf(value, sizeof value, "%.9g", *v);
+      fail("grid " + in_quotes(d.getName()) + ": value " + value + " at " +
+           (v.isVoxelValue() ? "active voxel " : "active tile at ") + coord_str(p.x(), p.y(), p.z()) +
+           " is beyond a 32-bit float's range (double grids are read as float)");
+    }
+  auto tree = std::make_shared<openvdb::FloatTree>(d.tree());  // OpenVDB's value-converting copy
+  openvdb::FloatGrid::Ptr out = openvdb::FloatGrid::create(tree);
+  static_cast<openvdb::MetaMap&>(*out) = static_cast<const openvdb::MetaMap&>(d);  // name, class, file_bbox
+  out->setTransform(d.transform().copy());
+  return out;
 }
 
 GridData load_vdb(const std::string& file, const std::string& grid_name, int grid_index, const Fail& fail) {
@@ -188,8 +211,10 @@ GridData load_vdb(const std::string& file, const std::string& grid_name, int gri
     check_entry(e, fail);
     out.name = e.name;
     check_vdb_tree(file, layout, e.vdb_key, fail);
-    grid = openvdb::gridPtrCast<openvdb::FloatGrid>(f->readGrid(e.vdb_key));
+    const openvdb::GridBase::Ptr base = f->readGrid(e.vdb_key);
     f->close();
+    grid = openvdb::gridPtrCast<openvdb::FloatGrid>(base);
+    if (const openvdb::DoubleGrid::Ptr d = openvdb::gridPtrCast<openvdb::DoubleGrid>(base)) grid = to_float_grid(*d, fail);
     if (!grid) fail("grid " + in_quotes(e.name) + " could not be read as a float grid");
   } catch (const Error&) {
     throw;

@@ -96,6 +96,14 @@ int main(int argc, char** argv) {
       for (int i = 0; i < 3; ++i) acc.setValue(openvdb::Coord(i, 1, 2), openvdb::Vec3s(0.2f * float(i), 0.5f, 1.0f));
       write_vdb(out / "vdb" / "color.vdb", {fog("density", 3, 0.5f, 0.1), cd}, openvdb::io::COMPRESS_ZIP);
     }
+    {
+      auto d = openvdb::DoubleGrid::create(0.0);  // a double density grid, read as float
+      d->setName("density");
+      d->setGridClass(openvdb::GRID_FOG_VOLUME);
+      auto acc = d->getAccessor();
+      for (int i = 0; i < 4; ++i) acc.setValue(openvdb::Coord(i, 2 - i, 1), 0.25 * double(1 + i));
+      write_vdb(out / "vdb" / "double.vdb", {d}, openvdb::io::COMPRESS_ZIP);
+    }
     write_vdb(out / "vdb" / "empty.vdb", {openvdb::FloatGrid::create(0.0f)}, openvdb::io::COMPRESS_NONE);
     auto ls = fog("density", 2, -1.0f, 1.0);  // negative values in a level-set-classed grid
     ls->setGridClass(openvdb::GRID_LEVEL_SET);
