@@ -763,3 +763,18 @@ TEST(VolumeNanoVdb, ErrorsMatchVdb) {
   const GridData g = spectrack::load_float_grid(path, "heat", -1, "test");
   EXPECT_FALSE(g.empty);
 }
+
+// A quantized (or double) NanoVDB grid is refused, saying how to get one spectrack reads.
+TEST(VolumeNanoVdb, QuantizedGridIsRefusedWithTheWayOut) {
+  openvdb::initialize();
+  auto g = openvdb::FloatGrid::create(0.0f);
+  g->setName("density");
+  g->setGridClass(openvdb::GRID_FOG_VOLUME);
+  g->tree().setValue(openvdb::Coord(1, 2, 3), 0.5f);
+  const std::string dir = st_test::temp_dir("nvdb_fp16");
+  const std::string path = dir + "/fp16.nvdb";
+  nanovdb::io::writeGrid(path, nanovdb::openToNanoVDB<nanovdb::HostBuffer, openvdb::FloatTree, nanovdb::Fp16>(*g));
+  const std::string msg = error_of([&] { spectrack::load_float_grid(path, "density", -1, "test"); });
+  EXPECT_TRUE(contains(msg, "value type Float16")) << msg;
+  EXPECT_TRUE(contains(msg, "convert the .vdb without quantization")) << msg;
+}

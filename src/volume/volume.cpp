@@ -169,8 +169,11 @@ const Entry& select(const std::vector<Entry>& entries, const std::string& grid_n
 
 void check_entry(const Entry& e, const Fail& fail) {
   if (!e.is_float) {
-    fail("grid " + in_quotes(e.name) + " has value type " + e.type + " (class " + e.cls +
-         "); only scalar float (or double) density grids are supported");
+    const bool nvdb = lower_extension(fail.file) == ".nvdb";
+    fail("grid " + in_quotes(e.name) + " has value type " + e.type + " (class " + e.cls + "); only scalar " +
+         (nvdb ? "float density grids are supported in NanoVDB files (a quantized or double grid: convert the .vdb "
+                 "without quantization, as nanovdb_convert does by default, or give the .vdb itself)"
+               : "float or double density grids are supported"));
   }
   if (e.level_set) {
     fail("grid " + in_quotes(e.name) + " is a level set (signed distance field), not a fog volume; convert it to a "
