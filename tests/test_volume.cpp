@@ -28,6 +28,7 @@
 
 #include "scene/scene_pack.h"
 #include "volume/inspect.h"
+#include "volume/velocity_grid.h"
 #include "volume/volume.h"
 #include "test_util.h"
 
@@ -335,6 +336,61 @@ TEST(VolumeLoad, DoubleGridIsReadAsFloat) {
   write(dir + "/neg.vdb", true, -2);
   msg = error_of([&] { spectrack::load_float_grid(dir + "/neg.vdb", "density", -1, "test"); });
   EXPECT_TRUE(contains(msg, "-2 at active voxel (4, 2, 1) is negative")) << msg;
+}
+
+// vec3d colour and velocity grids (Houdini's 64-bit vectors) read as their vec3s copies.
+TEST(VolumeLoad, Vec3dColourAndVelocityGridsReadAsFloat) {
+  using namespace st_test;
+  const std::string dir = temp_dir("vec3d_grids");
+  auto write = [&](const std::string& path, bool as_double) {
+    openvdb::initialize();
+    auto density = openvdb::FloatGrid::create(0.0f);
+    density->setName("density");
+    density->setGridClass(openvdb::GRID_FOG_VOLUME);
+    openvdb::GridPtrVec grids{density};
+    auto vec = [&](auto grid, const char* name, double scale) {
+      grid->setName(name);
+      grid->setGridClass(std::string(name) == "vel" ? openvdb::GRID_STAGGERED : openvdb::GRID_UNKNOWN);
+      auto acc = grid->getAccessor();
+      for (int i = 0; i < 6; ++i) acc.setValue(openvdb::Coord(i, 1, 2), {scale * 0.1 * i, scale * 0.5, scale * 0.3});
+      grids.push_back(grid);
+    };
+    for (int i = 0; i < 6; ++i) density->tree().setValue(openvdb::Coord(i, 1, 2), 0.5f);
+    if (as_double) {
+      vec(openvdb::Vec3DGrid::create(openvdb::Vec3d(0.0)), "Cd", 1.0);
+      vec(openvdb::Vec3DGrid::create(openvdb::Vec3d(0.0)), "vel", 3.0);
+    } else {
+      vec(openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f)), "Cd", 1.0);
+      vec(openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f)), "vel", 3.0);
+    }
+    openvdb::io::File f(path);
+    f.write(grids);
+    f.close();
+  };
+  write(dir + "/s.vdb", false);
+  write(dir + "/d.vdb", true);
+  const auto cs = spectrack::load_color_grid(dir + "/s.vdb", "Cd", "test");
+  const auto cd = spectrack::load_color_grid(dir + "/d.vdb", "Cd", "test");
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_EQ(cd[c].index_min, cs[c].index_min);
+    EXPECT_EQ(cd[c].value_max, cs[c].value_max);
+    EXPECT_EQ(spectrack::sample_index_trilinear(cd[c], 3.5, 1.0, 2.0), spectrack::sample_index_trilinear(cs[c], 3.5, 1.0, 2.0));
+  }
+  const spectrack::VelocityGrid vs = spectrack::load_velocity_grid(dir + "/s.vdb", "vel", 1e9, "test");
+  const spectrack::VelocityGrid vd = spectrack::load_velocity_grid(dir + "/d.vdb", "vel", 1e9, "test");
+  EXPECT_TRUE(vd.staggered);
+  EXPECT_EQ(vd.max_abs, vs.max_abs);
+  EXPECT_EQ(vd.max_speed, vs.max_speed);
+  EXPECT_EQ(vd.grid.handle.size(), vs.grid.handle.size());
+  const std::vector<spectrack::GridInfo> info = spectrack::inspect_volume(dir + "/d.vdb");
+  ASSERT_EQ(info.size(), 3u);
+  for (const spectrack::GridInfo& g : info) {
+    if (g.name == "Cd") EXPECT_TRUE(contains(g.density_use, "usable as a medium's colour grid")) << g.density_use;
+    if (g.name == "vel") EXPECT_TRUE(contains(g.velocity_use, "yes (staggered)")) << g.velocity_use;
+  }
+  // a density grid is not a colour grid, whatever its precision
+  EXPECT_TRUE(contains(error_of([&] { spectrack::load_color_grid(dir + "/d.vdb", "density", "test"); }),
+                       "must be a vec3s (or vec3d) grid"));
 }
 
 // `info` reports a grid, then packs the scene as render does: the pack takes the kept grid instead

@@ -101,7 +101,7 @@ GridInfo vdb_grid(const openvdb::GridBase& g, const Fail& fail) {
       describe_values<true, openvdb::Vec3SGrid, openvdb::Vec3DGrid>(g, out);
   // As a medium's velocity (velocity_grid.cpp): the largest speed over the active values, in the
   // grid's own units (before the medium's scale and fps)
-  if (g.isType<openvdb::Vec3SGrid>()) {
+  if (vec3_value_type(out.type)) {  // vec3d as vec3s (vdb_open.h as_vec3s_grid)
     const bool staggered = g.getGridClass() == openvdb::GRID_STAGGERED;
     if (!g.transform().isLinear()) out.velocity_use = "no: non-affine transform";
     else if (out.has_range && !std::isfinite(out.value_max)) out.velocity_use = "no: non-finite values";
@@ -113,7 +113,7 @@ GridInfo vdb_grid(const openvdb::GridBase& g, const Fail& fail) {
   // The loader's refusals (volume.cpp), as a note rather than an error.
   const bool is_double = g.isType<openvdb::DoubleGrid>();  // read as float (volume.cpp to_float_grid)
   if (!g.isType<openvdb::FloatGrid>() && !is_double) {
-    out.density_use = out.type == "vec3s" ? "no: value type vec3s; usable as a medium's colour grid (\"color\": {\"grid\": \"" + out.name + "\"})" : "no: value type " + out.type + " (only float density grids)";
+    out.density_use = vec3_value_type(out.type) ? "no: value type " + out.type + "; usable as a medium's colour grid (\"color\": {\"grid\": \"" + out.name + "\"})" : "no: value type " + out.type + " (only float or double density grids)";
   } else if (g.getGridClass() == openvdb::GRID_LEVEL_SET) {
     out.density_use = "no: a level set, not a fog volume";
   } else if (!g.transform().isLinear()) {

@@ -15,6 +15,12 @@ namespace volume_detail {
 // Checks the file is readable, pre-scans its structure and opens it (throws spectrack::Error);
 // the pre-scan's layout goes to `layout` for check_vdb_tree before each grid is read.
 std::unique_ptr<openvdb::io::File> open_vdb_checked(const std::string& file, const Fail& fail, VdbLayout* layout = nullptr);
+// A grid read from a .vdb file as a vec3s grid: itself, or a vec3d grid (Houdini's 64-bit vectors)
+// with its values rounded to float and its metadata and transform kept; null for other types. A
+// component beyond a float's range becomes infinite, which the colour and velocity checks refuse.
+openvdb::Vec3SGrid::Ptr as_vec3s_grid(const openvdb::GridBase::Ptr& g);
+// Whether a value type (GridBase::valueType) reads as a vec3s grid through as_vec3s_grid.
+inline bool vec3_value_type(const std::string& type) { return type == "vec3s" || type == "vec3d"; }
 // Fails when a grid's tree disagrees with its file_bbox metadata (damaged files).
 void check_vdb_file_bbox(const openvdb::GridBase& g, const Fail& fail);
 // The active index box and the affine index-to-world map of an OpenVDB grid, into g.

@@ -38,14 +38,14 @@ openvdb::Vec3SGrid::Ptr read_vec3s(const std::string& file, const std::string& n
       const openvdb::GridBase::Ptr& g = (*metas)[i];
       list += (list.empty() ? "" : ", ") + in_quotes(g->getName()) + " (" + printable(g->valueType()) + ")";
       if (g->getName() != name || !key.empty()) continue;
-      if (g->valueType() != "vec3s")
+      if (!vec3_value_type(g->valueType()))
         fail("velocity grid " + gname + " has value type " + printable(g->valueType()) +
-             "; a velocity grid must be a vec3s grid (e.g. Houdini's vel, Blender's velocity)");
+             "; a velocity grid must be a vec3s (or vec3d) grid (e.g. Houdini's vel, Blender's velocity)");
       key = it.gridName();
     }
     if (key.empty()) fail("no velocity grid named " + gname + "; the file has " + (list.empty() ? "no grids" : list));
     check_vdb_tree(file, layout, key, fail);
-    auto grid = openvdb::gridPtrCast<openvdb::Vec3SGrid>(f->readGrid(key));
+    auto grid = as_vec3s_grid(f->readGrid(key));
     f->close();
     if (!grid) fail("velocity grid " + gname + " could not be read as a vec3s grid");
     return grid;

@@ -279,6 +279,22 @@ std::unique_ptr<openvdb::io::File> open_vdb_checked(const std::string& file, con
 }
 void check_vdb_file_bbox(const openvdb::GridBase& g, const Fail& fail) { check_file_bbox(g, fail); }
 
+openvdb::Vec3SGrid::Ptr as_vec3s_grid(const openvdb::GridBase::Ptr& g) {
+  if (openvdb::Vec3SGrid::Ptr s = openvdb::gridPtrCast<openvdb::Vec3SGrid>(g)) return s;
+  const openvdb::Vec3DGrid::Ptr d = openvdb::gridPtrCast<openvdb::Vec3DGrid>(g);
+  if (!d) return nullptr;
+  // OpenVDB converts no vec3d tree to vec3s (a narrowing it refuses): the topology is copied, then
+  // every value, active and inactive, tiles and voxels, in the one order both trees iterate
+  const openvdb::Vec3s bg(d->background());
+  auto tree = std::make_shared<openvdb::Vec3STree>(d->tree(), bg, bg, openvdb::TopologyCopy());
+  auto to = tree->beginValueAll();
+  for (auto from = d->tree().cbeginValueAll(); from; ++from, ++to) to.setValue(openvdb::Vec3s(*from));
+  openvdb::Vec3SGrid::Ptr out = openvdb::Vec3SGrid::create(tree);
+  static_cast<openvdb::MetaMap&>(*out) = static_cast<const openvdb::MetaMap&>(*d);  // name, class, file_bbox
+  out->setTransform(d->transform().copy());
+  return out;
+}
+
 void set_box_and_map(GridData& g, const openvdb::GridBase& grid) {
   const openvdb::math::Mat4d mat = grid.transform().baseMap()->getAffineMap()->getMat4();
   const openvdb::CoordBBox box = grid.evalActiveVoxelBoundingBox();
@@ -383,12 +399,12 @@ openvdb::Vec3SGrid::Ptr read_color_grid(const std::string& file, const std::stri
       fail("no colour grid named " + in_quotes(grid_name) + "; the file has " +
            (list.empty() ? std::string("no grids") : list));
     }
-    if (hit->type != "vec3s") {
+    if (!vec3_value_type(hit->type)) {
       fail("colour grid " + in_quotes(grid_name) + " has value type " + hit->type + " (class " + hit->cls +
-           "); a colour grid must be a vec3s grid (e.g. Houdini's Cd)");
+           "); a colour grid must be a vec3s (or vec3d) grid (e.g. Houdini's Cd)");
     }
     check_vdb_tree(file, layout, hit->vdb_key, fail);
-    grid = openvdb::gridPtrCast<openvdb::Vec3SGrid>(f->readGrid(hit->vdb_key));
+    grid = as_vec3s_grid(f->readGrid(hit->vdb_key));
     f->close();
     if (!grid) fail("colour grid " + in_quotes(grid_name) + " could not be read as a vec3s grid");
   } catch (const Error&) {
