@@ -89,6 +89,25 @@ TEST_F(CliValues, HalfWithAPngIsRefused) {
   EXPECT_THAT(p.out, HasSubstr("--half")) << p.describe();
   EXPECT_THAT(p.out, HasSubstr("PNG")) << p.describe();
   EXPECT_FALSE(fs::exists(dir + "/x.png")) << p.describe();
+  // --compression likewise; the scene's own film.half or film.compression with its own PNG output is
+  // the scene's error (exit 1), and with -o choosing the PNG a warning (the twin: an EXR renders)
+  Proc c = render({"--compression", "piz"}, dir + "/c.png");
+  expect_error_exit(c, 2);
+  EXPECT_THAT(c.out, HasSubstr("--compression: the output")) << c.describe();
+  for (const char* field : {"half", "compression"}) {
+    json s = homogeneous_scene(8, 8, 2, 1.0, 0.0);
+    s["film"]["output"] = "own.png";
+    s["film"][field] = std::string(field) == "half" ? json(true) : json("dwaa");
+    scene = write_scene(dir, std::string(field) + ".json", s);
+    Proc own = run({"render", scene, "-q"});
+    expect_error_exit(own, 1);
+    EXPECT_THAT(own.out, HasSubstr(std::string("/film/") + field + ": film." + field + ": the output")) << own.describe();
+    Proc chosen = run({"render", scene, "-o", dir + "/chosen.png"});
+    EXPECT_TRUE(chosen.exited && chosen.code == 0) << chosen.describe();
+    EXPECT_THAT(chosen.out, HasSubstr(std::string("/film/") + field + " is ignored for the PNG output")) << chosen.describe();
+    Proc exr = run({"render", scene, "-q", "-o", dir + "/own.exr"});
+    EXPECT_TRUE(exr.exited && exr.code == 0) << exr.describe();
+  }
 }
 
 // A render whose path slots and shadow rays cannot fit: the refusal names the options that size

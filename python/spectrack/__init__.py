@@ -8,6 +8,7 @@ message names the file (``<dict>`` for a dict), the JSON field path and the reas
 """
 import copy
 import json
+import numbers
 import os
 
 from ._spectrack import Image, Volume, devices, merge, read, read_exr  # noqa: F401
@@ -52,6 +53,12 @@ class Scene:
         devices render. Ctrl-C stops the render at its next iteration and raises KeyboardInterrupt
         with the finished samples' image as its ``image`` attribute.
         """
+        _check_render_args(spp=spp, seed=seed, device=device, spp_range=spp_range, pixel_bounds=pixel_bounds,
+                           tracker=tracker, scheme=scheme, guiding=guiding, alpha=alpha, aovs=aovs,
+                           time_limit=time_limit, chunk_spp=chunk_spp, progress=progress, verbose=verbose,
+                           guide_splitting=guide_splitting)
+        device = "" if device is None else device  # None: the default, as for the other arguments
+        chunk_spp = 0 if chunk_spp is None else chunk_spp
         return _spectrack.render(self._desc, spp=spp, seed=seed, device=device, spp_range=spp_range,
                                  pixel_bounds=pixel_bounds, tracker=tracker, scheme=scheme, guiding=guiding,
                                  guide_cache=os.fspath(guide_cache) if guide_cache is not None else "", alpha=alpha,
@@ -60,6 +67,65 @@ class Scene:
 
     def __repr__(self):
         return f"<spectrack.Scene {self.path} {self.width}x{self.height}, {self.spp} spp>"
+
+
+# The Python types of render's arguments (None: the scene's value), checked before the extension
+# module sees them, so that a TypeError names the argument; the values are the module's checks.
+_INT, _REAL, _STR, _BOOL = "an int", "a number", "a str", "True or False"
+_RENDER_ARG_TYPES = {"spp": _INT, "seed": _INT, "chunk_spp": _INT, "time_limit": _REAL, "device": _STR,
+                     "tracker": _STR, "scheme": _STR, "guiding": _STR, "alpha": _BOOL, "verbose": _BOOL,
+                     "guide_splitting": _BOOL}
+
+
+def _is(value, kind):
+    if kind == _BOOL:
+        return isinstance(value, bool) or type(value).__name__ == "bool_"  # numpy's bool too
+    if kind == _STR:
+        return isinstance(value, str)
+    if isinstance(value, bool) or type(value).__name__ == "bool_":
+        return False  # True is no sample count
+    if kind == _INT:
+        return isinstance(value, numbers.Integral)
+    return isinstance(value, numbers.Real)
+
+
+# the integers the module's arguments hold (int32 or int64): beyond them no value is in range
+_INT_BOUND = {"spp": 2**31, "chunk_spp": 2**31, "seed": 2**63, "spp_range": 2**63, "pixel_bounds": 2**31}
+
+
+def _check_render_args(**args):
+    def bounded(name, value):
+        if not -_INT_BOUND[name] <= value < _INT_BOUND[name]:
+            raise ValueError(f"render: {name}={value!r} is out of range")
+
+    for name, kind in _RENDER_ARG_TYPES.items():
+        value = args[name]
+        if value is not None and not _is(value, kind):
+            raise TypeError(f"render: {name} must be {kind}, not {type(value).__name__} ({value!r})")
+        if value is not None and name in _INT_BOUND:
+            bounded(name, value)
+    for name, count in (("spp_range", 2), ("pixel_bounds", 4)):
+        value = args[name]
+        if value is None:
+            continue
+        try:
+            items = list(value)
+        except TypeError:
+            items = None
+        if items is None or len(items) != count or not all(_is(v, _INT) for v in items):
+            raise TypeError(f"render: {name} must be {count} ints, not {value!r}")
+        for v in items:
+            bounded(name, v)
+    aovs = args["aovs"]
+    try:
+        names = isinstance(aovs, str) or all(isinstance(a, str) for a in aovs)
+    except TypeError:  # not iterable
+        names = False
+    if not names:
+        raise TypeError(f"render: aovs must be a layer name or a list of them, not {aovs!r}")
+    if args["progress"] is not None and not callable(args["progress"]):
+        raise TypeError(f"render: progress must be callable (it is called with the fraction done), "
+                        f"not {args['progress']!r}")
 
 
 def _with_volumes(value, volumes):
@@ -144,7 +210,7 @@ def load_dict(scene_dict, base_dir=None, name="<dict>"):
     volumes = []
     plain = _with_volumes(scene_dict, volumes)
     text = _to_json(plain, name)
-    desc = _spectrack.parse_scene(text, name, os.path.abspath(base_dir or os.getcwd()))
+    desc = _spectrack.parse_scene(text, os.fsencode(name), os.fsencode(os.path.abspath(base_dir or os.getcwd())))
     return Scene(desc, volumes, plain, text)
 
 
@@ -153,7 +219,7 @@ def load_file(path, **overrides):
     into the file's JSON as an RFC 7386 merge patch, e.g. ``load_file(p, film={"spp": 16})``."""
     path = os.fspath(path)
     if not overrides or not os.path.isfile(path):  # a missing file: the loader's ValueError either way
-        return Scene(_spectrack.load_scene(path))
+        return Scene(_spectrack.load_scene(os.fsencode(path)))  # the file system's bytes (any name)
     with open(path, encoding="utf-8") as f:
         try:
             doc = json.load(f)
@@ -162,7 +228,7 @@ def load_file(path, **overrides):
     volumes = []
     doc = _merge_patch(doc, _with_volumes(overrides, volumes))
     text = _to_json(doc, path)
-    desc = _spectrack.parse_scene(text, path, os.path.dirname(os.path.abspath(path)))
+    desc = _spectrack.parse_scene(text, os.fsencode(path), os.fsencode(os.path.dirname(os.path.abspath(path))))
     return Scene(desc, volumes, doc, text)
 
 

@@ -287,6 +287,9 @@ def _check_options(frame, width, spp, options):
     for name in ("sigma_t", "temperature_scale", "emission_scale"):
         if name in options and not number(name, options[name]) >= 0:
             raise ValueError(f"load_usd: {name}={options[name]!r}: must be >= 0")
+    folders = options.get("search_paths", ())
+    if isinstance(folders, (str, bytes)) or hasattr(folders, "__fspath__") or not hasattr(folders, "__iter__"):
+        raise TypeError(f"load_usd: search_paths={folders!r}: a list of folders is needed (search_paths=[folder])")
 
 
 def stage_to_dict(path, frame=None, camera=None, width=512, spp=64, **options):

@@ -14,6 +14,7 @@
 
 #include "cli/checks.h"
 #include "integrator/stats_json.h"
+#include "warnings_py.h"
 
 namespace py = pybind11;
 
@@ -95,7 +96,11 @@ Image merge(const py::iterable& items) {
 Image read(const py::object& path_object) {
   const std::string path = path_arg(path_object, "read");
   Image im;
-  im.piece = read_piece(path, &im.meta, /*keep_adaptive=*/true);  // merge() still refuses an adaptive Image
+  try {
+    im.piece = read_piece(path, &im.meta, /*keep_adaptive=*/true);  // merge() still refuses an adaptive Image
+  } catch (const Error& e) {  // read's Image can be merged: the merge's refusals (half, lossy, PNG) are read's
+    throw Error(fmt::format("read: {} (read_exr reads any of spectrack's EXR outputs as arrays)", e.what()));
+  }
   im.stats = {{"spp", im.piece.samples()}, {"spp_ranges", format_ranges(im.piece.ranges)},
               {"interrupted", im.piece.interrupted}, {"file", path}};
   if (!im.piece.pixel_samples.empty()) {
@@ -121,23 +126,24 @@ py::list ranges(const Image& im) {
 }
 
 // A piece to merge: rendered with spp_range or pixel_bounds, or a window or samples that are not
-// the whole film's from sample 0 (a read or merged piece).
+// the whole film's from sample 0 without a gap (a read or merged piece).
 bool is_piece(const Image& im) {
   const FilmPiece& p = im.piece;
   return im.spp_or_pixel_range || p.x0 != 0 || p.y0 != 0 || p.width != p.id.full_width ||
-         p.height != p.id.full_height || (!p.ranges.empty() && p.ranges.front().begin != 0);
+         p.height != p.id.full_height || p.ranges.size() > 1 || (!p.ranges.empty() && p.ranges.front().begin != 0);
 }
 
 }  // namespace
 
 std::string path_arg(const py::handle& path, const char* what) {
-  if (py::isinstance<py::str>(path)) return path.cast<std::string>();
-  if (!py::hasattr(path, "__fspath__"))
+  if (!py::isinstance<py::str>(path) && !py::hasattr(path, "__fspath__"))
     throw py::type_error(fmt::format("{}: a path (str or os.PathLike) is needed, not {}", what,
                                      py::repr(path).cast<std::string>()));
-  const py::object s = py::module_::import("os").attr("fspath")(path);
+  const py::module_ os = py::module_::import("os");
+  const py::object s = os.attr("fspath")(path);
   if (!py::isinstance<py::str>(s)) throw py::type_error(fmt::format("{}: a str path is needed (bytes given)", what));
-  return s.cast<std::string>();
+  // the file system's bytes: a name that is not UTF-8 arrives as os.fsdecode gives it (surrogates)
+  return os.attr("fsencode")(s).cast<std::string>();
 }
 
 void bind_image(py::module_& m) {
@@ -169,18 +175,23 @@ void bind_image(py::module_& m) {
           throw py::value_error(fmt::format("write: compression=\"{}\": unknown (one of: {})", compression,
                                             fmt::join(known, ", ")));
         exr.compression = compression;
+        // the command line's refusal of --half and --compression with a PNG (cli/checks.h)
+        if (const std::string e = png_option_error(half, compression == "zip" ? "" : compression, path, "half=True",
+                                                   "compression");
+            !e.empty())
+          throw py::value_error("write: " + e);
         if (is_piece(im))  // the command line's warning before a piece renders (cli/checks.h)
           if (const std::string w = piece_storage_warning(exr, path); !w.empty())
             if (PyErr_WarnEx(PyExc_UserWarning, w.c_str(), 1) != 0) throw py::error_already_set();
         write_piece(path, im.piece, im.meta, exr);
-      }, py::arg("path"), py::arg("half") = false, py::arg("compression") = "zip",
+      }, py::call_guard<FlushWarnings>(), py::arg("path"), py::arg("half") = false, py::arg("compression") = "zip",
          "writes an EXR (every layer, mergeable) or a PNG (the beauty)")
       .def("__repr__", [](const Image& im) {
         return fmt::format("<spectrack.Image {}x{}, {} spp{}>", im.piece.width, im.piece.height, im.piece.samples(),
                            im.piece.interrupted ? ", interrupted" : "");
       });
-  m.def("merge", &merge, py::arg("images"), "merges images or EXR files of one render (disjoint samples or tiles)");
-  m.def("read", &read, py::arg("path"), "reads an EXR written by a render or a merge");
+  m.def("merge", &merge, py::call_guard<FlushWarnings>(), py::arg("images"), "merges images or EXR files of one render (disjoint samples or tiles)");
+  m.def("read", &read, py::call_guard<FlushWarnings>(), py::arg("path"), "reads an EXR written by a render or a merge");
   m.def("read_exr", &read_exr, py::arg("path"), "the float channels of a spectrack EXR, name -> height x width");
 }
 

@@ -7,6 +7,8 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cstring>
+
 #include <fmt/format.h>
 #include <openvdb/openvdb.h>
 
@@ -15,6 +17,7 @@
 #include "render_py.h"
 #include "scene/scene.h"
 #include "volume_py.h"
+#include "warnings_py.h"
 
 namespace py = pybind11;
 using namespace spectrack;
@@ -47,8 +50,8 @@ void bind_scene(py::module_& m) {
       .def_property_readonly("seed", [](const SceneDesc& s) { return s.render.seed; })
       .def_property_readonly("media", [](const SceneDesc& s) { return s.media.size(); })
       .def_property_readonly("lights", [](const SceneDesc& s) { return s.lights.size(); });
-  m.def("load_scene", &load_scene, py::arg("path"), "parses and validates a scene file");
-  m.def("parse_scene", &parse_scene, py::arg("json_text"), py::arg("name"), py::arg("dir"),
+  m.def("load_scene", &load_scene, py::call_guard<python::FlushWarnings>(), py::arg("path"), "parses and validates a scene file");
+  m.def("parse_scene", &parse_scene, py::call_guard<python::FlushWarnings>(), py::arg("json_text"), py::arg("name"), py::arg("dir"),
         "parses and validates scene JSON text; `name` stands for the file in messages, `dir` resolves relative paths");
   m.def("render", [](const SceneDesc& scene, std::optional<int> spp, std::optional<int64_t> seed, std::string device,
                      std::optional<std::pair<int64_t, int64_t>> spp_range, std::optional<std::array<int, 4>> pixel_bounds,
@@ -60,7 +63,7 @@ void bind_scene(py::module_& m) {
                          std::move(guiding), std::move(guide_cache), alpha, std::move(aovs), time_limit, chunk_spp,
                          verbose, std::move(progress), std::move(json_text), guide_splitting};
     return python::render(scene, a);
-  }, py::arg("scene"), py::arg("spp") = py::none(), py::arg("seed") = py::none(), py::arg("device") = "",
+  }, py::call_guard<python::FlushWarnings>(), py::arg("scene"), py::arg("spp") = py::none(), py::arg("seed") = py::none(), py::arg("device") = "",
      py::arg("spp_range") = py::none(), py::arg("pixel_bounds") = py::none(), py::arg("tracker") = py::none(),
      py::arg("scheme") = py::none(), py::arg("guiding") = py::none(), py::arg("guide_cache") = "",
      py::arg("alpha") = py::none(), py::arg("aovs") = std::vector<std::string>{},
@@ -75,11 +78,24 @@ PYBIND11_MODULE(_spectrack, m) {
   m.doc() = "spectrack: chromatic heterogeneous volume rendering (the library of the spectrack command)";
   m.attr("__version__") = SPECTRACK_VERSION;
   openvdb::initialize();  // Volume.from_numpy builds grids before any loader runs
+  python::install_warning_queue();
+  // Messages name files and grids as the files spell them, which need not be UTF-8: decoded with
+  // backslash escapes for such bytes (PyErr_SetString would leave the message empty).
   py::register_exception_translator([](std::exception_ptr p) {
+    auto set = [](PyObject* type, const char* what) {
+      PyObject* msg = PyUnicode_DecodeUTF8(what, Py_ssize_t(std::strlen(what)), "backslashreplace");
+      if (!msg) return;  // the decode's own error is set
+      PyErr_SetObject(type, msg);
+      Py_DECREF(msg);
+    };
     try {
       if (p) std::rethrow_exception(p);
     } catch (const Error& e) {
-      PyErr_SetString(PyExc_ValueError, e.what());
+      set(PyExc_ValueError, e.what());
+    } catch (const py::value_error& e) {
+      set(PyExc_ValueError, e.what());
+    } catch (const py::type_error& e) {
+      set(PyExc_TypeError, e.what());
     }
   });
   bind_scene(m);

@@ -26,6 +26,7 @@
 #include "image_py.h"
 #include "integrator/option_table.h"
 #include "render_py.h"
+#include "warnings_py.h"
 
 namespace py = pybind11;
 
@@ -95,7 +96,7 @@ RenderOptions options_of(const SceneDesc& scene, const RenderArgs& a) {
   check_tracker_scheme(scene, opt, a.scheme.value_or(""), a.tracker.value_or(""));
   const OptionCheck& chunk = option_row("chunk_spp").check;  // --chunk-spp's range; 0: by the device count
   if (a.chunk_spp != 0 && !(a.chunk_spp >= chunk.lo && a.chunk_spp <= chunk.hi))
-    throw py::value_error(fmt::format("chunk_spp={}: 0 (by the device count) or {:g} to {:g} (--chunk-spp's range)",
+    throw py::value_error(fmt::format("chunk_spp={}: 0 (by the device count) or {:.0f} to {:.0f} (--chunk-spp's range)",
                                       a.chunk_spp, chunk.lo, chunk.hi));
   check_chunk_spp(a.chunk_spp > 0 ? std::optional<int>(a.chunk_spp) : std::nullopt, parse_device_list(a.device),
                   a.device);
@@ -112,6 +113,7 @@ std::optional<py::error_already_set> watch(std::future<void>& done, std::atomic<
   while (done.wait_for(std::chrono::milliseconds(50)) != std::future_status::ready) {
     if (pending) continue;
     py::gil_scoped_acquire locked;
+    flush_warnings();  // the pack's and the devices' warnings while the render runs
     try {
       if (PyErr_CheckSignals() != 0) throw py::error_already_set();
       const double f = fraction.load();
@@ -132,9 +134,10 @@ Image render(const SceneDesc& scene, const RenderArgs& args) {
   std::atomic<double> fraction{0};
   opt.stop = &stop;
   opt.progress = [&fraction](double f) { fraction.store(f); };
-  if (args.time_limit)
+  const double time_limit = args.time_limit.value_or(scene.render.time_limit);  // as the command line: 0 none
+  if (time_limit > 0)
     opt.deadline = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                                          std::chrono::duration<double>(*args.time_limit));
+                                                          std::chrono::duration<double>(time_limit));
   const auto t0 = std::chrono::steady_clock::now();
   MultiDeviceResult r;
   std::exception_ptr failure;
@@ -153,7 +156,7 @@ Image render(const SceneDesc& scene, const RenderArgs& args) {
   if (failure) std::rethrow_exception(failure);
   if (!pending && r.piece.samples() == 0 && r.time_limit_reached) {
     PyErr_SetString(PyExc_TimeoutError, fmt::format("{}: the time limit of {} s came before any sample finished",
-                                                    scene.path, *args.time_limit).c_str());
+                                                    scene.path, time_limit).c_str());
     throw py::error_already_set();
   }
   Image im;
@@ -161,11 +164,8 @@ Image render(const SceneDesc& scene, const RenderArgs& args) {
   im.counters = r.stats;
   im.spp_or_pixel_range = args.spp_range.has_value() || args.pixel_bounds.has_value();
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  im.stats = render_stats_json(r, seconds, 0.0, 1, {});
-  im.meta["spp_requested"] = r.spp_requested;
-  im.meta["render_seconds"] = float(r.seconds_render);
-  im.meta["scene"] = scene.path;
-  if (const std::string why = render_stop_reason(r); !why.empty()) im.meta["stop_reason"] = why;
+  im.meta = render_metadata(r, scene.path, time_limit);  // the command line's (api/render_stats.h)
+  im.stats = render_stats_json(r, seconds, 0.0, 1, im.meta);
   if (args.verbose) {  // the command line's summary, on Python's stderr
     const std::string noise = im.stats.contains("noise_error") && im.stats["noise_error"].is_number()
                                   ? fmt::format(", noise {:.3g}%", 100.0 * im.stats["noise_error"].get<double>())

@@ -11,12 +11,14 @@
 #include <fmt/ranges.h>
 #include <openvdb/openvdb.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 
 #include "util/error.h"
 #include "volume/inspect.h"
+#include "warnings_py.h"
 
 namespace py = pybind11;
 namespace fs = std::filesystem;
@@ -30,8 +32,8 @@ namespace {
 py::array_t<double, py::array::c_style | py::array::forcecast> checked_array(const py::array& a) {
   const char kind = a.dtype().kind();
   if (kind != 'f')
-    throw py::type_error(fmt::format("Volume.from_numpy: density has dtype {}; a floating dtype (float32 or float64) is "
-                                     "needed", std::string(py::str(a.dtype()))));
+    throw py::type_error(fmt::format("Volume.from_numpy: density has dtype {}; a floating dtype (float32, float64, "
+                                     "float16, ...) is needed", std::string(py::str(a.dtype()))));
   if (a.ndim() != 3)
     throw py::value_error(fmt::format("Volume.from_numpy: density has {} dimensions; 3 (x, y, z) are needed", a.ndim()));
   for (int d = 0; d < 3; ++d)
@@ -54,6 +56,8 @@ std::string make_temp_dir() {
   return pattern;
 }
 
+constexpr double kMinVoxelSize = 1.5e-5;  // above OpenVDB's least uniform scale, (3e-15)^(1/3)
+
 std::unique_ptr<Volume> from_numpy(const py::array& density, double voxel_size, const std::vector<double>& origin_v,
                                    const std::string& grid_name) {
   auto arr = checked_array(density);
@@ -61,10 +65,14 @@ std::unique_ptr<Volume> from_numpy(const py::array& density, double voxel_size, 
     throw py::value_error(fmt::format("Volume.from_numpy: voxel_size {} must be a positive finite number", voxel_size));
   const std::array<double, 3> origin = checked_origin(origin_v);
   if (grid_name.empty()) throw py::value_error("Volume.from_numpy: grid must not be empty (a medium names its grid)");
-  // what a VDB transform holds (OpenVDB refuses a scale below ~1e-15 as singular) and the kernels'
-  // float coordinates can place (volume/float_limits.h checks the world box again when packing)
-  if (voxel_size < 1e-12 || voxel_size > 1e12)
-    throw py::value_error(fmt::format("Volume.from_numpy: voxel_size {} is outside [1e-12, 1e12]", voxel_size));
+  // what a VDB transform holds (OpenVDB refuses a uniform scale whose cube is below 3e-15 as
+  // singular: voxels under 1.44e-5) and the kernels' float coordinates can place
+  // (volume/float_limits.h checks the world box again when packing)
+  if (voxel_size < kMinVoxelSize || voxel_size > 1e12)
+    throw py::value_error(fmt::format(
+        "Volume.from_numpy: voxel_size {:g} is outside [{:g}, 1e12] (OpenVDB's smallest voxel; for a finer grid give "
+        "voxel_size 1 and scale the medium with its \"transform\")",
+        voxel_size, kMinVoxelSize));
   for (int a = 0; a < 3; ++a)
     if (std::abs(origin[size_t(a)]) > 1e15)
       throw py::value_error(fmt::format("Volume.from_numpy: origin {} = {} is beyond 1e15 (float coordinates cannot "
@@ -109,14 +117,26 @@ std::unique_ptr<Volume> from_file(const py::object& path_object, const std::stri
   const std::string path = path_arg(path_object, "Volume.from_file");
   if (!fs::exists(path)) throw Error(fmt::format("{}: no such volume file", path));
   std::vector<std::string> names;
-  for (const GridInfo& g : inspect_volume(path)) {
-    if (g.name != grid) {
+  const std::vector<GridInfo> grids = inspect_volume(path);
+  // the loader's fallback (volume.cpp select): no grid of that name, and the file's only float grid
+  // has none, so a medium naming `grid` renders that one
+  const GridInfo* unnamed = nullptr;
+  int floats = 0;
+  for (const GridInfo& g : grids) {
+    const bool is_float = g.type == "float" || g.type == "double";
+    floats += is_float;
+    if (g.name.empty() && is_float) unnamed = &g;
+  }
+  const bool named = std::any_of(grids.begin(), grids.end(), [&](const GridInfo& g) { return g.name == grid; });
+  for (const GridInfo& g : grids) {
+    if (g.name != grid && !(!named && !grid.empty() && floats == 1 && &g == unnamed)) {
       names.push_back("'" + printable_name(g.name) + "'");
       continue;
     }
-    if (g.density_use != "yes")
+    if (g.density_use.rfind("yes", 0) != 0)  // "yes", or "yes (...)"; else "no: why"
       throw py::value_error(fmt::format("Volume.from_file: {}: grid '{}' cannot be a density: {}", path,
-                                        printable_name(grid), g.density_use));
+                                        printable_name(g.name),
+                                        g.density_use.rfind("no: ", 0) == 0 ? g.density_use.substr(4) : g.density_use));
     auto v = std::make_unique<Volume>();
     v->file = fs::absolute(path).string();
     v->grid = grid;
@@ -138,11 +158,11 @@ Volume::~Volume() {
 
 void bind_volume(py::module_& m) {
   py::class_<Volume>(m, "Volume", "A float grid usable as a medium's density (docs/python.md)")
-      .def_static("from_numpy", &from_numpy, py::arg("density"), py::arg("voxel_size") = 1.0,
+      .def_static("from_numpy", &from_numpy, py::call_guard<FlushWarnings>(), py::arg("density"), py::arg("voxel_size") = 1.0,
                   py::arg("origin") = std::vector<double>{0, 0, 0}, py::arg("grid") = "density",
                   "an OpenVDB grid of a 3-D float array (x, y, z), sparse where it is zero; voxel centres at origin + "
                   "(i, j, k) * voxel_size")
-      .def_static("from_file", &from_file, py::arg("path"), py::arg("grid") = "density", "a grid of a .vdb or .nvdb file")
+      .def_static("from_file", &from_file, py::call_guard<FlushWarnings>(), py::arg("path"), py::arg("grid") = "density", "a grid of a .vdb or .nvdb file")
       .def_property_readonly("file", [](const Volume& v) { return v.file; })
       .def_property_readonly("grid", [](const Volume& v) { return v.grid; })
       .def_property_readonly("shape", [](const Volume& v) { return v.shape; })

@@ -1,6 +1,9 @@
 // render_stats.cpp: see render_stats.h.
 #include "api/render_stats.h"
 
+#include <algorithm>
+#include <climits>
+
 #include "film/film.h"
 #include "integrator/stats_json.h"
 #include "util/strings.h"
@@ -11,6 +14,40 @@ std::string render_stop_reason(const MultiDeviceResult& r) {
   if (r.noise_target_reached) return "noise-target";
   if (!r.piece.interrupted) return r.stop_reason;
   return r.time_limit_reached ? "time-limit" : "signal";
+}
+
+std::optional<NoiseEstimate> film_noise(const FilmPiece& p) {
+  if (!(p.id.aovs & ST_AOV_BIT(VARIANCE)) || p.samples() == 0) return std::nullopt;
+  // an adaptive film whose pilot a stop cut short: pixels of fewer samples have no variance to count
+  if (!p.pixel_samples.empty() && *std::min_element(p.pixel_samples.begin(), p.pixel_samples.end()) < float(kNoiseMinSpp))
+    return std::nullopt;
+  const NoiseEstimate e = estimate_film_noise(p.sum, p.aov_sum, aov_sum_channels(p.id.aovs), p.samples());
+  return e.measured ? std::optional<NoiseEstimate>(e) : std::nullopt;
+}
+
+Metadata render_metadata(const MultiDeviceResult& r, const std::string& scene_path, double time_limit) {
+  Metadata meta;
+  if (time_limit > 0) meta["time_limit"] = float(time_limit);
+  if (!render_stop_reason(r).empty()) meta["stop_reason"] = render_stop_reason(r);
+  if (r.noise_target > 0) meta["noise_target"] = float(r.noise_target);
+  if (const std::optional<NoiseEstimate> noise = film_noise(r.piece)) {
+    meta["noise_error"] = float(noise->error);
+    meta["noise_pixels"] = int(std::min<uint64_t>(noise->pixels, INT32_MAX));
+  }
+  if (!r.piece.pixel_samples.empty()) {  // adaptive sampling (integrator/adaptive.h)
+    double total = 0;
+    for (float n : r.piece.pixel_samples) total += n;
+    meta["adaptive"] = 1;
+    meta["adaptive_rounds"] = r.adaptive_rounds;
+    meta["adaptive_floor"] = float(r.adaptive_floor);
+    meta["adaptive_mean_spp"] = float(total / double(r.piece.pixel_samples.size()));
+  }
+  if (r.stats.nonfinite_samples > 0) meta["nonfinite_samples"] = int(std::min<uint64_t>(r.stats.nonfinite_samples, INT32_MAX));
+  meta["spp_requested"] = r.spp_requested;
+  meta["device"] = join(r.devices, ", ");
+  meta["render_seconds"] = float(r.seconds_render);
+  meta["scene"] = scene_path;
+  return meta;
 }
 
 nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_total, double seconds_to_renderer,

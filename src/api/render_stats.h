@@ -3,8 +3,12 @@
 #pragma once
 #include <nlohmann/json.hpp>
 
+#include <optional>
+#include <string>
+
 #include "image/image.h"
 #include "integrator/multi_device.h"
+#include "integrator/noise.h"
 
 namespace spectrack {
 
@@ -14,6 +18,15 @@ namespace spectrack {
 // "noise_target" and "noise_error" (floats) and "noise_pixels" (an int).
 nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_total, double seconds_to_renderer,
                                  int mpi_ranks, const Metadata& meta);
+
+// The metadata of a finished render, as its EXR and the statistics record them (one list for the
+// command line and the Python module): the time limit (0: none), the stop reason, the noise target
+// and the error reached (measured from the variance layer), adaptive sampling's rounds, floor and
+// mean samples, dropped non-finite samples, the spp requested, the devices, the render's seconds and
+// the scene file.
+Metadata render_metadata(const MultiDeviceResult& r, const std::string& scene_path, double time_limit);
+// The image's relative error (integrator/noise.h) where the film has the variance layer.
+std::optional<NoiseEstimate> film_noise(const FilmPiece& p);
 
 // Why the render stopped: noise-target, time-limit or signal before its requested samples; with a
 // noise target not met, spp or (adaptive sampling) pixels-finished (MultiDeviceResult::stop_reason);

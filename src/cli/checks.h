@@ -7,7 +7,7 @@
 //     without a scheme then run and are recorded with max, the analog probabilities they use.
 //   - render_outputs / scene_inputs / merge inputs feed check_distinct_paths (util/files.h).
 //   - check_no_nul, check_frame_files, check_half: scene paths with a NUL byte, every frame's
-//     volume files before a sequence renders, --half with a PNG output.
+//     volume files before a sequence renders, --half or --compression with a PNG output.
 //   - check_piece_storage: a piece (--spp-range, --pixel-bounds) stored so that merge will refuse
 //     it (half floats, a compression that changes floats) is a warning before it renders.
 //   - nonfinite_verdict: a render that dropped non-finite samples exits 1. Its image is still
@@ -115,19 +115,41 @@ inline void check_frame_files(const SceneDesc& scene, long long first, long long
     }
 }
 
-// --half stores EXR channels as 16-bit floats; a PNG holds 8-bit values whatever is asked, so
-// the flag with a PNG output is refused (exit 2), and film.half of the scene is a warning (a
-// scene may be rendered to either format).
-inline void check_half(bool half_flag, const SceneDesc& scene, const std::string& output, bool quiet) {
-  std::string e = lower_extension(output);
-  if (e != ".png") return;
-  if (half_flag)
-    throw UsageError(fmt::format("--half: the output {} is a PNG, which holds 8-bit values; --half applies to EXR "
-                                 "outputs only (drop it, or write an .exr)",
-                                 output));
+// --half stores EXR channels as 16-bit floats and --compression chooses the EXR's compression; a
+// PNG holds 8-bit values whatever is asked, so either flag with a PNG output is refused (exit 2),
+// and film.half or film.compression of the scene is a warning where -o chose the PNG (a scene may
+// be rendered to either format) and the scene's error (exit 1) where its own film.output is the
+// PNG. The Python module's Image.write refuses the same (png_option_error).
+inline std::string png_option_error(bool half, const std::string& compression, const std::string& output,
+                                    const char* half_name, const char* compression_name) {
+  if (lower_extension(output) != ".png") return {};
+  if (half)
+    return fmt::format("{}: the output {} is a PNG, which holds 8-bit values; {} applies to EXR outputs only (drop "
+                       "it, or write an .exr)",
+                       half_name, output, half_name);
+  if (!compression.empty())
+    return fmt::format("{}: the output {} is a PNG, which has its own compression; {} applies to EXR outputs only "
+                       "(drop it, or write an .exr)",
+                       compression_name, output, compression_name);
+  return {};
+}
+
+inline void check_half(bool half_flag, const std::string& compression_flag, const SceneDesc& scene,
+                       const std::string& output, bool scene_output, bool quiet) {
+  if (lower_extension(output) != ".png") return;
+  if (const std::string e = png_option_error(half_flag, compression_flag, output, "--half", "--compression");
+      !e.empty())
+    throw UsageError(e);
+  const bool compressed = scene.film.compression != FilmDesc().compression;
+  if (scene_output && (scene.film.half || compressed))
+    throw Error(fmt::format("{}: {}: {}", scene.path, scene.film.half ? "/film/half" : "/film/compression",
+                            png_option_error(scene.film.half, scene.film.compression, output, "film.half",
+                                             "film.compression")));
   if (scene.film.half && !quiet)
     std::cerr << fmt::format("warning: {}: /film/half is ignored for the PNG output {} (8-bit values)\n", scene.path,
                              output);
+  if (scene.film.compression != FilmDesc().compression && !quiet)
+    std::cerr << fmt::format("warning: {}: /film/compression is ignored for the PNG output {}\n", scene.path, output);
 }
 
 // A piece of an image (a sample range or a pixel window) is rendered to be merged, and merge takes

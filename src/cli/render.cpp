@@ -260,7 +260,7 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   const bool quiet = a.quiet || !root;
   RenderOptions opt = render_options(a, quiet);
   opt.aovs = film_layers(a, scene, output);
-  check_half(a.half, scene, output, quiet);  // --half with a PNG: exit 2
+  check_half(a.half, a.compression, scene, output, a.output.empty(), quiet);  // with a PNG: exit 2, or 1 (the scene's)
   check_piece_storage(!a.spp_range.empty() || !a.pixel_bounds.empty(), exr_options(a.half, a.compression, scene.film),
                       output);
   check_tracker_scheme(scene, opt, a.scheme, a.tracker);  // --scheme with a tracker that ignores it: exit 2
@@ -321,7 +321,7 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   if (r.piece.samples() > 0) r.piece.id.scene_hash = get_hash();
   set_frame_identity(a, r.piece.id);
   const RenderOutputs out{output, a.preview, a.stats_json, exr_options(a.half, a.compression, scene.film), a.quiet, a.mpi,
-                          set.noise_target, a.denoise};
+                          a.denoise};
   const RenderTimes times{std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), seconds_to_renderer};
   return finish_render(out, scene, r, times, mpi.size, time_limit, signalled);
 }

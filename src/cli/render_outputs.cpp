@@ -22,16 +22,6 @@
 namespace spectrack {
 namespace {
 
-// The relative error of the image (integrator/noise.h) when it has the variance layer.
-std::optional<NoiseEstimate> film_noise(const FilmPiece& p) {
-  if (!(p.id.aovs & ST_AOV_BIT(VARIANCE)) || p.samples() == 0) return std::nullopt;
-  // an adaptive film whose pilot a stop cut short: pixels of fewer samples have no variance to count
-  if (!p.pixel_samples.empty() && *std::min_element(p.pixel_samples.begin(), p.pixel_samples.end()) < float(kNoiseMinSpp))
-    return std::nullopt;
-  const NoiseEstimate e = estimate_film_noise(p.sum, p.aov_sum, aov_sum_channels(p.id.aovs), p.samples());
-  return e.measured ? std::optional<NoiseEstimate>(e) : std::nullopt;
-}
-
 // The beauty of `p` denoised (image/denoise.h) with its albedo layer as auxiliary input: per pixel the
 // mean albedo of the samples whose camera ray collided, and 1 for the fraction that did not (a
 // background takes the light it shows as its own colour).
@@ -60,28 +50,8 @@ void write_stats_json(const std::string& path, const MultiDeviceResult& r, doubl
 // The image, the preview, the statistics, and the summary line.
 void write_render_outputs(const RenderOutputs& o, const SceneDesc& scene, const MultiDeviceResult& r,
                           const RenderTimes& t, int mpi_ranks, double time_limit) {
-  Metadata meta;
-  if (time_limit > 0) meta["time_limit"] = float(time_limit);
-  if (!render_stop_reason(r).empty()) meta["stop_reason"] = render_stop_reason(r);
-  if (o.noise_target > 0) meta["noise_target"] = float(o.noise_target);
+  Metadata meta = render_metadata(r, scene.path, time_limit);
   const std::optional<NoiseEstimate> noise = film_noise(r.piece);
-  if (noise) {
-    meta["noise_error"] = float(noise->error);
-    meta["noise_pixels"] = int(std::min<uint64_t>(noise->pixels, INT32_MAX));
-  }
-  if (!r.piece.pixel_samples.empty()) {  // adaptive sampling (integrator/adaptive.h)
-    double total = 0;
-    for (float n : r.piece.pixel_samples) total += n;
-    meta["adaptive"] = 1;
-    meta["adaptive_rounds"] = r.adaptive_rounds;
-    meta["adaptive_floor"] = float(r.adaptive_floor);
-    meta["adaptive_mean_spp"] = float(total / double(r.piece.pixel_samples.size()));
-  }
-  if (r.stats.nonfinite_samples > 0) meta["nonfinite_samples"] = int(std::min<uint64_t>(r.stats.nonfinite_samples, INT32_MAX));
-  meta["spp_requested"] = r.spp_requested;
-  meta["device"] = join(r.devices, ", ");
-  meta["render_seconds"] = float(r.seconds_render);
-  meta["scene"] = scene.path;
   if (o.mpi) meta["mpi_ranks"] = mpi_ranks;
   if (o.denoise) {
     FilmPiece d = r.piece;

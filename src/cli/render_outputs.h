@@ -21,7 +21,6 @@ struct RenderOutputs {
   ExrOptions exr;
   bool quiet = false;
   bool mpi = false;  // record mpi_ranks in the metadata
-  double noise_target = 0;  // the render's noise target (0: none), recorded with the noise reached
   bool denoise = false;     // also write the denoised beauty (image/denoise.h) as an EXR layer
 };
 

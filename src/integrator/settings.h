@@ -205,8 +205,10 @@ struct RenderChoices {
   uint32_t aovs = 0;            // film layers (ST_AOV_BIT bits)
   uint32_t seed = 0;
   GuidingMode guiding_requested = kGuidingAuto;  // as asked for (whether guiding ran: GuideInfo::used)
+  double noise_target = 0;  // the relative error the render stops at; 0: none
 
   void record_settings(const RenderSettings& s) {
+    noise_target = s.noise_target;
     guiding_requested = s.guiding_requested;
     aovs = s.aovs;
     tracker = s.tracker;
