@@ -12,8 +12,11 @@
 #include <openvdb/tools/Interpolation.h>
 
 #include <algorithm>
+#include <atomic>
 #include <random>
 
+#include "api/render_call.h"
+#include "api/render_stats.h"
 #include "image/image.h"
 #include "test_util.h"
 
@@ -656,3 +659,58 @@ TEST(Render, StatisticsCountPathsAndLookups) {
 }
 
 }  // namespace
+
+// A stop that comes once every sample has finished (a Python progress callback that raises at its
+// last call, fraction 1) cuts nothing short: the image is the whole render, not interrupted. The
+// twin: a stop part-way leaves the render interrupted, with its reason.
+TEST(Render, AStopAfterTheLastSampleLeavesTheRenderWhole) {
+  const std::string dir = temp_dir("stop_at_the_end");
+  const json j = slab_scene("spectral-decomposition", 64);
+  const SceneDesc scene = scene_from_json(j, dir);
+  for (const double stop_at : {1.0, 0.2}) {
+    SCOPED_TRACE(stop_at == 1.0 ? "stopped at the end" : "the twin: stopped part-way");
+    std::atomic<bool> stop{false};
+    RenderOptions o = quiet_options(64);
+    o.path_slots = 64;  // many batches, so that the progress passes 0.2 before the end
+    o.batches_in_flight = 1;
+    o.stop = &stop;
+    o.progress = [&](double f) {
+      if (f >= stop_at) stop = true;
+    };
+    const MultiDeviceResult r = render_call(scene, o, "", 0, j.dump());  // the text: the scene's hash
+    if (stop_at == 1.0) {
+      EXPECT_EQ(r.piece.samples(), 64);
+      EXPECT_FALSE(r.piece.interrupted);
+      EXPECT_EQ(render_stop_reason(r), "");
+    } else {
+      EXPECT_LT(r.piece.samples(), 64);
+      EXPECT_TRUE(r.piece.interrupted);
+      EXPECT_EQ(render_stop_reason(r), "signal");
+    }
+  }
+}
+
+// Directions the scene gives by two points or a vector of any length (a directional light's
+// to_light, a spot's look_at - position, the camera's up) render as their unit vectors: the same
+// image, bit for bit, at lengths 2^-990 and 2^510 (whose squares once vanished or overflowed: a
+// spot went dark, a sun came from elsewhere). The twin: another direction renders another image.
+TEST(Render, DirectionsOfAnyLengthRenderAsTheirUnitVectors) {
+  const std::string dir = temp_dir("direction_lengths");
+  auto scene = [&](double s, double turn) {
+    json j = slab_scene("spectral-decomposition", 4);
+    j["camera"] = {{"type", "perspective"}, {"position", {0.3, 0.2, -4}}, {"look_at", {0, 0, 0}}, {"up", {0, s, 0.1 * s}},
+                   {"fov_deg", 40}};
+    j["media"][0]["sigma_s"] = {1, 1, 1};
+    j["lights"] = json::array();
+    j["lights"].push_back({{"type", "directional"}, {"to_light", {s, 0.5 * s, turn * s}}, {"irradiance", {1, 1, 1}}});
+    j["lights"].push_back({{"type", "spot"}, {"position", {0, 0, 0}}, {"look_at", {0, -s, 0.2 * s}},
+                           {"intensity", {5, 5, 5}}, {"cone_angle_deg", 30}});
+    return scene_from_json(j, dir);
+  };
+  const RenderResult unit = Renderer(scene(1, -0.2), quiet_options()).render();
+  for (double s : {std::ldexp(1.0, -990), std::ldexp(1.0, 510)}) {  // powers of 2: the same directions exactly
+    const RenderResult r = Renderer(scene(s, -0.2), quiet_options()).render();
+    EXPECT_TRUE(r.rgb == unit.rgb) << "directions scaled by " << s;
+  }
+  EXPECT_FALSE(Renderer(scene(1, 0.2), quiet_options()).render().rgb == unit.rgb) << "twin: another sun direction";
+}

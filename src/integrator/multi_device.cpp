@@ -221,6 +221,9 @@ MultiDeviceResult MultiDeviceRun::combine() const {
   else
     out.piece = with_samples.size() == 1 ? with_samples[0] : merge_pieces(with_samples);
   out.piece.source = "render";
+  // a stop or the deadline that came once every sample had finished (a progress callback that
+  // raised at its last call) cut nothing short: the image is the whole render
+  interrupted = interrupted && out.piece.samples() < spp_;
   // a render that ends at the spp with the target met (a film of one batch is never looked at
   // before its last sample) reached it; below kNoiseMinSpp the variance decides nothing, as for the watch
   if (settings_.noise_target > 0 && !out.noise_target_reached && !interrupted && out.piece.samples() >= kNoiseMinSpp &&
