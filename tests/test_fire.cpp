@@ -251,6 +251,13 @@ TEST(FireControls, OneStopRampIsConstantEmissionAndALinearRampIsTheGrid) {
   EXPECT_NE(err({{"type", "ramp"}, {"grid", "heat"}, {"stops", {{1.0, {1, 1, 1}}, {0.5, {1, 1, 1}}}}}).find("/media/0/emission/stops/1/0"),
             std::string::npos);
   EXPECT_NE(err({{"type", "ramp"}, {"stops", {{1.0, {1, 1, 1}}}}}).find("/media/0/emission/grid"), std::string::npos);
+  // stops whose span overflows a double would divide by infinity (no emission, silently): refused;
+  // the twin, spans within the doubles, renders
+  EXPECT_NE(err({{"type", "ramp"}, {"grid", "heat"}, {"stops", {{-1e308, {0, 0, 0}}, {1e308, {1, 1, 1}}}}})
+                .find("/media/0/emission/stops/1/0: value 1e+308 is too far from the first stop's"),
+            std::string::npos);
+  EXPECT_NO_THROW(scene_from_json(heat_scene(dir, {{"type", "ramp"}, {"grid", "heat"},
+                                                    {"stops", {{-1e300, {0, 0, 0}}, {1e300, {1, 1, 1}}}}}), dir));
   EXPECT_NE(err(linear, true).find("/media/0/emission/type"), std::string::npos);
   json h = slab_scene(1.0, linear, "spectral");
   EXPECT_NE(error_of([&] { scene_from_json(h, dir); }).find("vdb media only"), std::string::npos);

@@ -838,6 +838,18 @@ TEST_F(SceneTest, CameraGeometry) {
   EXPECT_SCENE_ERROR(j, "/camera/up", "zero");
   j["camera"]["up"] = {0, 1e-3, 1};
   EXPECT_NO_THROW(parse(j));
+  // any length of up, and a view direction of any length (their squares once overflowed or vanished)
+  for (double s : {1e-300, 1e155, 1e300}) {
+    j = example();
+    j["camera"]["up"] = {0, s, 0};
+    EXPECT_NO_THROW(parse(j)) << s;
+    j["camera"]["up"] = {0, 0, s};
+    EXPECT_SCENE_ERROR(j, "/camera/up", "parallel to the view direction");
+  }
+  j = example();
+  j["camera"]["position"] = {0, 0, 0};
+  j["camera"]["look_at"] = {0, 0, 1e-300};
+  EXPECT_NO_THROW(parse(j));
 }
 
 TEST_F(SceneTest, NegativeCoefficientsNameTheMediumAndField) {

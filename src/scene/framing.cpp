@@ -17,7 +17,7 @@ double dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[
 Vec3 cross(const Vec3& a, const Vec3& b) {
   return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
 }
-double len(const Vec3& v) { return std::sqrt(dot(v, v)); }
+double len(const Vec3& v) { return vec3_length(v); }  // scene.h: any length, the plain bits otherwise
 Vec3 scaled(const Vec3& v, double s) { return {v[0] * s, v[1] * s, v[2] * s}; }
 
 Vec3 corner(const Box3& b, int c) { return {(c & 1) ? b.hi[0] : b.lo[0], (c & 2) ? b.hi[1] : b.lo[1], (c & 4) ? b.hi[2] : b.lo[2]}; }
@@ -70,13 +70,12 @@ CameraDesc frame_camera(const CameraDesc& in, int width, int height, const std::
   if (in.look_at_media) c.look_at = scaled(Vec3{all.lo[0] + all.hi[0], all.lo[1] + all.hi[1], all.lo[2] + all.hi[2]}, 0.5);
   if (in.position_auto) {  // the default direction (0, 0, 1); (0, 1, 0) for a z-up camera
     Vec3 dir{0, 0, 1};
-    if (len(cross(dir, c.up)) < 1e-3 * len(c.up)) dir = {0, 1, 0};
+    if (len(cross(dir, unit_vector(c.up))) < 1e-3) dir = {0, 1, 0};
     c.position = sub(c.look_at, scaled(dir, diag));
   }
   Vec3 d = sub(c.look_at, c.position);
   if (!(len(d) > 1e-12 * diag)) throw Error(context + "/position: equals the point the camera looks at (no view direction)");
-  const Vec3 x = cross(d, c.up);
-  if (!(len(x) > 1e-6 * len(d) * len(c.up)))
+  if (!(len(cross(unit_vector(d), unit_vector(c.up))) > 1e-6))  // unit vectors: any lengths
     throw Error(context + "/up: is parallel to the view direction (from the position to the media)");
   if (!(in.fit > 0)) return c;
   // Move along the view direction: position = look_at - t * f, with t the least distance at which

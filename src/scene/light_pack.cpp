@@ -35,13 +35,8 @@ void pack_local_light(st_light& l, const LightDesc& ld) {
   l.position = st_float4{float(ld.position[0]), float(ld.position[1]), float(ld.position[2]), 1.0f};
   l.cos_max = -1.0f;
   if (ld.type != ST_LIGHT_SPOT) return;
-  double axis[3], len = 0;
-  for (int k = 0; k < 3; ++k) {
-    axis[k] = ld.look_at[k] - ld.position[k];
-    len += axis[k] * axis[k];
-  }
-  len = std::sqrt(len);
-  l.direction = st_float4{float(axis[0] / len), float(axis[1] / len), float(axis[2] / len), 0.0f};
+  const Vec3 axis = unit_vector({ld.look_at[0] - ld.position[0], ld.look_at[1] - ld.position[1], ld.look_at[2] - ld.position[2]});
+  l.direction = st_float4{float(axis[0]), float(axis[1]), float(axis[2]), 0.0f};
   double cos_total, cos_start;
   spot_cosines(ld, &cos_total, &cos_start);
   l.cos_max = float(cos_total);

@@ -27,10 +27,7 @@
 namespace spectrack {
 namespace packing {
 
-Vec3 normalize(Vec3 v) {
-  double l = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-  return {v[0] / l, v[1] / l, v[2] / l};
-}
+Vec3 normalize(Vec3 v) { return unit_vector(v); }
 
 Vec3 cross(const Vec3& a, const Vec3& b) {
   return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};

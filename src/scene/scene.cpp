@@ -142,7 +142,7 @@ void Parser::camera(const json& j, const std::string& path, CameraDesc& c) {
   if (!c.look_at_media) c.look_at = vec3(j, path, "look_at", c.look_at, kAny);
   c.up = vec3(j, path, "up", c.up, kAny);
   camera_lens_time(j, path, c);
-  const double ulen = std::sqrt(c.up[0] * c.up[0] + c.up[1] * c.up[1] + c.up[2] * c.up[2]);
+  const double ulen = vec3_length(c.up);
   if (c.position_auto || c.look_at_media) {  // the view direction is known once the media are (scene/framing.h)
     if (!(ulen > 0)) fail(path + "/up", "is zero");
     return;
@@ -156,14 +156,17 @@ void Parser::camera(const json& j, const std::string& path, CameraDesc& c) {
 // A view direction look_at - position that exists and is not parallel to up.
 void Parser::check_view(const std::string& path, const std::string& at, const Vec3& position, const Vec3& look_at,
                         const Vec3& up) {
-  const double ulen = std::sqrt(up[0] * up[0] + up[1] * up[1] + up[2] * up[2]);
   const Vec3 d{look_at[0] - position[0], look_at[1] - position[1], look_at[2] - position[2]};
-  const double dlen = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-  if (!(dlen > 0)) fail(path + (at.empty() ? "/look_at" : "/look_at_close"), "equals the camera position" + at + " (no view direction)");
-  const Vec3 x{d[1] * up[2] - d[2] * up[1], d[2] * up[0] - d[0] * up[2], d[0] * up[1] - d[1] * up[0]};
-  // |d x up| = |d| |up| sin(angle): parallel (or zero) below a small angle.
-  if (!(std::sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]) > 1e-6 * dlen * ulen) || !(ulen > 0))
-    fail(path + "/up", "is zero or parallel to the view direction (look_at - position)" + at);
+  if (d == Vec3{0, 0, 0})
+    fail(path + (at.empty() ? "/look_at" : "/look_at_close"), "equals the camera position" + at + " (no view direction)");
+  // a difference beyond the doubles is a position beyond the coordinate bound, which the packer's
+  // checks name (volume/float_limits.h)
+  if (!std::isfinite(d[0]) || !std::isfinite(d[1]) || !std::isfinite(d[2])) return;
+  if (!(vec3_length(up) > 0)) fail(path + "/up", "is zero");
+  // |d x up| = |d| |up| sin(angle), of unit vectors (any lengths): parallel below a small angle
+  const Vec3 f = unit_vector(d), u = unit_vector(up);
+  const Vec3 x{f[1] * u[2] - f[2] * u[1], f[2] * u[0] - f[0] * u[2], f[0] * u[1] - f[1] * u[0]};
+  if (!(vec3_length(x) > 1e-6)) fail(path + "/up", "is parallel to the view direction (look_at - position)" + at);
 }
 
 // Depth of field, shutter and camera motion (docs/scene-format.md, "Lens and time").

@@ -5,7 +5,9 @@
 // e.g. "scene.json: /media/0/sigma_s: value -1 is negative". Relative paths are resolved against
 // the scene file's folder. Enum values are the ones of kernels/types.h.
 #pragma once
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <limits>
 #include <optional>
 #include <string>
@@ -19,6 +21,28 @@
 namespace spectrack {
 
 using Vec3 = std::array<double, 3>;
+// The power of 2 that brings v's largest component within 2^+-500, where squaring it neither
+// overflows nor vanishes; 0 for every other vector (and for a zero or non-finite one).
+inline int vec3_rescale_exponent(const Vec3& v) {
+  const double m = std::max({std::abs(v[0]), std::abs(v[1]), std::abs(v[2])});
+  if (!(m > 0) || !std::isfinite(m)) return 0;
+  const int e = std::ilogb(m);
+  return e > 500 || e < -500 ? -e : 0;
+}
+// |v| and v / |v| for any finite v, a direction of length 1e200 or 1e-200 included (a user's
+// to_light, up or spot axis): such a vector is first scaled by a power of 2, which is exact, so every
+// other vector gives the plain formula's bits, sqrt(x x + y y + z z) and v / that.
+inline double vec3_length(const Vec3& v) {
+  const int k = vec3_rescale_exponent(v);
+  const Vec3 s{std::ldexp(v[0], k), std::ldexp(v[1], k), std::ldexp(v[2], k)};
+  return std::ldexp(std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]), -k);
+}
+inline Vec3 unit_vector(const Vec3& v) {
+  const int k = vec3_rescale_exponent(v);
+  const Vec3 s{std::ldexp(v[0], k), std::ldexp(v[1], k), std::ldexp(v[2], k)};
+  const double l = std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+  return {s[0] / l, s[1] / l, s[2] / l};
+}
 // Whether a colour (sigma_a, sigma_s, ...) is gray: the same value in every channel.
 inline bool achromatic(const Vec3& v) { return v[0] == v[1] && v[1] == v[2]; }
 

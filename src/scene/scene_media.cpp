@@ -103,6 +103,10 @@ void Parser::local_light(const json& j, const std::string& path, bool spot, cons
   if (!spot) return;
   l.look_at = vec3_at(need(j, path, "look_at"), path + "/look_at", kAny);
   if (l.look_at == l.position) fail(path + "/look_at", "must differ from position (it gives the cone's axis)");
+  for (int k = 0; k < 3; ++k)
+    if (!std::isfinite(l.look_at[k] - l.position[k]))
+      fail(path + "/look_at", "is so far from position that the axis between them overflows (" + num(l.look_at[k]) +
+                                  " - " + num(l.position[k]) + ")");
   l.cone_angle_deg = number(j, path, "cone_angle_deg", l.cone_angle_deg, Range{0, 180, true, false});
   l.cone_delta_deg = number(j, path, "cone_delta_deg", std::min(l.cone_delta_deg, l.cone_angle_deg), kNonNegative);
   if (l.cone_delta_deg > l.cone_angle_deg)
@@ -270,6 +274,9 @@ EmissionDesc Parser::ramp(const json& j, const std::string& path, bool vdb, Emis
     const double v = number_at(stops[i][0], at + "/0", kAny);
     if (!e.stops.empty() && !(v > e.stops.back().first))
       fail(at + "/0", "value " + num(v) + " must be greater than the previous stop's (" + num(e.stops.back().first) + ")");
+    if (!e.stops.empty() && !std::isfinite(v - e.stops.front().first))  // the interpolation divides by spans
+      fail(at + "/0", "value " + num(v) + " is too far from the first stop's (" + num(e.stops.front().first) +
+                          "): the span between them overflows a double");
     e.stops.push_back({v, vec3_at(stops[i][1], at + "/1", kNonNegative)});
   }
   return e;
