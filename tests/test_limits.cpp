@@ -258,4 +258,41 @@ TEST(LimitsMessages, MajorantCellAdvice) {
   const std::string e2 = error_of([&] { build_majorant_grid(load_float_grid(dir + "/far.vdb", "density", -1, "t"), 2); });
   EXPECT_NE(e2.find("even the largest cell edge, 1024"), std::string::npos) << e2;
   EXPECT_EQ(e2.find("larger cell"), std::string::npos) << e2;
+  // motion blur's reach widens the box: the count and the advice include it (they once counted the
+  // box alone, advising the cell already refused, and a count past 2^64 printed as 0)
+  write_two(dir + "/small.vdb", 60);
+  const GridData small = load_float_grid(dir + "/small.vdb", "density", -1, "t");
+  EXPECT_NO_THROW(build_majorant_grid(small, 2));
+  const std::string e3 = error_of([&] { build_majorant_grid(small, 2, {900, 900, 900}); });
+  EXPECT_NE(e3.find("widened by the motion blur's reach of (900, 900, 900) voxels"), std::string::npos) << e3;
+  EXPECT_NE(e3.find("needs 8.07e+08 majorant cells"), std::string::npos) << e3;  // (62 + 1800) / 2 = 931 an axis
+  EXPECT_NE(e3.find("use --majorant-cell 4 or larger"), std::string::npos) << e3;  // 466^3 < 2^27
+}
+
+// A medium whose paths scatter about a million times or more (albedo near 1, many mean free paths
+// across) with an unlimited max_depth is warned of: such a render runs for hours with no word. The
+// twins: a max_depth, some absorption, or a small box give no warning.
+TEST(LimitsMessages, MediaWhosePathsNeverEndAreWarnedOf) {
+  const std::string dir = temp_dir("long_paths");
+  auto pack_warnings = [&](double half, const std::array<double, 3>& sigma_a, int max_depth) {
+    json j = {{"format", "spectrack-scene/1"},
+              {"camera", {{"position", {0, 0, -4}}, {"look_at", {0, 0, 0}}}},
+              {"film", {{"width", 4}, {"height", 4}, {"spp", 1}}},
+              {"lights", {{{"type", "environment"}, {"radiance", {1, 1, 1}}}}},
+              {"media", {{{"type", "homogeneous"}, {"bounds", {{-half, -half, -half}, {half, half, half}}},
+                          {"sigma_s", {1, 1, 1}}, {"sigma_a", {sigma_a[0], sigma_a[1], sigma_a[2]}}}}}};
+    if (max_depth >= 0) j["render"] = {{"max_depth", max_depth}};
+    const SceneDesc d = scene_from_json(j, dir);
+    testing::internal::CaptureStderr();
+    pack_scene(d, resolve_settings(d, quiet_options()), PackOptions{});
+    return testing::internal::GetCapturedStderr();
+  };
+  const std::string w = pack_warnings(1e4, {0, 0, 0}, -1);
+  EXPECT_NE(w.find("/media/0: a path takes about 1.8e+08 scattering events here"), std::string::npos) << w;
+  EXPECT_NE(w.find("set render.max_depth"), std::string::npos) << w;
+  // one channel that does not absorb keeps its paths going: still warned
+  EXPECT_NE(pack_warnings(2e4, {0.5, 0.5, 0}, -1).find("scattering events"), std::string::npos);
+  EXPECT_EQ(pack_warnings(1.5e4, {0, 0, 0}, 1000), "");    // a depth cap
+  EXPECT_EQ(pack_warnings(1.6e4, {0.01, 0.01, 0.01}, -1), "");  // about 100 events before absorption
+  EXPECT_EQ(pack_warnings(100, {0, 0, 0}, -1), "");        // about 1.8e4 events
 }

@@ -18,6 +18,12 @@ namespace packing {
 // keep linear interpolation within ~1e-4 of the integral from 100 K to 1e9 K, at 256 KiB.
 constexpr int kBlackbodyEntries = 16384;
 static_assert(ST_BLACKBODY_T_FLOOR == kBlackbodyTableFloor, "kernels/types.h and src/color/blackbody.h: one floor");
+// Scattering events per path above which a medium with unlimited max_depth is warned of (Packer::
+// warn_long_paths): a million is seconds per path on a CPU core.
+constexpr double kLongPathEvents = 1e6;
+// Voxel reads of a moving medium's majorant bounds above which its load is warned of (a minute or
+// so on a CPU core).
+constexpr double kSlowMotionBoundVisits = 3e10;
 
 // The emission bounds (scene/radiance.h) of a blackbody medium whose brightest colour component
 // up to T_hi kelvin, before `scale`, is `peak` (`what`: "colour"; spectral mode checks its
@@ -108,6 +114,9 @@ struct Packer {
 
   void add_medium(int i, const MediumDesc& md);
   void add_vdb_medium(st_medium& m, const MediumDesc& md, const std::string& ctx_name);
+  // Warns where a medium's paths would take about a million scattering events or more (optical
+  // depth tau across it, albedo near 1) and render.max_depth leaves them unlimited.
+  void warn_long_paths(const MediumDesc& md, double tau, const std::string& ctx_name) const;
   // the majorant grid (and hierarchy) of a VDB medium, its MajorantInfo and chord lookups; motion:
   // the index displacement its lookups reach (motion blur), which grows its cells
   void add_majorants(st_medium& m, const MediumDesc& md, const GridData& g, const Mat4& index_to_scene,

@@ -28,10 +28,12 @@ using Leaf = nanovdb::NanoLeaf<float>;
 namespace {
 
 // Cells of edge `cell` voxels over the grid's active box plus a voxel of margin on each side.
-double majorant_cells(const GridData& grid, int cell) {
+// The cells of edge `cell` over the active box widened by one voxel and by `margin` (motion blur's
+// reach) on each side, as a double (no overflow).
+double majorant_cells(const GridData& grid, int cell, const std::array<int, 3>& margin) {
   double n = 1;
   for (int a = 0; a < 3; ++a) {
-    const int64_t span = int64_t(grid.index_max[a]) - grid.index_min[a] + 2;
+    const int64_t span = int64_t(grid.index_max[a]) - grid.index_min[a] + 2 + 2 * int64_t(margin[size_t(a)]);
     n *= double(std::max<int64_t>(1, (span + cell - 1) / cell));
   }
   return n;
@@ -151,26 +153,34 @@ MajorantGrid build_majorant_grid(const GridData& grid, int cell, const std::arra
     mg.dmin.assign(1, 0.0f);
     return mg;
   }
+  const double cells = majorant_cells(grid, cell, margin);
+  if (cells > double(1 << 27)) {
+    // the smallest cell edge, doubling up to the largest, whose grid fits
+    int fits = cell;
+    while (fits < kMaxMajorantCellEdge && majorant_cells(grid, fits, margin) > double(1 << 27))
+      fits = std::min(2 * fits, kMaxMajorantCellEdge);
+    const bool moving = margin[0] > 0 || margin[1] > 0 || margin[2] > 0;
+    const std::string what = fmt::format(
+        "{}: grid \"{}\": its active bounding box ({}, {}, {}) .. ({}, {}, {}){} needs {:.4g} majorant cells of {} "
+        "voxels, more than 2^27",
+        grid.file, grid.name, grid.index_min[0], grid.index_min[1], grid.index_min[2], grid.index_max[0],
+        grid.index_max[1], grid.index_max[2],
+        moving ? fmt::format(", widened by the motion blur's reach of ({}, {}, {}) voxels,", margin[0], margin[1], margin[2])
+               : std::string(),
+        cells, cell);
+    if (majorant_cells(grid, fits, margin) <= double(1 << 27))
+      throw Error(fmt::format("{}; use --majorant-cell {} or larger", what, fits));
+    throw Error(fmt::format("{}, and even the largest cell edge, {} voxels, needs {:.4g}; {}", what, kMaxMajorantCellEdge,
+                            majorant_cells(grid, kMaxMajorantCellEdge, margin),
+                            moving ? "the velocity moves the medium too far over the shutter (lower the velocity's "
+                                     "scale or shorten the shutter)"
+                                   : "the active voxels span too wide a box (a stray voxel far from the rest?): prune "
+                                     "or crop the grid"));
+  }
   for (int a = 0; a < 3; ++a) {
     mg.origin[a] = grid.index_min[a] - 1 - margin[size_t(a)];
     const int64_t span = int64_t(grid.index_max[a]) - grid.index_min[a] + 2 + 2 * int64_t(margin[size_t(a)]);
     mg.dims[a] = int(std::max<int64_t>(1, (span + cell - 1) / cell));
-  }
-  const double cells = double(mg.dims[0]) * mg.dims[1] * mg.dims[2];
-  if (cells > double(1 << 27)) {
-    // the smallest cell edge, doubling up to the largest, whose grid fits
-    int fits = cell;
-    while (fits < kMaxMajorantCellEdge && majorant_cells(grid, fits) > double(1 << 27))
-      fits = std::min(2 * fits, kMaxMajorantCellEdge);
-    const std::string what =
-        fmt::format("{}: grid \"{}\": its active bounding box ({}, {}, {}) .. ({}, {}, {}) needs {} majorant cells "
-                    "of {} voxels, more than 2^27",
-                    grid.file, grid.name, grid.index_min[0], grid.index_min[1], grid.index_min[2], grid.index_max[0],
-                    grid.index_max[1], grid.index_max[2], uint64_t(cells), cell);
-    if (majorant_cells(grid, fits) <= double(1 << 27)) throw Error(fmt::format("{}; use --majorant-cell {} or larger", what, fits));
-    throw Error(fmt::format("{}, and even the largest cell edge, {} voxels, needs {}; the active voxels span too wide "
-                            "a box (a stray voxel far from the rest?): prune or crop the grid",
-                            what, kMaxMajorantCellEdge, uint64_t(majorant_cells(grid, kMaxMajorantCellEdge))));
   }
   const size_t n = size_t(cells);
   mg.dmax.assign(n, 0.0f);
