@@ -238,7 +238,7 @@ void check_one_render(const std::vector<FilmPiece>& pieces, bool with_sums) {
     auto shown = [](const std::string& v) { return v.empty() ? std::string("none") : v; };
     for (const RecordedChoice& c : recorded_choices())
       if (p.id.*c.field != a.id.*c.field) differ(c.what, shown(a.id.*c.field), shown(p.id.*c.field));
-    if (p.id.aovs != a.id.aovs) differ("the film layers", layer_list(a.id.aovs), layer_list(p.id.aovs));
+    if (p.id.aovs != a.id.aovs) differ("the set of film layers", layer_list(a.id.aovs), layer_list(p.id.aovs));
     if (p.id.version != a.id.version) differ("the spectrack version", a.id.version, p.id.version);
     if (p.id.scene_hash != a.id.scene_hash) differ("the scene (spectrack:scene_hash)", a.id.scene_hash, p.id.scene_hash);
     if (p.width <= 0 || p.height <= 0 || p.x0 < 0 || p.y0 < 0 || p.x0 + p.width > p.id.full_width ||

@@ -248,9 +248,10 @@ void check_film_piece_spec(const OpenedImage& o, bool rgb_named, bool half_allow
   const int nc = spec.nchannels;
   const size_t max_pixels = size_t(1) << 28;
   if (img.format != "openexr")
-    fail(fmt::format("a {} image cannot be merged: only spectrack's EXR outputs hold the float pixels and sample "
-                     "ranges a merge needs",
-                     img.format));
+    fail(half_allowed ? fmt::format("a {} image, not an EXR: only spectrack's EXR outputs are read here", img.format)
+                      : fmt::format("a {} image cannot be merged: only spectrack's EXR outputs hold the float pixels "
+                                    "and sample ranges a merge needs",
+                                    img.format));
   // R, G, B first (OpenImageIO orders an EXR's R, G, B, A first), then film layers only
   bool layers_known = rgb_named && spec.channelnames.size() == size_t(nc);
   for (int c = 3; c < nc && layers_known; ++c) layers_known = film_layer_channel(spec.channelnames[c]);
