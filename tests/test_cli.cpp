@@ -722,6 +722,16 @@ TEST(CliHostileImages, ImagesThatWouldBeMisreadAreRefusedByName) {
   expect_scene_error(dir, env_map_scene(dir + "/two.tif"), "/lights/0/map", {"two.tif", "2 channel"});
   std::ofstream(dir + "/text.exr") << "not an image\n";
   expect_scene_error(dir, env_map_scene(dir + "/text.exr"), "/lights/0/map", {"text.exr", "cannot read image"});
+  // a header that claims more pixels than its file can hold (fuzz_image: 65 bytes claimed 5 x 33
+  // million, whose 2 GB were allocated before the read failed); the twin: a real 64x32 map renders
+  std::ofstream(dir + "/wide.hdr", std::ios::binary)
+      << "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 5 +X 33343333\n" << std::string(16, '3');
+  expect_scene_error(dir, env_map_scene(dir + "/wide.hdr"), "/lights/0/map",
+                     {"wide.hdr", "header claims 33343333x5 pixels, more than a file of"});
+  write_test_image(dir + "/real.hdr", 64, 32, 3, 0.5f);
+  Proc ok = run({"render", write_scene(dir, "real.json", env_map_scene(dir + "/real.hdr")), "-o", dir + "/r.exr", "-q"},
+                slow_ok());
+  EXPECT_TRUE(ok.exited && ok.code == 0) << ok.describe();
 }
 
 TEST(CliHostileImages, GrayMapIsReplicatedToRgb) {

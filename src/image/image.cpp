@@ -286,6 +286,9 @@ void check_film_piece_spec(const OpenedImage& o, bool rgb_named, bool half_allow
 
 }  // namespace
 
+// The most pixels a byte of an image file is taken to hold (open_checked).
+constexpr double kMaxPixelsPerFileByte = 4096;
+
 OpenedImage open_checked(const std::string& path, ImageUse use) {
   const bool env = use == ImageUse::kEnvironmentMap;
   const char* what = env ? "an environment map" : "a merge input";
@@ -313,6 +316,14 @@ OpenedImage open_checked(const std::string& path, ImageUse use) {
   const int nc = spec.nchannels;
   if (spec.width <= 0 || spec.height <= 0 || nc <= 0 || size_t(spec.width) * size_t(spec.height) > max_pixels)
     fail(fmt::format("unsupported image size {}x{} with {} channels (at most 2^28 pixels)", spec.width, spec.height, nc));
+  // A header can claim any size; the pixels a file of N bytes can hold are bounded by its codec's
+  // best ratio (zip, RLE, DWA on a constant image: well under 4096 pixels a byte). A claim past that
+  // is a damaged header, refused before its buffers are allocated (fuzz_image: a 65-byte HDR file
+  // claimed 5 x 33 million pixels, 2 GB).
+  const double claimed = double(spec.width) * double(spec.height);
+  if (claimed > double(file_bytes) * kMaxPixelsPerFileByte + double(1 << 20))
+    fail(fmt::format("its header claims {}x{} pixels, more than a file of {} bytes can hold (damaged or truncated)",
+                     spec.width, spec.height, file_bytes));
   if (spec.tile_width > 0 && size_t(spec.tile_width) * size_t(std::max(spec.tile_height, 1)) > max_pixels)
     fail(fmt::format("tiles of {}x{} pixels are more than the 2^28 pixels an image can have", spec.tile_width,
                      spec.tile_height));

@@ -121,6 +121,9 @@ int main(int argc, char** argv) {
     write_img(out / "image" / "gray_alpha.png", 4, 2, 2, OIIO::TypeDesc::UINT8);
     write_img(out / "image" / "rgb.hdr", 4, 2, 3, OIIO::TypeDesc::FLOAT);
     write_img(out / "image" / "rgb.tif", 4, 2, 3, OIIO::TypeDesc::UINT16);
+    // fuzz_image's finding: a header that claims far more pixels than its file holds (refused by size)
+    std::ofstream(out / "image" / "wide_claim.hdr", std::ios::binary)
+        << "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 5 +X 33343333\n" << std::string(16, '3');
   } catch (const std::exception& e) {
     std::fprintf(stderr, "make_seeds: %s\n", e.what());
     return 1;
