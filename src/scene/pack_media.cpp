@@ -131,25 +131,6 @@ double auto_majorant_step_cost(int tracker, bool has_control) {
                                                                                              : kMajorantStepCost;
 }
 
-// A random walk at albedo a in a medium tau mean free paths across scatters about
-// min(tau^2, 1 / (1 - a)) times before it leaves or its weight fades (diffusion; absorption), and the
-// roulette ends a path only once its weight has fallen: an albedo of 1 leaves its length to tau^2.
-void Packer::warn_long_paths(const MediumDesc& md, double tau, const std::string& ctx_name) const {
-  if (scene.render.max_depth || !(tau > 1)) return;
-  double albedo = 0;
-  for (int c = 0; c < 3; ++c) {
-    const double t = md.sigma_s[c] + md.sigma_a[c];
-    if (t > 0) albedo = std::max(albedo, md.sigma_s[c] / t);
-  }
-  const double events = std::min(tau * tau, albedo < 1 ? 1.0 / (1.0 - albedo) : tau * tau);
-  if (events < kLongPathEvents) return;
-  warn(fmt::format("{}: a path takes about {:.2g} scattering events here (about {:.3g} mean free paths across, albedo "
-                   "{:.6g}: absorption hardly ends a path) and render.max_depth is unlimited: the render may take very "
-                   "long; set render.max_depth (e.g. 1000), give the medium some absorption (sigma_a) or set a time "
-                   "limit",
-                   ctx_name, events, tau, albedo));
-}
-
 void Packer::add_medium(int i, const MediumDesc& md) {
   st_medium& m = st.media[i];
   std::memset(&m, 0, sizeof(m));
@@ -257,19 +238,7 @@ void Packer::add_majorants(st_medium& m, const MediumDesc& md, const GridData& g
   const std::array<double, 3>& reach = motion.reach;
   const std::array<int, 3> margin{int(std::ceil(reach[0])), int(std::ceil(reach[1])), int(std::ceil(reach[2]))};
   const int cell_used = majorant_cell_for(m, g, md.majorant_scale, cell);
-  if (margin[0] > 0 || margin[1] > 0 || margin[2] > 0) {
-    // each cell's bounds read its voxels widened by the reach on each side
-    double visits = 1;
-    for (size_t a = 0; a < 3; ++a) {
-      const double span = double(g.index_max[a]) - g.index_min[a] + 2 + 2.0 * margin[a];
-      visits *= std::ceil(span / cell_used) * (cell_used + 2.0 * reach[a] + 1);
-    }
-    if (visits > kSlowMotionBoundVisits)
-      warn(fmt::format("{}/velocity: the medium moves up to ({:.3g}, {:.3g}, {:.3g}) voxels over the shutter, and the "
-                       "majorant's bounds read every voxel within that reach of each cell: about {:.2g} voxel reads, "
-                       "which may take minutes (lower the velocity's scale or shorten the shutter for a faster load)",
-                       scene.path + ": " + md.json_path, reach[0], reach[1], reach[2], visits));
-  }
+  warn_slow_motion_bounds(g, cell_used, margin, reach, scene.path + ": " + md.json_path);
   MajorantGrid mg;
   try {
     mg = build_majorant_grid(g, cell_used, margin, motion.cell_reach);

@@ -24,6 +24,10 @@ constexpr double kLongPathEvents = 1e6;
 // Voxel reads of a moving medium's majorant bounds above which its load is warned of (a minute or
 // so on a CPU core).
 constexpr double kSlowMotionBoundVisits = 3e10;
+// Warns where a moving medium's majorant bounds (cells of `cell` voxels over grid g, widened by
+// `margin`, each reading its voxels within `reach`) would take minutes (pack_warnings.cpp).
+void warn_slow_motion_bounds(const GridData& g, int cell, const std::array<int, 3>& margin,
+                             const std::array<double, 3>& reach, const std::string& ctx_name);
 
 // The emission bounds (scene/radiance.h) of a blackbody medium whose brightest colour component
 // up to T_hi kelvin, before `scale`, is `peak` (`what`: "colour"; spectral mode checks its

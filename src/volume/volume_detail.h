@@ -17,6 +17,12 @@ namespace spectrack {
 
 struct GridData;  // volume.h
 
+// Moves the kept grid (volume.h KeptGrids) of (file, grid_name, grid_index) into *out and forgets
+// it; false where none is kept (kept_grids.cpp). load_float_grid asks it first.
+bool take_kept_grid(const std::string& file, const std::string& grid_name, int grid_index, GridData* out);
+
+struct GridData;  // volume.h
+
 namespace volume_detail {
 
 using FloatGrid = nanovdb::NanoGrid<float>;
