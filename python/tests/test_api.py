@@ -1,5 +1,6 @@
 """The Python module against the command line (same scene and seed: bit-identical arrays), shards
 merged in Python, and refused input (ValueError naming the JSON field path, wrong arrays)."""
+import json
 import os
 import subprocess
 import sys
@@ -8,7 +9,7 @@ import numpy as np
 import pytest
 
 import spectrack
-from conftest import ROOT
+from conftest import ROOT, SHARED
 
 SLAB = {
     "format": "spectrack-scene/1",
@@ -322,3 +323,105 @@ def test_volume_from_file_is_the_file(tmp_path):
     cut.write_bytes(open(cloud, "rb").read()[:1000])
     with pytest.raises(ValueError, match="cut.vdb"):
         spectrack.Volume.from_file(str(cut))
+
+
+def test_stats_and_metadata_are_the_command_lines(spectrack_binary, tmp_path):
+    """Image.stats of a noise-target or adaptive render holds the keys --stats-json writes (one
+    render_metadata), and a scene's own time limit stops a Python render as it stops the CLI's."""
+    path = ROOT / "docs" / "examples" / "cloud.json"
+    overrides = {"film": {"width": 16, "height": 12, "spp": 64}, "render": {"noise_target": 0.3, "adaptive": True}}
+    im = spectrack.load_file(path, **overrides).render()
+    scene = tmp_path / "cloud.json"
+    doc = json.loads(path.read_text())
+    for k, v in overrides.items():
+        doc[k] = {**doc.get(k, {}), **v}
+    for m in doc["media"]:  # the file beside the example, from the copy's folder
+        m["file"] = str((path.parent / m["file"]).resolve())
+    scene.write_text(json.dumps(doc))
+    subprocess.run([spectrack_binary, "render", str(scene), "-o", str(tmp_path / "c.exr"), "-q", "--stats-json",
+                    str(tmp_path / "s.json")], check=True)
+    cli = json.loads((tmp_path / "s.json").read_text())
+    for key in ("noise_target", "noise_error", "noise_pixels", "adaptive_rounds", "adaptive_floor",
+                "adaptive_mean_spp", "stop_reason"):
+        assert key in cli and key in im.stats, key
+        assert im.stats[key] == pytest.approx(cli[key]), key
+    # the scene's render.time_limit, not only the argument (it was ignored in Python)
+    slow = spectrack.load_dict({**SLAB, "film": {"width": 64, "height": 64, "spp": 1 << 22},
+                                "render": {**SLAB["render"], "time_limit": 2.0}})
+    try:
+        t = slow.render()
+    except TimeoutError as e:  # a machine so loaded that no sample finished: the limit held all the same
+        assert "the time limit of 2 s came before any sample finished" in str(e)
+    else:
+        assert t.interrupted and t.stats["stop_reason"] == "time-limit" and t.stats["time_limit"] == 2.0
+
+
+def test_arguments_of_the_wrong_type_are_named():
+    s = spectrack.load_dict(SLAB)
+    for kwargs, words in [({"spp": 2.5}, "spp must be an int"), ({"spp": True}, "spp must be an int"),
+                          ({"seed": "1"}, "seed must be an int"), ({"guiding": True}, "guiding must be a str"),
+                          ({"alpha": "yes"}, "alpha must be True or False"), ({"time_limit": "x"}, "time_limit must be a number"),
+                          ({"spp_range": (0,)}, "spp_range must be 2 ints"), ({"pixel_bounds": []}, "pixel_bounds must be 4 ints"),
+                          ({"aovs": 3}, "aovs must be a layer name"), ({"progress": 3}, "progress must be callable")]:
+        with pytest.raises(TypeError, match=words):
+            s.render(**kwargs)
+    with pytest.raises(ValueError, match="spp=1099511627776 is out of range"):
+        s.render(spp=1 << 40)
+    assert s.render(spp=np.int64(2), device=None, chunk_spp=None).spp == 2  # numpy ints; None: the default
+
+
+def test_messages_and_file_names_that_are_not_utf8(tmp_path):
+    # a damaged header's attribute name (bytes from the file) stays in the message
+    bad = tmp_path / "g.exr"
+    bad.write_bytes(bytes.fromhex("762f3101c6bbebf3b00000000000000022007cf9000000000000a40000000000c80000000000000000"))
+    with pytest.raises(ValueError, match=r"damaged OpenEXR header: attribute '\\xa4'"):
+        spectrack.read_exr(str(bad))
+    # a file name that is not UTF-8 (as os.fsdecode gives it) loads, renders, writes and reads
+    name = os.fsdecode(os.fsencode(str(tmp_path)) + b"/\xff.json")
+    with open(os.fsencode(name), "w") as f:
+        json.dump(SLAB, f)
+    img = spectrack.load_file(name, film={"spp": 2}).render()
+    out = os.fsdecode(os.fsencode(str(tmp_path)) + b"/\xfe.exr")
+    img.write(out)
+    assert spectrack.read(out).spp == 2 and spectrack.load_file(name).width == 24
+    with pytest.raises(ValueError, match=r"\\xfd_missing.json: cannot open"):
+        spectrack.load_file(os.fsdecode(os.fsencode(str(tmp_path)) + b"/\xfd_missing.json"))
+
+
+def test_scene_warnings_reach_sys_stderr():
+    """A notebook shows sys.stderr, not the process's stderr: the scene's warnings go there."""
+    import contextlib
+    import io
+    d = {**SLAB, "media": [{**SLAB["media"][0], "majorant_scale": 0.75}]}
+    buf = io.StringIO()
+    with contextlib.redirect_stderr(buf):
+        spectrack.load_dict(d).render(spp=1)
+    assert "/media/0/majorant_scale: 0.75 < 1 under-estimates the majorant" in buf.getvalue()
+
+
+def test_png_options_and_read_refusals(tmp_path):
+    img = spectrack.load_dict(SLAB).render(spp=2)
+    with pytest.raises(ValueError, match="half=True: the output .*a PNG"):
+        img.write(str(tmp_path / "a.png"), half=True)
+    with pytest.raises(ValueError, match="compression: the output .*a PNG"):
+        img.write(str(tmp_path / "a.png"), compression="dwaa")
+    img.write(str(tmp_path / "a.png"))
+    with pytest.raises(ValueError, match="a png image, not an EXR"):
+        spectrack.read_exr(str(tmp_path / "a.png"))
+    img.write(str(tmp_path / "h.exr"), half=True)
+    with pytest.raises(ValueError, match="read: .*half.*read_exr reads any"):
+        spectrack.read(str(tmp_path / "h.exr"))
+    assert spectrack.read_exr(str(tmp_path / "h.exr"))["R"].shape == (20, 24)
+
+
+def test_volumes_of_other_precisions_and_the_unnamed_grid():
+    with pytest.raises(ValueError, match=r"voxel_size 1e-06 is outside \[1.5e-05, 1e12\]"):
+        spectrack.Volume.from_numpy(np.ones((2, 2, 2), np.float32), voxel_size=1e-6)
+    assert spectrack.Volume.from_numpy(np.ones((2, 2, 2), np.float16), voxel_size=2e-5).shape == [2, 2, 2]
+    blosc = SHARED / "smoke1-blosc.nvdb"  # its only float grid has no name: a medium's "density" renders it
+    if blosc.exists():
+        assert spectrack.Volume.from_file(str(blosc)).active_voxels > 0
+    sphere = SHARED / "levelset" / "sphere.vdb"
+    if sphere.exists():
+        with pytest.raises(ValueError, match="cannot be a density: a level set"):
+            spectrack.Volume.from_file(str(sphere), grid="ls_sphere")
