@@ -3,8 +3,10 @@
 
 #include <algorithm>
 #include <climits>
+#include <optional>
 
 #include "film/film.h"
+#include "integrator/noise.h"
 #include "integrator/stats_json.h"
 #include "util/strings.h"
 
@@ -16,6 +18,9 @@ std::string render_stop_reason(const MultiDeviceResult& r) {
   return r.time_limit_reached ? "time-limit" : "signal";
 }
 
+namespace {
+
+// The image's relative error (integrator/noise.h) where the film has the variance layer.
 std::optional<NoiseEstimate> film_noise(const FilmPiece& p) {
   if (!(p.id.aovs & ST_AOV_BIT(VARIANCE)) || p.samples() == 0) return std::nullopt;
   // an adaptive film whose pilot a stop cut short: pixels of fewer samples have no variance to count
@@ -24,6 +29,8 @@ std::optional<NoiseEstimate> film_noise(const FilmPiece& p) {
   const NoiseEstimate e = estimate_film_noise(p.sum, p.aov_sum, aov_sum_channels(p.id.aovs), p.samples());
   return e.measured ? std::optional<NoiseEstimate>(e) : std::nullopt;
 }
+
+}  // namespace
 
 Metadata render_metadata(const MultiDeviceResult& r, const std::string& scene_path, double time_limit) {
   Metadata meta;

@@ -3,12 +3,10 @@
 #pragma once
 #include <nlohmann/json.hpp>
 
-#include <optional>
 #include <string>
 
 #include "image/image.h"
 #include "integrator/multi_device.h"
-#include "integrator/noise.h"
 
 namespace spectrack {
 
@@ -25,8 +23,6 @@ nlohmann::json render_stats_json(const MultiDeviceResult& r, double seconds_tota
 // mean samples, dropped non-finite samples, the spp requested, the devices, the render's seconds and
 // the scene file.
 Metadata render_metadata(const MultiDeviceResult& r, const std::string& scene_path, double time_limit);
-// The image's relative error (integrator/noise.h) where the film has the variance layer.
-std::optional<NoiseEstimate> film_noise(const FilmPiece& p);
 
 // Why the render stopped: noise-target, time-limit or signal before its requested samples; with a
 // noise target not met, spp or (adaptive sampling) pixels-finished (MultiDeviceResult::stop_reason);

@@ -148,7 +148,7 @@ inline void check_half(bool half_flag, const std::string& compression_flag, cons
   if (scene.film.half && !quiet)
     std::cerr << fmt::format("warning: {}: /film/half is ignored for the PNG output {} (8-bit values)\n", scene.path,
                              output);
-  if (scene.film.compression != FilmDesc().compression && !quiet)
+  if (compressed && !quiet)
     std::cerr << fmt::format("warning: {}: /film/compression is ignored for the PNG output {}\n", scene.path, output);
 }
 

@@ -8,14 +8,12 @@
 #include <chrono>
 #include <climits>
 #include <iostream>
-#include <optional>
 
 #include "cli/checks.h"
 #include "cli/run_control.h"
 #include "api/render_stats.h"
 #include "film/film.h"
 #include "image/denoise.h"
-#include "integrator/noise.h"
 #include "util/output_file.h"
 #include "util/strings.h"
 
@@ -51,7 +49,7 @@ void write_stats_json(const std::string& path, const MultiDeviceResult& r, doubl
 void write_render_outputs(const RenderOutputs& o, const SceneDesc& scene, const MultiDeviceResult& r,
                           const RenderTimes& t, int mpi_ranks, double time_limit) {
   Metadata meta = render_metadata(r, scene.path, time_limit);
-  const std::optional<NoiseEstimate> noise = film_noise(r.piece);
+  const auto noise = meta.find("noise_error");  // measured once, by render_metadata
   if (o.mpi) meta["mpi_ranks"] = mpi_ranks;
   if (o.denoise) {
     FilmPiece d = r.piece;
@@ -74,7 +72,8 @@ void write_render_outputs(const RenderOutputs& o, const SceneDesc& scene, const 
                                                *std::max_element(r.piece.pixel_samples.begin(), r.piece.pixel_samples.end()),
                                                r.piece.samples()),
                              r.seconds_render, t.total,
-                             noise ? fmt::format(", noise {:.3g}%", 100.0 * noise->error) : std::string(),
+                             noise != meta.end() ? fmt::format(", noise {:.3g}%", 100.0 * std::get<float>(noise->second))
+                                                 : std::string(),
                              r.noise_target_reached         ? ", noise target reached"
                              : r.stop_reason == "spp"         ? ", noise target missed at --spp"
                              : r.stop_reason == "pixels-finished"

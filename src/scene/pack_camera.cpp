@@ -27,7 +27,6 @@
 namespace spectrack {
 namespace packing {
 
-Vec3 normalize(Vec3 v) { return unit_vector(v); }
 
 Vec3 cross(const Vec3& a, const Vec3& b) {
   return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
@@ -40,8 +39,8 @@ void Packer::set_camera(const RenderSettings& s) {
   cam.type = c.type;
   cam.width = scene.film.width;
   cam.height = scene.film.height;
-  Vec3 fwd = normalize({c.look_at[0] - c.position[0], c.look_at[1] - c.position[1], c.look_at[2] - c.position[2]});
-  Vec3 right = normalize(cross(fwd, c.up));
+  Vec3 fwd = unit_vector({c.look_at[0] - c.position[0], c.look_at[1] - c.position[1], c.look_at[2] - c.position[2]});
+  Vec3 right = unit_vector(cross(fwd, c.up));
   Vec3 up = cross(right, fwd);
   double shorter = std::min(cam.width, cam.height);
   double half = c.type == ST_CAMERA_ORTHOGRAPHIC ? 0.5 * c.height : std::tan(0.5 * c.fov_deg * M_PI / 180.0);

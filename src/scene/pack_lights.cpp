@@ -40,7 +40,7 @@ void Packer::add_light(int i, const LightDesc& ld) {
   }
   if (ld.type == ST_LIGHT_DIRECTIONAL) {
     light_power[i] = mean(ld.irradiance);
-    Vec3 d = normalize(ld.to_light);
+    Vec3 d = unit_vector(ld.to_light);
     l.direction = f4(d);
     double half = ld.angle_deg * 0.5 * M_PI / 180.0;
     if (half <= 0) {

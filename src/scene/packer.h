@@ -76,7 +76,6 @@ Mat4 user_transform(const TransformDesc& t);
 double auto_majorant_step_cost(int tracker, bool has_control);
 // Whether two grids share one index-to-world map (to 1e-6 relative).
 bool same_index_to_world(const GridData& a, const GridData& b);
-Vec3 normalize(Vec3 v);
 Vec3 cross(const Vec3& a, const Vec3& b);
 
 // How far a moving medium's lookups reach (motion blur, pack_velocity.cpp): reach[a] bounds the
