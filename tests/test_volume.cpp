@@ -820,17 +820,183 @@ TEST(VolumeNanoVdb, ErrorsMatchVdb) {
   EXPECT_FALSE(g.empty);
 }
 
-// A quantized (or double) NanoVDB grid is refused, saying how to get one spectrack reads.
-TEST(VolumeNanoVdb, QuantizedGridIsRefusedWithTheWayOut) {
+// A float grid with varied values, an active 8^3 tile and an active 128^3 tile, under a rotated,
+// scaled and translated map: the source the NanoVDB value types below are written from.
+openvdb::FloatGrid::Ptr quantizable_grid() {
+  auto g = new_grid();
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(0.0f, 2.0f);
+  auto acc = g->getAccessor();
+  for (int z = -20; z < 20; ++z)
+    for (int y = -12; y < 20; ++y)
+      for (int x = -20; x < 21; ++x)
+        if ((x * 7 + y * 3 + z) % 5) acc.setValue(openvdb::Coord(x, y, z), u(rng));
+  g->tree().addTile(1, openvdb::Coord(64, 0, 0), 0.75f, true);
+  g->tree().addTile(2, openvdb::Coord(256, 0, 0), 0.25f, true);
+  openvdb::math::Mat4d m = openvdb::math::Mat4d::identity();
+  m.preRotate(openvdb::math::Y_AXIS, 0.4);
+  m.preScale(openvdb::Vec3d(0.05, 0.04, 0.05));
+  m.postTranslate(openvdb::Vec3d(1.5, -2.0, 0.25));
+  g->setTransform(openvdb::math::Transform::createLinearTransform(m));
+  return g;
+}
+
+template <typename BuildT>
+std::string write_nvdb_as(const openvdb::FloatGrid& g, const std::string& path,
+                          nanovdb::ChecksumMode cs = nanovdb::ChecksumMode::Full) {
+  if constexpr (std::is_same_v<BuildT, double>) {
+    openvdb::DoubleGrid d(std::make_shared<openvdb::DoubleTree>(g.tree()));
+    static_cast<openvdb::MetaMap&>(d) = static_cast<const openvdb::MetaMap&>(g);
+    d.setTransform(g.transform().copy());
+    nanovdb::io::writeGrid(path, nanovdb::openToNanoVDB<nanovdb::HostBuffer, openvdb::DoubleTree, double>(
+                                     d, nanovdb::StatsMode::Default, cs));
+  } else {
+    nanovdb::io::writeGrid(path, nanovdb::openToNanoVDB<nanovdb::HostBuffer, openvdb::FloatTree, BuildT>(
+                                     g, nanovdb::StatsMode::Default, cs));
+  }
+  return path;
+}
+
+// Every active value of src read back from the loaded grid within tol, the same active voxel
+// count, box, value range within tol and the same index-to-world map.
+void expect_loaded_as(const openvdb::FloatGrid& src, const GridData& got, float tol, const std::string& what) {
+  const auto* ng = got.handle.grid<float>();
+  ASSERT_NE(ng, nullptr) << what;
+  auto acc = ng->getAccessor();
+  EXPECT_EQ(ng->activeVoxelCount(), src.activeVoxelCount()) << what;
+  float worst = 0.0f, lo = 1e30f, hi = -1e30f;
+  for (auto v = src.tree().cbeginValueOn(); v; ++v) {
+    const openvdb::Coord c = v.getCoord();  // a tile's first voxel; its value fills the tile
+    const float read = acc.getValue(nanovdb::Coord(c.x(), c.y(), c.z()));
+    EXPECT_TRUE(acc.isActive(nanovdb::Coord(c.x(), c.y(), c.z()))) << what << " at " << c;
+    worst = std::max(worst, std::abs(read - *v));
+    lo = std::min(lo, *v), hi = std::max(hi, *v);
+  }
+  EXPECT_LE(worst, tol) << what;
+  EXPECT_NEAR(got.value_min, lo, tol) << what;
+  EXPECT_NEAR(got.value_max, hi, tol) << what;
+  const openvdb::CoordBBox box = src.evalActiveVoxelBoundingBox();
+  EXPECT_EQ(got.index_min, (std::array<int, 3>{box.min().x(), box.min().y(), box.min().z()})) << what;
+  EXPECT_EQ(got.index_max, (std::array<int, 3>{box.max().x(), box.max().y(), box.max().z()})) << what;
+  const openvdb::math::Mat4d m = src.transform().baseMap()->getAffineMap()->getMat4();
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(got.index_to_world[r][c], m(c, r), 1e-12) << what;
+    EXPECT_NEAR(got.index_to_world[r][3], m(3, r), 1e-12) << what;
+  }
+}
+
+// Double and quantized NanoVDB grids (Fp4, Fp8, Fp16, FpN) are read as float grids: every active
+// voxel and tile where the source has it, within the quantization step (a leaf's values span at
+// most 2: Fp4's half step 2 / 30, Fp8's 2 / 510, Fp16's 2 / 131070, FpN's tolerance for fog
+// volumes, 0.01; doubles written from floats come back exactly), with full and partial checksums.
+TEST(VolumeNanoVdb, DoubleAndQuantizedGridsAreReadAsFloat) {
+  const auto g = quantizable_grid();
+  const std::string dir = st_test::temp_dir("nvdb_quantized");
+  struct Case {
+    const char* name;
+    std::string (*write)(const openvdb::FloatGrid&, const std::string&, nanovdb::ChecksumMode);
+    float tol;
+  };
+  const Case cases[] = {{"fp4", write_nvdb_as<nanovdb::Fp4>, 2.0f / 30 + 1e-6f},
+                        {"fp8", write_nvdb_as<nanovdb::Fp8>, 2.0f / 510 + 1e-6f},
+                        {"fp16", write_nvdb_as<nanovdb::Fp16>, 2.0f / 131070 + 1e-6f},
+                        {"fpn", write_nvdb_as<nanovdb::FpN>, 0.01f + 1e-6f},
+                        {"double", write_nvdb_as<double>, 0.0f},
+                        {"float", write_nvdb_as<float>, 0.0f}};
+  for (const Case& c : cases)
+    for (const auto cs : {nanovdb::ChecksumMode::Full, nanovdb::ChecksumMode::Partial}) {
+      const std::string path = c.write(*g, dir + "/" + c.name + ".nvdb", cs);
+      expect_loaded_as(*g, spectrack::load_float_grid(path, "density", -1, "test"), c.tol, c.name);
+    }
+  // the twin: a coarser quantization than a case claims is seen
+  const GridData fp4 = spectrack::load_float_grid(write_nvdb_as<nanovdb::Fp4>(*g, dir + "/twin.nvdb"), "density", -1, "t");
+  auto acc = fp4.handle.grid<float>()->getAccessor();
+  float worst = 0.0f;
+  for (auto v = g->tree().cbeginValueOn(); v; ++v)
+    worst = std::max(worst, std::abs(acc.getValue(nanovdb::Coord(v.getCoord().x(), v.getCoord().y(), v.getCoord().z())) - *v));
+  EXPECT_GT(worst, 2.0f / 510) << "Fp4 must quantize more coarsely than Fp8's tolerance";
+}
+
+// A double value that a float cannot hold is refused naming its voxel, as in a .vdb.
+TEST(VolumeNanoVdb, DoubleValueBeyondAFloatIsRefusedByVoxel) {
   openvdb::initialize();
-  auto g = openvdb::FloatGrid::create(0.0f);
-  g->setName("density");
-  g->setGridClass(openvdb::GRID_FOG_VOLUME);
-  g->tree().setValue(openvdb::Coord(1, 2, 3), 0.5f);
-  const std::string dir = st_test::temp_dir("nvdb_fp16");
-  const std::string path = dir + "/fp16.nvdb";
-  nanovdb::io::writeGrid(path, nanovdb::openToNanoVDB<nanovdb::HostBuffer, openvdb::FloatTree, nanovdb::Fp16>(*g));
+  openvdb::DoubleGrid d(0.0);
+  d.setName("density");
+  d.setGridClass(openvdb::GRID_FOG_VOLUME);
+  d.tree().setValue(openvdb::Coord(3, -4, 5), 1e300);
+  const std::string path = st_test::temp_dir("nvdb_double_big") + "/big.nvdb";
+  nanovdb::io::writeGrid(path, nanovdb::openToNanoVDB<nanovdb::HostBuffer, openvdb::DoubleTree, double>(d));
   const std::string msg = error_of([&] { spectrack::load_float_grid(path, "density", -1, "test"); });
-  EXPECT_TRUE(contains(msg, "value type Float16")) << msg;
-  EXPECT_TRUE(contains(msg, "convert the .vdb without quantization")) << msg;
+  EXPECT_TRUE(contains(msg, "value 1e+300 at active voxel (3, -4, 5) is beyond a 32-bit float's range")) << msg;
+}
+
+// The bytes of an uncompressed single-grid .nvdb: the grid is the file's tail.
+struct NvdbBytes {
+  std::string bytes;
+  size_t grid_at = 0;
+  explicit NvdbBytes(const std::string& path, uint64_t grid_size) {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+    grid_at = bytes.size() - grid_size;
+  }
+  template <typename T>
+  T& at(size_t off) { return *reinterpret_cast<T*>(&bytes[grid_at + off]); }
+  void write(const std::string& path) const { std::ofstream(path, std::ios::binary) << bytes; }
+};
+
+// Damaged quantized grids are refused by name before NanoVDB's own code follows their offsets: an
+// FpN leaf claiming 128 bits per value, a tree claiming one leaf more than it holds, a voxel count
+// that is not the tree's (with no checksum to catch it).
+TEST(VolumeNanoVdb, DamagedQuantizedGridsAreRefused) {
+  const auto g = quantizable_grid();
+  const std::string dir = st_test::temp_dir("nvdb_fpn_damaged");
+  auto handle = nanovdb::openToNanoVDB<nanovdb::HostBuffer, openvdb::FloatTree, nanovdb::FpN>(*g);
+  const uint64_t size = handle.size();
+  nanovdb::io::writeGrid(dir + "/ok.nvdb", handle, nanovdb::io::Codec::NONE);
+  const size_t tree = sizeof(nanovdb::GridData);
+  const auto* td = reinterpret_cast<const nanovdb::TreeData<3>*>(handle.data() + tree);
+  auto load = [&](const std::string& name) {
+    return error_of([&] { spectrack::load_float_grid(dir + "/" + name, "density", -1, "test"); });
+  };
+  EXPECT_NO_THROW(spectrack::load_float_grid(dir + "/ok.nvdb", "density", -1, "test"));  // the twin
+
+  NvdbBytes wide(dir + "/ok.nvdb", size);
+  wide.at<uint8_t>(tree + td->mNodeOffset[0] + 15) = 7u << 5;  // the first leaf's flags: bit width 2^7
+  wide.write(dir + "/wide.nvdb");
+  EXPECT_TRUE(contains(load("wide.nvdb"), "corrupt NanoVDB grid (FpN leaf")) << load("wide.nvdb");
+
+  NvdbBytes count(dir + "/ok.nvdb", size);
+  count.at<uint32_t>(tree + offsetof(nanovdb::TreeData<3>, mNodeCount)) += 1;  // one leaf more
+  count.write(dir + "/count.nvdb");
+  EXPECT_TRUE(contains(load("count.nvdb"), "corrupt NanoVDB grid (node count")) << load("count.nvdb");
+
+  auto unchecked = nanovdb::openToNanoVDB<nanovdb::HostBuffer, openvdb::FloatTree, nanovdb::Fp16>(
+      *g, nanovdb::StatsMode::Default, nanovdb::ChecksumMode::Disable);
+  reinterpret_cast<nanovdb::TreeData<3>*>(unchecked.data() + tree)->mVoxelCount += 1;
+  nanovdb::io::writeGrid(dir + "/voxels.nvdb", unchecked, nanovdb::io::Codec::NONE);
+  EXPECT_TRUE(contains(load("voxels.nvdb"), "disagree with the count stored in the grid")) << load("voxels.nvdb");
+}
+
+// `info` on a .nvdb of a quantized density and a vector grid: the density is usable, the vector
+// grid is described and named as not a density (it does not fail the file).
+TEST(VolumeNanoVdb, InfoDescribesQuantizedAndVectorGrids) {
+  const auto g = quantizable_grid();
+  auto v = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f));
+  v->setName("vel");
+  v->tree().setValue(openvdb::Coord(1, 2, 3), openvdb::Vec3s(1, 2, 2));
+  std::vector<nanovdb::GridHandle<nanovdb::HostBuffer>> handles;
+  handles.push_back(nanovdb::openToNanoVDB<nanovdb::HostBuffer, openvdb::FloatTree, nanovdb::Fp16>(*g));
+  handles.push_back(nanovdb::openToNanoVDB(openvdb::GridBase::Ptr(v)));
+  const std::string path = st_test::temp_dir("nvdb_info_fp16") + "/two.nvdb";
+  nanovdb::io::writeGrids(path, handles);
+  const std::vector<spectrack::GridInfo> info = spectrack::inspect_volume(path);
+  ASSERT_EQ(info.size(), 2u);
+  EXPECT_EQ(info[0].type, "Float16");
+  EXPECT_EQ(info[0].density_use, "yes (16-bit quantized values, read as 32-bit floats)");
+  EXPECT_EQ(info[0].active_voxels, g->activeVoxelCount());
+  EXPECT_TRUE(info[0].has_range);
+  EXPECT_NEAR(info[0].value_max, 2.0, 1e-3);
+  EXPECT_EQ(info[1].name, "vel");
+  EXPECT_TRUE(contains(info[1].density_use, "no: value type Vec3f")) << info[1].density_use;
+  EXPECT_EQ(info[1].active_voxels, 1u);
 }

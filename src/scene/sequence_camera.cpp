@@ -3,12 +3,11 @@
 
 #include <fmt/format.h>
 
-#include <iostream>
-
 #include "scene/media_bounds.h"
 #include "scene/frames.h"
 #include "scene/framing.h"
 #include "util/error.h"
+#include "util/warning.h"
 #include "volume/volume.h"
 
 namespace spectrack {
@@ -37,9 +36,8 @@ SequenceCamera sequence_camera(const SceneDesc& scene, long long first, long lon
     if (has_vdb && !has_content) {
       out.empty_frames.push_back(f);
       if (!quiet)
-        std::cerr << fmt::format("warning: frame {}: every medium's grid is empty ({}); it renders with the "
-                                 "sequence's camera\n",
-                                 f, expand_frame(scene.media[0].file, f));
+        warn(fmt::format("frame {}: every medium's grid is empty ({}); it renders with the sequence's camera", f,
+                         expand_frame(scene.media[0].file, f)));
     }
   }
   if (boxes.empty())

@@ -171,6 +171,18 @@ std::vector<GridInfo> inspect_vdb(const std::string& file, const Fail& fail) {
   return out;
 }
 
+// What `info` says of a NanoVDB density grid of this value type that the loader reads.
+std::string nvdb_density_use(nanovdb::GridType t) {
+  switch (t) {
+    case nanovdb::GridType::Double: return "yes (64-bit values, read as 32-bit floats)";
+    case nanovdb::GridType::Fp4: return "yes (4-bit quantized values, read as 32-bit floats)";
+    case nanovdb::GridType::Fp8: return "yes (8-bit quantized values, read as 32-bit floats)";
+    case nanovdb::GridType::Fp16: return "yes (16-bit quantized values, read as 32-bit floats)";
+    case nanovdb::GridType::FpN: return "yes (quantized values of 1 to 16 bits, read as 32-bit floats)";
+    default: return "yes";
+  }
+}
+
 std::vector<GridInfo> inspect_nvdb(const std::string& file, const Fail& fail) {
   std::vector<GridInfo> out;
   std::vector<Entry> entries;
@@ -187,7 +199,7 @@ std::vector<GridInfo> inspect_nvdb(const std::string& file, const Fail& fail) {
     gi.name = e.name, gi.type = e.type, gi.cls = e.cls;
     nanovdb::GridHandle<nanovdb::HostBuffer> h;
     try {
-      h = nvdb_read(file, e, fail);
+      h = nvdb_read_raw(file, e, fail);  // the metadata of any value type; the density is read below
     } catch (const Error&) {
       throw;
     } catch (const std::exception& ex) {
@@ -214,14 +226,16 @@ std::vector<GridInfo> inspect_nvdb(const std::string& file, const Fail& fail) {
         gi.index_min = d.index_min, gi.index_max = d.index_max;
         gi.has_range = !d.empty;
         gi.value_min = d.value_min, gi.value_max = d.value_max;
-        gi.density_use = "yes";
+        gi.density_use = nvdb_density_use(m->gridType());
+        gi.nanovdb_bytes = int64_t(d.handle.size());  // the float grid the device reads
       } catch (const Error& ex) {
         // a grid render refuses as damaged (checksum, node pointers) fails info too
         if (std::string(ex.what()).find("corrupt NanoVDB grid") != std::string::npos) throw;
         gi.density_use = std::string("no: ") + ex.what();
       }
     } else {
-      gi.density_use = e.level_set ? "no: a level set, not a fog volume" : "no: value type " + e.type + " (only float density grids)";
+      gi.density_use = e.level_set ? "no: a level set, not a fog volume"
+                                   : "no: value type " + e.type + " (only float, double or quantized density grids)";
     }
     if (!gi.empty) {
       const nanovdb::Map& map = m->map();

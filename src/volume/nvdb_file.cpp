@@ -14,6 +14,7 @@
 #include <nanovdb/util/GridValidator.h>
 #include <nanovdb/util/IO.h>
 
+#include "volume/nvdb_decode.h"
 #include "volume/volume_detail.h"
 
 namespace spectrack {
@@ -80,7 +81,7 @@ std::vector<Entry> nvdb_entries(const std::string& file, const Fail& fail) {
       e.name = name.c_str();
       e.type = nano_type_name(uint32_t(m.gridType));
       e.cls = nano_class_name(uint32_t(m.gridClass));
-      e.is_float = m.gridType == nanovdb::GridType::Float;
+      e.is_float = m.gridType == nanovdb::GridType::Float || nvdb_decodable(m.gridType);
       e.level_set = m.gridClass == nanovdb::GridClass::LevelSet;
       e.nv_grid_size = m.gridSize;
       e.nv_file_size = m.fileSize;
@@ -142,7 +143,7 @@ void check_layout(const FloatGrid& g, const Fail& fail) {
   if (!ok) fail("corrupt NanoVDB grid (tree layout outside the grid buffer, or misaligned)");
 }
 
-nanovdb::GridHandle<nanovdb::HostBuffer> nvdb_read(const std::string& file, const Entry& e, const Fail& fail) {
+nanovdb::GridHandle<nanovdb::HostBuffer> nvdb_read_raw(const std::string& file, const Entry& e, const Fail& fail) {
   using nanovdb::io::Codec;
   const uint64_t gsize = e.nv_grid_size, csize = e.nv_file_size;
   if (gsize < sizeof(nanovdb::GridData) + sizeof(nanovdb::NanoTree<float>) || gsize % NANOVDB_DATA_ALIGNMENT) {
@@ -198,7 +199,12 @@ nanovdb::GridHandle<nanovdb::HostBuffer> nvdb_read(const std::string& file, cons
   if (gd->mMagic != NANOVDB_MAGIC_NUMBER || gd->mGridSize != gsize || gd->mGridIndex != 0 || gd->mGridCount < 1) {
     fail("corrupt NanoVDB grid (bad grid header)");
   }
-  nanovdb::GridHandle<nanovdb::HostBuffer> handle(std::move(buf));
+  return nanovdb::GridHandle<nanovdb::HostBuffer>(std::move(buf));
+}
+
+nanovdb::GridHandle<nanovdb::HostBuffer> nvdb_read(const std::string& file, const Entry& e, const Fail& fail) {
+  nanovdb::GridHandle<nanovdb::HostBuffer> handle = nvdb_read_raw(file, e, fail);
+  if (nvdb_decodable(handle.gridMetaData()->gridType())) return nvdb_decode(handle, e, fail);
   const FloatGrid* g = handle.grid<float>();
   if (!g) fail("grid " + in_quotes(e.name) + " is not a float grid");
   check_layout(*g, fail);

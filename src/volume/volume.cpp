@@ -171,8 +171,7 @@ void check_entry(const Entry& e, const Fail& fail) {
   if (!e.is_float) {
     const bool nvdb = lower_extension(fail.file) == ".nvdb";
     fail("grid " + in_quotes(e.name) + " has value type " + e.type + " (class " + e.cls + "); only scalar " +
-         (nvdb ? "float density grids are supported in NanoVDB files (a quantized or double grid: convert the .vdb "
-                 "without quantization, as nanovdb_convert does by default, or give the .vdb itself)"
+         (nvdb ? "float, double or quantized (Fp4, Fp8, Fp16, FpN) density grids are supported in NanoVDB files"
                : "float or double density grids are supported"));
   }
   if (e.level_set) {

@@ -99,9 +99,13 @@ inline std::string describe(const Entry& e) {
 }
 
 // .nvdb files (nvdb_file.cpp): the grids of a file, every size checked against the file length;
-// and one grid read (decompressed, validated) into a handle.
+// and one grid read (decompressed, validated; double and quantized grids decoded into float ones,
+// nvdb_decode.h) into a handle.
 std::vector<Entry> nvdb_entries(const std::string& file, const Fail& fail);
 nanovdb::GridHandle<nanovdb::HostBuffer> nvdb_read(const std::string& file, const Entry& e, const Fail& fail);
+// The grid's bytes with only its header checked (magic, size, index): enough for its metadata
+// (GridHandle::gridMetaData) whatever its value type, nothing that follows an offset.
+nanovdb::GridHandle<nanovdb::HostBuffer> nvdb_read_raw(const std::string& file, const Entry& e, const Fail& fail);
 
 // A float as the messages print it (9 significant digits: reads back as the same float).
 std::string value_str(float v);

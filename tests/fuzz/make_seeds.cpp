@@ -113,6 +113,24 @@ int main(int argc, char** argv) {
     write_nvdb(out / "nvdb" / "fog_zip.nvdb", h, nanovdb::io::Codec::ZIP);
     write_nvdb(out / "nvdb" / "fog_blosc.nvdb", h, nanovdb::io::Codec::BLOSC);
     write_nvdb(out / "nvdb" / "empty.nvdb", nanovdb::openToNanoVDB(*openvdb::FloatGrid::create(0.0f)), nanovdb::io::Codec::NONE);
+    {  // double and quantized grids, decoded into float ones (src/volume/nvdb_decode.cpp); an active tile
+      auto g = fog("density", 9, 0.1f, 0.1);
+      g->tree().addTile(1, openvdb::Coord(64, 0, 0), 0.75f, true);
+      using nanovdb::ChecksumMode, nanovdb::StatsMode, nanovdb::HostBuffer;
+      write_nvdb(out / "nvdb" / "fp4.nvdb", nanovdb::openToNanoVDB<HostBuffer, openvdb::FloatTree, nanovdb::Fp4>(*g), nanovdb::io::Codec::NONE);
+      write_nvdb(out / "nvdb" / "fp8.nvdb", nanovdb::openToNanoVDB<HostBuffer, openvdb::FloatTree, nanovdb::Fp8>(*g), nanovdb::io::Codec::NONE);
+      write_nvdb(out / "nvdb" / "fp16_full.nvdb",
+                 nanovdb::openToNanoVDB<HostBuffer, openvdb::FloatTree, nanovdb::Fp16>(*g, StatsMode::Default, ChecksumMode::Full),
+                 nanovdb::io::Codec::NONE);
+      write_nvdb(out / "nvdb" / "fpn.nvdb", nanovdb::openToNanoVDB<HostBuffer, openvdb::FloatTree, nanovdb::FpN>(*g), nanovdb::io::Codec::NONE);
+      write_nvdb(out / "nvdb" / "fpn_unchecked.nvdb",
+                 nanovdb::openToNanoVDB<HostBuffer, openvdb::FloatTree, nanovdb::FpN>(*g, StatsMode::Default, ChecksumMode::Disable),
+                 nanovdb::io::Codec::NONE);
+      openvdb::DoubleGrid d(std::make_shared<openvdb::DoubleTree>(g->tree()));
+      d.setName("density");
+      d.setGridClass(openvdb::GRID_FOG_VOLUME);
+      write_nvdb(out / "nvdb" / "double.nvdb", nanovdb::openToNanoVDB<HostBuffer, openvdb::DoubleTree, double>(d), nanovdb::io::Codec::NONE);
+    }
     write_img(out / "image" / "rgb.exr", 4, 2, 3, OIIO::TypeDesc::FLOAT);
     write_img(out / "image" / "rgba_half.exr", 4, 2, 4, OIIO::TypeDesc::HALF);
     write_img(out / "image" / "gray.exr", 4, 2, 1, OIIO::TypeDesc::FLOAT);

@@ -1,0 +1,258 @@
+// nvdb_decode.cpp: NanoVDB density grids of other value types than float, read as the float grid
+// the device reads. NanoVDB writes double grids and four quantized kinds (Fp4, Fp8 and Fp16: every
+// leaf's values as 4-, 8- or 16-bit codes between the leaf's minimum and maximum; FpN: a bit width
+// of 1 to 16 chosen per leaf, `nanovdb_convert --fpN`, as Blender and VisRTX store grids to save
+// GPU memory). Such a grid's bytes come from a file and are untrusted, as a float grid's are
+// (nvdb_file.cpp): one walk from the root checks every child offset (as an integer, before a
+// pointer is formed), each FpN leaf's bit width and extent, and that each level holds exactly the
+// node count the tree stores (NanoVDB's checksum and validator size their node tables by those
+// counts and would write past them otherwise; the counts also bound the walk where slots share a
+// child). Only then does NanoVDB's validator run (its checksum, full where the writer stored one),
+// and the walk's active voxels must match the count the grid stores. The same walk decodes every
+// active voxel and tile at its place in the tree (the slots, never a stored origin) into an
+// OpenVDB float tree, which becomes the NanoVDB float grid every other grid is (so the checks of
+// grid_checks.cpp, the majorant grids and the kernels see one type). A double value beyond a
+// float's range is refused naming it, as for OpenVDB double grids (volume.cpp to_float_grid).
+#include "volume/nvdb_decode.h"
+
+#include <openvdb/openvdb.h>
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <optional>
+#include <type_traits>
+
+#include <nanovdb/util/GridValidator.h>
+#include <nanovdb/util/OpenToNanoVDB.h>
+
+namespace spectrack {
+namespace volume_detail {
+namespace {
+
+template <typename BuildT>
+class Decoder {
+  using GridT = nanovdb::NanoGrid<BuildT>;
+  using RootT = nanovdb::NanoRoot<BuildT>;
+  using UpperT = nanovdb::NanoUpper<BuildT>;
+  using LowerT = nanovdb::NanoLower<BuildT>;
+  using LeafT = nanovdb::NanoLeaf<BuildT>;
+
+ public:
+  Decoder(const GridT& g, const std::string& name, const Fail& fail)
+      : g_(g), name_(name), fail_(fail), begin_(reinterpret_cast<const char*>(&g)), size_(int64_t(g.gridSize())) {}
+
+  openvdb::FloatGrid::Ptr run() {
+    const RootT& root = checked_root();
+    out_ = openvdb::FloatGrid::create(0.0f);
+    acc_.emplace(out_->tree());
+    for (uint32_t i = 0; i < root.data()->mTableSize; ++i) {
+      const auto* t = root.data()->tile(i);
+      if (!t->isChild()) {
+        if (t->isActive()) tile(3, t->origin(), t->value, UpperT::DIM);
+        continue;
+      }
+      upper(*reinterpret_cast<const UpperT*>(child_at(root.data(), t->child, sizeof(UpperT), 2)), t->origin());
+    }
+    const auto* td = reinterpret_cast<const nanovdb::TreeData<3>*>(&g_.tree());
+    for (int level = 0; level < 3; ++level)
+      if (nodes_[level] != td->mNodeCount[level]) corrupt("node count");
+    acc_.reset();
+    const std::string why = nanovdb::GridValidator<BuildT>::check(g_, /*detailed=*/true);
+    if (!why.empty()) fail_("corrupt NanoVDB grid " + in_quotes(name_) + ": " + why);
+    if (voxels_ != g_.activeVoxelCount()) {
+      fail_("corrupt NanoVDB grid " + in_quotes(name_) + ": its active voxels (" + std::to_string(voxels_) +
+            ") disagree with the count stored in the grid (" + std::to_string(g_.activeVoxelCount()) + ")");
+    }
+    return out_;
+  }
+
+ private:
+  [[noreturn]] void corrupt(const char* what) const {
+    fail_(std::string("corrupt NanoVDB grid (") + what + " outside the grid, misaligned or inconsistent)");
+  }
+
+  // The root, after its offset and its tile table are checked as integers.
+  const RootT& checked_root() const {
+    const int64_t tree_at = sizeof(nanovdb::GridData);
+    const auto* td = reinterpret_cast<const nanovdb::TreeData<3>*>(begin_ + tree_at);
+    if (size_ < tree_at + int64_t(sizeof(*td))) corrupt("tree");
+    const uint64_t off = td->mNodeOffset[3];
+    const int64_t root_at = tree_at + int64_t(std::min<uint64_t>(off, uint64_t(size_)));
+    if (off >= uint64_t(size_) || root_at % NANOVDB_DATA_ALIGNMENT || root_at > size_ - int64_t(sizeof(typename RootT::DataType)))
+      corrupt("root");
+    const auto* rd = reinterpret_cast<const typename RootT::DataType*>(begin_ + root_at);
+    const uint64_t tiles = rd->mTableSize, tile_size = sizeof(typename RootT::DataType::Tile);
+    if (tiles > uint64_t(size_ - root_at) / tile_size ||
+        int64_t(sizeof(*rd) + tiles * tile_size) > size_ - root_at)
+      corrupt("root tile table");
+    // NanoVDB's partial checksum reads the grid, tree and root as if they were contiguous
+    if (tree_at + int64_t(sizeof(*td) + sizeof(*rd) + tiles * tile_size) > size_) corrupt("root tile table");
+    // A level holds no more nodes than its stored count (the walk's budget), and where nodes have
+    // one size NanoVDB's checksum reads them as an array from the level's offset: it must fit.
+    const int64_t node_size[3] = {std::is_same_v<BuildT, nanovdb::FpN> ? 0 : int64_t(sizeof(LeafT)),
+                                  int64_t(sizeof(LowerT)), int64_t(sizeof(UpperT))};
+    for (int level = 0; level < 3; ++level) {
+      const uint64_t n = td->mNodeCount[level], at = td->mNodeOffset[level];
+      if (n > uint64_t(size_) / 32) corrupt("node count");
+      if (n == 0 || node_size[level] == 0) continue;
+      if (at > uint64_t(size_ - tree_at) || (tree_at + int64_t(at)) % NANOVDB_DATA_ALIGNMENT ||
+          n > uint64_t(size_ - tree_at - int64_t(at)) / uint64_t(node_size[level]))
+        corrupt("node array");
+    }
+    return *reinterpret_cast<const RootT*>(rd);
+  }
+
+  // A child `off` bytes from its parent's data, of at least n bytes, counted at `level`.
+  const char* child_at(const void* base, int64_t off, int64_t n, int level) {
+    const int64_t at = int64_t(reinterpret_cast<const char*>(base) - begin_);
+    if (off < -at || off > size_ - at - n || (at + off) % NANOVDB_DATA_ALIGNMENT != 0) corrupt("node pointer");
+    const auto* td = reinterpret_cast<const nanovdb::TreeData<3>*>(&g_.tree());
+    if (++nodes_[level] > td->mNodeCount[level]) corrupt("node count");
+    return begin_ + (at + off);
+  }
+
+  void upper(const UpperT& u, const nanovdb::Coord& place) {
+    for (uint32_t n = 0; n < UpperT::SIZE; ++n) {
+      const nanovdb::Coord p = child_origin<UpperT>(place, n);
+      if (!u.data()->isChild(n)) {
+        if (u.data()->isActive(n)) tile(2, p, u.data()->mTable[n].value, LowerT::DIM);
+        continue;
+      }
+      lower(*reinterpret_cast<const LowerT*>(child_at(u.data(), u.data()->mTable[n].child, sizeof(LowerT), 1)), p);
+    }
+  }
+
+  void lower(const LowerT& l, const nanovdb::Coord& place) {
+    for (uint32_t m = 0; m < LowerT::SIZE; ++m) {
+      const nanovdb::Coord p = child_origin<LowerT>(place, m);
+      if (!l.data()->isChild(m)) {
+        if (l.data()->isActive(m)) tile(1, p, l.data()->mTable[m].value, LeafT::DIM);
+        continue;
+      }
+      leaf(*reinterpret_cast<const LeafT*>(child_at(l.data(), l.data()->mTable[m].child, leaf_header(), 0)), p);
+    }
+  }
+
+  static constexpr int64_t leaf_header() {
+    if constexpr (std::is_same_v<BuildT, nanovdb::FpN>) return sizeof(typename LeafT::DataType);
+    return sizeof(LeafT);
+  }
+
+  void leaf(const LeafT& leaf, const nanovdb::Coord& place) {
+    if constexpr (std::is_same_v<BuildT, nanovdb::FpN>) {
+      // 1, 2, 4, 8 or 16 bits per value follow the header (NanoVDB's bitWidth reads flags >> 5)
+      const int64_t at = int64_t(reinterpret_cast<const char*>(&leaf) - begin_);
+      if ((leaf.data()->mFlags >> 5) > 4 || int64_t(leaf.data()->memUsage()) > size_ - at) corrupt("FpN leaf");
+    }
+    if (leaf.valueMask().isOff()) return;
+    openvdb::tree::LeafNode<float, 3>* out = acc_->touchLeaf(openvdb::Coord(place[0], place[1], place[2]));
+    for (auto it = leaf.valueMask().beginOn(); it; ++it) {
+      const uint32_t i = *it;
+      const nanovdb::Coord c = place + LeafT::OffsetToLocalCoord(i);
+      out->setValueOn(i, value(leaf.getValue(i), c, 1));
+      ++voxels_;
+    }
+  }
+
+  template <typename V>
+  void tile(int level, const nanovdb::Coord& p, const V& v, int width) {
+    acc_->addTile(level, openvdb::Coord(p[0], p[1], p[2]), value(v, p, width), true);
+    voxels_ += uint64_t(width) * uint64_t(width) * uint64_t(width);
+  }
+
+  // A value as a float; a double beyond a float's range is refused naming it.
+  template <typename V>
+  float value(const V& v, const nanovdb::Coord& p, int width) const {
+    if constexpr (std::is_same_v<V, double>) {
+      if (std::abs(v) > double(std::numeric_limits<float>::max())) {
+        char s[32];
+        std::snprintf(s, sizeof s, "%.9g", v);
+        fail_("grid " + in_quotes(name_) + ": value " + s + " at " + (width == 1 ? "active voxel " : "active tile at ") +
+              coord_str(p[0], p[1], p[2]) + " is beyond a 32-bit float's range (double grids are read as float)");
+      }
+    }
+    return float(v);
+  }
+
+  template <typename Node>
+  static nanovdb::Coord child_origin(const nanovdb::Coord& origin, uint32_t n) {
+    nanovdb::Coord ijk = Node::OffsetToLocalCoord(n);
+    ijk <<= Node::ChildNodeType::TOTAL;
+    return ijk + origin;
+  }
+
+  const GridT& g_;
+  const std::string& name_;
+  const Fail& fail_;
+  const char* begin_;
+  int64_t size_;
+  uint64_t nodes_[3] = {0, 0, 0};
+  uint64_t voxels_ = 0;
+  openvdb::FloatGrid::Ptr out_;
+  std::optional<openvdb::FloatGrid::Accessor> acc_;
+};
+
+// The grid's index-to-world map as OpenVDB's transform, refused where it is singular or not finite.
+openvdb::math::Transform::Ptr transform_of(const nanovdb::Map& map, const std::string& name, const Fail& fail) {
+  openvdb::math::Mat4d mat = openvdb::math::Mat4d::identity();
+  // NanoVDB stores OpenVDB's 3x3 transposed (OpenToNanoVDB); transpose() returns the transpose
+  // (NanoToOpenVDB's `mat.transpose();` discards it, so it maps rotated grids wrongly)
+  mat.setMat3(openvdb::math::Mat3d(map.mMatD).transpose());
+  mat.setTranslation(openvdb::math::Vec3d(map.mVecD));
+  bool finite = true;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) finite = finite && std::isfinite(mat(r, c));
+  const double det = mat.getMat3().det();
+  if (!finite || !std::isfinite(det) || std::abs(det) < 1e-300)
+    fail("grid " + in_quotes(name) + " has a singular or non-finite index-to-world transform");
+  try {
+    return openvdb::math::Transform::createLinearTransform(mat);
+  } catch (const std::exception& ex) {
+    fail("grid " + in_quotes(name) + " has an index-to-world transform OpenVDB refuses: " + ex.what());
+  }
+}
+
+template <typename BuildT>
+nanovdb::GridHandle<nanovdb::HostBuffer> decode(const nanovdb::GridHandle<nanovdb::HostBuffer>& src, const Entry& e,
+                                                const Fail& fail) {
+  const nanovdb::NanoGrid<BuildT>* g = src.grid<BuildT>();
+  if (!g) fail("grid " + in_quotes(e.name) + " is not a " + e.type + " grid");
+  if (g->tree().background() != 0) {
+    fail("grid " + in_quotes(e.name) + " has background value " + value_str(float(g->tree().background())) +
+         "; inactive voxels must read 0 density (background must be 0)");
+  }
+  openvdb::FloatGrid::Ptr grid = Decoder<BuildT>(*g, e.name, fail).run();
+  grid->setName(e.name);
+  grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+  grid->setTransform(transform_of(g->map(), e.name, fail));
+  try {
+    return nanovdb::openToNanoVDB(*grid);
+  } catch (const std::exception& ex) {
+    fail("cannot convert grid " + in_quotes(e.name) + " to a float NanoVDB grid: " + ex.what());
+  }
+}
+
+}  // namespace
+
+bool nvdb_decodable(nanovdb::GridType t) {
+  using nanovdb::GridType;
+  return t == GridType::Double || t == GridType::Fp4 || t == GridType::Fp8 || t == GridType::Fp16 ||
+         t == GridType::FpN;
+}
+
+nanovdb::GridHandle<nanovdb::HostBuffer> nvdb_decode(const nanovdb::GridHandle<nanovdb::HostBuffer>& src, const Entry& e,
+                                                     const Fail& fail) {
+  const nanovdb::GridMetaData* m = src.gridMetaData();
+  switch (m ? m->gridType() : nanovdb::GridType::Unknown) {
+    case nanovdb::GridType::Double: return decode<double>(src, e, fail);
+    case nanovdb::GridType::Fp4: return decode<nanovdb::Fp4>(src, e, fail);
+    case nanovdb::GridType::Fp8: return decode<nanovdb::Fp8>(src, e, fail);
+    case nanovdb::GridType::Fp16: return decode<nanovdb::Fp16>(src, e, fail);
+    case nanovdb::GridType::FpN: return decode<nanovdb::FpN>(src, e, fail);
+    default: fail("grid " + in_quotes(e.name) + " has value type " + e.type + ", which is not a density spectrack reads");
+  }
+}
+
+}  // namespace volume_detail
+}  // namespace spectrack
