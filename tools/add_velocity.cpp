@@ -62,6 +62,9 @@ int main(int argc, char** argv) {
     openvdb::BoolGrid::Ptr mask = openvdb::BoolGrid::create(false);
     mask->tree().topologyUnion(d->tree());
     openvdb::tools::dilateActiveValues(mask->tree(), 2, openvdb::tools::NN_FACE_EDGE_VERTEX);
+    // every voxel of the mask gets its velocity: an active tile (a whole 8^3 block, as dilation
+    // leaves dense interiors) would give one voxel at its origin and leave the rest at 0
+    mask->tree().voxelizeActiveTiles();
     auto vel = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f));
     vel->setName(name);
     vel->setTransform(d->transform().copy());
