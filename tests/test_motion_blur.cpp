@@ -384,6 +384,52 @@ TEST(MotionBlur, PerCellReachBoundsTheTrilinearDensityExactly) {
   EXPECT_GT(outside_short, 10) << "cells of a shorter reach must miss the density at the full reach";
 }
 
+// A far reach (build_majorant_grid's exact_read_limit passed) bounds each cell by the 8^3 leaves
+// its grown extent meets: on Blender's smoke frame with a reach of up to 6 voxels varying by cell,
+// every leaf-bounded cell holds its exact bounds (which the test above checks against the density:
+// a leaf bound missing a block or rounding the extent inwards would fall inside them), the
+// density at random points of its reach box, and is tighter than the global margin's somewhere.
+TEST(MotionBlur, FarReachBoundsByLeafHoldTheExactBounds) {
+  const GridData g = load_float_grid(kShared + "/usd/smoke_000002.vdb", "density", -1, "smoke");
+  const int cell = 4;
+  const std::array<int, 3> margin{6, 6, 6};
+  auto reach = [](const std::array<int, 3>& lo, const std::array<int, 3>&) {
+    std::array<double, 3> r{};
+    for (size_t a = 0; a < 3; ++a) r[a] = double((lo[a] * 5 + int(a)) & 15) / 15.0 * 6.0;
+    return r;
+  };
+  const MajorantGrid exact = build_majorant_grid(g, cell, margin, reach, std::numeric_limits<double>::infinity());
+  const MajorantGrid leaf = build_majorant_grid(g, cell, margin, reach, 0.0);
+  const MajorantGrid global = build_majorant_grid(g, cell, margin, {}, std::numeric_limits<double>::infinity());
+  ASSERT_EQ(leaf.dims, exact.dims);
+  int looser = 0, tighter = 0, outside = 0, checked = 0;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  for (size_t idx = 0; idx < leaf.dmax.size(); ++idx) {
+    EXPECT_GE(leaf.dmax[idx], exact.dmax[idx]) << idx;
+    EXPECT_LE(leaf.dmin[idx], exact.dmin[idx]) << idx;
+    looser += leaf.dmax[idx] > exact.dmax[idx];
+    tighter += leaf.dmax[idx] < global.dmax[idx];
+    if (global.dmax[idx] <= 0 || idx % 7) continue;
+    const std::array<int, 3> c{int(idx % size_t(leaf.dims[0])), int((idx / size_t(leaf.dims[0])) % size_t(leaf.dims[1])),
+                               int(idx / (size_t(leaf.dims[0]) * size_t(leaf.dims[1])))};
+    std::array<int, 3> lo{}, hi{};
+    for (size_t a = 0; a < 3; ++a) lo[a] = leaf.origin[a] + c[a] * cell, hi[a] = lo[a] + cell;
+    const std::array<double, 3> r = reach(lo, hi);
+    for (int n = 0; n < 8; ++n) {
+      std::array<double, 3> p{};
+      for (size_t a = 0; a < 3; ++a) p[a] = lo[a] - r[a] + U(rng) * (hi[a] - lo[a] + 2 * r[a]);
+      const float d = sample_index_trilinear(g, p[0], p[1], p[2]);
+      ++checked;
+      outside += d > leaf.dmax[idx] || d < leaf.dmin[idx];
+    }
+  }
+  EXPECT_GT(checked, 1000);
+  EXPECT_EQ(outside, 0);
+  EXPECT_GT(looser, 0) << "leaf bounds round the extent out: some must be wider than the exact ones";
+  EXPECT_GT(tighter, int(leaf.dmax.size() / 50)) << "the per-cell reach must still tighten cells";
+}
+
 // Blender's own velocity grid (smoke frame 1: staggered, no active values) loads as staggered
 // with speed 0: the medium cannot move, so the kernels and the image are a still medium's. No
 // shutter: the same. Outliers above the threshold read as 0.

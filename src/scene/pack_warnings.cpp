@@ -13,21 +13,26 @@
 namespace spectrack {
 namespace packing {
 
-// A moving medium's majorant bounds read each cell's voxels widened by the reach on each side
-// (volume.h build_majorant_grid): warned of where that is minutes of reads.
+// A moving medium's majorant bounds read each cell's voxels widened by the reach on each side, or
+// past volume.h's kExactMotionBoundReads the 8^3 leaves that extent meets (build_majorant_grid):
+// warned of where that is still minutes of reads.
 void warn_slow_motion_bounds(const GridData& g, int cell, const std::array<int, 3>& margin,
                              const std::array<double, 3>& reach, const std::string& ctx_name) {
   if (margin[0] <= 0 && margin[1] <= 0 && margin[2] <= 0) return;
-  double visits = 1;
+  double voxels = 1, leaves = 1;
   for (size_t a = 0; a < 3; ++a) {
-    const double span = double(g.index_max[a]) - g.index_min[a] + 2 + 2.0 * margin[a];
-    visits *= std::ceil(span / cell) * (cell + 2.0 * reach[a] + 1);
+    const double cells = std::ceil((double(g.index_max[a]) - g.index_min[a] + 2 + 2.0 * margin[a]) / cell);
+    voxels *= cells * (cell + 2.0 * reach[a] + 1);
+    leaves *= cells * (std::ceil((cell + 2.0 * reach[a]) / 8) + 1);
   }
-  if (visits > kSlowMotionBoundVisits)
+  const bool by_leaf = voxels > kExactMotionBoundReads;
+  const double reads = by_leaf ? leaves : voxels;
+  if (reads > (by_leaf ? kSlowMotionLeafReads : kSlowMotionBoundVisits))
     warn(fmt::format("{}/velocity: the medium moves up to ({:.3g}, {:.3g}, {:.3g}) voxels over the shutter, and the "
-                     "majorant's bounds read every voxel within that reach of each cell: about {:.2g} voxel reads, "
-                     "which may take minutes (lower the velocity's scale or shorten the shutter for a faster load)",
-                     ctx_name, reach[0], reach[1], reach[2], visits));
+                     "majorant's bounds read every {} within that reach of each cell: about {:.2g} reads, which may "
+                     "take minutes (lower the velocity's scale or shorten the shutter for a faster load)",
+                     ctx_name, reach[0], reach[1], reach[2], by_leaf ? "8^3 leaf" : "voxel",
+                     reads));
 }
 
 // A random walk at albedo a in a medium tau mean free paths across scatters about

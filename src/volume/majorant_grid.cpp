@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <unordered_map>
 
 #include <nanovdb/NanoVDB.h>
 
@@ -131,7 +132,94 @@ std::array<float, 2> reach_bounds(Accessor& acc, const std::array<int, 3>& lo, c
   return {float(*top), float(*bottom)};
 }
 
+// The largest and smallest value of every leaf (its 512 voxels; inactive ones read 0), by its
+// place in the tree: the bounds of a motion blur's far reach (leaf_reach_bounds).
+struct CoordHash {
+  size_t operator()(const nanovdb::Coord& c) const {
+    return std::hash<uint64_t>()((uint64_t(uint32_t(c[0])) * 0x9E3779B97F4A7C15ull) ^
+                                 (uint64_t(uint32_t(c[1])) * 0xC2B2AE3D27D4EB4Full) ^ uint64_t(uint32_t(c[2])));
+  }
+};
+using LeafBounds = std::unordered_map<nanovdb::Coord, std::array<float, 2>, CoordHash>;
+
+LeafBounds leaf_bounds(const FloatGrid& g) {
+  LeafBounds out;
+  const auto& root = g.tree().root();
+  for (uint32_t i = 0; i < root.tileCount(); ++i) {
+    const auto* t = root.data()->tile(i);
+    if (!t->isChild()) continue;
+    const auto* u = root.data()->getChild(t);
+    for (uint32_t n = 0; n < nanovdb::NanoUpper<float>::SIZE; ++n) {
+      if (!u->data()->isChild(n)) continue;
+      const auto* l = u->data()->getChild(n);
+      for (uint32_t m = 0; m < nanovdb::NanoLower<float>::SIZE; ++m) {
+        if (!l->data()->isChild(m)) continue;
+        const Leaf* leaf = l->data()->getChild(m);
+        std::array<float, 2> b{-std::numeric_limits<float>::infinity(), std::numeric_limits<float>::infinity()};
+        for (uint32_t v = 0; v < Leaf::SIZE; ++v) b = {std::max(b[0], leaf->getValue(v)), std::min(b[1], leaf->getValue(v))};
+        out[l->offsetToGlobalCoord(m)] = b;
+      }
+    }
+  }
+  return out;
+}
+
+// A bound of reach_bounds' box at the leaves' resolution: the largest and smallest value of every
+// 8^3 leaf-aligned block that meets the voxels lo - k .. hi + k (k = ceil r), a leaf's from
+// leaf_bounds, a tile's or the background's read once. It holds every value reach_bounds reads
+// (those voxels, and blends of neighbours among them), so it bounds the trilinear density at least
+// as widely, at a read per block instead of per voxel: for a reach of many voxels the exact bounds
+// would read about (cell + 2 r)^3 voxels per cell.
+template <typename Accessor>
+std::array<float, 2> leaf_reach_bounds(Accessor& acc, const LeafBounds& leaves, const std::array<int, 3>& lo,
+                                       const std::array<int, 3>& hi, const std::array<double, 3>& r) {
+  std::array<int, 3> a{}, b{};
+  for (size_t i = 0; i < 3; ++i) {
+    const int k = int(std::ceil(r[i]));
+    a[i] = (lo[i] - k) & ~7, b[i] = hi[i] + k;
+  }
+  float top = -std::numeric_limits<float>::infinity(), bottom = std::numeric_limits<float>::infinity();
+  for (int z = a[2]; z <= b[2]; z += 8)
+    for (int y = a[1]; y <= b[1]; y += 8)
+      for (int x = a[0]; x <= b[0]; x += 8) {
+        const nanovdb::Coord block(x, y, z);
+        const auto it = leaves.find(block);
+        const std::array<float, 2> v = it != leaves.end() ? it->second : std::array<float, 2>{acc.getValue(block), acc.getValue(block)};
+        top = std::max(top, v[0]);
+        bottom = std::min(bottom, v[1]);
+      }
+  return {top, bottom};
+}
+
 }  // namespace
+
+// Refuses a grid whose box (widened by margin) needs more than 2^27 cells of `cell` voxels,
+// naming the smallest cell edge that fits, or why none does.
+static void check_cell_count(const GridData& grid, int cell, const std::array<int, 3>& margin) {
+  const double cells = majorant_cells(grid, cell, margin);
+  if (cells <= double(1 << 27)) return;
+  // the smallest cell edge, doubling up to the largest, whose grid fits
+  int fits = cell;
+  while (fits < kMaxMajorantCellEdge && majorant_cells(grid, fits, margin) > double(1 << 27))
+    fits = std::min(2 * fits, kMaxMajorantCellEdge);
+  const bool moving = margin[0] > 0 || margin[1] > 0 || margin[2] > 0;
+  const std::string what = fmt::format(
+      "{}: grid \"{}\": its active bounding box ({}, {}, {}) .. ({}, {}, {}){} needs {:.4g} majorant cells of {} "
+      "voxels, more than 2^27",
+      grid.file, grid.name, grid.index_min[0], grid.index_min[1], grid.index_min[2], grid.index_max[0],
+      grid.index_max[1], grid.index_max[2],
+      moving ? fmt::format(", widened by the motion blur's reach of ({}, {}, {}) voxels,", margin[0], margin[1], margin[2])
+             : std::string(),
+      cells, cell);
+  if (majorant_cells(grid, fits, margin) <= double(1 << 27))
+    throw Error(fmt::format("{}; use --majorant-cell {} or larger", what, fits));
+  throw Error(fmt::format("{}, and even the largest cell edge, {} voxels, needs {:.4g}; {}", what, kMaxMajorantCellEdge,
+                          majorant_cells(grid, kMaxMajorantCellEdge, margin),
+                          moving ? "the velocity moves the medium too far over the shutter (lower the velocity's "
+                                   "scale or shorten the shutter)"
+                                 : "the active voxels span too wide a box (a stray voxel far from the rest?): prune "
+                                   "or crop the grid"));
+}
 
 // Each occupied cell (occupied_cells) walks the 8^3 leaf-aligned blocks that meet its support: a
 // leaf contributes the voxels inside the support, a block without a leaf (a tile or background)
@@ -139,7 +227,7 @@ std::array<float, 2> reach_bounds(Accessor& acc, const std::array<int, 3>& lo, c
 // leaves plus a probe per 8^3 block of active tiles and one byte per cell of the box; the Disney
 // cloud (16x11x20 cells) takes a few ms, and a few stray voxels far apart cost a few cells each.
 MajorantGrid build_majorant_grid(const GridData& grid, int cell, const std::array<int, 3>& margin,
-                                 const CellReach& cell_reach) {
+                                 const CellReach& cell_reach, double exact_read_limit) {
   if (cell < 1) throw Error("build_majorant_grid: cell size must be >= 1, got " + std::to_string(cell));
   for (int m : margin)
     if (m < 0 || m > (1 << 24)) throw Error("build_majorant_grid: margin out of range: " + std::to_string(m));
@@ -153,30 +241,8 @@ MajorantGrid build_majorant_grid(const GridData& grid, int cell, const std::arra
     mg.dmin.assign(1, 0.0f);
     return mg;
   }
+  check_cell_count(grid, cell, margin);
   const double cells = majorant_cells(grid, cell, margin);
-  if (cells > double(1 << 27)) {
-    // the smallest cell edge, doubling up to the largest, whose grid fits
-    int fits = cell;
-    while (fits < kMaxMajorantCellEdge && majorant_cells(grid, fits, margin) > double(1 << 27))
-      fits = std::min(2 * fits, kMaxMajorantCellEdge);
-    const bool moving = margin[0] > 0 || margin[1] > 0 || margin[2] > 0;
-    const std::string what = fmt::format(
-        "{}: grid \"{}\": its active bounding box ({}, {}, {}) .. ({}, {}, {}){} needs {:.4g} majorant cells of {} "
-        "voxels, more than 2^27",
-        grid.file, grid.name, grid.index_min[0], grid.index_min[1], grid.index_min[2], grid.index_max[0],
-        grid.index_max[1], grid.index_max[2],
-        moving ? fmt::format(", widened by the motion blur's reach of ({}, {}, {}) voxels,", margin[0], margin[1], margin[2])
-               : std::string(),
-        cells, cell);
-    if (majorant_cells(grid, fits, margin) <= double(1 << 27))
-      throw Error(fmt::format("{}; use --majorant-cell {} or larger", what, fits));
-    throw Error(fmt::format("{}, and even the largest cell edge, {} voxels, needs {:.4g}; {}", what, kMaxMajorantCellEdge,
-                            majorant_cells(grid, kMaxMajorantCellEdge, margin),
-                            moving ? "the velocity moves the medium too far over the shutter (lower the velocity's "
-                                     "scale or shorten the shutter)"
-                                   : "the active voxels span too wide a box (a stray voxel far from the rest?): prune "
-                                     "or crop the grid"));
-  }
   for (int a = 0; a < 3; ++a) {
     mg.origin[a] = grid.index_min[a] - 1 - margin[size_t(a)];
     const int64_t span = int64_t(grid.index_max[a]) - grid.index_min[a] + 2 + 2 * int64_t(margin[size_t(a)]);
@@ -186,6 +252,12 @@ MajorantGrid build_majorant_grid(const GridData& grid, int cell, const std::arra
   mg.dmax.assign(n, 0.0f);
   mg.dmin.assign(n, 0.0f);
   const std::vector<uint8_t> occupied = occupied_cells(*g, mg, margin);
+  // A far reach (motion blur) bounds each cell by the leaves it meets (leaf_reach_bounds) where
+  // its voxels would be more than exact_read_limit reads; a still medium reads its voxels
+  double exact_reads = double(std::count(occupied.begin(), occupied.end(), uint8_t(1)));
+  for (size_t a = 0; a < 3; ++a) exact_reads *= cell + 2.0 * margin[a] + 1;
+  const bool by_leaf = (margin[0] > 0 || margin[1] > 0 || margin[2] > 0) && exact_reads > exact_read_limit;
+  const LeafBounds leaves = by_leaf ? leaf_bounds(*g) : LeafBounds();
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const tbb::blocked_range<size_t>& r) {
     auto acc = g->getAccessor();
     for (size_t idx = r.begin(); idx != r.end(); ++idx) {
@@ -195,10 +267,11 @@ MajorantGrid build_majorant_grid(const GridData& grid, int cell, const std::arra
       std::array<int, 3> lo{}, hi{};
       for (size_t a = 0; a < 3; ++a) lo[a] = mg.origin[a] + c[a] * cell, hi[a] = lo[a] + cell;
       std::array<float, 2> b;
-      if (cell_reach) {
-        std::array<double, 3> r = cell_reach(lo, hi);
+      if (cell_reach || by_leaf) {
+        std::array<double, 3> r{double(margin[0]), double(margin[1]), double(margin[2])};
+        if (cell_reach) r = cell_reach(lo, hi);
         for (size_t a = 0; a < 3; ++a) r[a] = std::clamp(r[a], 0.0, double(margin[a]));
-        b = reach_bounds(acc, lo, hi, r);
+        b = by_leaf ? leaf_reach_bounds(acc, leaves, lo, hi, r) : reach_bounds(acc, lo, hi, r);
       } else {
         for (size_t a = 0; a < 3; ++a) lo[a] -= margin[a], hi[a] += margin[a];
         b = voxel_bounds(acc, lo, hi);

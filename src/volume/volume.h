@@ -98,10 +98,14 @@ struct MajorantGrid {
 // lo .. hi (inclusive; cell edges on voxel centres) it returns how far (voxels, fractional, clamped
 // to 0 .. margin) the lookups of points inside the cell can reach along each axis, and the cell
 // bounds the trilinear density over its extent grown by exactly that; the box, and the cells that
-// read only the background, stay those of margin.
+// read only the background, stay those of margin. Where those bounds would read more than
+// exact_read_limit voxels (a reach of many voxels: about (cell + 2 margin)^3 per cell), each cell
+// is bounded instead by the 8^3 leaves and tiles its grown extent meets, a read per leaf: wider by
+// at most the 7 voxels that round the extent out to leaves, valid all the same.
 using CellReach = std::function<std::array<double, 3>(const std::array<int, 3>& lo, const std::array<int, 3>& hi)>;
+constexpr double kExactMotionBoundReads = 1e9;
 MajorantGrid build_majorant_grid(const GridData& grid, int cell = 8, const std::array<int, 3>& margin = {0, 0, 0},
-                                 const CellReach& cell_reach = {});
+                                 const CellReach& cell_reach = {}, double exact_read_limit = kExactMotionBoundReads);
 // The largest majorant cell edge (voxels): --majorant-cell and the automatic choice stay within it.
 // A grid that needs more than 2^27 cells even at this edge is refused by build_majorant_grid.
 constexpr int kMaxMajorantCellEdge = 1024;
