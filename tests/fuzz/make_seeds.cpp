@@ -59,6 +59,11 @@ void write_nvdb(const fs::path& p, const nanovdb::GridHandle<nanovdb::HostBuffer
   os << payload.str();
 }
 
+// One-grid .nvdb of any value type, uncompressed, by NanoVDB's own writer.
+void write_any_nvdb(const fs::path& p, const nanovdb::GridHandle<nanovdb::HostBuffer>& h) {
+  nanovdb::io::writeGrid(p.string(), h, nanovdb::io::Codec::NONE);
+}
+
 void write_img(const fs::path& p, int w, int h, int nc, OIIO::TypeDesc type, int x0 = 0, int depth = 1) {
   auto out = OIIO::ImageOutput::create(p.string());
   if (!out) throw std::runtime_error("no writer for " + p.string());
@@ -117,19 +122,17 @@ int main(int argc, char** argv) {
       auto g = fog("density", 9, 0.1f, 0.1);
       g->tree().addTile(1, openvdb::Coord(64, 0, 0), 0.75f, true);
       using nanovdb::ChecksumMode, nanovdb::StatsMode, nanovdb::HostBuffer;
-      write_nvdb(out / "nvdb" / "fp4.nvdb", nanovdb::openToNanoVDB<HostBuffer, openvdb::FloatTree, nanovdb::Fp4>(*g), nanovdb::io::Codec::NONE);
-      write_nvdb(out / "nvdb" / "fp8.nvdb", nanovdb::openToNanoVDB<HostBuffer, openvdb::FloatTree, nanovdb::Fp8>(*g), nanovdb::io::Codec::NONE);
-      write_nvdb(out / "nvdb" / "fp16_full.nvdb",
-                 nanovdb::openToNanoVDB<HostBuffer, openvdb::FloatTree, nanovdb::Fp16>(*g, StatsMode::Default, ChecksumMode::Full),
-                 nanovdb::io::Codec::NONE);
-      write_nvdb(out / "nvdb" / "fpn.nvdb", nanovdb::openToNanoVDB<HostBuffer, openvdb::FloatTree, nanovdb::FpN>(*g), nanovdb::io::Codec::NONE);
-      write_nvdb(out / "nvdb" / "fpn_unchecked.nvdb",
-                 nanovdb::openToNanoVDB<HostBuffer, openvdb::FloatTree, nanovdb::FpN>(*g, StatsMode::Default, ChecksumMode::Disable),
-                 nanovdb::io::Codec::NONE);
+      write_any_nvdb(out / "nvdb" / "fp4.nvdb", nanovdb::openToNanoVDB<HostBuffer, openvdb::FloatTree, nanovdb::Fp4>(*g));
+      write_any_nvdb(out / "nvdb" / "fp8.nvdb", nanovdb::openToNanoVDB<HostBuffer, openvdb::FloatTree, nanovdb::Fp8>(*g));
+      write_any_nvdb(out / "nvdb" / "fp16_full.nvdb",
+                     nanovdb::openToNanoVDB<HostBuffer, openvdb::FloatTree, nanovdb::Fp16>(*g, StatsMode::Default, ChecksumMode::Full));
+      write_any_nvdb(out / "nvdb" / "fpn.nvdb", nanovdb::openToNanoVDB<HostBuffer, openvdb::FloatTree, nanovdb::FpN>(*g));
+      write_any_nvdb(out / "nvdb" / "fpn_unchecked.nvdb",
+                     nanovdb::openToNanoVDB<HostBuffer, openvdb::FloatTree, nanovdb::FpN>(*g, StatsMode::Default, ChecksumMode::Disable));
       openvdb::DoubleGrid d(std::make_shared<openvdb::DoubleTree>(g->tree()));
       d.setName("density");
       d.setGridClass(openvdb::GRID_FOG_VOLUME);
-      write_nvdb(out / "nvdb" / "double.nvdb", nanovdb::openToNanoVDB<HostBuffer, openvdb::DoubleTree, double>(d), nanovdb::io::Codec::NONE);
+      write_any_nvdb(out / "nvdb" / "double.nvdb", nanovdb::openToNanoVDB<HostBuffer, openvdb::DoubleTree, double>(d));
     }
     write_img(out / "image" / "rgb.exr", 4, 2, 3, OIIO::TypeDesc::FLOAT);
     write_img(out / "image" / "rgba_half.exr", 4, 2, 4, OIIO::TypeDesc::HALF);
