@@ -157,7 +157,8 @@ class Decoder {
 
   template <typename V>
   void tile(int level, const nanovdb::Coord& p, const V& v, int width) {
-    acc_->addTile(level, openvdb::Coord(p[0], p[1], p[2]), value(v, p, width), true);
+    out_->tree().addTile(level, openvdb::Coord(p[0], p[1], p[2]), value(v, p, width), true);
+    acc_->clear();  // the tile may replace a node the accessor holds (a damaged file's duplicate slot)
     voxels_ += uint64_t(width) * uint64_t(width) * uint64_t(width);
   }
 
@@ -190,7 +191,7 @@ class Decoder {
   uint64_t nodes_[3] = {0, 0, 0};
   uint64_t voxels_ = 0;
   openvdb::FloatGrid::Ptr out_;
-  std::optional<openvdb::FloatGrid::Accessor> acc_;
+  std::optional<openvdb::FloatGrid::UnsafeAccessor> acc_;  // unregistered: TBB's accessor registry trips UBSan
 };
 
 // The grid's index-to-world map as OpenVDB's transform, refused where it is singular or not finite.
