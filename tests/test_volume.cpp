@@ -975,6 +975,20 @@ TEST(VolumeNanoVdb, DamagedQuantizedGridsAreRefused) {
   reinterpret_cast<nanovdb::TreeData<3>*>(unchecked.data() + tree)->mVoxelCount += 1;
   nanovdb::io::writeGrid(dir + "/voxels.nvdb", unchecked, nanovdb::io::Codec::NONE);
   EXPECT_TRUE(contains(load("voxels.nvdb"), "disagree with the count stored in the grid")) << load("voxels.nvdb");
+
+  // fuzz_nvdb's finding: `info` read a vector grid's index box through a root offset it had not
+  // checked (a pointer far outside the buffer); now the offset is checked first
+  auto v = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f));
+  v->setName("vel");
+  v->tree().setValue(openvdb::Coord(1, 2, 3), openvdb::Vec3s(1, 2, 2));
+  auto vh = nanovdb::openToNanoVDB(openvdb::GridBase::Ptr(v));
+  nanovdb::io::writeGrid(dir + "/vel.nvdb", vh, nanovdb::io::Codec::NONE);
+  EXPECT_NO_THROW(spectrack::inspect_volume(dir + "/vel.nvdb"));  // the twin
+  NvdbBytes root(dir + "/vel.nvdb", vh.size());
+  root.at<uint64_t>(tree + offsetof(nanovdb::TreeData<3>, mNodeOffset) + 3 * 8) = uint64_t(1) << 60;
+  root.write(dir + "/root.nvdb");
+  const std::string info = error_of([&] { spectrack::inspect_volume(dir + "/root.nvdb"); });
+  EXPECT_TRUE(contains(info, "corrupt NanoVDB grid (root outside the grid")) << info;
 }
 
 // `info` on a .nvdb of a quantized density and a vector grid: the density is usable, the vector

@@ -211,7 +211,7 @@ std::vector<GridInfo> inspect_nvdb(const std::string& file, const Fail& fail) {
     gi.active_voxels = m->activeVoxelCount();
     const nanovdb::Vec3R vs = m->voxelSize();
     gi.voxel_size = {vs[0], vs[1], vs[2]};
-    const auto& ib = m->indexBBox();
+    const nanovdb::CoordBBox ib = nvdb_index_bbox(h, fail);  // not m->indexBBox(): the root is unchecked
     gi.empty = ib[0][0] > ib[1][0] || m->activeVoxelCount() == 0;
     if (!gi.empty) {
       gi.index_min = {ib[0][0], ib[0][1], ib[0][2]};

@@ -202,6 +202,18 @@ nanovdb::GridHandle<nanovdb::HostBuffer> nvdb_read_raw(const std::string& file, 
   return nanovdb::GridHandle<nanovdb::HostBuffer>(std::move(buf));
 }
 
+nanovdb::CoordBBox nvdb_index_bbox(const nanovdb::GridHandle<nanovdb::HostBuffer>& h, const Fail& fail) {
+  const char* begin = reinterpret_cast<const char*>(h.data());
+  const uint64_t size = h.size(), tree_at = sizeof(nanovdb::GridData);
+  const uint64_t off = reinterpret_cast<const nanovdb::TreeData<3>*>(begin + tree_at)->mNodeOffset[3];
+  // the root's first member is its bbox, whatever the grid's value type (NanoVDB's RootData)
+  if (off >= size || tree_at + off > size - sizeof(nanovdb::CoordBBox) || (tree_at + off) % NANOVDB_DATA_ALIGNMENT)
+    fail("corrupt NanoVDB grid (root outside the grid, or misaligned)");
+  nanovdb::CoordBBox box;
+  std::memcpy(static_cast<void*>(&box), begin + tree_at + off, sizeof box);
+  return box;
+}
+
 nanovdb::GridHandle<nanovdb::HostBuffer> nvdb_read(const std::string& file, const Entry& e, const Fail& fail) {
   nanovdb::GridHandle<nanovdb::HostBuffer> handle = nvdb_read_raw(file, e, fail);
   if (nvdb_decodable(handle.gridMetaData()->gridType())) return nvdb_decode(handle, e, fail);

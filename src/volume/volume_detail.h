@@ -106,6 +106,8 @@ nanovdb::GridHandle<nanovdb::HostBuffer> nvdb_read(const std::string& file, cons
 // The grid's bytes with only its header checked (magic, size, index): enough for its metadata
 // (GridHandle::gridMetaData) whatever its value type, nothing that follows an offset.
 nanovdb::GridHandle<nanovdb::HostBuffer> nvdb_read_raw(const std::string& file, const Entry& e, const Fail& fail);
+// The index bbox a raw grid stores (its root's), after the root's offset is checked.
+nanovdb::CoordBBox nvdb_index_bbox(const nanovdb::GridHandle<nanovdb::HostBuffer>& h, const Fail& fail);
 
 // A float as the messages print it (9 significant digits: reads back as the same float).
 std::string value_str(float v);
