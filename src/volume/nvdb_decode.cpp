@@ -52,7 +52,7 @@ class Decoder {
         if (t->isActive()) tile(3, t->origin(), t->value, UpperT::DIM);
         continue;
       }
-      upper(*reinterpret_cast<const UpperT*>(child_at(root.data(), t->child, sizeof(UpperT), 2)), t->origin());
+      internal(*reinterpret_cast<const UpperT*>(child_at(root.data(), t->child, sizeof(UpperT), 2)), t->origin());
     }
     const auto* td = reinterpret_cast<const nanovdb::TreeData<3>*>(&g_.tree());
     for (int level = 0; level < 3; ++level)
@@ -112,25 +112,22 @@ class Decoder {
     return begin_ + (at + off);
   }
 
-  void upper(const UpperT& u, const nanovdb::Coord& place) {
-    for (uint32_t n = 0; n < UpperT::SIZE; ++n) {
-      const nanovdb::Coord p = child_origin<UpperT>(place, n);
-      if (!u.data()->isChild(n)) {
-        if (u.data()->isActive(n)) tile(2, p, u.data()->mTable[n].value, LowerT::DIM);
+  // An upper or lower node at its place: active tiles, then each child (its offset checked).
+  template <typename NodeT>
+  void internal(const NodeT& node, const nanovdb::Coord& place) {
+    using ChildT = typename NodeT::ChildNodeType;
+    const auto* d = node.data();
+    for (uint32_t n = 0; n < NodeT::SIZE; ++n) {
+      const nanovdb::Coord p = child_origin<NodeT>(place, n);
+      if (!d->isChild(n)) {
+        if (d->isActive(n)) tile(ChildT::LEVEL + 1, p, d->mTable[n].value, ChildT::DIM);
         continue;
       }
-      lower(*reinterpret_cast<const LowerT*>(child_at(u.data(), u.data()->mTable[n].child, sizeof(LowerT), 1)), p);
-    }
-  }
-
-  void lower(const LowerT& l, const nanovdb::Coord& place) {
-    for (uint32_t m = 0; m < LowerT::SIZE; ++m) {
-      const nanovdb::Coord p = child_origin<LowerT>(place, m);
-      if (!l.data()->isChild(m)) {
-        if (l.data()->isActive(m)) tile(1, p, l.data()->mTable[m].value, LeafT::DIM);
-        continue;
+      if constexpr (ChildT::LEVEL == 0) {
+        leaf(*reinterpret_cast<const LeafT*>(child_at(d, d->mTable[n].child, leaf_header(), 0)), p);
+      } else {
+        internal(*reinterpret_cast<const ChildT*>(child_at(d, d->mTable[n].child, sizeof(ChildT), ChildT::LEVEL)), p);
       }
-      leaf(*reinterpret_cast<const LeafT*>(child_at(l.data(), l.data()->mTable[m].child, leaf_header(), 0)), p);
     }
   }
 
