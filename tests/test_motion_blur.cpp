@@ -132,6 +132,31 @@ std::string add_velocity(const std::string& in, const std::string& out, const st
 
 }  // namespace
 
+// tools/add_velocity sets the flow on every voxel of the density grown by 2, dense interiors
+// included (a dense 24^3 cube: OpenVDB keeps its interior as active tiles, to which the tool once
+// gave a velocity at one voxel each, so most of the cube never moved); off the swirl's axis every
+// voxel moves.
+TEST(MotionBlur, AddVelocityMovesEveryVoxelOfADenseMedium) {
+  const std::string dir = temp_dir("blur_dense_velocity");
+  st_test::write_vdb(dir + "/cube.vdb", "density", openvdb::Coord(-12), openvdb::Coord(11), [](int, int, int) { return 1.0f; });
+  add_velocity(dir + "/cube.vdb", dir + "/cube_vel.vdb", "--speed 5");
+  openvdb::io::File f(dir + "/cube_vel.vdb");
+  f.open();
+  const auto d = openvdb::gridPtrCast<openvdb::FloatGrid>(f.readGrid("density"));
+  const auto v = openvdb::gridPtrCast<openvdb::Vec3SGrid>(f.readGrid("vel"));
+  f.close();
+  ASSERT_TRUE(d && v);
+  auto acc = v->getConstAccessor();
+  int64_t still = 0;
+  for (auto it = d->tree().cbeginValueOn(); it; ++it) {
+    const openvdb::CoordBBox box = it.getBoundingBox();
+    for (auto c = box.begin(); c; ++c) still += !acc.isValueOn(*c) || acc.getValue(*c).length() == 0.0f;
+  }
+  EXPECT_EQ(d->activeVoxelCount(), 24u * 24u * 24u);
+  EXPECT_LE(still, 24) << "only voxels on the swirl's axis may be still";
+  EXPECT_GE(v->activeVoxelCount(), 28u * 28u * 28u);  // grown by 2 on each side
+}
+
 TEST(MotionBlur, MovingBoxIsTheTimeAverageForEveryTrackerAndAbsorption) {
   const std::string dir = temp_dir("blur_box");
   const double u = 40.0, a = u * kShutter;  // a: the displacement at shutter close, 0.4 units

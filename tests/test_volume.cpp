@@ -15,6 +15,8 @@
 #include <cmath>
 #include <filesystem>
 #include <functional>
+#include <limits>
+#include <algorithm>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -976,6 +978,26 @@ TEST(VolumeNanoVdb, DamagedQuantizedGridsAreRefused) {
   nanovdb::io::writeGrid(dir + "/voxels.nvdb", unchecked, nanovdb::io::Codec::NONE);
   EXPECT_TRUE(contains(load("voxels.nvdb"), "disagree with the count stored in the grid")) << load("voxels.nvdb");
 
+  // a review's findings: the root read before its offset was checked (an FpN grid's background),
+  // and a node array at offset 0 that NanoVDB's checksum takes for the first node (Fp16 and float,
+  // with full checksums)
+  NvdbBytes far_root(dir + "/ok.nvdb", size);
+  far_root.at<uint64_t>(tree + offsetof(nanovdb::TreeData<3>, mNodeOffset) + 3 * 8) = uint64_t(1) << 40;
+  far_root.write(dir + "/far_root.nvdb");
+  EXPECT_TRUE(contains(load("far_root.nvdb"), "corrupt NanoVDB grid (root outside the grid")) << load("far_root.nvdb");
+  for (const bool quantized : {true, false}) {
+    auto full = quantized ? nanovdb::openToNanoVDB<nanovdb::HostBuffer, openvdb::FloatTree, nanovdb::Fp16>(
+                                *g, nanovdb::StatsMode::Default, nanovdb::ChecksumMode::Full)
+                          : nanovdb::openToNanoVDB<nanovdb::HostBuffer, openvdb::FloatTree, float>(
+                                *g, nanovdb::StatsMode::Default, nanovdb::ChecksumMode::Full);
+    nanovdb::io::writeGrid(dir + "/full.nvdb", full, nanovdb::io::Codec::NONE);
+    NvdbBytes at0(dir + "/full.nvdb", full.size());
+    at0.at<uint64_t>(tree + offsetof(nanovdb::TreeData<3>, mNodeOffset) + 1 * 8) = 0;  // the lower nodes
+    at0.write(dir + "/at0.nvdb");
+    const std::string m = load("at0.nvdb");
+    EXPECT_TRUE(contains(m, quantized ? "corrupt NanoVDB grid (node array" : "corrupt NanoVDB grid (tree layout")) << m;
+  }
+
   // fuzz_nvdb's finding: `info` read a vector grid's index box through a root offset it had not
   // checked (a pointer far outside the buffer); now the offset is checked first
   auto v = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f));
@@ -1013,4 +1035,35 @@ TEST(VolumeNanoVdb, InfoDescribesQuantizedAndVectorGrids) {
   EXPECT_EQ(info[1].name, "vel");
   EXPECT_TRUE(contains(info[1].density_use, "no: value type Vec3f")) << info[1].density_use;
   EXPECT_EQ(info[1].active_voxels, 1u);
+}
+
+// A review's finding: the far-reach majorant keyed leaves by their stored origins, which a node
+// without active values need not hold truly (nothing else reads them): a partial-checksum .nvdb
+// whose empty lower node claims the origin of the dense one overwrote that leaf's extremes with 0,
+// and the cells over density 1 read a majorant of 0. Leaves are keyed by their place in the tree.
+TEST(VolumeNanoVdb, FarReachMajorantReadsLeavesAtTheirPlaces) {
+  auto g = new_grid();
+  for (int z = 0; z < 8; ++z)
+    for (int y = 0; y < 8; ++y)
+      for (int x = 0; x < 8; ++x) g->tree().setValue(openvdb::Coord(x, y, z), 1.0f);
+  g->tree().touchLeaf(openvdb::Coord(128, 0, 0));  // an inactive leaf in a second lower node
+  auto h = nanovdb::openToNanoVDB<nanovdb::HostBuffer, openvdb::FloatTree, float>(*g, nanovdb::StatsMode::Default,
+                                                                                  nanovdb::ChecksumMode::Partial);
+  const std::string dir = st_test::temp_dir("nvdb_far_reach_origin");
+  nanovdb::io::writeGrid(dir + "/ok.nvdb", h, nanovdb::io::Codec::NONE);
+  const size_t tree = sizeof(nanovdb::GridData);
+  const auto* td = reinterpret_cast<const nanovdb::TreeData<3>*>(h.data() + tree);
+  NvdbBytes bad(dir + "/ok.nvdb", h.size());
+  // the second lower node's bbox minimum (its stored origin) moved onto the first's
+  const size_t l1 = tree + td->mNodeOffset[1] + sizeof(nanovdb::NanoLower<float>);
+  for (int a = 0; a < 3; ++a) bad.at<int32_t>(l1 + 4 * size_t(a)) = 0;
+  bad.write(dir + "/bad.nvdb");
+  for (const char* f : {"/ok.nvdb", "/bad.nvdb"}) {
+    const GridData d = spectrack::load_float_grid(dir + f, "density", -1, "t");
+    const MajorantGrid exact = spectrack::build_majorant_grid(d, 8, {4, 4, 4}, {}, std::numeric_limits<double>::infinity());
+    const MajorantGrid leaf = spectrack::build_majorant_grid(d, 8, {4, 4, 4}, {}, 0.0);
+    ASSERT_EQ(exact.dmax.size(), leaf.dmax.size());
+    for (size_t i = 0; i < exact.dmax.size(); ++i) EXPECT_GE(leaf.dmax[i], exact.dmax[i]) << f << " cell " << i;
+    EXPECT_GE(*std::max_element(leaf.dmax.begin(), leaf.dmax.end()), 1.0f) << f;
+  }
 }

@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <type_traits>
 #include <unordered_map>
 
 #include <nanovdb/NanoVDB.h>
@@ -142,8 +143,17 @@ struct CoordHash {
 };
 using LeafBounds = std::unordered_map<nanovdb::Coord, std::array<float, 2>, CoordHash>;
 
+// Keyed by each leaf's place in the tree (the root key, then its parents' slots), as a lookup
+// finds it: a stored origin is not checked where a node holds no active value (grid_checks.cpp
+// scan_tree), so it is never read here. A place met twice (a damaged file) keeps both extremes.
 LeafBounds leaf_bounds(const FloatGrid& g) {
   LeafBounds out;
+  auto place_of = [](const nanovdb::Coord& origin, uint32_t n, auto* node) {
+    using Node = std::remove_const_t<std::remove_pointer_t<decltype(node)>>;
+    nanovdb::Coord ijk = Node::OffsetToLocalCoord(n);
+    ijk <<= Node::ChildNodeType::TOTAL;
+    return ijk + origin;
+  };
   const auto& root = g.tree().root();
   for (uint32_t i = 0; i < root.tileCount(); ++i) {
     const auto* t = root.data()->tile(i);
@@ -152,12 +162,14 @@ LeafBounds leaf_bounds(const FloatGrid& g) {
     for (uint32_t n = 0; n < nanovdb::NanoUpper<float>::SIZE; ++n) {
       if (!u->data()->isChild(n)) continue;
       const auto* l = u->data()->getChild(n);
+      const nanovdb::Coord l_place = place_of(t->origin(), n, u);
       for (uint32_t m = 0; m < nanovdb::NanoLower<float>::SIZE; ++m) {
         if (!l->data()->isChild(m)) continue;
         const Leaf* leaf = l->data()->getChild(m);
-        std::array<float, 2> b{-std::numeric_limits<float>::infinity(), std::numeric_limits<float>::infinity()};
-        for (uint32_t v = 0; v < Leaf::SIZE; ++v) b = {std::max(b[0], leaf->getValue(v)), std::min(b[1], leaf->getValue(v))};
-        out[l->offsetToGlobalCoord(m)] = b;
+        const auto [it, added] = out.try_emplace(place_of(l_place, m, l), std::array<float, 2>{
+            -std::numeric_limits<float>::infinity(), std::numeric_limits<float>::infinity()});
+        std::array<float, 2>& e = it->second;
+        for (uint32_t v = 0; v < Leaf::SIZE; ++v) e = {std::max(e[0], leaf->getValue(v)), std::min(e[1], leaf->getValue(v))};
       }
     }
   }
@@ -173,16 +185,16 @@ LeafBounds leaf_bounds(const FloatGrid& g) {
 template <typename Accessor>
 std::array<float, 2> leaf_reach_bounds(Accessor& acc, const LeafBounds& leaves, const std::array<int, 3>& lo,
                                        const std::array<int, 3>& hi, const std::array<double, 3>& r) {
-  std::array<int, 3> a{}, b{};
+  std::array<int64_t, 3> a{}, b{};  // 64-bit: an extent near the int range's end must not wrap
   for (size_t i = 0; i < 3; ++i) {
-    const int k = int(std::ceil(r[i]));
-    a[i] = (lo[i] - k) & ~7, b[i] = hi[i] + k;
+    const int64_t k = int64_t(std::ceil(r[i]));
+    a[i] = (int64_t(lo[i]) - k) & ~int64_t(7), b[i] = int64_t(hi[i]) + k;
   }
   float top = -std::numeric_limits<float>::infinity(), bottom = std::numeric_limits<float>::infinity();
-  for (int z = a[2]; z <= b[2]; z += 8)
-    for (int y = a[1]; y <= b[1]; y += 8)
-      for (int x = a[0]; x <= b[0]; x += 8) {
-        const nanovdb::Coord block(x, y, z);
+  for (int64_t z = a[2]; z <= b[2]; z += 8)
+    for (int64_t y = a[1]; y <= b[1]; y += 8)
+      for (int64_t x = a[0]; x <= b[0]; x += 8) {
+        const nanovdb::Coord block{int(x), int(y), int(z)};
         const auto it = leaves.find(block);
         const std::array<float, 2> v = it != leaves.end() ? it->second : std::array<float, 2>{acc.getValue(block), acc.getValue(block)};
         top = std::max(top, v[0]);

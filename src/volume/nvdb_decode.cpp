@@ -21,7 +21,9 @@
 #include <cstdio>
 #include <limits>
 #include <optional>
+#include <set>
 #include <type_traits>
+#include <vector>
 
 #include <nanovdb/util/GridValidator.h>
 #include <nanovdb/util/OpenToNanoVDB.h>
@@ -44,10 +46,18 @@ class Decoder {
 
   openvdb::FloatGrid::Ptr run() {
     const RootT& root = checked_root();
+    if (root.background() != 0) {
+      char bg[32];
+      std::snprintf(bg, sizeof bg, "%.9g", double(root.background()));
+      fail_("grid " + in_quotes(name_) + " has background value " + bg +
+            "; inactive voxels must read 0 density (background must be 0)");
+    }
     out_ = openvdb::FloatGrid::create(0.0f);
     acc_.emplace(out_->tree());
+    std::set<std::array<int, 3>> keys;  // a key twice would decode two values at one place
     for (uint32_t i = 0; i < root.data()->mTableSize; ++i) {
       const auto* t = root.data()->tile(i);
+      if (!keys.insert({t->origin()[0], t->origin()[1], t->origin()[2]}).second) corrupt("root key repeated");
       if (!t->isChild()) {
         if (t->isActive()) tile(3, t->origin(), t->value, UpperT::DIM);
         continue;
@@ -92,12 +102,16 @@ class Decoder {
     // one size NanoVDB's checksum reads them as an array from the level's offset: it must fit.
     const int64_t node_size[3] = {std::is_same_v<BuildT, nanovdb::FpN> ? 0 : int64_t(sizeof(LeafT)),
                                   int64_t(sizeof(LowerT)), int64_t(sizeof(UpperT))};
+    // Every offset stays inside the buffer (NanoVDB forms a level's first-node pointer even for an
+    // empty level), and a level's nodes start after the root's tile table, as NanoVDB lays them.
+    const uint64_t root_end = uint64_t(root_at - tree_at) + sizeof(*rd) + tiles * tile_size;
     for (int level = 0; level < 3; ++level) {
       const uint64_t n = td->mNodeCount[level], at = td->mNodeOffset[level];
       if (n > uint64_t(size_) / 32) corrupt("node count");
-      if (n == 0 || node_size[level] == 0) continue;
-      if (at > uint64_t(size_ - tree_at) || (tree_at + int64_t(at)) % NANOVDB_DATA_ALIGNMENT ||
-          n > uint64_t(size_ - tree_at - int64_t(at)) / uint64_t(node_size[level]))
+      if (at > uint64_t(size_ - tree_at)) corrupt("node array");
+      if (n == 0) continue;
+      if (at < root_end || (tree_at + int64_t(at)) % NANOVDB_DATA_ALIGNMENT) corrupt("node array");
+      if (node_size[level] > 0 && n > uint64_t(size_ - tree_at - int64_t(at)) / uint64_t(node_size[level]))
         corrupt("node array");
     }
     return *reinterpret_cast<const RootT*>(rd);
@@ -109,6 +123,10 @@ class Decoder {
     if (off < -at || off > size_ - at - n || (at + off) % NANOVDB_DATA_ALIGNMENT != 0) corrupt("node pointer");
     const auto* td = reinterpret_cast<const nanovdb::TreeData<3>*>(&g_.tree());
     if (++nodes_[level] > td->mNodeCount[level]) corrupt("node count");
+    // each node is reached once: slots sharing a child would decode it at every place they name
+    const size_t slot = size_t(at + off) / NANOVDB_DATA_ALIGNMENT;
+    if (seen_[slot]) corrupt("node pointer shared");
+    seen_[slot] = true;
     return begin_ + (at + off);
   }
 
@@ -186,6 +204,7 @@ class Decoder {
   const char* begin_;
   int64_t size_;
   uint64_t nodes_[3] = {0, 0, 0};
+  std::vector<bool> seen_ = std::vector<bool>(size_t(size_ / NANOVDB_DATA_ALIGNMENT) + 1);  // nodes reached, by 32-byte slot
   uint64_t voxels_ = 0;
   openvdb::FloatGrid::Ptr out_;
   std::optional<openvdb::FloatGrid::UnsafeAccessor> acc_;  // unregistered: TBB's accessor registry trips UBSan
@@ -216,10 +235,6 @@ nanovdb::GridHandle<nanovdb::HostBuffer> decode(const nanovdb::GridHandle<nanovd
                                                 const Fail& fail) {
   const nanovdb::NanoGrid<BuildT>* g = src.grid<BuildT>();
   if (!g) fail("grid " + in_quotes(e.name) + " is not a " + e.type + " grid");
-  if (g->tree().background() != 0) {
-    fail("grid " + in_quotes(e.name) + " has background value " + value_str(float(g->tree().background())) +
-         "; inactive voxels must read 0 density (background must be 0)");
-  }
   openvdb::FloatGrid::Ptr grid = Decoder<BuildT>(*g, e.name, fail).run();
   grid->setName(e.name);
   grid->setGridClass(openvdb::GRID_FOG_VOLUME);

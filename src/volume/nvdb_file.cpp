@@ -134,10 +134,14 @@ void check_layout(const FloatGrid& g, const Fail& fail) {
        within(reinterpret_cast<const char*>(td) + td->mNodeOffset[3], sizeof(nanovdb::RootData<Upper>));
   ok = ok && within(&tree.root(), tree.root().memUsage());
   const uint64_t node_size[3] = {sizeof(Leaf), sizeof(Lower), sizeof(Upper)};
+  // every level's offset inside the buffer (NanoVDB forms its first-node pointer even when the
+  // level is empty), and a level's nodes after the root's tile table, as NanoVDB lays them out
+  const uint64_t root_end = ok ? td->mNodeOffset[3] + tree.root().memUsage() : 0;
   for (int level = 0; ok && level < 3; ++level) {
     const uint64_t n = td->mNodeCount[level];
+    ok = td->mNodeOffset[level] <= size - tree_at;
     if (n == 0) continue;
-    ok = offset_ok(td->mNodeOffset[level]) && n <= size / node_size[level] &&
+    ok = ok && td->mNodeOffset[level] >= root_end && offset_ok(td->mNodeOffset[level]) && n <= size / node_size[level] &&
          within(reinterpret_cast<const char*>(td) + td->mNodeOffset[level], n * node_size[level]);
   }
   if (!ok) fail("corrupt NanoVDB grid (tree layout outside the grid buffer, or misaligned)");
@@ -199,6 +203,9 @@ nanovdb::GridHandle<nanovdb::HostBuffer> nvdb_read_raw(const std::string& file, 
   if (gd->mMagic != NANOVDB_MAGIC_NUMBER || gd->mGridSize != gsize || gd->mGridIndex != 0 || gd->mGridCount < 1) {
     fail("corrupt NanoVDB grid (bad grid header)");
   }
+  // the grid's own version, as the file's segment header's: NanoVDB's validator would print another
+  // through a buffer it never frees
+  if (gd->mVersion.getMajor() != NANOVDB_MAJOR_VERSION_NUMBER) fail("corrupt NanoVDB grid (its version is not the file's)");
   return nanovdb::GridHandle<nanovdb::HostBuffer>(std::move(buf));
 }
 
