@@ -941,8 +941,15 @@ struct NvdbBytes {
     bytes.assign(std::istreambuf_iterator<char>(in), {});
     grid_at = bytes.size() - grid_size;
   }
+  // (memcpy: a field of the grid need not be aligned in the file's bytes)
   template <typename T>
-  T& at(size_t off) { return *reinterpret_cast<T*>(&bytes[grid_at + off]); }
+  T get(size_t off) const {
+    T v;
+    std::memcpy(&v, &bytes[grid_at + off], sizeof v);
+    return v;
+  }
+  template <typename T>
+  void set(size_t off, T v) { std::memcpy(&bytes[grid_at + off], &v, sizeof v); }
   void write(const std::string& path) const { std::ofstream(path, std::ios::binary) << bytes; }
 };
 
@@ -963,12 +970,13 @@ TEST(VolumeNanoVdb, DamagedQuantizedGridsAreRefused) {
   EXPECT_NO_THROW(spectrack::load_float_grid(dir + "/ok.nvdb", "density", -1, "test"));  // the twin
 
   NvdbBytes wide(dir + "/ok.nvdb", size);
-  wide.at<uint8_t>(tree + td->mNodeOffset[0] + 15) = 7u << 5;  // the first leaf's flags: bit width 2^7
+  wide.set<uint8_t>(tree + td->mNodeOffset[0] + 15, uint8_t(7u << 5));  // the first leaf's flags: bit width 2^7
   wide.write(dir + "/wide.nvdb");
   EXPECT_TRUE(contains(load("wide.nvdb"), "corrupt NanoVDB grid (FpN leaf")) << load("wide.nvdb");
 
   NvdbBytes count(dir + "/ok.nvdb", size);
-  count.at<uint32_t>(tree + offsetof(nanovdb::TreeData<3>, mNodeCount)) += 1;  // one leaf more
+  const size_t leaves_at = tree + offsetof(nanovdb::TreeData<3>, mNodeCount);
+  count.set<uint32_t>(leaves_at, count.get<uint32_t>(leaves_at) + 1);  // one leaf more
   count.write(dir + "/count.nvdb");
   EXPECT_TRUE(contains(load("count.nvdb"), "corrupt NanoVDB grid (node count")) << load("count.nvdb");
 
@@ -982,7 +990,7 @@ TEST(VolumeNanoVdb, DamagedQuantizedGridsAreRefused) {
   // and a node array at offset 0 that NanoVDB's checksum takes for the first node (Fp16 and float,
   // with full checksums)
   NvdbBytes far_root(dir + "/ok.nvdb", size);
-  far_root.at<uint64_t>(tree + offsetof(nanovdb::TreeData<3>, mNodeOffset) + 3 * 8) = uint64_t(1) << 40;
+  far_root.set<uint64_t>(tree + offsetof(nanovdb::TreeData<3>, mNodeOffset) + 3 * 8, uint64_t(1) << 40);
   far_root.write(dir + "/far_root.nvdb");
   EXPECT_TRUE(contains(load("far_root.nvdb"), "corrupt NanoVDB grid (root outside the grid")) << load("far_root.nvdb");
   for (const bool quantized : {true, false}) {
@@ -992,7 +1000,7 @@ TEST(VolumeNanoVdb, DamagedQuantizedGridsAreRefused) {
                                 *g, nanovdb::StatsMode::Default, nanovdb::ChecksumMode::Full);
     nanovdb::io::writeGrid(dir + "/full.nvdb", full, nanovdb::io::Codec::NONE);
     NvdbBytes at0(dir + "/full.nvdb", full.size());
-    at0.at<uint64_t>(tree + offsetof(nanovdb::TreeData<3>, mNodeOffset) + 1 * 8) = 0;  // the lower nodes
+    at0.set<uint64_t>(tree + offsetof(nanovdb::TreeData<3>, mNodeOffset) + 1 * 8, uint64_t(0));  // the lower nodes
     at0.write(dir + "/at0.nvdb");
     const std::string m = load("at0.nvdb");
     EXPECT_TRUE(contains(m, quantized ? "corrupt NanoVDB grid (node array" : "corrupt NanoVDB grid (tree layout")) << m;
@@ -1007,7 +1015,7 @@ TEST(VolumeNanoVdb, DamagedQuantizedGridsAreRefused) {
   nanovdb::io::writeGrid(dir + "/vel.nvdb", vh, nanovdb::io::Codec::NONE);
   EXPECT_NO_THROW(spectrack::inspect_volume(dir + "/vel.nvdb"));  // the twin
   NvdbBytes root(dir + "/vel.nvdb", vh.size());
-  root.at<uint64_t>(tree + offsetof(nanovdb::TreeData<3>, mNodeOffset) + 3 * 8) = uint64_t(1) << 60;
+  root.set<uint64_t>(tree + offsetof(nanovdb::TreeData<3>, mNodeOffset) + 3 * 8, uint64_t(1) << 60);
   root.write(dir + "/root.nvdb");
   const std::string info = error_of([&] { spectrack::inspect_volume(dir + "/root.nvdb"); });
   EXPECT_TRUE(contains(info, "corrupt NanoVDB grid (root outside the grid")) << info;
@@ -1056,7 +1064,7 @@ TEST(VolumeNanoVdb, FarReachMajorantReadsLeavesAtTheirPlaces) {
   NvdbBytes bad(dir + "/ok.nvdb", h.size());
   // the second lower node's bbox minimum (its stored origin) moved onto the first's
   const size_t l1 = tree + td->mNodeOffset[1] + sizeof(nanovdb::NanoLower<float>);
-  for (int a = 0; a < 3; ++a) bad.at<int32_t>(l1 + 4 * size_t(a)) = 0;
+  for (int a = 0; a < 3; ++a) bad.set<int32_t>(l1 + 4 * size_t(a), int32_t(0));
   bad.write(dir + "/bad.nvdb");
   for (const char* f : {"/ok.nvdb", "/bad.nvdb"}) {
     const GridData d = spectrack::load_float_grid(dir + f, "density", -1, "t");

@@ -120,6 +120,27 @@ static void check_exr_attribute_value(std::istream& f, const std::string& name, 
 // a null byte, and an empty header after the last. Every claim must fit in the bytes the file has;
 // the message names the attribute. Returns normally for a header that is well formed up to the
 // offset tables.
+// The most pixels a byte of an image file is taken to hold (here and in open_checked).
+constexpr double kMaxPixelsPerFileByte = 4096;
+
+// OpenEXR sizes a decompressor's buffer by the data window's width times the lines of one block
+// (up to 256 for DWAB) when the file is opened, before any pixel is read (2 GB for a 1-kB file,
+// fuzz_image): a data window claiming more than kMaxPixelsPerFileByte a byte, its height counted
+// as at least 256 lines, is refused first. The value is read, and the stream put back.
+static void check_exr_data_window(std::istream& f, uint64_t file_bytes, const std::function<void(const std::string&)>& fail) {
+  const std::streamoff value_at = f.tellg();
+  unsigned char b[16];
+  if (!f.read(reinterpret_cast<char*>(b), 16)) fail("the file ends inside attribute 'dataWindow'");
+  f.seekg(value_at);
+  int32_t w[4];
+  for (int i = 0; i < 4; ++i)
+    w[i] = int32_t(uint32_t(b[4 * i]) | uint32_t(b[4 * i + 1]) << 8 | uint32_t(b[4 * i + 2]) << 16 | uint32_t(b[4 * i + 3]) << 24);
+  const double width = double(w[2]) - w[0] + 1, height = double(w[3]) - w[1] + 1;
+  if (width * std::max(height, 256.0) > kMaxPixelsPerFileByte * double(file_bytes) + double(1 << 20))
+    fail(fmt::format("its data window ({} x {} pixels) claims more than {} pixels a byte of its {}-byte file", width,
+                     height, kMaxPixelsPerFileByte, file_bytes));
+}
+
 static void check_exr_header(const std::string& path, std::istream& f, uint64_t file_bytes) {
   auto fail = [&](const std::string& reason) { throw Error(fmt::format("{}: damaged OpenEXR header: {}", path, reason)); };
   unsigned char v[8] = {};
@@ -164,6 +185,7 @@ static void check_exr_header(const std::string& path, std::istream& f, uint64_t 
         fail(fmt::format("attribute '{}' ({}) claims {} bytes, but only {} remain in the {}-byte file", name, type,
                          size, file_bytes - std::min<uint64_t>(at, file_bytes), file_bytes));
       check_exr_attribute_value(f, name, type, size, max_name, fail);
+      if (name == "dataWindow" && type == "box2i") check_exr_data_window(f, file_bytes, fail);
       f.seekg(size, std::ios::cur);
       at += uint64_t(size);
     }
@@ -286,8 +308,6 @@ void check_film_piece_spec(const OpenedImage& o, bool rgb_named, bool half_allow
 
 }  // namespace
 
-// The most pixels a byte of an image file is taken to hold (open_checked).
-constexpr double kMaxPixelsPerFileByte = 4096;
 
 OpenedImage open_checked(const std::string& path, ImageUse use) {
   const bool env = use == ImageUse::kEnvironmentMap;
