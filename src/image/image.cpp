@@ -114,12 +114,6 @@ static void check_exr_attribute_value(std::istream& f, const std::string& name, 
   }
 }
 
-// OpenEXR allocates what a header attribute claims (a 2 GB string for a damaged "capDate") before
-// it finds the file too short. Walk the EXR header(s) first: each attribute is name\0 type\0 int32
-// size, then size bytes (skipped, not read); a multi-part file has several headers, each ended by
-// a null byte, and an empty header after the last. Every claim must fit in the bytes the file has;
-// the message names the attribute. Returns normally for a header that is well formed up to the
-// offset tables.
 // The most pixels a byte of an image file is taken to hold (here and in open_checked).
 constexpr double kMaxPixelsPerFileByte = 4096;
 
@@ -141,6 +135,12 @@ static void check_exr_data_window(std::istream& f, uint64_t file_bytes, const st
                      height, kMaxPixelsPerFileByte, file_bytes));
 }
 
+// OpenEXR allocates what a header attribute claims (a 2 GB string for a damaged "capDate") before
+// it finds the file too short. Walk the EXR header(s) first: each attribute is name\0 type\0 int32
+// size, then size bytes (skipped, not read); a multi-part file has several headers, each ended by
+// a null byte, and an empty header after the last. Every claim must fit in the bytes the file has;
+// the message names the attribute. Returns normally for a header that is well formed up to the
+// offset tables.
 static void check_exr_header(const std::string& path, std::istream& f, uint64_t file_bytes) {
   auto fail = [&](const std::string& reason) { throw Error(fmt::format("{}: damaged OpenEXR header: {}", path, reason)); };
   unsigned char v[8] = {};
@@ -307,7 +307,6 @@ void check_film_piece_spec(const OpenedImage& o, bool rgb_named, bool half_allow
 }
 
 }  // namespace
-
 
 OpenedImage open_checked(const std::string& path, ImageUse use) {
   const bool env = use == ImageUse::kEnvironmentMap;
