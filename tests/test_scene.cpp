@@ -30,7 +30,9 @@ namespace spectrack {
 namespace {
 
 using json = nlohmann::json;
+using testing::AllOf;
 using testing::HasSubstr;
+using testing::Not;
 using testing::StartsWith;
 namespace fs = std::filesystem;
 
@@ -1115,6 +1117,18 @@ TEST_F(SceneTest, DamagedExrHeaderIsRefusedBeforeOpenExrReadsIt) {
   b = bytes;
   b[size_at + 7] = char(b[size_at + 7] + 2);
   EXPECT_THAT(image_error("chlist2.exr", b), HasSubstr("but its contents take"));
+  // a data window far wider than the file could hold (a fuzz finding: OpenEXR sized a 2 GB
+  // decompressor buffer by it when the file was opened, before any pixel was read)
+  const size_t window_at = bytes.find("dataWindow");
+  ASSERT_NE(window_at, std::string::npos);
+  ASSERT_EQ(bytes.substr(window_at + 11, 6), std::string("box2i\0", 6));
+  const size_t x_max_at = window_at + 11 + 6 + 4 + 8;  // the names, the size, then xMin and yMin
+  b = bytes;
+  b[x_max_at] = '\x00', b[x_max_at + 1] = '\x00', b[x_max_at + 2] = '\x40', b[x_max_at + 3] = '\x00';  // 4 M pixels wide
+  EXPECT_THAT(image_error("wide.exr", b), StartsWith((dir_ / "wide.exr").string() +
+                                                 ": damaged OpenEXR header: its data window (4194305 x 2 pixels) claims more"));
+  b[x_max_at + 2] = '\x00', b[x_max_at + 1] = '\x01';  // 257 pixels wide: within the bound, so OpenEXR reads it
+  EXPECT_THAT(image_error("wider.exr", b), AllOf(HasSubstr("wider.exr"), Not(HasSubstr("pixels a byte"))));
 }
 
 // libpng allocates what a chunk's length claims before it reads the chunk: read_image walks the
