@@ -57,13 +57,6 @@ std::string small_vdb(const std::string& dir) {
   return f;
 }
 
-// Sets an environment variable for the scope of one test.
-struct ScopedEnv {
-  std::string name;
-  ScopedEnv(const char* n, const char* v) : name(n) { setenv(n, v, 1); }
-  ~ScopedEnv() { unsetenv(name.c_str()); }
-};
-
 }  // namespace
 
 TEST(LimitsCoordinates, HugeBoxRefusedByItsBounds) {

@@ -5,6 +5,7 @@
 #include <openvdb/openvdb.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -100,6 +101,13 @@ inline void write_lumpy(const std::string& path) {
 }
 
 inline void write_text(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
+
+// Sets an environment variable for the scope of one test.
+struct ScopedEnv {
+  std::string name;
+  ScopedEnv(const char* n, const char* v) : name(n) { ::setenv(n, v, 1); }
+  ~ScopedEnv() { ::unsetenv(name.c_str()); }
+};
 
 inline spectrack::SceneDesc scene_from_json(const nlohmann::json& j, const std::string& dir) {
   return spectrack::parse_scene(j.dump(), dir + "/scene.json", dir);

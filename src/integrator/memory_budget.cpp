@@ -48,13 +48,17 @@ double host_memory_available() {
   return std::numeric_limits<double>::infinity();
 }
 
-void check_host_memory(double bytes, const std::string& what, const std::string& advice) {
+std::string host_memory_shortfall(double bytes) {
   const double available = host_memory_available();
-  if (bytes <= available) return;
+  if (bytes <= available) return "";
   const char* set = std::getenv("SPECTRACK_HOST_MEMORY");
-  throw Error(fmt::format("{} needs about {:.1f} MiB of host memory, but {:.1f} MiB are available{}; {}", what,
-                          bytes / 1048576.0, available / 1048576.0,
-                          set && *set ? " (SPECTRACK_HOST_MEMORY says so)" : "", advice));
+  return fmt::format("needs about {:.1f} MiB of host memory, but {:.1f} MiB are available{}", bytes / 1048576.0,
+                     available / 1048576.0, set && *set ? " (SPECTRACK_HOST_MEMORY says so)" : "");
+}
+
+void check_host_memory(double bytes, const std::string& what, const std::string& advice) {
+  const std::string shortfall = host_memory_shortfall(bytes);
+  if (!shortfall.empty()) throw Error(fmt::format("{} {}; {}", what, shortfall, advice));
 }
 
 void check_env_map_memory(const std::string& context, int width, int height) {

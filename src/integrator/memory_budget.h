@@ -49,6 +49,10 @@ MemoryNeed render_memory(const RenderShape& s);
 // of /proc/meminfo; infinity when neither can be read).
 double host_memory_available();
 
+// "" where `bytes` fit host_memory_available(), else "needs about N MiB of host memory, but M MiB
+// are available" (with "(SPECTRACK_HOST_MEMORY says so)" where that variable set the figure).
+std::string host_memory_shortfall(double bytes);
+
 // Throws Error "<what> needs about N MiB of host memory, but M MiB are available; <advice>" when
 // `bytes` exceeds host_memory_available().
 void check_host_memory(double bytes, const std::string& what, const std::string& advice);

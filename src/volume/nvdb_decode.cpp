@@ -12,8 +12,12 @@
 // active voxel and tile at its place in the tree (the slots, never a stored origin) into an
 // OpenVDB float tree, which becomes the NanoVDB float grid every other grid is (so the checks of
 // grid_checks.cpp, the majorant grids and the kernels see one type). A double value beyond a
-// float's range is refused naming it, as for OpenVDB double grids (volume.cpp to_float_grid).
+// float's range is refused naming it, as for OpenVDB double grids (volume.cpp to_float_grid). The
+// decoded grid's memory, estimated from the stored node counts, is checked against the host's
+// before any node is decoded.
 #include "volume/nvdb_decode.h"
+
+#include "integrator/memory_budget.h"
 
 #include <openvdb/openvdb.h>
 
@@ -45,7 +49,8 @@ class Decoder {
       : g_(g), name_(name), fail_(fail), begin_(reinterpret_cast<const char*>(&g)), size_(int64_t(g.gridSize())) {}
 
   openvdb::FloatGrid::Ptr run() {
-    const RootT& root = checked_root();
+    const RootT& root = check_tree_layout(g_, fail_);
+    check_decoded_memory();
     if (root.background() != 0) {
       char bg[32];
       std::snprintf(bg, sizeof bg, "%.9g", double(root.background()));
@@ -82,39 +87,23 @@ class Decoder {
     fail_(std::string("corrupt NanoVDB grid (") + what + " outside the grid, misaligned or inconsistent)");
   }
 
-  // The root, after its offset and its tile table are checked as integers.
-  const RootT& checked_root() const {
-    const int64_t tree_at = sizeof(nanovdb::GridData);
-    const auto* td = reinterpret_cast<const nanovdb::TreeData<3>*>(begin_ + tree_at);
-    if (size_ < tree_at + int64_t(sizeof(*td))) corrupt("tree");
-    const uint64_t off = td->mNodeOffset[3];
-    const int64_t root_at = tree_at + int64_t(std::min<uint64_t>(off, uint64_t(size_)));
-    if (off >= uint64_t(size_) || root_at % NANOVDB_DATA_ALIGNMENT || root_at > size_ - int64_t(sizeof(typename RootT::DataType)))
-      corrupt("root");
-    const auto* rd = reinterpret_cast<const typename RootT::DataType*>(begin_ + root_at);
-    const uint64_t tiles = rd->mTableSize, tile_size = sizeof(typename RootT::DataType::Tile);
-    if (tiles > uint64_t(size_ - root_at) / tile_size ||
-        int64_t(sizeof(*rd) + tiles * tile_size) > size_ - root_at)
-      corrupt("root tile table");
-    // NanoVDB's partial checksum reads the grid, tree and root as if they were contiguous
-    if (tree_at + int64_t(sizeof(*td) + sizeof(*rd) + tiles * tile_size) > size_) corrupt("root tile table");
-    // A level holds no more nodes than its stored count (the walk's budget), and where nodes have
-    // one size NanoVDB's checksum reads them as an array from the level's offset: it must fit.
-    const int64_t node_size[3] = {std::is_same_v<BuildT, nanovdb::FpN> ? 0 : int64_t(sizeof(LeafT)),
-                                  int64_t(sizeof(LowerT)), int64_t(sizeof(UpperT))};
-    // Every offset stays inside the buffer (NanoVDB forms a level's first-node pointer even for an
-    // empty level), and a level's nodes start after the root's tile table, as NanoVDB lays them.
-    const uint64_t root_end = uint64_t(root_at - tree_at) + sizeof(*rd) + tiles * tile_size;
-    for (int level = 0; level < 3; ++level) {
-      const uint64_t n = td->mNodeCount[level], at = td->mNodeOffset[level];
-      if (n > uint64_t(size_) / 32) corrupt("node count");
-      if (at > uint64_t(size_ - tree_at)) corrupt("node array");
-      if (n == 0) continue;
-      if (at < root_end || (tree_at + int64_t(at)) % NANOVDB_DATA_ALIGNMENT) corrupt("node array");
-      if (node_size[level] > 0 && n > uint64_t(size_ - tree_at - int64_t(at)) / uint64_t(node_size[level]))
-        corrupt("node array");
-    }
-    return *reinterpret_cast<const RootT*>(rd);
+  // The decoded grid's memory, from the node counts check_tree_layout bounded, against the host's: an
+  // OpenVDB float tree, then the NanoVDB float grid built from it (an FpN leaf of 1-bit values
+  // becomes about 13 times its size, after a compressed file's own expansion of up to 1024 times).
+  void check_decoded_memory() const {
+    using OpenLeaf = openvdb::tree::LeafNode<float, 3>;
+    using OpenLower = openvdb::tree::InternalNode<OpenLeaf, 4>;
+    using OpenUpper = openvdb::tree::InternalNode<OpenLower, 5>;
+    const auto* td = reinterpret_cast<const nanovdb::TreeData<3>*>(begin_ + sizeof(nanovdb::GridData));
+    const double per_node[3] = {
+        double(sizeof(OpenLeaf) + OpenLeaf::SIZE * sizeof(float) + sizeof(nanovdb::NanoLeaf<float>)),
+        double(sizeof(OpenLower) + sizeof(nanovdb::NanoLower<float>)),
+        double(sizeof(OpenUpper) + sizeof(nanovdb::NanoUpper<float>))};
+    double bytes = 0;
+    for (int level = 0; level < 3; ++level) bytes += double(td->mNodeCount[level]) * per_node[level];
+    if (const std::string s = host_memory_shortfall(bytes); !s.empty())
+      fail_("grid " + in_quotes(name_) + " (" + std::to_string(td->mNodeCount[0]) + " leaves) read as float " + s +
+            "; free memory, or render on a machine with more");
   }
 
   // A child `off` bytes from its parent's data, of at least n bytes, counted at `level`.

@@ -14,6 +14,7 @@
 #include <nanovdb/util/GridValidator.h>
 #include <nanovdb/util/IO.h>
 
+#include "integrator/memory_budget.h"
 #include "volume/nvdb_decode.h"
 #include "volume/volume_detail.h"
 
@@ -111,42 +112,6 @@ void check_blosc_header(const char* p, uint64_t csize, uint64_t expect, const Fa
   if (cbytes != csize || nbytes != expect) fail("corrupt NanoVDB file: bad BLOSC chunk header");
 }
 
-// Checks that the tree, the root tile table and the node arrays lie inside the grid buffer
-// before anything (NanoVDB's checksum and validator included) follows offsets from the file.
-void check_layout(const FloatGrid& g, const Fail& fail) {
-  const char* begin = reinterpret_cast<const char*>(&g);
-  const uint64_t size = g.gridSize();
-  auto within = [&](const void* p, uint64_t n) {
-    const char* c = reinterpret_cast<const char*>(p);
-    return c >= begin && uint64_t(c - begin) <= size && n <= size - uint64_t(c - begin);
-  };
-  const auto& tree = g.tree();
-  const auto* td = reinterpret_cast<const nanovdb::TreeData<3>*>(&tree);
-  // Node offsets are checked as integers (in range and 32-byte aligned, as NanoVDB's node types
-  // require) before tree.root() or a node pointer is formed from them (fuzz_nvdb: a misaligned
-  // root offset is undefined behaviour at the reference NanoVDB's root() returns).
-  const uint64_t tree_at = sizeof(nanovdb::GridData);
-  auto offset_ok = [&](uint64_t off) {
-    return off < size - tree_at && (tree_at + off) % NANOVDB_DATA_ALIGNMENT == 0;
-  };
-  bool ok = reinterpret_cast<const char*>(&tree) == begin + tree_at && within(&tree, sizeof(*td));
-  ok = ok && offset_ok(td->mNodeOffset[3]) &&
-       within(reinterpret_cast<const char*>(td) + td->mNodeOffset[3], sizeof(nanovdb::RootData<Upper>));
-  ok = ok && within(&tree.root(), tree.root().memUsage());
-  const uint64_t node_size[3] = {sizeof(Leaf), sizeof(Lower), sizeof(Upper)};
-  // every level's offset inside the buffer (NanoVDB forms its first-node pointer even when the
-  // level is empty), and a level's nodes after the root's tile table, as NanoVDB lays them out
-  const uint64_t root_end = ok ? td->mNodeOffset[3] + tree.root().memUsage() : 0;
-  for (int level = 0; ok && level < 3; ++level) {
-    const uint64_t n = td->mNodeCount[level];
-    ok = td->mNodeOffset[level] <= size - tree_at;
-    if (n == 0) continue;
-    ok = ok && td->mNodeOffset[level] >= root_end && offset_ok(td->mNodeOffset[level]) && n <= size / node_size[level] &&
-         within(reinterpret_cast<const char*>(td) + td->mNodeOffset[level], n * node_size[level]);
-  }
-  if (!ok) fail("corrupt NanoVDB grid (tree layout outside the grid buffer, or misaligned)");
-}
-
 nanovdb::GridHandle<nanovdb::HostBuffer> nvdb_read_raw(const std::string& file, const Entry& e, const Fail& fail) {
   using nanovdb::io::Codec;
   const uint64_t gsize = e.nv_grid_size, csize = e.nv_file_size;
@@ -157,6 +122,8 @@ nanovdb::GridHandle<nanovdb::HostBuffer> nvdb_read_raw(const std::string& file, 
   const bool plausible = e.nv_codec == uint16_t(Codec::NONE) ? gsize == csize : gsize <= csize * 1024 + (1u << 20);
   if (!plausible) fail("corrupt NanoVDB file: grid size " + std::to_string(gsize) + " does not match its " +
                        std::to_string(csize) + " bytes on disk");
+  if (const std::string s = host_memory_shortfall(double(gsize)); !s.empty())
+    fail("grid " + in_quotes(e.name) + " " + s + "; free memory, or render on a machine with more");
   std::ifstream is(file, std::ios::binary);
   is.seekg(std::streamoff(e.nv_offset));
   nanovdb::HostBuffer buf = nanovdb::HostBuffer::create(gsize);
@@ -226,7 +193,7 @@ nanovdb::GridHandle<nanovdb::HostBuffer> nvdb_read(const std::string& file, cons
   if (nvdb_decodable(handle.gridMetaData()->gridType())) return nvdb_decode(handle, e, fail);
   const FloatGrid* g = handle.grid<float>();
   if (!g) fail("grid " + in_quotes(e.name) + " is not a float grid");
-  check_layout(*g, fail);
+  check_tree_layout(*g, fail);
   return handle;
 }
 
