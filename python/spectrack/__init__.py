@@ -22,11 +22,23 @@ __version__ = _spectrack.__version__
 class Scene:
     """A validated scene; ``render`` renders it (the keyword arguments override the scene's values)."""
 
-    def __init__(self, desc, volumes=(), scene_dict=None, json_text=""):
+    def __init__(self, desc, volumes=(), scene_dict=None, json_text="", base_dir=None):
         self._desc = desc
         self._text = json_text  # what a scene made in memory was parsed from: its identity for merging
         self._volumes = list(volumes)  # kept alive: their files are the media's files
-        self.dict = scene_dict  # the scene JSON as a dict (None for a file loaded as it is)
+        self._dict = scene_dict  # the scene JSON as a dict, its Volumes kept (None for a file loaded as it is)
+        self._base_dir = base_dir  # the folder its relative paths resolved against
+
+    @property
+    def dict(self):
+        """The scene's JSON as a new dict (None for a file loaded as it is): its Volumes kept, and its
+        paths (film.output, lights' map, media's file) absolute, so that load_dict of it, from any
+        folder, names the files this scene read."""
+        if self._dict is None:
+            return None
+        d = copy.deepcopy(self._dict)
+        _absolute_paths(d, self._base_dir)
+        return d
 
     path = property(lambda self: self._desc.path)
     width = property(lambda self: self._desc.width)
@@ -139,6 +151,8 @@ def _with_volumes(value, volumes):
                 out[k] = v.file
                 if k == "file" and "grid" not in value:
                     out["grid"] = v.grid
+            elif isinstance(v, os.PathLike):  # a pathlib.Path where a path goes
+                out[k] = os.fsdecode(v)
             else:
                 out[k] = _with_volumes(v, volumes)
         return out
@@ -148,6 +162,26 @@ def _with_volumes(value, volumes):
         volumes.append(value)
         return value.file
     return value
+
+
+# Volumes are immutable handles: a copied scene dict shares them (and keeps them alive)
+Volume.__copy__ = lambda self: self
+Volume.__deepcopy__ = lambda self, memo: self
+
+
+def _absolute_paths(scene_dict, base_dir):
+    """The scene's path fields (docs/scene-format.md "Paths": film.output, lights[].map,
+    media[].file) made absolute against base_dir, in place; other values are left as they are."""
+    def rebase(holder, key):
+        if isinstance(holder, dict) and isinstance(holder.get(key), os.PathLike):
+            holder[key] = os.fsdecode(holder[key])
+        if isinstance(holder, dict) and isinstance(holder.get(key), str) and holder[key] and base_dir:
+            holder[key] = os.path.normpath(os.path.join(base_dir, holder[key]))
+    rebase(scene_dict.get("film"), "output")
+    for section, key in (("lights", "map"), ("media", "file")):
+        items = scene_dict.get(section)
+        for item in items if isinstance(items, list) else ():
+            rebase(item, key)
 
 
 def _merge_patch(target, patch):
@@ -210,8 +244,9 @@ def load_dict(scene_dict, base_dir=None, name="<dict>"):
     volumes = []
     plain = _with_volumes(scene_dict, volumes)
     text = _to_json(plain, name)
-    desc = _spectrack.parse_scene(text, os.fsencode(name), os.fsencode(os.path.abspath(base_dir or os.getcwd())))
-    return Scene(desc, volumes, plain, text)
+    base = os.path.abspath(base_dir or os.getcwd())
+    desc = _spectrack.parse_scene(text, os.fsencode(name), os.fsencode(base))
+    return Scene(desc, volumes, copy.deepcopy(scene_dict), text, base)
 
 
 def load_file(path, **overrides):
@@ -226,10 +261,11 @@ def load_file(path, **overrides):
         except json.JSONDecodeError as e:
             raise ValueError(f"{path}: not JSON: {e}") from None
     volumes = []
-    doc = _merge_patch(doc, _with_volumes(overrides, volumes))
-    text = _to_json(doc, path)
-    desc = _spectrack.parse_scene(text, os.fsencode(path), os.fsencode(os.path.dirname(os.path.abspath(path))))
-    return Scene(desc, volumes, doc, text)
+    plain = _merge_patch(doc, _with_volumes(overrides, volumes))
+    text = _to_json(plain, path)
+    base = os.path.dirname(os.path.abspath(path))
+    desc = _spectrack.parse_scene(text, os.fsencode(path), os.fsencode(base))
+    return Scene(desc, volumes, _merge_patch(doc, overrides), text, base)
 
 
 def load_usd(path, frame=None, **options):

@@ -32,6 +32,10 @@ class _Mapper:
     def warn(self, prim, what):
         self.warnings.append(f"{self.stage.GetRootLayer().identifier}: {prim.GetPath()}: {what}")
 
+    def error(self, prim, what):
+        """A ValueError naming the stage and the prim (and, in `what`, the attribute)."""
+        return ValueError(f"{self.stage.GetRootLayer().identifier}: {prim.GetPath()}: {what}")
+
     def world(self, prim):
         return self.xf_cache.GetLocalToWorldTransform(prim)
 
@@ -88,15 +92,28 @@ def _asset_path(mp, prim, attr):
                      f"next to the stage, in `assets` or in `search_paths`")
 
 
-def _field(mp, path):
+def _field(mp, volume, name, path):
     prim = mp.stage.GetPrimAtPath(path)
+    if not prim or not prim.IsValid():
+        mp.warn(volume, f"field:{name} targets {path}, where the stage has no prim: not mapped")
+        return None
     asset = UsdVol.OpenVDBAsset(prim)
     if not asset:
-        mp.warn(prim, f"field {path} is a {prim.GetTypeName()}, not an OpenVDBAsset: not mapped")
+        mp.warn(volume, f"field:{name}: {path} is a {prim.GetTypeName() or 'typeless prim'}, not an OpenVDBAsset: "
+                        f"not mapped")
         return None
-    return {"file": _asset_path(mp, prim, asset.GetFilePathAttr()),
-            "name": str(mp.value(asset.GetFieldNameAttr(), "")),
-            "index": mp.value(asset.GetFieldIndexAttr()), "prim": prim}
+    file_attr = asset.GetFilePathAttr()
+    if mp.value(file_attr) is None:
+        samples = file_attr.GetTimeSamples() if file_attr else []
+        if samples:
+            raise mp.error(prim, f"filePath has only time samples ({samples[0]:g} to {samples[-1]:g}) and no default "
+                                 f"value: give the frame (load_usd(..., frame=F), usd2scene --frame F)")
+        raise mp.error(prim, "filePath is not set: the OpenVDBAsset names no file")
+    index = mp.value(asset.GetFieldIndexAttr())
+    if index is not None and int(index) < 0:
+        raise mp.error(prim, f"fieldIndex {index} is negative")
+    return {"file": _asset_path(mp, prim, file_attr),
+            "name": str(mp.value(asset.GetFieldNameAttr(), "")), "index": index, "prim": prim}
 
 
 def _material(mp, prim):
@@ -105,16 +122,31 @@ def _material(mp, prim):
     sigma_t, albedo, g = mp.o.get("sigma_t", 1.0), [mp.o.get("albedo", 0.8)] * 3, 0.0
     pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar("albedo")
     if pv and pv.HasAuthoredValue():
-        albedo = [float(pv.Get(mp.time))] * 3
+        albedo = _albedo_primvar(mp, prim, pv.Get(mp.time))
     for shader in _bound_shaders(mp, prim):
         get = lambda n, d: mp.value(shader.GetPrim().GetAttribute("inputs:" + n), d)  # noqa: E731
-        sigma_t *= float(get("density", 1.0))
+        density = float(get("density", 1.0))
+        if not (math.isfinite(density) and density >= 0):
+            raise mp.error(shader.GetPrim(), f"inputs:density {density:g} is not a density (a finite value >= 0)")
+        sigma_t *= density
         scatter, color = float(get("scatter", 1.0)), list(get("scatter_color", (0.5, 0.5, 0.5)))
         albedo = [min(1.0, max(0.0, scatter * float(c))) for c in color]
         g = float(get("scatter_anisotropy", 0.0))
     sigma_s = [sigma_t * a for a in albedo]
     phase = {"type": "hg", "g": g} if g != 0 else {"type": "isotropic"}
     return sigma_s, [sigma_t - s for s in sigma_s], phase
+
+
+def _albedo_primvar(mp, prim, value):
+    """A constant `albedo` primvar: one value, or one per channel (a color3f), each in [0, 1]."""
+    try:
+        channels = [float(v) for v in value] if hasattr(value, "__len__") else [float(value)] * 3
+    except (TypeError, ValueError):
+        channels = []
+    if len(channels) != 3 or not all(0.0 <= a <= 1.0 for a in channels):
+        raise mp.error(prim, f"primvars:albedo {value}: the single-scattering albedo is one value or three (a "
+                             f"color3f), each in [0, 1]")
+    return channels
 
 
 def _bound_shaders(mp, prim):
@@ -132,7 +164,10 @@ def _bound_shaders(mp, prim):
 
 def _medium(mp, prim):
     vol = UsdVol.Volume(prim)
-    fields = {name: _field(mp, path) for name, path in vol.GetFieldPaths().items()}
+    if UsdGeom.Imageable(prim).ComputeVisibility(mp.time) == UsdGeom.Tokens.invisible:
+        mp.warn(prim, "invisible (visibility): not rendered")
+        return None
+    fields = {name: _field(mp, prim, name, path) for name, path in vol.GetFieldPaths().items()}
     fields = {k: v for k, v in fields.items() if v}
     density = fields.pop("density", None)
     if density is None:
@@ -140,9 +175,13 @@ def _medium(mp, prim):
         return None
     sigma_s, sigma_a, phase = _material(mp, prim)
     xf = _field_to_world(mp, prim, density["prim"])
+    try:
+        transform = matrix_to_transform(xf, lambda w: mp.warn(prim, w))
+    except ValueError as e:
+        raise mp.error(prim, f"{e} (the volume's and its density field's transforms)") from None
     m = {"name": prim.GetName(), "type": "vdb", "file": density["file"], "grid": density["name"] or "density",
-         "sigma_s": sigma_s, "sigma_a": sigma_a, "phase": phase,
-         "transform": matrix_to_transform(xf, lambda w: mp.warn(prim, w))}
+         "sigma_s": sigma_s, "sigma_a": sigma_a, "phase": phase, "transform": transform,
+         "_path": str(prim.GetPath())}
     if density["index"] is not None:
         m["grid_index"] = int(density["index"])
     for name, f in fields.items():
@@ -182,6 +221,9 @@ def _camera(mp, prim, width):
     forward = m.TransformDir(Gf.Vec3d(0, 0, -1)).GetNormalized()
     up = m.TransformDir(Gf.Vec3d(0, 1, 0))
     h_ap, v_ap = gf.horizontalAperture, gf.verticalAperture
+    for attr, v in (("focalLength", gf.focalLength), ("horizontalAperture", h_ap), ("verticalAperture", v_ap)):
+        if not (math.isfinite(v) and v > 0):
+            raise mp.error(prim, f"{attr} {v:g}: a camera needs a finite {attr} > 0")
     height = max(1, round(width * v_ap / h_ap))
     short_ap = min(h_ap, v_ap)
     c = {"position": list(pos), "look_at": list(pos + forward), "up": list(up)}
@@ -272,9 +314,13 @@ def _check_options(frame, width, spp, options):
     def number(name, value):
         if isinstance(value, bool) or not isinstance(value, numbers.Real):
             raise TypeError(f"load_usd: {name}={value!r}: a number is needed")
-        if not math.isfinite(value):
+        try:
+            as_float = float(value)
+        except OverflowError:  # an int beyond a double
+            as_float = math.inf
+        if not math.isfinite(as_float):
             raise ValueError(f"load_usd: {name}={value!r}: must be finite")
-        return float(value)
+        return as_float
     if frame is not None:
         number("frame", frame)
     for name, value, lo in (("width", width, 1), ("spp", spp, 1)):
@@ -290,6 +336,17 @@ def _check_options(frame, width, spp, options):
     folders = options.get("search_paths", ())
     if isinstance(folders, (str, bytes)) or hasattr(folders, "__fspath__") or not hasattr(folders, "__iter__"):
         raise TypeError(f"load_usd: search_paths={folders!r}: a list of folders is needed (search_paths=[folder])")
+    folders = options["search_paths"] = list(folders)  # a generator is read once
+    for folder in folders:
+        if not isinstance(folder, (str, os.PathLike)):
+            raise TypeError(f"load_usd: search_paths: {folder!r} is not a folder's path")
+    assets = options.get("assets", {})
+    if not isinstance(assets, dict):
+        raise TypeError(f"load_usd: assets={assets!r}: a dict of authored asset path -> file is needed")
+    for authored, file in assets.items():
+        if not isinstance(authored, str) or not isinstance(file, (str, os.PathLike)):
+            raise TypeError(f"load_usd: assets: {authored!r}: {file!r}: an authored path (str) -> a file's path is "
+                            f"needed")
 
 
 def stage_to_dict(path, frame=None, camera=None, width=512, spp=64, **options):
@@ -302,6 +359,8 @@ def stage_to_dict(path, frame=None, camera=None, width=512, spp=64, **options):
         raise TypeError(f"load_usd: unknown option(s) {', '.join(unknown)} (the options: frame, camera, width, spp, "
                         f"{', '.join(OPTIONS)})")
     _check_options(frame, width, spp, options)
+    if os.path.isdir(os.fspath(path)):
+        raise IsADirectoryError(f"{path}: is a folder, not a USD stage")
     if not os.path.isfile(os.fspath(path)):
         raise FileNotFoundError(f"{path}: no such USD stage")
     try:
@@ -313,7 +372,7 @@ def stage_to_dict(path, frame=None, camera=None, width=512, spp=64, **options):
     time = Usd.TimeCode(float(frame)) if frame is not None else Usd.TimeCode.Default()
     mp = _Mapper(stage, time, options)
     media, lights, cams = [], [], []
-    for prim in stage.Traverse():
+    for prim in stage.Traverse(Usd.TraverseInstanceProxies()):  # instances' prims too
         if prim.IsA(UsdVol.Volume):
             m = _medium(mp, prim)
             if m:
@@ -341,5 +400,20 @@ def stage_to_dict(path, frame=None, camera=None, width=512, spp=64, **options):
         scene["camera"] = {"position": "auto"}
         mp.warnings.append(f"{path}: no camera: the default framing of the media")
     if not media:
-        raise ValueError(f"{path}: no Volume with a density OpenVDBAsset field")
+        raise ValueError(f"{path}: no Volume with a density OpenVDBAsset field" +
+                         "".join("\n  " + w for w in mp.warnings))
+    _unique_names(media)
     return scene, mp.warnings
+
+
+def _unique_names(media):
+    """A medium's name is its prim's name; where two prims share one (/left/smoke, /right/smoke),
+    each of them takes its prim path."""
+    counts = {}
+    for m in media:
+        counts[m["name"]] = counts.get(m["name"], 0) + 1
+    for m in media:
+        if counts[m["name"]] > 1:
+            m["name"] = m.pop("_path")
+        else:
+            m.pop("_path")

@@ -49,6 +49,12 @@ def main(argv=None):
     for lt in scene["lights"]:
         if "map" in lt:
             lt["map"] = os.path.relpath(lt["map"], base)
+    try:  # the scene as `spectrack render` will read it: a value it refuses is refused here, not written
+        from . import load_dict
+        load_dict(scene, base_dir=base, name=a.output)
+    except (ImportError, ValueError, TypeError) as e:
+        print(f"error: {a.stage}: the stage maps to a scene spectrack refuses: {e}", file=sys.stderr)
+        return 1
     try:
         with open(a.output, "w", encoding="utf-8") as f:
             json.dump(scene, f, indent=2)

@@ -2,6 +2,7 @@
 merged in Python, and refused input (ValueError naming the JSON field path, wrong arrays)."""
 import json
 import os
+import shutil
 import subprocess
 import sys
 
@@ -199,6 +200,42 @@ def test_overrides_merge_into_the_file():
     s = spectrack.load_file(ROOT / "docs" / "examples" / "ortho_slab.json", film={"width": 8, "height": 6, "spp": 1})
     assert (s.width, s.height, s.spp) == (8, 6, 1)
     assert s.render().rgb.shape == (6, 8, 3)
+
+
+def test_a_scene_dict_names_the_same_files_from_any_folder(tmp_path, monkeypatch):
+    """scene.dict's paths are absolute (a file's relative paths resolved against its folder), so a
+    scene rebuilt from it in another folder reads the same files, never a namesake there; its
+    Volumes are kept (a copy shares them and keeps them alive); each call gives a new dict."""
+    import copy
+    import gc
+    s = spectrack.load_file(ROOT / "data" / "scenes" / "cloud.json", film={"width": 8, "height": 6, "spp": 1})
+    assert s.dict["media"][0]["file"] == str(ROOT / "data" / "volumes" / "cloud.vdb")
+    other = tmp_path / "a" / "b"
+    other.mkdir(parents=True)
+    (tmp_path / "a" / "volumes").mkdir()
+    d = np.zeros((4, 4, 4), dtype=np.float32)
+    d[1:3, 1:3, 1:3] = 1
+    namesake = spectrack.Volume.from_numpy(d, voxel_size=0.5)
+    shutil.copy(namesake.file, tmp_path / "a" / "volumes" / "cloud.vdb")  # ../volumes from a/b
+    monkeypatch.chdir(other)
+    np.testing.assert_array_equal(spectrack.load_dict(s.dict).render(seed=3).rgb, s.render(seed=3).rgb)
+    # the twin: the file's own relative path, resolved here, is the namesake, another image
+    relative = json.loads((ROOT / "data" / "scenes" / "cloud.json").read_text())
+    relative["film"] = {"width": 8, "height": 6, "spp": 1}
+    assert relative["media"][0]["file"] == "../volumes/cloud.vdb"
+    assert not np.array_equal(spectrack.load_dict(relative).render(seed=3).rgb, s.render(seed=3).rgb)
+    s.dict["film"]["spp"] = 7
+    assert s.dict["film"]["spp"] == 1 and s.dict is not s.dict
+    import pathlib
+    as_path = {**relative, "media": [{**relative["media"][0], "file": pathlib.Path(ROOT / "data" / "volumes" / "cloud.vdb")}]}
+    np.testing.assert_array_equal(spectrack.load_dict(as_path).render(seed=3).rgb, s.render(seed=3).rgb)
+    v = spectrack.Volume.from_numpy(d, voxel_size=0.5)
+    made = spectrack.load_dict({**SLAB, "media": [{"type": "vdb", "file": v, "sigma_s": [1, 1, 1], "sigma_a": [0, 0, 0]}]})
+    again = copy.deepcopy(made.dict)
+    assert again["media"][0]["file"] is v
+    del made, v
+    gc.collect()
+    assert spectrack.load_dict(again).render(spp=1).rgb.shape[2] == 3  # the Volume's file is still there
 
 
 def test_wrong_arrays_are_refused():

@@ -173,7 +173,117 @@ def test_options_and_paths_are_checked_by_name():
         stage_to_dict(stage, frame=float("nan"), search_paths=[str(USD)])
     with pytest.raises(ValueError, match="albedo=2"):
         stage_to_dict(stage, albedo=2, search_paths=[str(USD)])
+    with pytest.raises(ValueError, match="frame=1000.*must be finite"):
+        stage_to_dict(stage, frame=10**400, search_paths=[str(USD)])
+    with pytest.raises(TypeError, match="search_paths: 5 is not a folder's path"):
+        stage_to_dict(stage, search_paths=[5])
+    with pytest.raises(TypeError, match="assets: 'a.vdb': 5"):
+        stage_to_dict(stage, assets={"a.vdb": 5}, search_paths=[str(USD)])
+    with pytest.raises(IsADirectoryError, match="is a folder, not a USD stage"):
+        stage_to_dict(USD)
     with pytest.raises(ValueError, match="vdbVolume.usda: .*not found"):
         stage_to_dict(stage)  # the file it names is one folder up: not found without search_paths
     scene, _ = stage_to_dict(stage, camera="/main_cam", search_paths=[str(USD)], width=16, spp=1)  # the twin
     assert scene["camera"]["type"] == "perspective"
+
+
+def _smoke_stage(tmp_path, name, edit):
+    """A stage of one Volume /vol with a density field on smoke_000002.vdb and a camera; `edit(stage)`
+    changes one thing before it is saved."""
+    from pxr import Gf, Sdf, Usd, UsdGeom, UsdVol
+    stage = Usd.Stage.CreateNew(str(tmp_path / name))
+    cam = UsdGeom.Camera.Define(stage, "/cam")
+    cam.AddTranslateOp().Set(Gf.Vec3d(0, 0, 60))
+    vol = UsdVol.Volume.Define(stage, "/vol")
+    asset = UsdVol.OpenVDBAsset.Define(stage, "/vol/density")
+    asset.CreateFilePathAttr().Set(Sdf.AssetPath(str(USD / "smoke_000002.vdb")))
+    asset.CreateFieldNameAttr().Set("density")
+    vol.CreateFieldRelationship("density", asset.GetPath())
+    edit(stage)
+    stage.GetRootLayer().Save()
+    return tmp_path / name
+
+
+def test_everyday_stages_map_and_damaged_ones_are_named(tmp_path):
+    """Volumes of one name under two parents, volumes of instances, a colour albedo, a dangling
+    field, an invisible volume; and a time-sampled or missing filePath, a zero scale, a camera of
+    focal length 0, an albedo or shader density out of range: each refusal names the prim and field."""
+    from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, UsdVol
+
+    def copy_vol(stage, path):
+        stage.DefinePrim(path.rsplit("/", 1)[0], "Xform")
+        Sdf.CopySpec(stage.GetRootLayer(), "/vol", stage.GetRootLayer(), path)
+        UsdVol.Volume(stage.GetPrimAtPath(path)).CreateFieldRelationship("density", Sdf.Path(path + "/density"))
+
+    def two_parents(stage):
+        copy_vol(stage, "/left/smoke")
+        copy_vol(stage, "/right/smoke")
+        stage.RemovePrim("/vol")
+
+    scene, _ = stage_to_dict(_smoke_stage(tmp_path, "two.usda", two_parents), width=8, spp=1)
+    assert sorted(m["name"] for m in scene["media"]) == ["/left/smoke", "/right/smoke"]
+
+    def instanced(stage):
+        copy_vol(stage, "/proto/vol")
+        for p, inst in (("/a", True), ("/b", False)):
+            prim = stage.DefinePrim(p, "Xform")
+            prim.GetReferences().AddInternalReference("/proto")
+            prim.SetInstanceable(inst)
+        stage.RemovePrim("/vol")
+        stage.GetPrimAtPath("/proto").SetSpecifier(Sdf.SpecifierClass)
+
+    scene, _ = stage_to_dict(_smoke_stage(tmp_path, "inst.usda", instanced), width=8, spp=1)
+    assert sorted(m["name"] for m in scene["media"]) == ["/a/vol", "/b/vol"]  # the instance's volume too
+
+    def colour(stage):
+        UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/vol")).CreatePrimvar(
+            "albedo", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.5, 0.6, 0.7))
+        UsdVol.Volume(stage.GetPrimAtPath("/vol")).CreateFieldRelationship("heat", "/vol/nowhere")
+
+    scene, warns = stage_to_dict(_smoke_stage(tmp_path, "colour.usda", colour), width=8, spp=1)
+    (m,) = scene["media"]
+    assert m["sigma_s"] == pytest.approx([0.5, 0.6, 0.7]) and m["sigma_a"] == pytest.approx([0.5, 0.4, 0.3])
+    assert any("/vol: field:heat targets /vol/nowhere, where the stage has no prim" in w for w in warns)
+
+    def hidden(stage):
+        UsdGeom.Imageable(stage.GetPrimAtPath("/vol")).MakeInvisible()
+
+    with pytest.raises(ValueError, match=r"no Volume with a density[\s\S]*/vol: invisible"):
+        stage_to_dict(_smoke_stage(tmp_path, "hidden.usda", hidden), width=8, spp=1)
+
+    def sampled(stage):
+        attr = stage.GetPrimAtPath("/vol/density").GetAttribute("filePath")
+        attr.Clear()
+        for t in (1, 2, 3):
+            attr.Set(Sdf.AssetPath(str(USD / f"smoke_00000{t}.vdb")), Usd.TimeCode(t))
+
+    stage = _smoke_stage(tmp_path, "sampled.usda", sampled)
+    with pytest.raises(ValueError, match=r"/vol/density: filePath has only time samples \(1 to 3\).*frame="):
+        stage_to_dict(stage, width=8, spp=1)
+    assert stage_to_dict(stage, frame=3, width=8, spp=1)[0]["media"][0]["file"].endswith("smoke_000003.vdb")  # twin
+
+    refusals = [
+        ("nofile.usda", lambda s: s.GetPrimAtPath("/vol/density").GetAttribute("filePath").Clear(),
+         "/vol/density: filePath is not set"),
+        ("flat.usda", lambda s: UsdGeom.Xformable(s.GetPrimAtPath("/vol")).AddScaleOp().Set(Gf.Vec3f(0, 1, 1)),
+         "/vol: a transform with a zero scale"),
+        ("focal.usda", lambda s: UsdGeom.Camera(s.GetPrimAtPath("/cam")).CreateFocalLengthAttr().Set(0.0),
+         "/cam: focalLength 0: a camera needs"),
+        ("albedo.usda", lambda s: UsdGeom.PrimvarsAPI(s.GetPrimAtPath("/vol")).CreatePrimvar(
+            "albedo", Sdf.ValueTypeNames.Float).Set(3.0), "/vol: primvars:albedo 3"),
+        ("index.usda", lambda s: UsdVol.OpenVDBAsset(s.GetPrimAtPath("/vol/density")).CreateFieldIndexAttr().Set(-1),
+         "/vol/density: fieldIndex -1 is negative"),
+    ]
+    for name, edit, message in refusals:
+        with pytest.raises(ValueError, match=message.replace("(", r"\(")):
+            stage_to_dict(_smoke_stage(tmp_path, name, edit), width=8, spp=1)
+
+    def dense_shader(stage):
+        mat = UsdShade.Material.Define(stage, "/mat")
+        sh = UsdShade.Shader.Define(stage, "/mat/vol")
+        sh.CreateIdAttr().Set("arnold:standard_volume")
+        sh.CreateInput("density", Sdf.ValueTypeNames.Float).Set(-2.0)
+        UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath("/vol")).Bind(mat)
+
+    with pytest.raises(ValueError, match="/mat/vol: inputs:density -2 is not a density"):
+        stage_to_dict(_smoke_stage(tmp_path, "shader.usda", dense_shader), width=8, spp=1)
