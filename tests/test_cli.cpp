@@ -34,6 +34,32 @@ TEST(CliSceneErrors, MissingVdbFile) {
   expect_scene_error(dir, vdb_scene("no_such_volume.vdb"), "/media/0/file", {"no_such_volume.vdb", "no such file"});
 }
 
+// A USD stage given as a scene is named, with the way to convert it, not read as broken JSON.
+TEST(CliSceneErrors, UsdStageIsNamedWithItsConversion) {
+  const std::string dir = test_dir();
+  std::ofstream(dir + "/stage.usda") << "#usda 1.0\n";
+  Proc p = run({"render", dir + "/stage.usda", "-o", dir + "/x.exr", "--quiet"});
+  EXPECT_TRUE(p.exited && p.code == 1) << p.describe();
+  EXPECT_THAT(p.out, HasSubstr("stage.usda: is a USD stage")) << p.out;
+  EXPECT_THAT(p.out, HasSubstr("spectrack.usd2scene")) << p.out;
+}
+
+// An unknown command is named, with the commands there are; a device listed twice is refused.
+TEST(CliUsage, UnknownCommandAndRepeatedDeviceAreNamed) {
+  Proc p = run({"rendr", "scene.json"});
+  EXPECT_TRUE(p.exited && p.code == 2) << p.describe();
+  EXPECT_THAT(p.out, HasSubstr("unknown command 'rendr' (the commands: render, merge")) << p.out;
+  const std::string dir = test_dir();
+  const std::string scene = write_scene(dir, "s.json", homogeneous_scene(4, 4, 1, 1.0, 0.0));
+  RunOptions slow;
+  slow.timeout_s = 180;  // may include a cold kernel build
+  Proc twice = run({"render", scene, "-o", dir + "/a.exr", "--device", "0:0,0:0", "--quiet"}, slow);
+  EXPECT_TRUE(twice.exited && twice.code == 2) << twice.describe();
+  EXPECT_THAT(twice.out, HasSubstr("'0:0' and '0:0' name the same device (0:0")) << twice.out;
+  Proc once = run({"render", scene, "-o", dir + "/b.exr", "--device", "0:0", "--quiet"}, slow);  // the twin
+  EXPECT_TRUE(once.exited && once.code == 0) << once.describe();
+}
+
 TEST(CliSceneErrors, NegativeCoefficient) {
   std::string dir = test_dir();
   json s = homogeneous_scene(8, 8, 1, 1.0, 0.0);
@@ -1040,6 +1066,9 @@ TEST(CliFilmLayers, DefaultsFlagsAndRefusals) {
   Proc png = run({"render", scene, "-o", dir + "/c.png", "--aov", "variance", "--quiet"}, slow_ok());
   EXPECT_TRUE(png.exited && png.code == 2) << png.describe();  // a usage error
   EXPECT_THAT(png.out, HasSubstr("need an EXR output")) << png.describe();
+  Proc png_alpha = run({"render", scene, "-o", dir + "/c.png", "--alpha", "--quiet"}, slow_ok());
+  EXPECT_TRUE(png_alpha.exited && png_alpha.code == 2) << png_alpha.describe();
+  EXPECT_THAT(png_alpha.out, HasSubstr("film layers (--alpha) need an EXR output")) << png_alpha.describe();
   Proc bad = run({"render", scene, "-o", dir + "/d.exr", "--aov", "normal", "--quiet"}, slow_ok());
   EXPECT_TRUE(bad.exited && bad.code == 2) << bad.describe();
   EXPECT_THAT(bad.out, HasSubstr("unknown layer 'normal'")) << bad.describe();

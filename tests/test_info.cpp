@@ -185,6 +185,10 @@ TEST(CliInfo, SceneShowsMediaLightsAndCamera) {
   ASSERT_TRUE(t.exited && t.code == 0) << t.describe();
   for (const char* w : {"medium \"cloud\"", "world bbox", "optical depth", "light", "camera perspective (framed)"})
     EXPECT_THAT(t.out, HasSubstr(w)) << t.out;
+  // a scene of another name, as render reads it
+  Proc txt = run({"info", write_scene(dir, "s.txt", s)});
+  EXPECT_TRUE(txt.exited && txt.code == 0) << txt.describe();
+  EXPECT_THAT(txt.out, HasSubstr("s.txt: scene")) << txt.out;
   // a scene error is named like render's
   s["media"][0]["sigma_x"] = 1;
   Proc e = run({"info", write_scene(dir, "bad.json", s)});

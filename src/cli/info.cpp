@@ -289,7 +289,7 @@ int cmd_info(const std::vector<std::string>& files, bool as_json, const std::opt
   for (const std::string& f : files) {
     try {
       std::string ext = lower_extension(f);
-      if (ext == ".json") {
+      if (ext != ".vdb" && ext != ".nvdb") {  // a scene, whatever its name, as render reads it
         std::string text;
         for (const SceneDesc& s : scene_frames(load_scene(f), frames, as_json)) {
           text.clear();

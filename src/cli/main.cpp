@@ -17,7 +17,9 @@
 // in its metadata; cli/run_control.h).
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
+#include <algorithm>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -32,6 +34,18 @@
 
 using namespace spectrack;
 
+// A first argument that is neither an option nor a command is named, with the commands (CLI11
+// would say only "A subcommand is required").
+static bool unknown_command(CLI::App& app, int argc, char** argv) {
+  if (argc < 2 || argv[1][0] == '-') return false;
+  std::vector<std::string> names;
+  for (const CLI::App* c : app.get_subcommands({})) names.push_back(c->get_name());
+  if (std::find(names.begin(), names.end(), argv[1]) != names.end()) return false;
+  std::cerr << "error: unknown command '" << argv[1] << "' (the commands: " << fmt::format("{}", fmt::join(names, ", "))
+            << "; spectrack --help)\n";
+  return true;
+}
+
 int main(int argc, char** argv) {
   install_signal_handlers();  // first: a signal in any phase ends the command with 130, never by the signal
   CLI::App app{"spectrack: spectral and decomposition tracking for heterogeneous volumes on OpenCL"};
@@ -45,12 +59,13 @@ int main(int argc, char** argv) {
   std::vector<std::string> info_files;
   bool info_json = false;
   auto* info = app.add_subcommand("info", "print the grids of VDB/NanoVDB files and the media, lights and camera of scenes");
-  info->add_option("files", info_files, "volume (.vdb, .nvdb) or scene (.json) files")->required()->expected(1, -1);
+  info->add_option("files", info_files, "volume (.vdb, .nvdb) or scene files (.json, or any other name, as render reads them)")->required()->expected(1, -1);
   info->add_flag("--json", info_json, "one JSON document instead of tables");
   std::string info_frames;
   info->add_option("--frames", info_frames,
                    "frames A..B of frame patterns ('#' runs or $F<N>) in volume names and in scenes' media files")
       ->check(frames_check());
+  if (unknown_command(app, argc, argv)) return 2;
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -181,7 +181,9 @@ uint32_t film_layers(const RenderArgs& a, const SceneDesc& scene, const std::str
   if (!exr && (aovs || ((a.alpha || alpha_listed || scene.film.alpha.value_or(false)) && !a.no_alpha))) {
     const std::string why = fmt::format("{}: film layers ({}) need an EXR output; a PNG holds the beauty only (write an EXR "
                                         "and add --preview for a PNG)",
-                                        output, a.aov.empty() ? std::string("film.aovs / film.alpha of ") + scene.path : "--aov " + a.aov);
+                                        output, !a.aov.empty() ? "--aov " + a.aov
+                                                : a.alpha      ? std::string("--alpha")
+                                                               : std::string("film.aovs / film.alpha of ") + scene.path);
     // the scene's own output and layers: an error of the scene (exit 1); with -o, --aov or --alpha: of the command line
     if (a.output.empty() && a.aov.empty() && !a.alpha) throw Error(fmt::format("{}: /film/output: {}", scene.path, why));
     throw UsageError(why);

@@ -55,7 +55,7 @@ DeviceScene upload_scene(const std::string& device_spec, PackedScene packed,
   if (scene_bytes > double(d.dev.global_mem))
     throw Error(fmt::format("{} do not fit device '{}' ({:.1f} MiB of global memory); choose another device with "
                             "--device", what, d.dev.name, d.dev.global_mem / 1048576.0));
-  if (d.dev.type & CL_DEVICE_TYPE_CPU) check_host_memory(scene_bytes, what, "choose another device with --device");
+  if (d.dev.type & CL_DEVICE_TYPE_CPU) check_host_memory(scene_bytes, what, "free host memory, or choose another device with --device");
   d.b_scene = d.buffer(CL_MEM_READ_ONLY, sizeof(p.st), &p.st, "scene constants");
   d.b_grids = d.buffer(CL_MEM_READ_ONLY, p.grid_words.size() * 4, p.grid_words.data(), "NanoVDB grids");
   d.b_maj = d.buffer(CL_MEM_READ_ONLY, p.maj_cells.size() * 4, p.maj_cells.data(), "majorant grids");

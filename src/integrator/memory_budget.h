@@ -7,14 +7,16 @@
 // sums of the result and the channels written), per path slot (path state, shadow entries, queues)
 // and per result value of the batch ring, plus the packed grids. The estimate is compared with the
 // device's global memory and largest allocation (CL_DEVICE_GLOBAL_MEM_SIZE,
-// CL_DEVICE_MAX_MEM_ALLOC_SIZE) and with the host's available physical memory (MemAvailable of
-// /proc/meminfo; SPECTRACK_HOST_MEMORY, in bytes, stands in for it, so that tests can make a small
-// case refuse). A CPU device (PoCL) takes its global memory from the host, so there the device's
+// CL_DEVICE_MAX_MEM_ALLOC_SIZE) and with the host's available physical memory (util/host_memory.h:
+// MemAvailable of /proc/meminfo, or SPECTRACK_HOST_MEMORY, so that tests can make a small case
+// refuse). A CPU device (PoCL) takes its global memory from the host, so there the device's
 // share counts against the host as well. A refusal names the field or option that sizes the part,
 // the figure and what is available.
 #pragma once
 #include <cstdint>
 #include <string>
+
+#include "util/host_memory.h"
 
 namespace spectrack {
 
@@ -44,18 +46,6 @@ struct MemoryNeed {
 };
 
 MemoryNeed render_memory(const RenderShape& s);
-
-// The host's available physical memory in bytes (SPECTRACK_HOST_MEMORY when set, else MemAvailable
-// of /proc/meminfo; infinity when neither can be read).
-double host_memory_available();
-
-// "" where `bytes` fit host_memory_available(), else "needs about N MiB of host memory, but M MiB
-// are available" (with "(SPECTRACK_HOST_MEMORY says so)" where that variable set the figure).
-std::string host_memory_shortfall(double bytes);
-
-// Throws Error "<what> needs about N MiB of host memory, but M MiB are available; <advice>" when
-// `bytes` exceeds host_memory_available().
-void check_host_memory(double bytes, const std::string& what, const std::string& advice);
 
 // The environment map of `context` ("scene.json: /lights/0/map"), `width` x `height` texels,
 // checked before its pixels are read: its host share against the available memory.

@@ -393,6 +393,11 @@ SceneDesc load_scene(const std::string& path) {
   if (!fs::exists(st))
     throw Error(path + ": cannot open scene file (" + (ec ? ec.message() : "No such file or directory") + ")");
   if (fs::is_directory(st)) throw Error(path + ": cannot open scene file (Is a directory)");
+  const std::string ext = lower_extension(path);
+  if (ext == ".usd" || ext == ".usda" || ext == ".usdc" || ext == ".usdz")
+    throw Error(path + ": is a USD stage; a scene file is spectrack's JSON: convert the stage with `python3 -m "
+                "spectrack.usd2scene " + path + " -o scene.json`, or load it in Python with spectrack.load_usd "
+                "(docs/usd.md)");
   const std::string text = read_input_file(path, "", kMaxSceneBytes);
   fs::path dir = fs::path(path).parent_path();
   return parse_scene(text, path, dir.empty() ? "." : dir.string());

@@ -14,7 +14,7 @@
 #include <nanovdb/util/GridValidator.h>
 #include <nanovdb/util/IO.h>
 
-#include "integrator/memory_budget.h"
+#include "util/host_memory.h"
 #include "volume/nvdb_decode.h"
 #include "volume/volume_detail.h"
 
