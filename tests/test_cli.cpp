@@ -44,20 +44,13 @@ TEST(CliSceneErrors, UsdStageIsNamedWithItsConversion) {
   EXPECT_THAT(p.out, HasSubstr("spectrack.usd2scene")) << p.out;
 }
 
-// An unknown command is named, with the commands there are; a device listed twice is refused.
-TEST(CliUsage, UnknownCommandAndRepeatedDeviceAreNamed) {
+// An unknown command is named, with the commands there are.
+TEST(CliUsage, UnknownCommandIsNamed) {
   Proc p = run({"rendr", "scene.json"});
   EXPECT_TRUE(p.exited && p.code == 2) << p.describe();
   EXPECT_THAT(p.out, HasSubstr("unknown command 'rendr' (the commands: render, merge")) << p.out;
-  const std::string dir = test_dir();
-  const std::string scene = write_scene(dir, "s.json", homogeneous_scene(4, 4, 1, 1.0, 0.0));
-  RunOptions slow;
-  slow.timeout_s = 180;  // may include a cold kernel build
-  Proc twice = run({"render", scene, "-o", dir + "/a.exr", "--device", "0:0,0:0", "--quiet"}, slow);
-  EXPECT_TRUE(twice.exited && twice.code == 2) << twice.describe();
-  EXPECT_THAT(twice.out, HasSubstr("'0:0' and '0:0' name the same device (0:0")) << twice.out;
-  Proc once = run({"render", scene, "-o", dir + "/b.exr", "--device", "0:0", "--quiet"}, slow);  // the twin
-  EXPECT_TRUE(once.exited && once.code == 0) << once.describe();
+  Proc v = run({"--version"});  // the twin: an option first is CLI11's
+  EXPECT_TRUE(v.exited && v.code == 0) << v.describe();
 }
 
 TEST(CliSceneErrors, NegativeCoefficient) {

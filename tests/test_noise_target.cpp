@@ -184,6 +184,21 @@ TEST(Resume, ContinuesTheSampleSequenceToTheUninterruptedSumsBitForBit) {
   // the state survives the disk
   write_film_state(dir + "/state", *first.kept, "key");
   EXPECT_THAT(st_test::error_of([&] { read_film_state(dir + "/state", "another key"); }), HasSubstr("another render"));
+  // a mismatch names the fields that differ, values with spaces whole (the majorant grid's)
+  RenderIdentity id;
+  id.scene_hash = "abc";
+  const FilmWindow w{0, 0, 4, 4};
+  const std::string key = film_state_key(id, w, 0, 48);
+  EXPECT_THAT(key, HasSubstr("scene_hash=abc film=")) << key;
+  write_film_state(dir + "/keyed", *first.kept, key);
+  RenderIdentity other = id;
+  other.majorant = majorant_identity(8, kDefaultMajorantBlock, std::nullopt);
+  other.seed = id.seed + 1;
+  const std::string msg = st_test::error_of([&] { read_film_state(dir + "/keyed", film_state_key(other, w, 0, 48)); });
+  EXPECT_THAT(msg, HasSubstr("it differs in seed (the file's " + std::to_string(id.seed) + ", this render's " +
+                             std::to_string(other.seed) + "), majorant (the file's " + id.majorant + ", this render's " +
+                             other.majorant + ") (remove it")) << msg;
+  EXPECT_NO_THROW(read_film_state(dir + "/keyed", key));  // the twin: its own key reads
   const FilmState loaded = read_film_state(dir + "/state", "key");
   StopAt second;
   second.from = &loaded;
@@ -399,7 +414,9 @@ TEST(CliResume, AnInterruptedCheckpointedRenderResumesToTheUninterruptedImage) {
   std::ofstream(dir + "/part.exr.resume") << "spectrack-film-state/2\nscene_hash=x\n0 1 1 1\n0\n";
   Proc bad = run(args, ro);
   EXPECT_EQ(bad.code, 1) << bad.describe();
-  EXPECT_THAT(bad.out, HasSubstr("part.exr.resume: the film state belongs to another render"));
+  EXPECT_THAT(bad.out, HasSubstr("part.exr.resume: the film state belongs to another render: it differs in scene_hash "
+                                 "(the file's x, this render's "));
+  EXPECT_THAT(bad.out, HasSubstr("seed (the file's none, this render's ")) << bad.out;
 }
 
 }  // namespace

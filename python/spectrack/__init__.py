@@ -40,6 +40,10 @@ class Scene:
         _absolute_paths(d, self._base_dir)
         return d
 
+    @dict.setter
+    def dict(self, value):  # what .dict gives back; the scene itself is what it was loaded as
+        self._dict = copy.deepcopy(value)
+
     path = property(lambda self: self._desc.path)
     width = property(lambda self: self._desc.width)
     height = property(lambda self: self._desc.height)
@@ -179,6 +183,8 @@ def _absolute_paths(scene_dict, base_dir):
             holder[key] = os.path.normpath(os.path.join(base_dir, holder[key]))
     rebase(scene_dict.get("film"), "output")
     for section, key in (("lights", "map"), ("media", "file")):
+        if isinstance(scene_dict.get(section), tuple):
+            scene_dict[section] = list(scene_dict[section])
         items = scene_dict.get(section)
         for item in items if isinstance(items, list) else ():
             rebase(item, key)

@@ -105,10 +105,13 @@ def _field(mp, volume, name, path):
     file_attr = asset.GetFilePathAttr()
     if mp.value(file_attr) is None:
         samples = file_attr.GetTimeSamples() if file_attr else []
-        if samples:
-            raise mp.error(prim, f"filePath has only time samples ({samples[0]:g} to {samples[-1]:g}) and no default "
-                                 f"value: give the frame (load_usd(..., frame=F), usd2scene --frame F)")
-        raise mp.error(prim, "filePath is not set: the OpenVDBAsset names no file")
+        why = (f"filePath has only time samples ({samples[0]:g} to {samples[-1]:g}) and no default value: give the "
+               f"frame (load_usd(..., frame=F), usd2scene --frame F)" if samples
+               else "filePath is not set: the OpenVDBAsset names no file")
+        if name == "density":
+            raise mp.error(prim, why)
+        mp.warn(volume, f"field:{name}: {path}: {why}: not mapped")
+        return None
     index = mp.value(asset.GetFieldIndexAttr())
     if index is not None and int(index) < 0:
         raise mp.error(prim, f"fieldIndex {index} is negative")
@@ -121,8 +124,8 @@ def _material(mp, prim):
     `albedo` primvar, or the inputs of a bound arnold:standard_volume shader."""
     sigma_t, albedo, g = mp.o.get("sigma_t", 1.0), [mp.o.get("albedo", 0.8)] * 3, 0.0
     pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar("albedo")
-    if pv and pv.HasAuthoredValue():
-        albedo = _albedo_primvar(mp, prim, pv.Get(mp.time))
+    if pv and pv.HasAuthoredValue() and not _bound_shaders(mp, prim):  # a bound shader gives the albedo
+        albedo = _albedo_primvar(mp, prim, pv)
     for shader in _bound_shaders(mp, prim):
         get = lambda n, d: mp.value(shader.GetPrim().GetAttribute("inputs:" + n), d)  # noqa: E731
         density = float(get("density", 1.0))
@@ -132,13 +135,25 @@ def _material(mp, prim):
         scatter, color = float(get("scatter", 1.0)), list(get("scatter_color", (0.5, 0.5, 0.5)))
         albedo = [min(1.0, max(0.0, scatter * float(c))) for c in color]
         g = float(get("scatter_anisotropy", 0.0))
+        if not -1 < g < 1:
+            raise mp.error(shader.GetPrim(), f"inputs:scatter_anisotropy {g:g}: the Henyey-Greenstein g is in (-1, 1)")
     sigma_s = [sigma_t * a for a in albedo]
     phase = {"type": "hg", "g": g} if g != 0 else {"type": "isotropic"}
     return sigma_s, [sigma_t - s for s in sigma_s], phase
 
 
-def _albedo_primvar(mp, prim, value):
-    """A constant `albedo` primvar: one value, or one per channel (a color3f), each in [0, 1]."""
+def _albedo_primvar(mp, prim, pv):
+    """A constant `albedo` primvar: one value, or one per channel (a color3f, or an array of one
+    color3f as DCCs write constants), each in [0, 1]."""
+    if pv.GetInterpolation() != UsdGeom.Tokens.constant:
+        raise mp.error(prim, f"primvars:albedo has {pv.GetInterpolation()} interpolation: the import reads a "
+                             f"constant albedo")
+    value = pv.Get(mp.time)
+    if value is None:
+        raise mp.error(prim, "primvars:albedo has only time samples and no default value: give the frame "
+                             "(load_usd(..., frame=F), usd2scene --frame F)")
+    if hasattr(value, "__len__") and len(value) == 1:
+        value = value[0]
     try:
         channels = [float(v) for v in value] if hasattr(value, "__len__") else [float(value)] * 3
     except (TypeError, ValueError):
@@ -221,7 +236,9 @@ def _camera(mp, prim, width):
     forward = m.TransformDir(Gf.Vec3d(0, 0, -1)).GetNormalized()
     up = m.TransformDir(Gf.Vec3d(0, 1, 0))
     h_ap, v_ap = gf.horizontalAperture, gf.verticalAperture
-    for attr, v in (("focalLength", gf.focalLength), ("horizontalAperture", h_ap), ("verticalAperture", v_ap)):
+    lens = gf.projection != Gf.Camera.Orthographic or gf.fStop > 0  # an orthographic pinhole needs no focal length
+    for attr, v in (("focalLength", gf.focalLength if lens else 1.0), ("horizontalAperture", h_ap),
+                    ("verticalAperture", v_ap)):
         if not (math.isfinite(v) and v > 0):
             raise mp.error(prim, f"{attr} {v:g}: a camera needs a finite {attr} > 0")
     height = max(1, round(width * v_ap / h_ap))

@@ -226,6 +226,8 @@ def test_a_scene_dict_names_the_same_files_from_any_folder(tmp_path, monkeypatch
     assert not np.array_equal(spectrack.load_dict(relative).render(seed=3).rgb, s.render(seed=3).rgb)
     s.dict["film"]["spp"] = 7
     assert s.dict["film"]["spp"] == 1 and s.dict is not s.dict
+    as_tuple = spectrack.load_dict({**s.dict, "media": (relative["media"][0],)}, base_dir=ROOT / "data" / "scenes")
+    assert as_tuple.dict["media"][0]["file"] == str(ROOT / "data" / "volumes" / "cloud.vdb")  # a tuple section too
     import pathlib
     as_path = {**relative, "media": [{**relative["media"][0], "file": pathlib.Path(ROOT / "data" / "volumes" / "cloud.vdb")}]}
     np.testing.assert_array_equal(spectrack.load_dict(as_path).render(seed=3).rgb, s.render(seed=3).rgb)

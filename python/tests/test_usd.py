@@ -287,3 +287,57 @@ def test_everyday_stages_map_and_damaged_ones_are_named(tmp_path):
 
     with pytest.raises(ValueError, match="/mat/vol: inputs:density -2 is not a density"):
         stage_to_dict(_smoke_stage(tmp_path, "shader.usda", dense_shader), width=8, spp=1)
+
+    def ortho_no_focal(stage):  # an orthographic pinhole has no use for a focal length
+        cam = UsdGeom.Camera(stage.GetPrimAtPath("/cam"))
+        cam.CreateProjectionAttr().Set(UsdGeom.Tokens.orthographic)
+        cam.CreateFocalLengthAttr().Set(0.0)
+
+    scene, _ = stage_to_dict(_smoke_stage(tmp_path, "ortho.usda", ortho_no_focal), width=8, spp=1)
+    assert scene["camera"]["type"] == "orthographic"
+
+    def side_fields(stage):  # a field other than density without a file is warned, not fatal
+        asset = UsdVol.OpenVDBAsset.Define(stage, "/vol/vel")
+        UsdVol.Volume(stage.GetPrimAtPath("/vol")).CreateFieldRelationship("vel", asset.GetPath())
+        pv = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/vol")).CreatePrimvar("albedo", Sdf.ValueTypeNames.Color3fArray)
+        pv.Set([Gf.Vec3f(0.2, 0.4, 0.6)])  # a constant written as an array of one, as DCCs do
+
+    scene, warns = stage_to_dict(_smoke_stage(tmp_path, "side.usda", side_fields), width=8, spp=1)
+    assert scene["media"][0]["sigma_s"] == pytest.approx([0.2, 0.4, 0.6])
+    assert any("/vol: field:vel: /vol/vel: filePath is not set" in w for w in warns)
+
+    def varying(stage):
+        pv = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/vol")).CreatePrimvar(
+            "albedo", Sdf.ValueTypeNames.FloatArray, UsdGeom.Tokens.vertex)
+        pv.Set([0.5, 0.5, 0.5])
+
+    with pytest.raises(ValueError, match="/vol: primvars:albedo has vertex interpolation"):
+        stage_to_dict(_smoke_stage(tmp_path, "varying.usda", varying), width=8, spp=1)
+
+    def forward_g(stage):
+        dense_shader(stage)
+        sh = UsdShade.Shader(stage.GetPrimAtPath("/mat/vol"))
+        sh.GetInput("density").Set(1.0)
+        sh.CreateInput("scatter_anisotropy", Sdf.ValueTypeNames.Float).Set(1.5)
+
+    with pytest.raises(ValueError, match=r"/mat/vol: inputs:scatter_anisotropy 1.5: the Henyey-Greenstein g is in \(-1, 1\)"):
+        stage_to_dict(_smoke_stage(tmp_path, "forward.usda", forward_g), width=8, spp=1)
+
+
+def test_usd2scene_writes_nothing_that_render_refuses(tmp_path):
+    """A stage that maps to a scene spectrack refuses (a light of negative intensity) is an error of
+    usd2scene, and no scene file is left; the same stage with a positive intensity converts."""
+    from pxr import UsdLux
+
+    def sun(intensity):
+        return lambda stage: UsdLux.DistantLight.Define(stage, "/sun").CreateIntensityAttr().Set(intensity)
+
+    for intensity, code in ((-2.0, 1), (2.0, 0)):
+        stage = _smoke_stage(tmp_path, f"sun{code}.usda", sun(intensity))
+        out = tmp_path / f"sun{code}.json"
+        p = subprocess.run([sys.executable, "-m", "spectrack.usd2scene", str(stage), "-o", str(out)],
+                           capture_output=True, text=True)
+        assert p.returncode == code, p.stderr
+        assert out.exists() == (code == 0)
+        if code:
+            assert "the stage maps to a scene spectrack refuses" in p.stderr and "/lights/0/irradiance" in p.stderr

@@ -318,8 +318,12 @@ int cmd_info(const std::vector<std::string>& files, bool as_json, const std::opt
         }
       }
     } catch (const std::exception& e) {
-      std::cerr << "error: " << e.what() << "\n";
-      if (as_json) all.push_back({{"file", f}, {"error", e.what()}});
+      const std::string ext = lower_extension(f);
+      const std::string hint = ext == ".json" || ext == ".vdb" || ext == ".nvdb"
+                                   ? ""
+                                   : " (info reads volumes, .vdb and .nvdb, and scene files of JSON)";
+      std::cerr << "error: " << e.what() << hint << "\n";
+      if (as_json) all.push_back({{"file", f}, {"error", e.what() + hint}});
       ++failed;
     }
   }

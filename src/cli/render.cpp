@@ -7,6 +7,7 @@
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <cmath>
@@ -20,6 +21,7 @@
 #include <memory>
 #include <sstream>
 #include <tuple>
+#include <vector>
 #include <iostream>
 #include <unistd.h>
 
@@ -179,11 +181,14 @@ uint32_t film_layers(const RenderArgs& a, const SceneDesc& scene, const std::str
   if (a.denoise) aovs |= ST_AOV_BIT(ALBEDO);  // the denoiser's auxiliary input
   bool alpha = a.alpha || alpha_listed ? true : a.no_alpha ? false : scene.film.alpha.value_or(exr);
   if (!exr && (aovs || ((a.alpha || alpha_listed || scene.film.alpha.value_or(false)) && !a.no_alpha))) {
+    std::vector<std::string> from;  // what asked for the layers: the flags, else the scene's fields
+    if (!a.aov.empty()) from.push_back("--aov " + a.aov);
+    else if (aovs) from.push_back("film.aovs of " + scene.path);
+    if (a.alpha) from.push_back("--alpha");
+    else if (!alpha_listed && scene.film.alpha.value_or(false) && !a.no_alpha) from.push_back("film.alpha of " + scene.path);
     const std::string why = fmt::format("{}: film layers ({}) need an EXR output; a PNG holds the beauty only (write an EXR "
                                         "and add --preview for a PNG)",
-                                        output, !a.aov.empty() ? "--aov " + a.aov
-                                                : a.alpha      ? std::string("--alpha")
-                                                               : std::string("film.aovs / film.alpha of ") + scene.path);
+                                        output, fmt::join(from, ", "));
     // the scene's own output and layers: an error of the scene (exit 1); with -o, --aov or --alpha: of the command line
     if (a.output.empty() && a.aov.empty() && !a.alpha) throw Error(fmt::format("{}: /film/output: {}", scene.path, why));
     throw UsageError(why);

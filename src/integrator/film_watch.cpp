@@ -12,7 +12,11 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "util/files.h"
 #include "util/output_file.h"
@@ -30,14 +34,72 @@ std::string film_state_digest(const std::string& shape, const std::vector<float>
   return h.digest();
 }
 
+// A state's key as (name, value) fields in order; film_state_key writes them as "name=value" words
+// (a value may hold spaces: the majorant grid's and the camera's choices do).
+std::vector<std::pair<std::string, std::string>> key_fields(const RenderIdentity& id, const FilmWindow& w,
+                                                            int64_t sample_begin, int spp) {
+  std::vector<std::pair<std::string, std::string>> f = {
+      {"scene_hash", id.scene_hash}, {"film", fmt::format("{}x{}", id.full_width, id.full_height)},
+      {"seed", fmt::format("{}", id.seed)}};
+  for (const RecordedChoice& c : recorded_choices()) f.emplace_back(c.key, fmt::format("{}", id.*c.field));  // as merge compares them
+  f.emplace_back("aovs", fmt::format("{}", id.aovs));
+  f.emplace_back("version", id.version);
+  f.emplace_back("window", fmt::format("{},{},{},{}", w.x0, w.y0, w.width, w.height));
+  f.emplace_back("samples", fmt::format("{}:{}", sample_begin, sample_begin + spp));
+  f.emplace_back("little_endian", fmt::format("{}", __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__));
+  return f;
+}
+
+// A key's value of each field name, found as " name=" in the names' order (a value runs to the
+// next name found); a name the key lacks is absent.
+std::map<std::string, std::string> parse_key(const std::string& key) {
+  std::vector<std::string> names;
+  for (const auto& f : key_fields(RenderIdentity(), FilmWindow(), 0, 0)) names.push_back(f.first);
+  std::vector<std::pair<size_t, size_t>> at(names.size(), {std::string::npos, 0});  // value begin, name begin
+  size_t from = 0;
+  for (size_t i = 0; i < names.size(); ++i) {
+    const std::string word = (i == 0 ? "" : " ") + names[i] + "=";
+    const size_t p = i == 0 ? (key.rfind(word, 0) == 0 ? 0 : std::string::npos) : key.find(word, from);
+    if (p == std::string::npos) continue;
+    at[i] = {p + word.size(), p};
+    from = p + word.size();
+  }
+  std::map<std::string, std::string> out;
+  for (size_t i = 0; i < names.size(); ++i) {
+    if (at[i].first == std::string::npos) continue;
+    size_t end = key.size();
+    for (size_t j = i + 1; j < names.size(); ++j)
+      if (at[j].first != std::string::npos) {
+        end = at[j].second;
+        break;
+      }
+    out[names[i]] = key.substr(at[i].first, end - at[i].first);
+  }
+  return out;
+}
+
+// The fields two keys disagree on, in the key's order: "seed (the file's 1, this render's 2), ...".
+std::string key_differences(const std::string& file_key, const std::string& key) {
+  const auto in_file = parse_key(file_key), in_render = parse_key(key);
+  auto shown = [](const std::map<std::string, std::string>& m, const std::string& name) {
+    const auto it = m.find(name);
+    return it == m.end() ? std::string("none") : it->second.empty() ? std::string("(empty)") : it->second;
+  };
+  std::string out;
+  for (const auto& f : key_fields(RenderIdentity(), FilmWindow(), 0, 0)) {
+    if (shown(in_file, f.first) == shown(in_render, f.first)) continue;
+    out += fmt::format("{}{} (the file's {}, this render's {})", out.empty() ? "" : ", ", f.first,
+                       shown(in_file, f.first), shown(in_render, f.first));
+  }
+  return out.empty() ? "what this version does not name (see the keys below)" : out;
+}
+
 }  // namespace
 
 std::string film_state_key(const RenderIdentity& id, const FilmWindow& w, int64_t sample_begin, int spp) {
-  std::string key = fmt::format("scene_hash={} film={}x{} seed={}", id.scene_hash, id.full_width, id.full_height, id.seed);
-  for (const RecordedChoice& c : recorded_choices()) key += fmt::format(" {}={}", c.key, id.*c.field);  // as merge compares them
-  return key + fmt::format(" aovs={} version={} window={},{},{},{} samples={}:{} little_endian={}", id.aovs, id.version,
-                           w.x0, w.y0, w.width, w.height, sample_begin, sample_begin + spp,
-                           __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__);
+  std::string key;
+  for (const auto& [name, value] : key_fields(id, w, sample_begin, spp)) key += (key.empty() ? "" : " ") + name + "=" + value;
+  return key;
 }
 
 void write_film_state(const std::string& path, const FilmState& st, const std::string& key) {
@@ -59,9 +121,9 @@ FilmState read_film_state(const std::string& path, const std::string& key) {
   if (!std::getline(in, file_key) || !std::getline(in, shape) || !std::getline(in, digest))
     throw Error(fmt::format("{}: the film state's header is cut short (it ends before its fourth line)", path));
   if (file_key != key)
-    throw Error(fmt::format("{}: the film state belongs to another render (a different scene, film, seed, estimator or "
-                            "schedule choice, shutter, camera, layers, version or sample range):\n  file:   {}\n  render: {}",
-                            path, file_key, key));
+    throw Error(fmt::format("{}: the film state belongs to another render: it differs in {} (remove it, or resume with "
+                            "the render's own settings)\n  file:   {}\n  render: {}",
+                            path, key_differences(file_key, key), file_key, key));
   FilmState st;
   std::istringstream ss(shape);
   std::string rest;

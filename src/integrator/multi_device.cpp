@@ -268,17 +268,6 @@ MultiDeviceResult render_multi_device(const SceneDesc& scene, const RenderOption
       throw UsageError("adaptive sampling renders on one device, over the whole sample range");
     return render_adaptive_film(scene, base, settings, devices[0]);
   }
-  std::vector<DeviceInfo> named;  // each device once: a second context on it would only share its time
-  named.reserve(n_dev);
-  for (size_t i = 0; i < n_dev && n_dev > 1; ++i) {
-    const DeviceInfo& a = named.emplace_back(select_device(devices[i]));
-    for (size_t j = 0; j < i; ++j) {
-      const DeviceInfo& b = named[j];
-      if (a.platform_index == b.platform_index && a.device_index == b.device_index)
-        throw UsageError(fmt::format("--device: '{}' and '{}' name the same device ({}:{}, {}); list each device once",
-                                     devices[j], devices[i], a.platform_index, a.device_index, a.name));
-    }
-  }
   if (chunk_spp <= 0) chunk_spp = n_dev == 1 ? spp : std::max(1, (spp + int(4 * n_dev) - 1) / int(4 * n_dev));
   MultiDeviceRun run(scene, base, settings, devices, sample_begin, spp, chunk_spp);
   run.run();

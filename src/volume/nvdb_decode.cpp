@@ -17,8 +17,6 @@
 // before any node is decoded.
 #include "volume/nvdb_decode.h"
 
-#include "util/host_memory.h"
-
 #include <openvdb/openvdb.h>
 
 #include <cmath>
@@ -31,6 +29,8 @@
 
 #include <nanovdb/util/GridValidator.h>
 #include <nanovdb/util/OpenToNanoVDB.h>
+
+#include "util/host_memory.h"
 
 namespace spectrack {
 namespace volume_detail {

@@ -1,5 +1,6 @@
 // nvdb_decode.h: NanoVDB density grids of double or quantized values (Fp4, Fp8, Fp16, FpN) read
-// as the float grid the device reads (nvdb_decode.cpp has the design note).
+// as the float grid the device reads (nvdb_decode.cpp has the design note), and the tree-layout
+// check every NanoVDB grid passes first, float grids too (check_tree_layout).
 #pragma once
 #include <algorithm>
 #include <cstdint>
@@ -20,8 +21,9 @@ namespace volume_detail {
 // followed the tree; every level's node-array offset inside the buffer (NanoVDB forms a level's
 // first-node pointer even for an empty level); a non-empty level's nodes after the root's tile
 // table, as NanoVDB lays them out, aligned, and where its nodes have one size (all but FpN leaves)
-// the whole array inside the buffer, NanoVDB's checksum reading it as one; no level counting more
-// nodes than 32-byte slots (a decoder's walk budget). Returns the root.
+// the whole array inside the buffer, NanoVDB's checksum reading it as one, and FpN leaves no more
+// than the smallest (1-bit) leaves its bytes hold; no level counting more nodes than 32-byte slots
+// (a decoder's walk budget). Returns the root.
 template <typename BuildT>
 const nanovdb::NanoRoot<BuildT>& check_tree_layout(const nanovdb::NanoGrid<BuildT>& g, const Fail& fail) {
   using RootData = typename nanovdb::NanoRoot<BuildT>::DataType;
@@ -52,6 +54,9 @@ const nanovdb::NanoRoot<BuildT>& check_tree_layout(const nanovdb::NanoGrid<Build
     if (at < root_end || (tree_at + int64_t(at)) % NANOVDB_DATA_ALIGNMENT) corrupt("node array");
     if (node_size[level] > 0 && n > uint64_t(size - tree_at - int64_t(at)) / uint64_t(node_size[level]))
       corrupt("node array");
+    if (node_size[level] == 0 &&  // FpN leaves: a header and at least 512 1-bit values each
+        n > uint64_t(size - tree_at - int64_t(at)) / uint64_t(sizeof(typename nanovdb::NanoLeaf<BuildT>::DataType) + 64))
+      corrupt("node count");
   }
   return *reinterpret_cast<const nanovdb::NanoRoot<BuildT>*>(rd);
 }
