@@ -123,10 +123,11 @@ def _material(mp, prim):
     """sigma_s, sigma_a per unit density and the phase: options sigma_t and albedo, a constant
     `albedo` primvar, or the inputs of a bound arnold:standard_volume shader."""
     sigma_t, albedo, g = mp.o.get("sigma_t", 1.0), [mp.o.get("albedo", 0.8)] * 3, 0.0
+    shaders = _bound_shaders(mp, prim)
     pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar("albedo")
-    if pv and pv.HasAuthoredValue() and not _bound_shaders(mp, prim):  # a bound shader gives the albedo
+    if pv and pv.HasAuthoredValue() and not shaders:  # a bound shader gives the albedo
         albedo = _albedo_primvar(mp, prim, pv)
-    for shader in _bound_shaders(mp, prim):
+    for shader in shaders:
         get = lambda n, d: mp.value(shader.GetPrim().GetAttribute("inputs:" + n), d)  # noqa: E731
         density = float(get("density", 1.0))
         if not (math.isfinite(density) and density >= 0):

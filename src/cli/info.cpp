@@ -287,9 +287,10 @@ int cmd_info(const std::vector<std::string>& files, bool as_json, const std::opt
   json all = json::array();
   int failed = 0;
   for (const std::string& f : files) {
+    const std::string ext = lower_extension(f);
+    const bool volume = ext == ".vdb" || ext == ".nvdb";  // else a scene, whatever its name, as render reads it
     try {
-      std::string ext = lower_extension(f);
-      if (ext != ".vdb" && ext != ".nvdb") {  // a scene, whatever its name, as render reads it
+      if (!volume) {
         std::string text;
         for (const SceneDesc& s : scene_frames(load_scene(f), frames, as_json)) {
           text.clear();
@@ -318,10 +319,8 @@ int cmd_info(const std::vector<std::string>& files, bool as_json, const std::opt
         }
       }
     } catch (const std::exception& e) {
-      const std::string ext = lower_extension(f);
-      const std::string hint = ext == ".json" || ext == ".vdb" || ext == ".nvdb"
-                                   ? ""
-                                   : " (info reads volumes, .vdb and .nvdb, and scene files of JSON)";
+      const std::string hint =
+          volume || ext == ".json" ? "" : " (info reads volumes, .vdb and .nvdb, and scene files of JSON)";
       std::cerr << "error: " << e.what() << hint << "\n";
       if (as_json) all.push_back({{"file", f}, {"error", e.what() + hint}});
       ++failed;

@@ -52,9 +52,7 @@ std::vector<std::pair<std::string, std::string>> key_fields(const RenderIdentity
 
 // A key's value of each field name, found as " name=" in the names' order (a value runs to the
 // next name found); a name the key lacks is absent.
-std::map<std::string, std::string> parse_key(const std::string& key) {
-  std::vector<std::string> names;
-  for (const auto& f : key_fields(RenderIdentity(), FilmWindow(), 0, 0)) names.push_back(f.first);
+std::map<std::string, std::string> parse_key(const std::string& key, const std::vector<std::string>& names) {
   std::vector<std::pair<size_t, size_t>> at(names.size(), {std::string::npos, 0});  // value begin, name begin
   size_t from = 0;
   for (size_t i = 0; i < names.size(); ++i) {
@@ -80,16 +78,18 @@ std::map<std::string, std::string> parse_key(const std::string& key) {
 
 // The fields two keys disagree on, in the key's order: "seed (the file's 1, this render's 2), ...".
 std::string key_differences(const std::string& file_key, const std::string& key) {
-  const auto in_file = parse_key(file_key), in_render = parse_key(key);
+  std::vector<std::string> names;
+  for (const auto& f : key_fields(RenderIdentity(), FilmWindow(), 0, 0)) names.push_back(f.first);
+  const auto in_file = parse_key(file_key, names), in_render = parse_key(key, names);
   auto shown = [](const std::map<std::string, std::string>& m, const std::string& name) {
     const auto it = m.find(name);
     return it == m.end() ? std::string("none") : it->second.empty() ? std::string("(empty)") : it->second;
   };
   std::string out;
-  for (const auto& f : key_fields(RenderIdentity(), FilmWindow(), 0, 0)) {
-    if (shown(in_file, f.first) == shown(in_render, f.first)) continue;
-    out += fmt::format("{}{} (the file's {}, this render's {})", out.empty() ? "" : ", ", f.first,
-                       shown(in_file, f.first), shown(in_render, f.first));
+  for (const std::string& name : names) {
+    if (shown(in_file, name) == shown(in_render, name)) continue;
+    out += fmt::format("{}{} (the file's {}, this render's {})", out.empty() ? "" : ", ", name, shown(in_file, name),
+                       shown(in_render, name));
   }
   return out.empty() ? "what this version does not name (see the keys below)" : out;
 }
