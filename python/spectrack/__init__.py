@@ -93,12 +93,16 @@ _RENDER_ARG_TYPES = {"spp": _INT, "seed": _INT, "chunk_spp": _INT, "time_limit":
                      "guide_splitting": _BOOL}
 
 
+def _is_bool(value):  # Python's bool, or numpy's (numpy.bool_, named numpy.bool since numpy 2)
+    return isinstance(value, bool) or (type(value).__module__ == "numpy" and type(value).__name__ in ("bool", "bool_"))
+
+
 def _is(value, kind):
     if kind == _BOOL:
-        return isinstance(value, bool) or type(value).__name__ == "bool_"  # numpy's bool too
+        return _is_bool(value)
     if kind == _STR:
         return isinstance(value, str)
-    if isinstance(value, bool) or type(value).__name__ == "bool_":
+    if _is_bool(value):
         return False  # True is no sample count
     if kind == _INT:
         return isinstance(value, numbers.Integral)
@@ -259,13 +263,13 @@ def load_file(path, **overrides):
     """A scene file; each keyword (a top-level section: film, render, camera, lights, media) is merged
     into the file's JSON as an RFC 7386 merge patch, e.g. ``load_file(p, film={"spp": 16})``."""
     path = os.fspath(path)
-    if not overrides or not os.path.isfile(path):  # a missing file: the loader's ValueError either way
+    if not overrides:
         return Scene(_spectrack.load_scene(os.fsencode(path)))  # the file system's bytes (any name)
-    with open(path, encoding="utf-8") as f:
-        try:
-            doc = json.load(f)
-        except json.JSONDecodeError as e:
-            raise ValueError(f"{path}: not JSON: {e}") from None
+    text = _spectrack.read_scene_text(os.fsencode(path))  # the loader's checks of the file (a USD stage, a FIFO, ...)
+    try:
+        doc = json.loads(text.decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise ValueError(f"{path}: not JSON: {e}") from None
     volumes = []
     plain = _merge_patch(doc, _with_volumes(overrides, volumes))
     text = _to_json(plain, path)

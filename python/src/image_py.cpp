@@ -12,6 +12,7 @@
 
 #include <algorithm>
 
+#include "args_py.h"
 #include "cli/checks.h"
 #include "integrator/stats_json.h"
 #include "warnings_py.h"
@@ -64,9 +65,12 @@ py::dict layers(const Image& im) {
 
 py::object to_python(const nlohmann::json& j) { return py::module_::import("json").attr("loads")(j.dump()); }
 
-Image merge(const py::iterable& items) {
+Image merge(const py::object& items) {
   if (py::isinstance<py::str>(items) || py::isinstance<py::bytes>(items) || py::hasattr(items, "__fspath__"))
     throw py::type_error("merge: a list of images or paths is needed (one path alone: [path])");
+  if (!py::isinstance<py::iterable>(items))
+    throw py::type_error(fmt::format("merge: a list of images or paths is needed, not {}",
+                                     py::repr(items).cast<std::string>()));
   std::vector<FilmPiece> pieces;
   Image out;
   for (const py::handle& h : items) {
@@ -135,17 +139,6 @@ bool is_piece(const Image& im) {
 
 }  // namespace
 
-std::string path_arg(const py::handle& path, const char* what) {
-  if (!py::isinstance<py::str>(path) && !py::hasattr(path, "__fspath__"))
-    throw py::type_error(fmt::format("{}: a path (str or os.PathLike) is needed, not {}", what,
-                                     py::repr(path).cast<std::string>()));
-  const py::module_ os = py::module_::import("os");
-  const py::object s = os.attr("fspath")(path);
-  if (!py::isinstance<py::str>(s)) throw py::type_error(fmt::format("{}: a str path is needed (bytes given)", what));
-  // the file system's bytes: a name that is not UTF-8 arrives as os.fsdecode gives it (surrogates)
-  return os.attr("fsencode")(s).cast<std::string>();
-}
-
 void bind_image(py::module_& m) {
   py::class_<Image>(m, "Image", "A render (or a merge of renders): a pixel window of the film with exact sums")
       .def_property_readonly("rgb", [](const Image& im) {
@@ -163,8 +156,11 @@ void bind_image(py::module_& m) {
         const FilmPiece& p = im.piece;
         return py::make_tuple(p.x0, p.x0 + p.width, p.y0, p.y0 + p.height);
       })
-      .def("write", [](const Image& im, const py::object& path_object, bool half, const std::string& compression) {
+      .def("write", [](const Image& im, const py::object& path_object, const py::object& half_arg,
+                       const py::object& compression_arg) {
         const std::string path = path_arg(path_object, "write");
+        const bool half = bool_arg(half_arg, "write", "half");
+        const std::string compression = str_arg(compression_arg, "write", "compression");
         if (im.piece.samples() == 0)  // as the command line writes nothing when no sample finished
           throw py::value_error(fmt::format("write: {}: the image holds no finished sample (a render stopped before its "
                                             "first batch): nothing to write", path));

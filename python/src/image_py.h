@@ -21,9 +21,6 @@ struct Image {
   bool spp_or_pixel_range = false;  // rendered with spp_range or pixel_bounds: a piece to merge
 };
 
-// A file path argument: a str or any os.PathLike (pathlib.Path); TypeError naming `what` otherwise.
-std::string path_arg(const pybind11::handle& path, const char* what);
-
 // Binds Image, merge, read and read_exr to module `m`.
 void bind_image(pybind11::module_& m);
 

@@ -51,6 +51,8 @@ void bind_scene(py::module_& m) {
       .def_property_readonly("media", [](const SceneDesc& s) { return s.media.size(); })
       .def_property_readonly("lights", [](const SceneDesc& s) { return s.lights.size(); });
   m.def("load_scene", &load_scene, py::call_guard<python::FlushWarnings>(), py::arg("path"), "parses and validates a scene file");
+  m.def("read_scene_text", [](const std::string& path) { return py::bytes(read_scene_text(path)); }, py::arg("path"),
+        "a scene file's bytes, after the loader's checks of the file (not a folder, a USD stage or too large)");
   m.def("parse_scene", &parse_scene, py::call_guard<python::FlushWarnings>(), py::arg("json_text"), py::arg("name"), py::arg("dir"),
         "parses and validates scene JSON text; `name` stands for the file in messages, `dir` resolves relative paths");
   m.def("render", [](const SceneDesc& scene, std::optional<int> spp, std::optional<int64_t> seed, std::string device,

@@ -2,7 +2,6 @@
 // centres sit at origin + (i, j, k) * voxel_size in world units, the renderer's convention
 // (src/volume/volume.h: values at integer index coordinates, trilinear between them).
 #include "volume_py.h"
-#include "image_py.h"
 
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
@@ -16,6 +15,7 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "args_py.h"
 #include "util/error.h"
 #include "volume/inspect.h"
 #include "warnings_py.h"
@@ -27,9 +27,15 @@ namespace spectrack {
 namespace python {
 namespace {
 
-// The array as float64 C-contiguous values, after the checks: a floating dtype, three dimensions,
-// no empty axis; TypeError and ValueError name what is wrong.
-py::array_t<double, py::array::c_style | py::array::forcecast> checked_array(const py::array& a) {
+// The array (a numpy array, or what numpy.asarray takes) as float64 C-contiguous values, after the
+// checks: a floating dtype, three dimensions, no empty axis; TypeError and ValueError name what is wrong.
+py::array_t<double, py::array::c_style | py::array::forcecast> checked_array(const py::object& density) {
+  const py::array a = py::array::ensure(density);
+  if (!a) {
+    PyErr_Clear();
+    throw py::type_error(fmt::format("Volume.from_numpy: density must be a 3-D array of floats, not {}",
+                                     py::repr(density).cast<std::string>().substr(0, 80)));
+  }
   const char kind = a.dtype().kind();
   if (kind != 'f')
     throw py::type_error(fmt::format("Volume.from_numpy: density has dtype {}; a floating dtype (float32, float64, "
@@ -42,8 +48,8 @@ py::array_t<double, py::array::c_style | py::array::forcecast> checked_array(con
   return py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
 }
 
-std::array<double, 3> checked_origin(const std::vector<double>& origin) {
-  if (origin.size() != 3) throw py::value_error("Volume.from_numpy: origin needs 3 numbers (x, y, z)");
+std::array<double, 3> checked_origin(const py::object& origin_arg) {
+  const std::vector<double> origin = reals_arg(origin_arg, "Volume.from_numpy", "origin", 3);
   for (double v : origin)
     if (!std::isfinite(v)) throw py::value_error("Volume.from_numpy: origin must be finite");
   return {origin[0], origin[1], origin[2]};
@@ -58,12 +64,14 @@ std::string make_temp_dir() {
 
 constexpr double kMinVoxelSize = 1.5e-5;  // above OpenVDB's least uniform scale, (3e-15)^(1/3)
 
-std::unique_ptr<Volume> from_numpy(const py::array& density, double voxel_size, const std::vector<double>& origin_v,
-                                   const std::string& grid_name) {
+std::unique_ptr<Volume> from_numpy(const py::object& density, const py::object& voxel_size_arg,
+                                   const py::object& origin_arg, const py::object& grid_arg) {
   auto arr = checked_array(density);
+  const double voxel_size = real_arg(voxel_size_arg, "Volume.from_numpy", "voxel_size");
+  const std::string grid_name = str_arg(grid_arg, "Volume.from_numpy", "grid");
   if (!(voxel_size > 0) || !std::isfinite(voxel_size))
     throw py::value_error(fmt::format("Volume.from_numpy: voxel_size {} must be a positive finite number", voxel_size));
-  const std::array<double, 3> origin = checked_origin(origin_v);
+  const std::array<double, 3> origin = checked_origin(origin_arg);
   if (grid_name.empty()) throw py::value_error("Volume.from_numpy: grid must not be empty (a medium names its grid)");
   // what a VDB transform holds (OpenVDB refuses a uniform scale whose cube is below 3e-15 as
   // singular: voxels under 1.44e-5) and the kernels' float coordinates can place
@@ -113,8 +121,9 @@ std::unique_ptr<Volume> from_numpy(const py::array& density, double voxel_size, 
 
 // The grid of a file, checked as `spectrack info` reads it (volume/inspect.h): the file a VDB or
 // NanoVDB one, the grid present and usable as a density; its shape is the active voxels' box.
-std::unique_ptr<Volume> from_file(const py::object& path_object, const std::string& grid) {
+std::unique_ptr<Volume> from_file(const py::object& path_object, const py::object& grid_arg) {
   const std::string path = path_arg(path_object, "Volume.from_file");
+  const std::string grid = str_arg(grid_arg, "Volume.from_file", "grid");
   if (!fs::exists(path)) throw Error(fmt::format("{}: no such volume file", path));
   std::vector<std::string> names;
   const std::vector<GridInfo> grids = inspect_volume(path);
@@ -159,7 +168,7 @@ Volume::~Volume() {
 void bind_volume(py::module_& m) {
   py::class_<Volume>(m, "Volume", "A float grid usable as a medium's density (docs/python.md)")
       .def_static("from_numpy", &from_numpy, py::call_guard<FlushWarnings>(), py::arg("density"), py::arg("voxel_size") = 1.0,
-                  py::arg("origin") = std::vector<double>{0, 0, 0}, py::arg("grid") = "density",
+                  py::arg("origin") = py::make_tuple(0.0, 0.0, 0.0), py::arg("grid") = "density",
                   "an OpenVDB grid of a 3-D float array (x, y, z), sparse where it is zero; voxel centres at origin + "
                   "(i, j, k) * voxel_size")
       .def_static("from_file", &from_file, py::call_guard<FlushWarnings>(), py::arg("path"), py::arg("grid") = "density", "a grid of a .vdb or .nvdb file")

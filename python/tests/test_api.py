@@ -202,6 +202,23 @@ def test_overrides_merge_into_the_file():
     assert s.render().rgb.shape == (6, 8, 3)
 
 
+def test_overrides_read_the_file_as_the_loader_does(tmp_path):
+    """With overrides the file is read after the loader's checks of it, so a USD stage is named as
+    one (with the converter) and a FIFO is refused, as without overrides; text that is not JSON says so."""
+    stage = tmp_path / "stage.usda"
+    stage.write_text("#usda 1.0\n")
+    for overrides in ({}, {"film": {"spp": 1}}):
+        with pytest.raises(ValueError, match="is a USD stage.*usd2scene"):
+            spectrack.load_file(stage, **overrides)
+    fifo = tmp_path / "pipe.json"
+    os.mkfifo(fifo)
+    with pytest.raises(ValueError, match="FIFO"):
+        spectrack.load_file(fifo, film={"spp": 1})
+    (tmp_path / "bad.json").write_bytes(b"{\xff")
+    with pytest.raises(ValueError, match="bad.json: not JSON"):
+        spectrack.load_file(tmp_path / "bad.json", film={"spp": 1})
+
+
 def test_a_scene_dict_names_the_same_files_from_any_folder(tmp_path, monkeypatch):
     """scene.dict's paths are absolute (a file's relative paths resolved against its folder), so a
     scene rebuilt from it in another folder reads the same files, never a namesake there; its
@@ -395,7 +412,7 @@ def test_stats_and_metadata_are_the_command_lines(spectrack_binary, tmp_path):
         assert t.interrupted and t.stats["stop_reason"] == "time-limit" and t.stats["time_limit"] == 2.0
 
 
-def test_arguments_of_the_wrong_type_are_named():
+def test_arguments_of_the_wrong_type_are_named(tmp_path):
     s = spectrack.load_dict(SLAB)
     for kwargs, words in [({"spp": 2.5}, "spp must be an int"), ({"spp": True}, "spp must be an int"),
                           ({"seed": "1"}, "seed must be an int"), ({"guiding": True}, "guiding must be a str"),
@@ -406,7 +423,28 @@ def test_arguments_of_the_wrong_type_are_named():
             s.render(**kwargs)
     with pytest.raises(ValueError, match="spp=1099511627776 is out of range"):
         s.render(spp=1 << 40)
-    assert s.render(spp=np.int64(2), device=None, chunk_spp=None).spp == 2  # numpy ints; None: the default
+    im = s.render(spp=np.int64(2), device=None, chunk_spp=None, verbose=np.False_)  # numpy ints and bools; None: the default
+    assert im.spp == 2
+    # the other functions name the argument too (pybind11's own message lists the signature)
+    d = np.ones((2, 2, 2), dtype=np.float32)
+    for call, words in [(lambda: spectrack.Volume.from_numpy(d, voxel_size=(1, 2, 3)), "voxel_size must be a number"),
+                        (lambda: spectrack.Volume.from_numpy(d, voxel_size=True), "voxel_size must be a number"),
+                        (lambda: spectrack.Volume.from_numpy(d, origin="abc"), "origin must be 3 numbers"),
+                        (lambda: spectrack.Volume.from_numpy(d, origin=(1, 2)), "origin must be 3 numbers"),
+                        (lambda: spectrack.Volume.from_numpy(d, grid=3), "grid must be a str"),
+                        (lambda: spectrack.Volume.from_numpy("abc"), "dtype"),
+                        (lambda: spectrack.Volume.from_file(ROOT / "data" / "volumes" / "cloud.vdb", grid=None),
+                         "grid must be a str"),
+                        (lambda: im.write(tmp_path / "x.exr", half="yes"), "half must be True or False"),
+                        (lambda: im.write(tmp_path / "x.exr", compression=3), "compression must be a str"),
+                        (lambda: spectrack.merge(3), "a list of images or paths is needed, not 3")]:
+        with pytest.raises(TypeError, match=words):
+            call()
+    # what they take: numpy scalars and arrays, nested lists, numpy's bool
+    v = spectrack.Volume.from_numpy([[[1.0, 2.0]]], voxel_size=np.float32(0.5), origin=np.array([1.0, 2.0, 3.0]))
+    assert list(v.shape) == [1, 1, 2]
+    im.write(tmp_path / "h.exr", half=np.True_)
+    assert spectrack.merge(x for x in [im]).spp == 2
 
 
 def test_messages_and_file_names_that_are_not_utf8(tmp_path):

@@ -385,7 +385,7 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& name, con
   return s;
 }
 
-SceneDesc load_scene(const std::string& path) {
+std::string read_scene_text(const std::string& path) {
   // The common failures keep their plain wording; anything else that is not a regular file of at
   // most kMaxSceneBytes (a FIFO, /dev/zero, a huge file) is refused by read_input_file.
   std::error_code ec;
@@ -398,7 +398,11 @@ SceneDesc load_scene(const std::string& path) {
     throw Error(path + ": is a USD stage; a scene file is spectrack's JSON: convert the stage with `python3 -m "
                 "spectrack.usd2scene " + path + " -o scene.json`, or load it in Python with spectrack.load_usd "
                 "(docs/usd.md)");
-  const std::string text = read_input_file(path, "", kMaxSceneBytes);
+  return read_input_file(path, "", kMaxSceneBytes);
+}
+
+SceneDesc load_scene(const std::string& path) {
+  const std::string text = read_scene_text(path);
   fs::path dir = fs::path(path).parent_path();
   return parse_scene(text, path, dir.empty() ? "." : dir.string());
 }

@@ -278,6 +278,9 @@ struct SceneDesc {
 
 // Parses and validates a scene file. Throws spectrack::Error.
 SceneDesc load_scene(const std::string& path);
+// The text of a scene file, with load_scene's checks of the file itself (it exists, is not a folder,
+// a USD stage or larger than kMaxSceneBytes); the Python module's load_file with overrides reads it.
+std::string read_scene_text(const std::string& path);
 // Same, from JSON text; `name` stands for the file in messages, `dir` resolves relative paths.
 SceneDesc parse_scene(const std::string& json_text, const std::string& name, const std::string& dir);
 
