@@ -10,7 +10,8 @@
  * (pbrt-v4's sphere sampling outside the sphere), so MIS with phase sampling applies; its shadow
  * rays end at its surface.
  * Lat-long convention: v = acos(d.y) / pi (row 0 looks up, +y), u = 0.5 + atan2(d.x, -d.z) / (2 pi)
- * (the image centre looks along -z). The map is sampled in proportion to max(rgb) * sin(theta). */
+ * - map_turn (the image centre looks along -z, turned about +y by rotate_deg = 360 map_turn towards
+ * +x). The map is sampled in proportion to max(rgb) * sin(theta). */
 #ifndef SPECTRACK_LIGHT_H
 #define SPECTRACK_LIGHT_H
 
@@ -20,13 +21,16 @@
 #include "spectrum.h"
 #include "phase.h"
 
-inline float2 env_dir_to_uv(float3 d) {
+inline float2 env_dir_to_uv(__constant const st_light* l, float3 d) {
   float v = acos(clamp(d.y, -1.0f, 1.0f)) / ST_PI;
   float u = 0.5f + atan2(d.x, -d.z) / (2.0f * ST_PI);
+  if (l->map_turn != 0.0f) u -= l->map_turn;  /* the world's azimuth is the map's plus rotate_deg */
   return (float2)(u - floor(u), v);
 }
-inline float3 env_uv_to_dir(float2 uv) {
-  float theta = uv.y * ST_PI, phi = (uv.x - 0.5f) * 2.0f * ST_PI;
+inline float3 env_uv_to_dir(__constant const st_light* l, float2 uv) {
+  float u = uv.x;
+  if (l->map_turn != 0.0f) u += l->map_turn;
+  float theta = uv.y * ST_PI, phi = (u - 0.5f) * 2.0f * ST_PI;
   float s = sin(theta);
   return (float3)(s * sin(phi), cos(theta), -s * cos(phi));
 }
@@ -66,7 +70,7 @@ inline int cdf_find(__global const float* cdf, int n, float u) {
  * uniformly in it: the density in (u, v) is f / map_integral, constant over the texel, and a
  * direction's solid angle is 2 pi^2 sin(theta) du dv at its own theta. */
 inline float env_map_pdf(__constant const st_light* l, __global const float* env, float3 d) {
-  float2 uv = env_dir_to_uv(d);
+  float2 uv = env_dir_to_uv(l, d);
   float s = sqrt(fmax(0.0f, 1.0f - d.y * d.y));
   if (s <= 0.0f || l->map_integral <= 0.0f) return 0.0f;
   int row = min((int)(uv.y * l->map_height), l->map_height - 1);
@@ -84,10 +88,10 @@ inline float4 light_radiance(__constant const st_light* l, float4 lambda) {
  * texel's spectrum times D65 at the path's wavelengths (the map's scale stays a number). */
 inline float4 env_map_Le(__constant const st_light* l, __global const float* env, float3 d, float4 lambda) {
   if (ST_HAS_SPECTRAL && l->spectral) {
-    __global const float* px = env_texel_at(l, env, env_dir_to_uv(d));
+    __global const float* px = env_texel_at(l, env, env_dir_to_uv(l, d));
     return l->radiance.x * illuminant_at((float4)(px[0], px[1], px[2], px[3]), lambda);
   }
-  return l->radiance * env_texel(l, env, env_dir_to_uv(d));
+  return l->radiance * env_texel(l, env, env_dir_to_uv(l, d));
 }
 
 /* Radiance arriving along direction d (pointing away from the scene) from light l at infinity (0 for
@@ -210,7 +214,7 @@ inline float4 light_sample(__constant const st_light* l, __global const float* e
     int col = cdf_find(cond, W, u2);
     float du = (u2 - cond[col]) / fmax(cond[col + 1] - cond[col], 1e-30f);
     float2 uv = (float2)((col + clamp(du, 0.0f, 1.0f)) / W, (row + clamp(dv, 0.0f, 1.0f)) / H);
-    *wi = env_uv_to_dir(uv);
+    *wi = env_uv_to_dir(l, uv);
     *pdf = env_map_pdf(l, env, *wi);
     return *pdf > 0.0f ? light_Le(l, env, *wi, lambda) / *pdf : (float4)(0.0f);
   }

@@ -352,7 +352,8 @@ typedef struct {
                          * light's (an environment map's radiance stays its scale; its texels hold the spectra) */
   float nee_strength;   /* light sampling contribution: a directional light's mean irradiance, an environment's mean
                          * radiance over the sphere (rgb, before spectral mode) */
-  st_int pad[3];
+  float map_turn;       /* environment map: rotate_deg / 360 in (-0.5, 0.5], its turn about +y (0: none) */
+  st_int pad[2];
 } st_light;
 
 /* Everything the kernels need about the scene and the render, in one __constant block. */

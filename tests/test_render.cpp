@@ -508,6 +508,60 @@ TEST(Render, EnvironmentMapSeenDirectly) {
   for (int c = 0; c < 3; ++c) EXPECT_FLOAT_EQ(r.rgb[c], 2.0f * float(0 + 10 * 2 + c)) << "channel " << c;
 }
 
+TEST(Render, TurnedEnvironmentMapSeenDirectly) {
+  // rotate_deg turns the map about +y: the camera's +z (u = 1 unturned) reads u = 1 - rotate_deg/360
+  std::string dir = temp_dir("envmap_turned");
+  std::vector<float> px(8 * 4 * 3, 0.0f);
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 8; ++x)
+      for (int c = 0; c < 3; ++c) px[(y * 8 + x) * 3 + c] = float(x + 10 * y + c);
+  write_image(dir + "/ramp.exr", 8, 4, px, {});
+  for (auto [turn, column] : std::vector<std::pair<double, int>>{{90, 6}, {180, 4}, {-90, 2}, {360, 0}, {-360, 0}}) {
+    json s = base_scene(4, 4, 4, "spectral");
+    s["lights"] = json::array({{{"type", "environment"}, {"map", "ramp.exr"}, {"rotate_deg", turn}}});
+    RenderResult r = Renderer(scene_from_json(s, dir), quiet_options()).render();
+    for (int c = 0; c < 3; ++c)
+      EXPECT_FLOAT_EQ(r.rgb[c], float(column + 10 * 2 + c)) << "rotate_deg " << turn << ", channel " << c;
+  }
+}
+
+TEST(Render, TurnedEnvironmentMapLightsAsTheMapRolled) {
+  // a wide slab lit by a map whose bright patch faces the camera (-z): turned by 90 degrees, it lights
+  // the slab as the same map rolled by a quarter of its width does unturned (the patch along +x).
+  // Next-event estimation samples the turned map and MIS weighs it by its pdf, so a sampler or pdf
+  // that missed the turn would not agree; the twin, the rolled map 3% brighter, must not agree.
+  std::string dir = temp_dir("envmap_turned_lights");
+  const int W = 32, H = 16;
+  auto write_map = [&](const std::string& name, int shift, float gain) {
+    std::vector<float> px(size_t(W) * H * 3, 0.05f * gain);
+    for (int y = 4; y < 12; ++y)
+      for (int x = 12; x < 20; ++x)
+        for (int c = 0; c < 3; ++c) px[(size_t(y) * W + size_t((x + shift) % W)) * 3 + c] = (4.0f + 1.0f * c) * gain;
+    write_image(dir + "/" + name, W, H, px, {});
+  };
+  write_map("patch.exr", 0, 1.0f);
+  write_map("rolled.exr", W / 4, 1.0f);
+  write_map("rolled_bright.exr", W / 4, 1.03f);
+  auto render = [&](const std::string& map, double turn, int seed) {  // independent renders: seeds of their own
+    json s = base_scene(32, 32, 256, "spectral-decomposition");
+    s["render"]["seed"] = seed;
+    s["camera"]["height"] = 4.0;
+    s["lights"] = json::array({{{"type", "environment"}, {"map", map}, {"rotate_deg", turn}}});
+    s["media"].push_back({{"type", "homogeneous"}, {"bounds", {{-20, -20, -0.5}, {20, 20, 0.5}}},
+                          {"sigma_a", {0.1, 0.1, 0.1}}, {"sigma_s", {1.0, 1.0, 1.0}}, {"phase", {{"type", "hg"}, {"g", 0.5}}}});
+    return Renderer(scene_from_json(s, dir), quiet_options()).render();
+  };
+  RenderResult turned = render("patch.exr", 90, 1), rolled = render("rolled.exr", 0, 2),
+               bright = render("rolled_bright.exr", 0, 3), facing = render("patch.exr", 0, 4);
+  for (int c = 0; c < 3; ++c) {
+    Stats a = mean_se(channel(turned, c)), b = mean_se(channel(rolled, c)), t = mean_se(channel(bright, c)),
+          f = mean_se(channel(facing, c));
+    EXPECT_NEAR(a.mean, b.mean, 4.0 * std::hypot(a.se, b.se)) << "channel " << c;
+    EXPECT_GT(std::abs(a.mean - t.mean), 4.0 * std::hypot(a.se, t.se)) << "the 3% twin, channel " << c;
+    EXPECT_GT(std::abs(a.mean - f.mean), 4.0 * std::hypot(a.se, f.se)) << "unturned, channel " << c;
+  }
+}
+
 TEST(Render, OverlappingMediaAddTheirCoefficients) {
   std::string dir = temp_dir("overlap");
   // absorbing: two overlapping boxes = one box with summed coefficients where they overlap

@@ -981,6 +981,16 @@ TEST_F(SceneTest, EnvironmentRadianceAndMapAreExclusive) {
   j = example();
   j["lights"][0]["scale"] = 2;
   EXPECT_SCENE_ERROR(j, "/lights/0/scale", "only allowed with \"map\"");
+  j = example();
+  j["lights"][0]["rotate_deg"] = 90;
+  EXPECT_SCENE_ERROR(j, "/lights/0/rotate_deg", "only allowed with \"map\"");
+  j = example();
+  j["lights"][0].erase("radiance");
+  j["lights"][0]["map"] = "sky.exr";
+  j["lights"][0]["rotate_deg"] = 400;
+  EXPECT_SCENE_ERROR(j, "/lights/0/rotate_deg", "in [-360, 360]");
+  j["lights"][0]["rotate_deg"] = -135.5;
+  EXPECT_EQ(parse(j).lights[0].rotate_deg, -135.5);
 }
 
 TEST_F(SceneTest, ErrorsInsideAMediumNameIt) {

@@ -5,10 +5,10 @@ Mapped: ``Volume`` prims with their ``field:*`` relationships to ``OpenVDBAsset`
 temperature/heat field its blackbody emission, a ``Cd`` field its per-voxel albedo, all read from
 the density's file; the ``UsdGeomCamera`` (transform, projection, focal length and apertures);
 ``UsdLux`` ``DistantLight`` (a directional light), ``DomeLight`` (the environment, uniform or with
-its texture), ``SphereLight`` (a point light of the sphere's intensity, a spot light with
+its lat-long texture, turned as the dome is: OpenEXR's convention), ``SphereLight`` (a point light of the sphere's intensity, a spot light with
 ``ShapingAPI``'s cone); the camera's fStop and focusDistance (a thin lens). Everything else that
 could shape the image (meshes, other lights, a sphere light's size, the camera's clipping range,
-aperture offsets, velocity fields, shears, dome rotations) is named in a warning. The stage's axes and units are kept: coefficients are per stage unit.
+aperture offsets, velocity fields, shears, a dome's tilt off +y) is named in a warning. The stage's axes and units are kept: coefficients are per stage unit.
 """
 import math
 import numbers
@@ -268,6 +268,23 @@ def _intensity(mp, light):
     return [k * c for c in color], k, color
 
 
+def _dome_turn(mp, prim):
+    """The environment's rotate_deg for a dome's lat-long texture: the dome's map follows OpenEXR's
+    convention (its centre looks along the dome's +z, u = 0.25 along +x), so its centre's world
+    direction gives the turn (180 for a dome that is not rotated). A rotation that tilts the pole off
+    +y cannot be a turn about +y: warned, and only its turn about +y is kept."""
+    world = mp.world(prim)
+    pole = world.TransformDir(Gf.Vec3d(0, 1, 0)).GetNormalized()
+    centre = world.TransformDir(Gf.Vec3d(0, 0, 1))
+    if not Gf.IsClose(pole, Gf.Vec3d(0, 1, 0), 1e-6):
+        mp.warn(prim, "the dome's rotation tilts its pole off +y; only its turn about +y is applied "
+                      "(spectrack's environment map keeps +y up)")
+    if math.hypot(centre[0], centre[2]) < 1e-9:  # the centre along the pole: no azimuth to keep
+        return 180.0
+    turn = math.degrees(math.atan2(centre[0], -centre[2]))
+    return 180.0 if turn == -180.0 else turn
+
+
 def _light(mp, prim):
     if prim.IsA(UsdLux.DistantLight):
         light = UsdLux.DistantLight(prim)
@@ -278,13 +295,12 @@ def _light(mp, prim):
     if prim.IsA(UsdLux.DomeLight):
         light = UsdLux.DomeLight(prim)
         radiance, k, color = _intensity(mp, light)
-        if not Gf.IsClose(mp.world(prim).ExtractRotationMatrix(), Gf.Matrix3d(1), 1e-6):
-            mp.warn(prim, "the dome's rotation is not applied (spectrack's environment keeps the world axes)")
         tex = light.GetTextureFileAttr()
         if mp.value(tex) is not None and mp.value(tex).path:
             if color != [1.0, 1.0, 1.0]:
                 mp.warn(prim, f"inputs:color {color} with a texture: only the intensity scales the map")
-            return {"type": "environment", "map": _asset_path(mp, prim, tex), "scale": k}
+            return {"type": "environment", "map": _asset_path(mp, prim, tex), "scale": k,
+                    "rotate_deg": _dome_turn(mp, prim)}
         return {"type": "environment", "radiance": radiance}
     if prim.IsA(UsdLux.SphereLight):
         return _sphere_light(mp, prim)

@@ -146,7 +146,8 @@ def test_a_made_stage_maps_fields_dome_texture_and_warns_by_name(tmp_path):
     assert by_type["spot"]["cone_angle_deg"] == 30.0 and by_type["spot"]["cone_delta_deg"] == 15.0
     assert scene["camera"]["aperture_radius"] == pytest.approx(0.1 * 50.0 / (2 * 2.5))
     assert scene["camera"]["focus_distance"] == pytest.approx(30.0)
-    assert dome_l == {"type": "environment", "map": str(env), "scale": pytest.approx(1.0)}
+    # OpenEXR's lat-long convention (the map's centre along +z): spectrack's map turned by 180 degrees
+    assert dome_l == {"type": "environment", "map": str(env), "scale": pytest.approx(1.0), "rotate_deg": 180.0}
     assert sun_l["to_light"] == pytest.approx([0, 1, 0], abs=1e-9)
     assert sun_l["angle_deg"] == pytest.approx(0.53)
     assert scene["camera"]["look_at"] == pytest.approx([0, -29, 5], abs=1e-9)
@@ -157,6 +158,38 @@ def test_a_made_stage_maps_fields_dome_texture_and_warns_by_name(tmp_path):
         warnings.simplefilter("always")
         img = spectrack.load_usd(tmp_path / "made.usda", width=32, spp=1, temperature_scale=2600).render()
     assert img.rgb.max() > 0
+
+
+def test_a_turned_dome_turns_its_map(tmp_path):
+    """A dome turned about +y turns the map by as much (rotateY 90: the map's centre, the dome's +z,
+    looks along +x: azimuth 90); a dome tilted off +y keeps its turn about +y, with a warning."""
+    from pxr import Sdf, Usd, UsdLux, UsdVol
+    env = tmp_path / "sky.png"
+    spectrack.load_dict({"format": "spectrack-scene/1", "film": {"width": 8, "height": 4, "spp": 1},
+                         "lights": [{"type": "environment", "radiance": [0.2, 0.4, 0.8]}]}).render().write(str(env))
+    turns = {}
+    for name, ops in (("plain", ()), ("y90", (("Y", 90.0),)), ("y-135", (("Y", -135.0),)),
+                      ("tilted", (("Y", 90.0), ("X", 30.0)))):
+        stage = Usd.Stage.CreateInMemory()
+        vol = UsdVol.Volume.Define(stage, "/smoke")
+        asset = UsdVol.OpenVDBAsset.Define(stage, "/smoke/density")
+        asset.CreateFilePathAttr().Set(Sdf.AssetPath(str(USD / "densityAndHeat.vdb")))
+        asset.CreateFieldNameAttr().Set("density")
+        vol.CreateFieldRelationship("density", asset.GetPath())
+        dome = UsdLux.DomeLight.Define(stage, "/sky")
+        dome.CreateTextureFileAttr().Set(Sdf.AssetPath(str(env)))
+        for axis, angle in ops:
+            getattr(dome, f"AddRotate{axis}Op")().Set(angle)
+        path = tmp_path / f"{name}.usda"
+        stage.GetRootLayer().Export(str(path))
+        scene, warns = stage_to_dict(path, width=8)
+        (light,) = scene["lights"]
+        turns[name] = light["rotate_deg"]
+        assert any("tilts its pole" in w for w in warns) == (name == "tilted"), (name, warns)
+    assert turns["plain"] == pytest.approx(180.0)
+    assert turns["y90"] == pytest.approx(90.0)  # the dome's +z turned to +x
+    assert turns["y-135"] == pytest.approx(-45.0)  # +z turned to (-sin 135, 0, cos 135): azimuth -45 (from -z to -x)
+    assert turns["tilted"] == pytest.approx(90.0)
 
 
 def test_options_and_paths_are_checked_by_name():

@@ -207,8 +207,8 @@ json scene_json(const SceneDesc& s, std::string* text, KeptGrids& kept) {
       what = fmt::format("sky, sun at elevation {:.3g} deg, azimuth {:.3g} deg, intensity {:.6g}, map {}x{}",
                          k.sun_elevation_deg, k.sun_azimuth_deg, k.intensity, k.resolution, k.resolution / 2);
     } else if (l.type == ST_LIGHT_ENV_MAP) {
-      j["map"] = l.map, j["scale"] = l.scale;
-      what = fmt::format("map {}, scale {:.6g}", l.map, l.scale);
+      j["map"] = l.map, j["scale"] = l.scale, j["rotate_deg"] = l.rotate_deg;
+      what = fmt::format("map {}, scale {:.6g}, rotate_deg {:.6g} (about +y)", l.map, l.scale, l.rotate_deg);
     } else {
       j["radiance"] = vec(l.radiance);
       what = fmt::format("radiance {}", v3(l.radiance));

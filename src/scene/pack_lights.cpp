@@ -22,6 +22,7 @@
 #include "scene/media_bounds.h"
 #include "integrator/memory_budget.h"
 #include "scene/framing.h"
+#include "util/warning.h"
 #include "volume/volume.h"
 
 namespace spectrack {
@@ -128,7 +129,15 @@ double Packer::add_env_map(st_light& l, const LightDesc& ld) {
   }
   check_env_map_bounds(scene.path + ": " + ld.json_path + (ld.sky ? "/intensity" : "/map"),
                        ld.sky ? std::string("the sky's map") : ld.map, img.rgb, img.width, img.height, ld.scale);
+  if (!ld.sky && img.width != 2 * img.height)  // read as lat-long all the same: a map of any size is unbiased
+    warn(fmt::format("{}: {}/map: {} is {}x{}; a lat-long map is twice as wide as it is high, so this one's texels "
+                     "are not square{} (docs/scene-format.md, environment)",
+                     scene.path, ld.json_path, ld.map, img.width, img.height,
+                     img.width == img.height ? " (a square map may be pbrt-v4's equal-area layout, which spectrack "
+                                               "does not read: convert it to lat-long)"
+                                             : ""));
   l.radiance = f4(ld.scale, ld.scale, ld.scale);
+  l.map_turn = float(std::remainder(ld.rotate_deg, 360.0) / 360.0);  // 360 is no turn: exactly 0
   const size_t W = size_t(img.width), H = size_t(img.height);
   l.map_width = img.width;
   l.map_height = img.height;

@@ -29,7 +29,7 @@ namespace parsing {
 
 LightDesc Parser::light(const json& j, const std::string& path) {
   expect_object(j, path);
-  const Names all = {"type",      "radiance", "map",      "scale",          "to_light",      "irradiance",
+  const Names all = {"type",      "radiance", "map",      "scale",          "rotate_deg",    "to_light",      "irradiance",
                      "angle_deg", "position", "intensity", "look_at", "cone_angle_deg", "cone_delta_deg", "radius",
                      "sun_elevation_deg", "sun_azimuth_deg", "altitude", "air_density", "dust_density",
                      "ozone_density", "sun_disc", "sun_angle_deg", "resolution"};
@@ -39,14 +39,16 @@ LightDesc Parser::light(const json& j, const std::string& path) {
   need(j, path, "type", "expected one of: environment, directional, point, spot, sphere, sky");
   std::string type = string(j, path, "type", "");
   if (type == "environment") {
-    fields(j, path, {"type", "radiance", "map", "scale"}, "an environment light", all);
+    fields(j, path, {"type", "radiance", "map", "scale", "rotate_deg"}, "an environment light", all);
     if (find(j, "map")) {
       if (find(j, "radiance")) fail(path + "/radiance", "not allowed together with \"map\" (use \"scale\")");
       l.type = ST_LIGHT_ENV_MAP;
       l.map = file(j, path, "map", true);
       l.scale = number(j, path, "scale", l.scale, kNonNegative);
+      l.rotate_deg = number(j, path, "rotate_deg", l.rotate_deg, Range{-360, 360, false, false});
     } else {
-      if (find(j, "scale")) fail(path + "/scale", "only allowed with \"map\"");
+      for (const char* key : {"scale", "rotate_deg"})
+        if (find(j, key)) fail(path + "/" + key, "only allowed with \"map\"");
       l.type = ST_LIGHT_ENV_UNIFORM;
       l.radiance = vec3(j, path, "radiance", l.radiance, kNonNegative);
     }
