@@ -8,7 +8,8 @@ field by field (the translations are written out next to each builder below), in
 taller than high (fov across the shorter side = fov_axis "smaller"), a thin lens, directional
 (direction = -to_light), point and hard-edged spot lights (W/sr), a sphere light, a constant
 environment, a smooth 256x128 environment map (spectrack rotate_deg R = Mitsuba to_world
-rotate(+y, 180 - R): R = 180 against Mitsuba unturned, and R = 90 to catch a sign error 180
+rotate(+y, R - 180), both right-handed: R = 180 against Mitsuba unturned, and R = 270 against
+Mitsuba's turn by 90 to catch a sign error 180
 cannot), HG g = +-0.6, chromatic sigma_s / sigma_a, and the diffuse ground (a 1e5-wide Mitsuba
 rectangle). The map is written for each renderer at its own texel centres (Mitsuba's rows lie at
 v = i / (h - 1), pole to pole; see write_maps), and its cases allow a systematic 0.1% per block for
@@ -193,7 +194,7 @@ def cases(maps, spp):
         "sphere light": (*scenes(wide, box, [sphere([-1.2, 0.8, 0.0], 0.3, [4, 4, 4])]), s, m, FLOOR, False),
         "environment constant": (*scenes(wide, box, [env_const([0.5, 0.7, 1.0])]), s, m, FLOOR, False),
         "env map rotate_deg 180 / mi 0": (*scenes(wide, box, [env_map(maps, 180, 0)]), s, m, map_floor, False),
-        "env map rotate_deg 90 / mi 90": (*scenes(wide, box, [env_map(maps, 90, 90)]), s, m, map_floor, False),
+        "env map rotate_deg 270 / mi 90": (*scenes(wide, box, [env_map(maps, 270, 90)]), s, m, map_floor, False),
         "CONTROL env map rotate_deg 0 / mi 0": (*scenes(wide, box, [env_map(maps, 0, 0)]), s, m, map_floor, True),
         "HG g +0.6 backlit": (*scenes(wide, [medium(lo, hi, [1.5] * 3, [0.3] * 3, 0.6)], backlit), s, m, FLOOR, False),
         "HG g -0.6 backlit": (*scenes(wide, [medium(lo, hi, [1.5] * 3, [0.3] * 3, -0.6)], backlit), s, m, FLOOR, False),

@@ -10,8 +10,9 @@
  * (pbrt-v4's sphere sampling outside the sphere), so MIS with phase sampling applies; its shadow
  * rays end at its surface.
  * Lat-long convention: v = acos(d.y) / pi (row 0 looks up, +y), u = 0.5 + atan2(d.x, -d.z) / (2 pi)
- * - map_turn (the image centre looks along -z, turned about +y by rotate_deg = 360 map_turn towards
- * +x). The map is sampled in proportion to max(rgb) * sin(theta). */
+ * + map_turn (the image centre looks along -z, the map then turned right-handedly about +y by
+ * rotate_deg = 360 map_turn, as a medium's transform turns: 90 takes the centre to -x). The map is
+ * sampled in proportion to max(rgb) * sin(theta). */
 #ifndef SPECTRACK_LIGHT_H
 #define SPECTRACK_LIGHT_H
 
@@ -24,12 +25,12 @@
 inline float2 env_dir_to_uv(__constant const st_light* l, float3 d) {
   float v = acos(clamp(d.y, -1.0f, 1.0f)) / ST_PI;
   float u = 0.5f + atan2(d.x, -d.z) / (2.0f * ST_PI);
-  if (l->map_turn != 0.0f) u -= l->map_turn;  /* the world's azimuth is the map's plus rotate_deg */
+  if (l->map_turn != 0.0f) u += l->map_turn;  /* a turn by rotate_deg lowers atan2(x, -z) by as much */
   return (float2)(u - floor(u), v);
 }
 inline float3 env_uv_to_dir(__constant const st_light* l, float2 uv) {
   float u = uv.x;
-  if (l->map_turn != 0.0f) u += l->map_turn;
+  if (l->map_turn != 0.0f) u -= l->map_turn;
   float theta = uv.y * ST_PI, phi = (u - 0.5f) * 2.0f * ST_PI;
   float s = sin(theta);
   return (float3)(s * sin(phi), cos(theta), -s * cos(phi));

@@ -352,7 +352,7 @@ typedef struct {
                          * light's (an environment map's radiance stays its scale; its texels hold the spectra) */
   float nee_strength;   /* light sampling contribution: a directional light's mean irradiance, an environment's mean
                          * radiance over the sphere (rgb, before spectral mode) */
-  float map_turn;       /* environment map: rotate_deg / 360 in (-0.5, 0.5], its turn about +y (0: none) */
+  float map_turn;       /* environment map: rotate_deg / 360 in [-0.5, 0.5], its right-handed turn about +y (0: none) */
   st_int pad[2];
 } st_light;
 

@@ -9,6 +9,9 @@
 //   - bit-identical renders for one seed, whatever the number of paths in flight;
 //   - stochastic one-voxel lookups (docs/stochastic-lookup.md): the free-path KS test, ratio
 //     tracking, the furnaces and the constant VDB again, with the same analytic answers.
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <gmock/gmock.h>
 #include <openvdb/tools/Interpolation.h>
 
 #include <algorithm>
@@ -19,6 +22,7 @@
 #include "api/render_stats.h"
 #include "image/image.h"
 #include "test_util.h"
+#include "util/warning.h"
 
 using namespace spectrack;
 using namespace st_test;
@@ -509,14 +513,15 @@ TEST(Render, EnvironmentMapSeenDirectly) {
 }
 
 TEST(Render, TurnedEnvironmentMapSeenDirectly) {
-  // rotate_deg turns the map about +y: the camera's +z (u = 1 unturned) reads u = 1 - rotate_deg/360
+  // rotate_deg turns the map right-handedly about +y: the camera's +z (u = 1 unturned) reads
+  // u = 1 + rotate_deg/360, at texel centres here (8 columns of 45 degrees) but for the wrap at 360
   std::string dir = temp_dir("envmap_turned");
   std::vector<float> px(8 * 4 * 3, 0.0f);
   for (int y = 0; y < 4; ++y)
     for (int x = 0; x < 8; ++x)
       for (int c = 0; c < 3; ++c) px[(y * 8 + x) * 3 + c] = float(x + 10 * y + c);
   write_image(dir + "/ramp.exr", 8, 4, px, {});
-  for (auto [turn, column] : std::vector<std::pair<double, int>>{{90, 6}, {180, 4}, {-90, 2}, {360, 0}, {-360, 0}}) {
+  for (auto [turn, column] : std::vector<std::pair<double, int>>{{67.5, 1}, {157.5, 3}, {-112.5, 5}, {-22.5, 7}, {360, 0}, {-360, 0}}) {
     json s = base_scene(4, 4, 4, "spectral");
     s["lights"] = json::array({{{"type", "environment"}, {"map", "ramp.exr"}, {"rotate_deg", turn}}});
     RenderResult r = Renderer(scene_from_json(s, dir), quiet_options()).render();
@@ -525,9 +530,30 @@ TEST(Render, TurnedEnvironmentMapSeenDirectly) {
   }
 }
 
+TEST(Render, EnvironmentMapsThatAreNotTwoToOneAreWarnedOf) {
+  // read as lat-long all the same (unbiased at any size), with a warning naming the file and field; a
+  // square map may be pbrt-v4's equal-area layout
+  std::string dir = temp_dir("envmap_aspect");
+  std::vector<std::string> warnings;
+  set_warning_sink([&](const std::string& text) { warnings.push_back(text); });
+  for (auto [w, h] : std::vector<std::pair<int, int>>{{8, 4}, {4, 4}, {6, 4}}) {
+    const std::string name = fmt::format("map_{}x{}.exr", w, h);
+    write_image(dir + "/" + name, w, h, std::vector<float>(size_t(w) * h * 3, 0.5f), {});
+    json s = base_scene(2, 2, 1, "spectral");
+    s["lights"] = json::array({{{"type", "environment"}, {"map", name}}});
+    Renderer(scene_from_json(s, dir), quiet_options()).render();
+  }
+  set_warning_sink({});
+  ASSERT_EQ(warnings.size(), 2u) << fmt::format("{}", fmt::join(warnings, "\n"));
+  EXPECT_THAT(warnings[0], testing::HasSubstr("/lights/0/map: " + dir + "/map_4x4.exr is 4x4"));
+  EXPECT_THAT(warnings[0], testing::HasSubstr("pbrt-v4's equal-area layout"));
+  EXPECT_THAT(warnings[1], testing::HasSubstr("map_6x4.exr is 6x4"));
+  EXPECT_THAT(warnings[1], testing::Not(testing::HasSubstr("equal-area")));
+}
+
 TEST(Render, TurnedEnvironmentMapLightsAsTheMapRolled) {
   // a wide slab lit by a map whose bright patch faces the camera (-z): turned by 90 degrees, it lights
-  // the slab as the same map rolled by a quarter of its width does unturned (the patch along +x).
+  // the slab as the same map rolled by three quarters of its width does unturned (the patch along -x).
   // Next-event estimation samples the turned map and MIS weighs it by its pdf, so a sampler or pdf
   // that missed the turn would not agree; the twin, the rolled map 3% brighter, must not agree.
   std::string dir = temp_dir("envmap_turned_lights");
@@ -540,8 +566,8 @@ TEST(Render, TurnedEnvironmentMapLightsAsTheMapRolled) {
     write_image(dir + "/" + name, W, H, px, {});
   };
   write_map("patch.exr", 0, 1.0f);
-  write_map("rolled.exr", W / 4, 1.0f);
-  write_map("rolled_bright.exr", W / 4, 1.03f);
+  write_map("rolled.exr", 3 * W / 4, 1.0f);
+  write_map("rolled_bright.exr", 3 * W / 4, 1.03f);
   auto render = [&](const std::string& map, double turn, int seed) {  // independent renders: seeds of their own
     json s = base_scene(32, 32, 256, "spectral-decomposition");
     s["render"]["seed"] = seed;

@@ -8,7 +8,7 @@ the density's file; the ``UsdGeomCamera`` (transform, projection, focal length a
 its lat-long texture, turned as the dome is: OpenEXR's convention), ``SphereLight`` (a point light of the sphere's intensity, a spot light with
 ``ShapingAPI``'s cone); the camera's fStop and focusDistance (a thin lens). Everything else that
 could shape the image (meshes, other lights, a sphere light's size, the camera's clipping range,
-aperture offsets, velocity fields, shears, a dome's tilt off +y) is named in a warning. The stage's axes and units are kept: coefficients are per stage unit.
+aperture offsets, velocity fields, shears, a dome's tilt off +y or mirror) is named in a warning. The stage's axes and units are kept: coefficients are per stage unit.
 """
 import math
 import numbers
@@ -268,20 +268,29 @@ def _intensity(mp, light):
     return [k * c for c in color], k, color
 
 
-def _dome_turn(mp, prim):
+def _dome_turn(mp, prim, light):
     """The environment's rotate_deg for a dome's lat-long texture: the dome's map follows OpenEXR's
-    convention (its centre looks along the dome's +z, u = 0.25 along +x), so its centre's world
-    direction gives the turn (180 for a dome that is not rotated). A rotation that tilts the pole off
-    +y cannot be a turn about +y: warned, and only its turn about +y is kept."""
+    convention (its centre looks along the dome's +z, u = 0.25 along +x), spectrack's unturned map
+    has its centre along -z, and rotate_deg R turns it right-handedly about +y, taking -z to
+    (-sin R, 0, -cos R): R is the turn that takes -z to the world direction of the dome's +z (180
+    for a dome that is not rotated, 180 + a for rotateY a). A rotation that tilts the pole off +y,
+    a mirrored dome and a texture format other than lat-long are warned (read as lat-long, turned
+    about +y only)."""
     world = mp.world(prim)
     pole = world.TransformDir(Gf.Vec3d(0, 1, 0)).GetNormalized()
     centre = world.TransformDir(Gf.Vec3d(0, 0, 1))
     if not Gf.IsClose(pole, Gf.Vec3d(0, 1, 0), 1e-6):
         mp.warn(prim, "the dome's rotation tilts its pole off +y; only its turn about +y is applied "
                       "(spectrack's environment map keeps +y up)")
+    if world.GetDeterminant3() < 0:
+        mp.warn(prim, "the dome is mirrored (a negative scale); its texture is not (spectrack's environment map "
+                      "is not mirrored)")
+    fmt = mp.value(light.GetTextureFormatAttr(), "automatic")
+    if fmt not in ("automatic", "latlong"):
+        mp.warn(prim, f"inputs:texture:format {fmt!r}: read as lat-long (spectrack reads lat-long maps only)")
     if math.hypot(centre[0], centre[2]) < 1e-9:  # the centre along the pole: no azimuth to keep
         return 180.0
-    turn = math.degrees(math.atan2(centre[0], -centre[2]))
+    turn = math.degrees(math.atan2(-centre[0], -centre[2]))
     return 180.0 if turn == -180.0 else turn
 
 
@@ -300,7 +309,7 @@ def _light(mp, prim):
             if color != [1.0, 1.0, 1.0]:
                 mp.warn(prim, f"inputs:color {color} with a texture: only the intensity scales the map")
             return {"type": "environment", "map": _asset_path(mp, prim, tex), "scale": k,
-                    "rotate_deg": _dome_turn(mp, prim)}
+                    "rotate_deg": _dome_turn(mp, prim, light)}
         return {"type": "environment", "radiance": radiance}
     if prim.IsA(UsdLux.SphereLight):
         return _sphere_light(mp, prim)

@@ -1,5 +1,6 @@
 """The Python module against the command line (same scene and seed: bit-identical arrays), shards
 merged in Python, and refused input (ValueError naming the JSON field path, wrong arrays)."""
+import itertools
 import json
 import os
 import shutil
@@ -437,12 +438,20 @@ def test_arguments_of_the_wrong_type_are_named(tmp_path):
                          "grid must be a str"),
                         (lambda: im.write(tmp_path / "x.exr", half="yes"), "half must be True or False"),
                         (lambda: im.write(tmp_path / "x.exr", compression=3), "compression must be a str"),
-                        (lambda: spectrack.merge(3), "a list of images or paths is needed, not 3")]:
+                        (lambda: spectrack.merge(3), "a list of images or paths is needed, not 3"),
+                        (lambda: spectrack.Volume.from_numpy(d, origin={1.0, 2.0, 3.0}), "origin must be 3 numbers"),
+                        (lambda: spectrack.Volume.from_numpy(d, origin=itertools.count()), "origin must be 3 numbers"),
+                        (lambda: spectrack.Volume.from_numpy(d, origin=list(range(1000))), r"\.\.\.\)$"),
+                        (lambda: spectrack.Volume.from_numpy(d, voxel_size=1j), "voxel_size must be a number")]:
         with pytest.raises(TypeError, match=words):
             call()
+    with pytest.raises(ValueError, match="voxel_size = 1000000000000"):
+        spectrack.Volume.from_numpy(d, voxel_size=10**400)
     # what they take: numpy scalars and arrays, nested lists, numpy's bool
     v = spectrack.Volume.from_numpy([[[1.0, 2.0]]], voxel_size=np.float32(0.5), origin=np.array([1.0, 2.0, 3.0]))
     assert list(v.shape) == [1, 1, 2]
+    import decimal
+    assert spectrack.Volume.from_numpy(d, voxel_size=np.array(0.5), origin=(decimal.Decimal(1), 2, 3)).shape == [2, 2, 2]
     im.write(tmp_path / "h.exr", half=np.True_)
     assert spectrack.merge(x for x in [im]).spp == 2
 

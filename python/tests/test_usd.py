@@ -161,15 +161,16 @@ def test_a_made_stage_maps_fields_dome_texture_and_warns_by_name(tmp_path):
 
 
 def test_a_turned_dome_turns_its_map(tmp_path):
-    """A dome turned about +y turns the map by as much (rotateY 90: the map's centre, the dome's +z,
-    looks along +x: azimuth 90); a dome tilted off +y keeps its turn about +y, with a warning."""
-    from pxr import Sdf, Usd, UsdLux, UsdVol
+    """A dome turned about +y turns the map by as much, right-handed as both turn (rotateY a: 180 +
+    a); a dome tilted off +y keeps its turn about +y, a mirrored dome and a texture format that is
+    not lat-long are warned."""
+    from pxr import Gf, Sdf, Usd, UsdLux, UsdVol
     env = tmp_path / "sky.png"
     spectrack.load_dict({"format": "spectrack-scene/1", "film": {"width": 8, "height": 4, "spp": 1},
                          "lights": [{"type": "environment", "radiance": [0.2, 0.4, 0.8]}]}).render().write(str(env))
     turns = {}
     for name, ops in (("plain", ()), ("y90", (("Y", 90.0),)), ("y-135", (("Y", -135.0),)),
-                      ("tilted", (("Y", 90.0), ("X", 30.0)))):
+                      ("tilted", (("Y", 90.0), ("X", 30.0))), ("mirrored", (("S", -1.0),)), ("angular", ())):
         stage = Usd.Stage.CreateInMemory()
         vol = UsdVol.Volume.Define(stage, "/smoke")
         asset = UsdVol.OpenVDBAsset.Define(stage, "/smoke/density")
@@ -179,17 +180,24 @@ def test_a_turned_dome_turns_its_map(tmp_path):
         dome = UsdLux.DomeLight.Define(stage, "/sky")
         dome.CreateTextureFileAttr().Set(Sdf.AssetPath(str(env)))
         for axis, angle in ops:
-            getattr(dome, f"AddRotate{axis}Op")().Set(angle)
+            if axis == "S":
+                dome.AddScaleOp().Set(Gf.Vec3f(angle, 1.0, 1.0))
+            else:
+                getattr(dome, f"AddRotate{axis}Op")().Set(angle)
+        if name == "angular":
+            dome.CreateTextureFormatAttr().Set("angular")
         path = tmp_path / f"{name}.usda"
         stage.GetRootLayer().Export(str(path))
         scene, warns = stage_to_dict(path, width=8)
         (light,) = scene["lights"]
         turns[name] = light["rotate_deg"]
         assert any("tilts its pole" in w for w in warns) == (name == "tilted"), (name, warns)
-    assert turns["plain"] == pytest.approx(180.0)
-    assert turns["y90"] == pytest.approx(90.0)  # the dome's +z turned to +x
-    assert turns["y-135"] == pytest.approx(-45.0)  # +z turned to (-sin 135, 0, cos 135): azimuth -45 (from -z to -x)
-    assert turns["tilted"] == pytest.approx(90.0)
+        assert any("mirrored" in w for w in warns) == (name == "mirrored"), (name, warns)
+        assert any("'angular': read as lat-long" in w for w in warns) == (name == "angular"), (name, warns)
+    assert turns["plain"] == pytest.approx(180.0) and turns["angular"] == pytest.approx(180.0)
+    assert turns["y90"] == pytest.approx(-90.0)  # 180 + 90: the dome's +z along +x, where R = -90 takes -z
+    assert turns["y-135"] == pytest.approx(45.0)  # 180 - 135
+    assert turns["tilted"] == pytest.approx(-90.0)
 
 
 def test_options_and_paths_are_checked_by_name():

@@ -178,7 +178,7 @@ struct LightDesc {
   Vec3 radiance{1, 1, 1};  // environment (uniform); sphere: its surface's radiance
   std::string map;         // environment map (absolute path), empty if uniform
   double scale = 1.0;      // environment map multiplier
-  double rotate_deg = 0.0; // environment map: its turn about +y, the world azimuth of its centre (kernels/light.h)
+  double rotate_deg = 0.0; // environment map: its right-handed turn about +y, degrees (kernels/light.h)
   Vec3 to_light{0, 1, 0};  // directional, as given (not normalised)
   Vec3 irradiance{1, 1, 1};
   double angle_deg = 0.0;  // apparent diameter; 0 = delta light
