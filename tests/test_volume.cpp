@@ -354,7 +354,8 @@ TEST(VolumeLoad, Vec3dColourAndVelocityGridsReadAsFloat) {
       grid->setName(name);
       grid->setGridClass(std::string(name) == "vel" ? openvdb::GRID_STAGGERED : openvdb::GRID_UNKNOWN);
       auto acc = grid->getAccessor();
-      for (int i = 0; i < 6; ++i) acc.setValue(openvdb::Coord(i, 1, 2), {scale * 0.1 * i, scale * 0.5, scale * 0.3});
+      using Value = typename std::decay_t<decltype(*grid)>::ValueType;  // Vec3f or Vec3d
+      for (int i = 0; i < 6; ++i) acc.setValue(openvdb::Coord(i, 1, 2), Value(scale * 0.1 * i, scale * 0.5, scale * 0.3));
       grids.push_back(grid);
     };
     for (int i = 0; i < 6; ++i) density->tree().setValue(openvdb::Coord(i, 1, 2), 0.5f);
