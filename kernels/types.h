@@ -108,6 +108,22 @@ enum st_lookup_mode { ST_LOOKUPS(ST_X_LOOKUP_ENUM) ST_LOOKUP_COUNT };
 #define ST_X_FILM_COLOR_ENUM(E, name) ST_FILM_COLOR_##E,
 enum st_film_color { ST_FILM_COLORS(ST_X_FILM_COLOR_ENUM) ST_FILM_COLOR_COUNT };
 
+/* How a spectral-mode sample draws its wavelengths (render.wavelength_sampling; kernels/queues.h
+ * path_wavelengths; docs/spectral.md): X(ENUM suffix, name).
+ *   independent: one uniform per sample, drawn on its own (the hero's CDF value u; the three other
+ *                lanes at u + k/4);
+ *   stratified:  the samples of a pixel in aligned blocks of ST_WAVELENGTH_BLOCK share one
+ *                uniform rotation r per block and take u = r + j/16 (mod 1), j in 0, 2, 1, 3 for
+ *                the block's samples in order: a block's 16 lanes lie evenly spaced in the CDF, and
+ *                each sample's u is still uniform on its own. RGB mode draws no wavelengths. */
+#define ST_WAVELENGTH_SAMPLINGS(X) X(INDEPENDENT, "independent") X(STRATIFIED, "stratified")
+#define ST_X_WAVELENGTH_SAMPLING_ENUM(E, name) ST_WAVELENGTHS_##E,
+enum st_wavelength_sampling { ST_WAVELENGTH_SAMPLINGS(ST_X_WAVELENGTH_SAMPLING_ENUM) ST_WAVELENGTH_SAMPLING_COUNT };
+/* Samples per block of stratified wavelengths: every sample range that adaptive sampling decides
+ * on its own (a round, src/integrator/adaptive.cpp) starts at a multiple of it, so a round's
+ * wavelengths are independent of the samples before it. */
+#define ST_WAVELENGTH_BLOCK 4
+
 /* The trackers, as one table that the host (names, settings, feature mask) and the kernels
  * (tracking.h) read: X(ENUM suffix, CLI/scene name, colour channels traced per sample (one path
  * each), needs achromatic media, uses the spectral scheme, decomposes into control + residual,
@@ -394,8 +410,9 @@ typedef struct {
   struct {                      /* equi-angular sampling (equiangular.h; features.h ST_HAS_EQUIANGULAR) */
     st_int n_local;             /* local lights it samples towards (point, spot, sphere), each with 1 / n_local; 0: off */
     float sigma_t;              /* the gray extinction (1/length) of the free-flight density its MIS weights assume */
-    st_int pad[2];
+    st_int pad;
   } equiangular;
+  st_int wavelength_sampling;   /* spectral mode: st_wavelength_sampling of the paths' wavelengths */
 } st_scene;
 
 /* Path state, one slot per path in flight: st_path and its layouts (AoS, SoA) and groups. */

@@ -56,6 +56,20 @@ inline void check_tracker_scheme(const SceneDesc& scene, const RenderOptions& op
                              tracker_flag.empty() ? "" : " (--tracker)");
 }
 
+// Checks --wavelength-sampling (`flag`, its text) and render.wavelength_sampling against the colour
+// mode: rgb mode draws no wavelengths, so the flag is refused and the scene's field warned of.
+inline void check_wavelength_sampling(const SceneDesc& scene, const RenderOptions& opt, const std::string& flag) {
+  if (opt.color.value_or(scene.render.color) == ST_FILM_COLOR_SPECTRAL) return;
+  if (!flag.empty())
+    throw UsageError(fmt::format("--wavelength-sampling {}: only spectral mode draws wavelengths, and {} renders in rgb "
+                                 "(add --spectral, or drop --wavelength-sampling)",
+                                 flag, scene.path));
+  if (scene.render.wavelength_sampling && !opt.quiet)
+    std::cerr << fmt::format("warning: {}: /render/wavelength_sampling: \"{}\" is ignored in rgb mode (only spectral "
+                             "mode, render.color \"spectral\" or --spectral, draws wavelengths)\n",
+                             scene.path, wavelength_sampling_name(*scene.render.wavelength_sampling));
+}
+
 // --chunk-spp shares samples between devices: with one device named (not "all") it means nothing.
 inline void check_chunk_spp(std::optional<int> chunk_spp, const std::vector<std::string>& devices,
                             const std::string& device_flag) {

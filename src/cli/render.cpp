@@ -94,6 +94,8 @@ RenderOptions render_options(const RenderArgs& a, bool quiet) {
   opt.guide_cache_file = a.guide_cache;
   opt.film_state = a.checkpoint || a.resume;
   if (a.spectral) opt.color = ST_FILM_COLOR_SPECTRAL;
+  if (!a.wavelength_sampling.empty())  // checked by CLI11
+    opt.wavelength_sampling = wavelength_sampling_from_name(a.wavelength_sampling);
   opt.march_spacing = a.march_spacing;
   opt.pilot_spacing = a.pilot_spacing;
   if (!a.absorption.empty()) {
@@ -271,6 +273,7 @@ int render_scene(const RenderArgs& a, MpiArg& mpi, const SceneDesc& scene, const
   check_piece_storage(!a.spp_range.empty() || !a.pixel_bounds.empty(), exr_options(a.half, a.compression, scene.film),
                       output);
   check_tracker_scheme(scene, opt, a.scheme, a.tracker);  // --scheme with a tracker that ignores it: exit 2
+  check_wavelength_sampling(scene, opt, a.wavelength_sampling);  // --wavelength-sampling in rgb mode: exit 2
   const RenderSettings set = resolve_settings(scene, opt);
   const double time_limit = a.time_limit.value_or(scene.render.time_limit);
   loop_started_flag()->store(false);  // this frame's loop: until it starts, a signal ends the process at once

@@ -103,7 +103,7 @@ std::string scene_hash(const SceneDesc& scene, const std::string& json_text) {
     }
     if (j.contains("render") && j["render"].is_object())
       for (const char* k : {"seed", "tracker", "spectral_scheme", "absorption", "light_sampling", "transmittance", "lookup", "color",
-                            "noise_target", "equiangular", "time_limit"})
+                            "noise_target", "equiangular", "time_limit", "wavelength_sampling"})
         j["render"].erase(k);
     // file names stand for their contents, hashed below: a scene whose assets moved is the same scene
     for (const char* list : {"media", "lights"})
@@ -133,6 +133,7 @@ RenderIdentity render_identity(const RenderSettings& s) {
   id.transmittance = transmittance_name(s.transmittance);
   id.lookup = lookup_name(s.lookup);
   id.color = film_color_name(s.color);
+  if (s.color == ST_FILM_COLOR_SPECTRAL) id.wavelength_sampling = wavelength_sampling_name(s.wavelength_sampling);
   id.guided = s.guiding ? "on" : "off";
   id.guide_splitting = s.guide_splitting ? "on" : "off";
   id.equiangular = guiding_name(s.equiangular);
@@ -161,6 +162,7 @@ const std::vector<RecordedChoice>& recorded_choices() {
       {"transmittance", &RenderIdentity::transmittance, "the transmittance estimator", false},
       {"lookup", &RenderIdentity::lookup, "the density lookup mode", false},
       {"color", &RenderIdentity::color, "the colour mode", false},
+      {"wavelength_sampling", &RenderIdentity::wavelength_sampling, "the wavelength sampling", false, true},
       {"guided", &RenderIdentity::guided, "volume path guiding (as run)", false},
       {"guide_splitting", &RenderIdentity::guide_splitting, "guided roulette and splitting", false},
       {"equiangular", &RenderIdentity::equiangular, "equi-angular sampling", false},

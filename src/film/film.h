@@ -51,6 +51,7 @@ struct RenderIdentity {
   std::string transmittance = "ratio";  // st_transmittance_mode name (pieces written before the option: ratio)
   std::string lookup = "trilinear";  // st_lookup_mode name (pieces written before the option: trilinear)
   std::string color = "rgb";         // st_film_color name (pieces written before spectral mode: rgb)
+  std::string wavelength_sampling;  // spectral mode: st_wavelength_sampling name; empty in rgb mode (and pieces written before it)
   std::string guided = "off";  // volume path guiding as run (auto resolved): on or off (pieces written before it: off)
   std::string guide_splitting = "off";  // guided roulette and splitting: on or off (off without guiding, and in pieces written before it)
   std::string equiangular = "off";  // equi-angular sampling as requested: off, on or auto (pieces written before it: off)

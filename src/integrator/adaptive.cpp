@@ -20,6 +20,12 @@ double AdaptivePixel::sample_variance(int c) const {
 
 double AdaptivePixel::brightness() const { return n > 0 ? (s1[0] + s1[1] + s1[2]) / (3.0 * double(n)) : 0.0; }
 
+// Every round but a pixel's last starts and ends on a block of stratified wavelengths (types.h
+// ST_WAVELENGTH_BLOCK): the pilot and every round's full length are multiples of it, so a round's
+// wavelengths share no block with the samples its weight was decided from (docs/adaptive.md).
+static_assert(kNoiseMinSpp % ST_WAVELENGTH_BLOCK == 0 && kAdaptiveLastRoundSteps % ST_WAVELENGTH_BLOCK == 0,
+              "adaptive rounds start on a block of stratified wavelengths");
+
 int64_t adaptive_round_samples(int64_t n, const AdaptivePlan& plan) {
   const int64_t pilot = std::min(plan.pilot, plan.spp);
   if (n == 0) return pilot;

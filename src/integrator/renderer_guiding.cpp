@@ -176,6 +176,7 @@ nlohmann::json Renderer::Impl::guide_cache_key() const {
           {"transmittance", id.transmittance},
           {"lookup", id.lookup},
           {"color", id.color},
+          {"wavelength_sampling", id.wavelength_sampling},  // the training passes' wavelengths
           {"equiangular", id.equiangular},
           {"shutter", id.shutter},
           {"iteration_budget", id.iteration_budget},  // the training passes' random numbers

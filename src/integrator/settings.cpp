@@ -169,6 +169,10 @@ RenderSettings resolve_settings(const SceneDesc& scene, const RenderOptions& o) 
   s.lookup = o.lookup ? checked_enum<st_lookup_mode>(*o.lookup, ST_LOOKUP_COUNT, "density lookup mode")
                       : scene.render.lookup.value_or(kDefaultLookup);
   s.color = o.color ? checked_enum<st_film_color>(*o.color, ST_FILM_COLOR_COUNT, "colour mode") : scene.render.color;
+  s.wavelength_sampling = o.wavelength_sampling ? checked_enum<st_wavelength_sampling>(*o.wavelength_sampling,
+                                                                                       ST_WAVELENGTH_SAMPLING_COUNT,
+                                                                                       "wavelength sampling")
+                                                : scene.render.wavelength_sampling.value_or(kDefaultWavelengthSampling);
   s.march_spacing = o.march_spacing.value_or(kDefaultMarchSpacing);
   s.pilot_spacing = o.pilot_spacing.value_or(kDefaultPilotSpacing);
   // below 1e-3 a sample per thousandth of an optical depth; above 1e3 one sample per ray

@@ -53,6 +53,9 @@ constexpr double kDefaultPilotSpacing = 2.0;
 // Density lookups when neither the command line nor the scene chooses (bench/RESULTS.md,
 // "Stochastic one-voxel lookups": on PoCL the variance it adds outweighs the time it saves).
 constexpr st_lookup_mode kDefaultLookup = ST_LOOKUP_TRILINEAR;
+// Spectral mode's wavelengths when neither the command line nor the scene chooses (bench/RESULTS.md,
+// "Stratified wavelengths": the same expectation, less colour noise per sample).
+constexpr st_wavelength_sampling kDefaultWavelengthSampling = ST_WAVELENGTHS_STRATIFIED;
 // Shadow-ray entries per (path, light) (types.h; bench/RESULTS.md, "No waiting paths").
 constexpr int kDefaultShadowRing = 2;
 // Tentative collisions + DDA steps per item and kernel launch (unfinished items are re-queued).
@@ -83,6 +86,7 @@ struct RenderOptions {
   std::optional<double> pilot_spacing;  // ray marching: the same for the pilot (kDefaultPilotSpacing)
   std::optional<int> lookup;            // st_lookup_mode, else render.lookup, else kDefaultLookup
   std::optional<int> color;             // st_film_color, else render.color (--spectral)
+  std::optional<int> wavelength_sampling;  // st_wavelength_sampling, else render.wavelength_sampling, else the default
   std::optional<uint32_t> aovs;         // film layers, ST_AOV_BIT bits; else film.aovs (+ alpha if film.alpha)
   std::optional<int> guiding;           // GuidingMode (scene.h), else render.guiding, else auto
   std::optional<int> equiangular;       // EquiangularMode (scene.h), else render.equiangular, else kDefaultEquiangular
@@ -155,6 +159,7 @@ struct RenderSettings {
   double march_spacing = kDefaultMarchSpacing, pilot_spacing = kDefaultPilotSpacing;  // ray marching
   st_lookup_mode lookup{};
   st_film_color color{};
+  st_wavelength_sampling wavelength_sampling = kDefaultWavelengthSampling;  // spectral mode's wavelengths
   uint32_t aovs = 0;            // film layers (ST_AOV_BIT bits; alpha implies environment)
   uint32_t seed = 0;
   int spp = 0;                  // samples per pixel to render

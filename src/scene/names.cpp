@@ -23,6 +23,7 @@ namespace {
 #define ST_X_LOOKUP_NAME(E, name) name,
 #define ST_X_AOV_NAME(E, name) name,
 #define ST_X_FILM_COLOR_NAME(E, name) name,
+#define ST_X_WAVELENGTH_SAMPLING_NAME(E, name) name,
 #define ST_X_GROUND_NAME(E, name) name,
 const char* const kTrackerNames[] = {ST_TRACKERS(ST_X_TRACKER_NAME)};
 const char* const kSchemeNames[] = {ST_SCHEMES(ST_X_SCHEME_NAME)};
@@ -32,9 +33,12 @@ const char* const kTransmittanceNames[] = {ST_TRANSMITTANCES(ST_X_TRANSMITTANCE_
 const char* const kLookupNames[] = {ST_LOOKUPS(ST_X_LOOKUP_NAME)};
 const char* const kAovNames[] = {ST_AOVS(ST_X_AOV_NAME)};
 const char* const kFilmColorNames[] = {ST_FILM_COLORS(ST_X_FILM_COLOR_NAME)};
+const char* const kWavelengthSamplingNames[] = {ST_WAVELENGTH_SAMPLINGS(ST_X_WAVELENGTH_SAMPLING_NAME)};
 const char* const kGroundModeNames[] = {ST_GROUND_MODES(ST_X_GROUND_NAME)};
 static_assert(sizeof(kGroundModeNames) / sizeof(kGroundModeNames[0]) == ST_GROUND_MODE_COUNT, "ground mode names");
 static_assert(sizeof(kFilmColorNames) / sizeof(kFilmColorNames[0]) == ST_FILM_COLOR_COUNT, "film colour names");
+static_assert(sizeof(kWavelengthSamplingNames) / sizeof(kWavelengthSamplingNames[0]) == ST_WAVELENGTH_SAMPLING_COUNT,
+              "wavelength sampling names");
 static_assert(sizeof(kAovNames) / sizeof(kAovNames[0]) == ST_AOV_COUNT, "aov names");
 static_assert(sizeof(kLookupNames) / sizeof(kLookupNames[0]) == ST_LOOKUP_COUNT, "lookup names");
 static_assert(sizeof(kTransmittanceNames) / sizeof(kTransmittanceNames[0]) == ST_TRANSMITTANCE_COUNT, "transmittance names");
@@ -92,6 +96,12 @@ const char* lookup_name(int mode) { return name_of(kLookupNames, mode); }
 int lookup_from_name(const std::string& name) { return value_of(kLookupNames, name); }
 std::string lookup_names() { return list_of(kLookupNames); }
 std::vector<std::string> lookup_name_list() { return {std::begin(kLookupNames), std::end(kLookupNames)}; }
+const char* wavelength_sampling_name(int mode) { return name_of(kWavelengthSamplingNames, mode); }
+int wavelength_sampling_from_name(const std::string& name) { return value_of(kWavelengthSamplingNames, name); }
+std::string wavelength_sampling_names() { return list_of(kWavelengthSamplingNames); }
+std::vector<std::string> wavelength_sampling_name_list() {
+  return {std::begin(kWavelengthSamplingNames), std::end(kWavelengthSamplingNames)};
+}
 const char* film_color_name(int mode) { return name_of(kFilmColorNames, mode); }
 const char* ground_mode_name(int mode) { return name_of(kGroundModeNames, mode); }
 int ground_mode_from_name(const std::string& name) { return value_of(kGroundModeNames, name); }

@@ -267,7 +267,7 @@ void Parser::render(const json& j, const std::string& path, RenderDesc& r) {
   expect_object(j, path);
   fields(j, path,
          {"tracker", "spectral_scheme", "absorption", "light_sampling", "transmittance", "lookup", "color", "max_depth", "seed",
-          "time_limit", "guiding", "noise_target", "adaptive", "equiangular"});
+          "time_limit", "guiding", "noise_target", "adaptive", "equiangular", "wavelength_sampling"});
   // a name from one of the enum tables of kernels/types.h (scene/names.cpp): its value, or the
   // field named with the valid names
   auto named = [&](const char* key, const char* what, int (*from_name)(const std::string&), std::string (*names)(),
@@ -291,6 +291,8 @@ void Parser::render(const json& j, const std::string& path, RenderDesc& r) {
   named("transmittance", "transmittance estimator", transmittance_from_name, transmittance_names, &r.transmittance);
   named("lookup", "density lookup mode", lookup_from_name, lookup_names, &r.lookup);
   named("color", "colour mode", film_color_from_name, film_color_names, &r.color);
+  named("wavelength_sampling", "wavelength sampling", wavelength_sampling_from_name, wavelength_sampling_names,
+        &r.wavelength_sampling);
   named("guiding", "guiding mode", guiding_from_name, guiding_names, &r.guiding);
   named("equiangular", "equi-angular mode", guiding_from_name, guiding_names, &r.equiangular);
   // -1: unlimited, as the kernels read it (types.h st_scene.max_depth)

@@ -257,6 +257,7 @@ struct RenderDesc {
   std::optional<st_transmittance_mode> transmittance;  // none: kDefaultTransmittance (settings.h)
   std::optional<st_lookup_mode> lookup;               // none: kDefaultLookup (settings.h)
   st_film_color color = ST_FILM_COLOR_RGB;  // what a path's lanes carry (render.color)
+  std::optional<st_wavelength_sampling> wavelength_sampling;  // spectral mode; none: kDefaultWavelengthSampling (settings.h)
   std::optional<int> max_depth;  // real scattering events a path may have; none: unlimited (the file's -1)
   uint32_t seed = 0;
   double time_limit = 0;  // seconds from the start of the command after which the render stops cleanly; 0: none
@@ -328,6 +329,11 @@ const char* lookup_name(int mode);
 int lookup_from_name(const std::string& name);  // -1 when unknown
 std::string lookup_names();
 std::vector<std::string> lookup_name_list();
+// Names of the ways spectral mode draws wavelengths (st_wavelength_sampling): "independent", "stratified".
+const char* wavelength_sampling_name(int mode);
+int wavelength_sampling_from_name(const std::string& name);  // -1 when unknown
+std::string wavelength_sampling_names();
+std::vector<std::string> wavelength_sampling_name_list();
 // Names of the film layers beyond the beauty (ST_AOVS, indices st_aov_index): "alpha",
 // "environment", "variance", "emission", "direct", "indirect", "albedo", "depth".
 const char* aov_name(int index);

@@ -105,6 +105,7 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
   st.march_spacing = float(s.march_spacing);
   st.pilot_spacing = float(s.pilot_spacing);
   st.lookup = s.lookup;
+  st.wavelength_sampling = s.wavelength_sampling;
   st.aovs = int(s.aovs);
   st.result_layers = (s.aovs & ST_AOV_BIT(SHADOW))                         ? ST_RESULT_LAYERS_SHADOW
                      : (s.aovs & (ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH))) ? ST_RESULT_LAYERS_AUX
