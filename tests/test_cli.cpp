@@ -958,6 +958,36 @@ TEST_F(CliFlags, LookupFlagIsCheckedAndRecorded) {
   EXPECT_EQ(json::parse(std::ifstream(dir + "/tri.json"))["lookup"], "trilinear");
 }
 
+// --wavelength-sampling: checked, refused in rgb mode (no wavelengths), recorded in spectral mode
+// only; a scene's field in rgb mode is a warning.
+TEST_F(CliFlags, WavelengthSamplingFlagIsCheckedAndRecorded) {
+  Proc rgb = run({"render", scene, "-o", dir + "/rgb.exr", "--wavelength-sampling", "stratified", "--quiet"});
+  expect_error_exit(rgb, 2);
+  for (const char* s : {"--wavelength-sampling stratified", "only spectral mode", "tiny.json", "--spectral"})
+    EXPECT_THAT(rgb.out, HasSubstr(s)) << rgb.describe();
+  EXPECT_FALSE(fs::exists(dir + "/rgb.exr"));
+  Proc bad = run({"render", scene, "-o", dir + "/bad.exr", "--spectral", "--wavelength-sampling", "sobol", "--quiet"});
+  expect_error_exit(bad, 2);
+  for (const char* s : {"sobol", "independent", "stratified"}) EXPECT_THAT(bad.out, HasSubstr(s)) << bad.describe();
+  auto recorded = [&](const std::vector<std::string>& extra) {
+    std::vector<std::string> a = {"render", scene, "-o", dir + "/ok.exr", "--stats-json", dir + "/ok.json", "--quiet"};
+    a.insert(a.end(), extra.begin(), extra.end());
+    Proc ok = run(a);
+    EXPECT_EQ(ok.code, 0) << ok.describe();
+    const json j = json::parse(std::ifstream(dir + "/ok.json"));
+    return j.contains("wavelength_sampling") ? j["wavelength_sampling"].get<std::string>() : std::string("(none)");
+  };
+  EXPECT_EQ(recorded({"--spectral"}), "stratified");
+  EXPECT_EQ(recorded({"--spectral", "--wavelength-sampling", "independent"}), "independent");
+  EXPECT_EQ(recorded({}), "(none)") << "rgb mode draws no wavelengths";
+  json s = homogeneous_scene(8, 8, 1, 1.0, 0.0);
+  s["render"]["wavelength_sampling"] = "independent";
+  Proc warned = run({"render", write_scene(dir, "field.json", s), "-o", dir + "/field.exr"});
+  EXPECT_EQ(warned.code, 0) << warned.describe();
+  EXPECT_THAT(warned.out, HasSubstr("/render/wavelength_sampling: \"independent\" is ignored in rgb mode"))
+      << warned.describe();
+}
+
 TEST_F(CliFlags, SchemeWithATrackerThatIgnoresItIsAUsageError) {
   for (const char* t : {"delta-per-channel", "delta", "decomposition"}) {
     SCOPED_TRACE(t);

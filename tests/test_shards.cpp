@@ -13,6 +13,7 @@
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <cstdlib>
@@ -430,6 +431,39 @@ TEST(CliMerge, RefusesInputsOfDifferentRendersOverlapsAndGaps) {
   EXPECT_THAT(p.out, HasSubstr("must be an EXR")) << p.describe();
   p = run({"merge", dir + "/out.exr"});
   expect_error_exit(p, 2);
+}
+
+// Spectral mode's stratified wavelengths (a pixel's aligned blocks of 4 samples share a rotation):
+// shards that cut blocks merge to the full render, and pieces of the two wavelength samplings, which
+// draw other wavelengths for the same samples, are refused.
+TEST(CliShards, SpectralShardsThatCutBlocksOfWavelengthsMergeToTheFullRender) {
+  std::string dir = test_dir();
+  std::string scene = shard_scene(dir, "scene.json", [](json& s) { s["render"]["color"] = "spectral"; });
+  spectrack::RgbImage full = full_render(dir, scene, "spectral-decomposition");
+  EXPECT_EQ(meta_string(full, "wavelength_sampling"), "stratified");
+  std::vector<std::string> shards;
+  for (const char* range : {"0:3", "3:6", "6:13", "13:16"}) {
+    std::string name = range;
+    name[name.find(':')] = '_';
+    shards.push_back(dir + "/shard_" + name + ".exr");
+    render_ok({scene, "--tracker", "spectral-decomposition", "--spp-range", range, "-o", shards.back()});
+  }
+  std::string merged = dir + "/merged.exr";
+  Proc m = merge(merged, shards);
+  ASSERT_TRUE(m.exited && m.code == 0) << m.describe();
+  double worst = 0;
+  EXPECT_EQ(count_differing(read(merged), full, 1e-5, &worst), 0) << "worst relative difference " << worst;
+  std::string independent = dir + "/independent.exr";
+  render_ok({scene, "--tracker", "spectral-decomposition", "--spp-range", "13:16", "--wavelength-sampling", "independent",
+             "-o", independent});
+  EXPECT_EQ(meta_string(read(independent), "wavelength_sampling"), "independent");
+  // the film is transparent (EXR alpha): R, G, B are 0 where the camera sees the environment alone
+  const spectrack::RgbImage last = read(shards[3]);
+  const int covered = int(std::count_if(last.rgb.begin(), last.rgb.end(), [](float v) { return v != 0.0f; }));
+  EXPECT_GT(covered, kW * kH / 2);
+  EXPECT_GT(count_differing(read(independent), last, 1e-5), covered * 9 / 10) << "other wavelengths, other pixels";
+  expect_merge_refused(dir, {shards[0], shards[1], shards[2], independent},
+                       {"wavelength sampling", "stratified", "independent"});
 }
 
 TEST(CliShardFlags, SppRangeAndPixelBoundsAreChecked) {

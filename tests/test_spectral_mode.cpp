@@ -8,12 +8,16 @@
 //   - white and emissive furnaces (per wavelength, so the film of D65 times the light's spectrum);
 //   - a gray medium under a coloured light renders the rgb mode's expectation;
 //   - every tracker agrees with per-channel delta tracking on a chromatic scattering medium;
+//   - stratified wavelengths: a block's samples spread 16 wavelengths evenly (the pixel variance of
+//     that estimate, told apart from independent samples'), and both samplings estimate one image;
 //   - environment maps: a texel seen directly is the film of its spectrum times D65, a white map
 //     keeps a white furnace white, a gray medium under a chromatic map renders the rgb expectation;
 //   - the scene field and the stats (film layers in spectral mode: tests/test_aov.cpp AovSpectral).
 #include <cmath>
 #include <functional>
 #include <utility>
+
+#include <fmt/format.h>
 
 #include "color/spectrum.h"
 #include "image/image.h"
@@ -188,6 +192,92 @@ TEST(SpectralMode, EveryTrackerAgreesWithPerChannelDelta) {
 }
 
 // The flag and the scene field agree, and seeds make spectral renders bit-identical.
+// Stratified wavelengths (the default; types.h st_wavelength_sampling): the n = 2 or 4 samples of a
+// pixel's block take u = r + j/16 (j = 0, 2, 1, 3), so with no medium their mean under a white
+// environment is the film estimate of 4n wavelengths evenly spaced from one uniform r; independent
+// samples' mean is that of n four-wavelength estimates. The variance over 64 x 64 pixels must match
+// each model's (the host integrates it over u, midpoint rule) within 4 of its standard errors (from
+// the fourth central moment), the other model's variance must be told apart, and the means agree.
+TEST(SpectralMode, StratifiedWavelengthsSpreadABlockEvenly) {
+  const std::string dir = temp_dir("spectral_strata");
+  const int n_side = 64, N = n_side * n_side, K = 50000;
+  auto estimate = [](double u, int lanes, int c) {  // the film estimate of `lanes` wavelengths from u
+    double g = 0;
+    for (int i = 0; i < lanes; ++i) {
+      const double ui = u + double(i) / lanes;
+      const double l = sample_visible_wavelength(ui >= 1.0 ? ui - 1.0 : ui);
+      g += film_rgb_weight(l)[c] * cie_d65(l) / visible_wavelength_pdf(l);
+    }
+    return g / lanes;
+  };
+  struct Moments {
+    double mean = 0, var = 0, m4 = 0;
+  };
+  auto moments = [&](int lanes, int c) {  // of estimate(u, lanes, c) over a uniform u
+    Moments m;
+    for (int k = 0; k < K; ++k) m.mean += estimate((k + 0.5) / K, lanes, c) / K;
+    for (int k = 0; k < K; ++k) {
+      const double d = estimate((k + 0.5) / K, lanes, c) - m.mean;
+      m.var += d * d / K;
+      m.m4 += d * d * d * d / K;
+    }
+    return m;
+  };
+  for (int spp : {2, 4}) {
+    for (int c = 0; c < 3; ++c) {
+      const Moments four = moments(4, c), block = moments(4 * spp, c);
+      // the mean of spp independent four-wavelength estimates: variance and fourth central moment
+      const Moments indep{four.mean, four.var / spp, (four.m4 + 3.0 * (spp - 1) * four.var * four.var) / (spp * spp * spp)};
+      for (const std::string sampling : {"stratified", "independent"}) {
+        json j = spectral_scene(n_side, n_side, spp, "spectral-decomposition");
+        j["render"]["wavelength_sampling"] = sampling;
+        j["lights"].push_back({{"type", "environment"}, {"radiance", {1, 1, 1}}});
+        RenderResult r = Renderer(scene_from_json(j, dir), quiet_options()).render();
+        const std::vector<double> v = channel(r, c);
+        const Stats s = mean_se(v);
+        double var = 0;
+        for (double x : v) var += (x - s.mean) * (x - s.mean) / (N - 1);
+        const Moments& want = sampling == "stratified" ? block : indep;
+        const Moments& other = sampling == "stratified" ? indep : block;
+        const double se = std::sqrt((want.m4 - want.var * want.var) / N);
+        const std::string what = fmt::format("{} spp {} channel {}", sampling, spp, c);
+        std::cout << "[ info ] " << what << ": pixel variance " << var << ", expected " << want.var << " (SE " << se
+                  << "), the other sampling's " << other.var << "\n";
+        EXPECT_NEAR(s.mean, want.mean, 4.0 * s.se + 2e-4) << what;
+        EXPECT_NEAR(var, want.var, 4.0 * se) << what;
+        EXPECT_GT(std::abs(var - other.var), 4.0 * se) << what << ": the other sampling's variance must be told apart";
+      }
+    }
+  }
+}
+
+// Stratified and independent wavelengths estimate one image on a chromatic scattering medium under a
+// sky and a sun (a 3% difference is told apart), for the tracker kinds that use the wavelengths
+// differently: one path per wavelength, one path for all four, a hero wavelength.
+TEST(SpectralMode, StratifiedAndIndependentWavelengthsAgree) {
+  const std::string dir = temp_dir("spectral_strata_agree");
+  write_lumpy(dir + "/lumpy.vdb");
+  for (const std::string tracker : {"delta-per-channel", "spectral-decomposition", "spectral-mis"}) {
+    auto render = [&](const std::string& sampling, int64_t seed) {
+      json j = spectral_scene(16, 16, 64, tracker);
+      j["render"]["wavelength_sampling"] = sampling;
+      j["camera"] = {{"type", "perspective"}, {"position", {0.2, 0.1, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov_deg", 30}};
+      j["lights"].push_back({{"type", "environment"}, {"radiance", {0.1, 0.2, 0.4}}});
+      j["lights"].push_back({{"type", "directional"}, {"to_light", {0.3, 1, -0.4}}, {"irradiance", {3.0, 2.0, 1.0}}});
+      j["media"].push_back({{"type", "vdb"}, {"file", "lumpy.vdb"}, {"density_scale", 3.0}, {"sigma_a", {0.2, 0.6, 1.5}},
+                            {"sigma_s", {3.0, 1.5, 0.5}}, {"phase", {{"type", "hg"}, {"g", 0.3}}}});
+      RenderOptions o = quiet_options();
+      o.seed = seed;
+      RenderResult r = Renderer(scene_from_json(j, dir), o).render();
+      EXPECT_EQ(r.stats.nonfinite_samples, 0u) << tracker << " " << sampling;
+      return r;
+    };
+    const RenderResult stratified = render("stratified", 21), independent = render("independent", 22);
+    EXPECT_LT(max_z(stratified, independent), 4.0) << tracker;
+    EXPECT_GT(max_z(stratified, independent, 1.03), 4.0) << tracker << ": a 3% difference must be detectable";
+  }
+}
+
 TEST(SpectralMode, OptionOverridesSceneAndIsReproducible) {
   const std::string dir = temp_dir("spectral_option");
   json j = spectral_scene(8, 8, 16, "spectral-decomposition");
@@ -215,6 +305,11 @@ TEST(SpectralMode, SceneFieldErrors) {
   const std::string msg = error_of([&] { scene_from_json(j, dir); });
   EXPECT_NE(msg.find("/render/color"), std::string::npos) << msg;
   EXPECT_NE(msg.find("rgb, spectral"), std::string::npos) << msg;
+  j["render"]["color"] = "spectral";
+  j["render"]["wavelength_sampling"] = "sobol";
+  const std::string ws = error_of([&] { scene_from_json(j, dir); });
+  EXPECT_NE(ws.find("/render/wavelength_sampling"), std::string::npos) << ws;
+  EXPECT_NE(ws.find("independent, stratified"), std::string::npos) << ws;
 }
 
 // spectrum_max: the spectrum's largest value over 360..830 nm, exactly (spectral_pack.cpp checks it stays a float).
