@@ -2,6 +2,8 @@
 # bench/bit_identity.sh OLD NEW: renders cloud.json and every bench scene with each tracker (and
 # schemes, generic kernels, a shard) with both binaries and compares EXR pixels and counters bit for
 # bit; a control pair (another seed) must differ. OLD and NEW are absolute paths of spectrack binaries.
+# Spectral mode is compared with the new binary's `--wavelength-sampling independent` (NEW_EXTRA):
+# stratified wavelengths are a new default.
 # A scene the old binary refuses as having an unknown field while the new one renders it (a scene
 # field newer than the old binary, e.g. a ground) is listed as skipped, not compared; every other
 # failure fails. Scenes lit by an environment map are the one intended difference: light sampling's
@@ -18,7 +20,7 @@ run() { # name scene args...
   local name=$1; shift
   local old_ok=1
   $OLD render "$@" $NA_OLD -o $out/$name.old.exr --quiet --stats-json $out/$name.old.json >$out/$name.old.log 2>&1 || old_ok=0
-  $NEW render "$@" $NA_NEW -o $out/$name.new.exr --quiet --stats-json $out/$name.new.json >/dev/null 2>&1 || { echo "NEW FAIL $name"; fail=1; return; }
+  $NEW render "$@" ${NEW_EXTRA:-} $NA_NEW -o $out/$name.new.exr --quiet --stats-json $out/$name.new.json >/dev/null 2>&1 || { echo "NEW FAIL $name"; fail=1; return; }
   if [ $old_ok = 0 ]; then
     if grep -q "^error: .*\.json: /.*: unknown field" $out/$name.old.log; then  # a scene field the old binary does not know
       echo "skip $name: the old binary refuses the scene ($(grep -m1 '^error' $out/$name.old.log | cut -c1-160))"
@@ -31,7 +33,7 @@ run() { # name scene args...
   for side in old new; do
     if python3 -c "import json,sys; sys.exit(0 if json.load(open('$out/$name.$side.json')).get('guiding_used') else 1)" 2>/dev/null; then
       echo "# $name: auto guides it ($side); compared with --guiding off"
-      bin=$NEW; na=$NA_NEW; [ $side = old ] && bin=$OLD && na=$NA_OLD
+      bin=$NEW; na="${NEW_EXTRA:-} $NA_NEW"; [ $side = old ] && bin=$OLD && na=$NA_OLD
       $bin render "$@" $na --guiding off -o $out/$name.$side.exr --quiet --stats-json $out/$name.$side.json >/dev/null 2>&1 || { echo "${side^^} FAIL $name"; }
     fi
   done
@@ -80,6 +82,13 @@ PY
 for t in spectral-decomposition delta-per-channel; do
   EXPECTED_CHANGE="the environment map's pdf" run env_$t $out/env.json --tracker $t --spp 2 --pixel-bounds 176,208,112,144
 done
+# spectral mode: the new binary's default wavelengths are stratified (docs/spectral.md, a new
+# feature); with --wavelength-sampling independent (NEW_EXTRA, the new binary only) it draws the
+# old ones
+for t in spectral-decomposition delta-per-channel spectral-mis; do
+  NEW_EXTRA="--wavelength-sampling independent" run cloud_spectral_$t data/scenes/cloud.json --spectral --tracker $t --spp 2 --pixel-bounds 176,208,112,144
+done
+NEW_EXTRA="--wavelength-sampling independent" run fire_spectral data/scenes/fire.json --spectral --spp 2 --pixel-bounds 116,140,150,174
 # control: a different seed must differ
 $NEW render data/scenes/cloud.json --spp 1 --pixel-bounds 180,200,120,140 -o $out/c1.exr --quiet; $NEW render data/scenes/cloud.json --spp 1 --seed 9 --pixel-bounds 180,200,120,140 -o $out/c2.exr --quiet
 cmp -s <(oiiotool --dumpdata $out/c1.exr | tail -n +2) <(oiiotool --dumpdata $out/c2.exr | tail -n +2) && { echo "CONTROL FAILED: comparison is blind"; fail=1; } || echo "control ok: seeds differ"
