@@ -178,7 +178,9 @@ inline void shadow_begin(st_shadow* sh, float3 o, float3 wi, float t_max, float4
  * raygen.cl draws them once into st_path.lambda. Independent (st_wavelength_sampling): the hero's
  * CDF value u is the first draw of a stream of its own (ST_STREAM_WAVELENGTHS on channel 0).
  * Stratified: u = r + j/16 (mod 1), r a hash (hash.h hash_uniform) of the seed, the pixel and the
- * sample's block of ST_WAVELENGTH_BLOCK samples, j the sample's place in its block bit-reversed
+ * sample's block of ST_WAVELENGTH_BLOCK samples of the sequence (with guiding, whose training
+ * samples come first, the render's sample s is the sequence's s + wavelength_sample_offset, so
+ * blocks stay aligned with adaptive sampling's rounds), j its place in the block bit-reversed
  * (0, 2, 1, 3), so that a whole block's 16 lanes are evenly spaced in the CDF and its first two
  * samples' 8 lanes too. Each sample's u is uniform whatever r is spaced from, so every sample is
  * the same estimate as an independent one; blocks are independent of one another. */
@@ -187,8 +189,9 @@ inline void shadow_begin(st_shadow* sh, float3 o, float3 wi, float t_max, float4
 #endif
 inline float4 path_wavelengths(__constant const st_scene* scene, const st_path* p) {
   if (scene->wavelength_sampling == ST_WAVELENGTHS_STRATIFIED) {
-    const uint j = p->sample % ST_WAVELENGTH_BLOCK;
-    const float r = hash_uniform(scene->seed ^ ST_STREAM_WAVELENGTHS, p->pixel, p->sample / ST_WAVELENGTH_BLOCK);
+    const uint s = p->sample + (uint)scene->wavelength_sample_offset;
+    const uint j = s % ST_WAVELENGTH_BLOCK;
+    const float r = hash_uniform(scene->seed ^ ST_STREAM_WAVELENGTHS, p->pixel, s / ST_WAVELENGTH_BLOCK);
     const float u = r + (float)(((j & 1u) << 1) | (j >> 1)) * (1.0f / (4.0f * ST_WAVELENGTH_BLOCK));
     return sample_wavelengths(fmin(u - floor(u), 0x1.fffffep-1f), 4);
   }

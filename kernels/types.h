@@ -410,9 +410,10 @@ typedef struct {
   struct {                      /* equi-angular sampling (equiangular.h; features.h ST_HAS_EQUIANGULAR) */
     st_int n_local;             /* local lights it samples towards (point, spot, sphere), each with 1 / n_local; 0: off */
     float sigma_t;              /* the gray extinction (1/length) of the free-flight density its MIS weights assume */
-    st_int pad;
   } equiangular;
   st_int wavelength_sampling;   /* spectral mode: st_wavelength_sampling of the paths' wavelengths */
+  st_int wavelength_sample_offset; /* stratified wavelengths: the sequence index of the render's sample 0 (guiding's
+                                    * training samples come first: RenderSettings::guide_training_samples) */
 } st_scene;
 
 /* Path state, one slot per path in flight: st_path and its layouts (AoS, SoA) and groups. */

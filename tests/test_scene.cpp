@@ -562,7 +562,7 @@ TEST_F(SceneTest, UnknownFieldInSections) {
   EXPECT_SCENE_ERROR(j, "/film/samples", "unknown field");
   j = example();
   j["render"]["scheme"] = "max";
-  EXPECT_SCENE_ERROR(j, "/render/scheme", "unknown field (expected one of: tracker, spectral_scheme, absorption, light_sampling, transmittance, lookup, color, max_depth, seed, time_limit, guiding, noise_target, adaptive, equiangular)");
+  EXPECT_SCENE_ERROR(j, "/render/scheme", "unknown field (expected one of: tracker, spectral_scheme, absorption, light_sampling, transmittance, lookup, color, max_depth, seed, time_limit, guiding, noise_target, adaptive, equiangular, wavelength_sampling)");
 }
 
 TEST_F(SceneTest, UnknownFieldInArrays) {

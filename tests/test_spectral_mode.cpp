@@ -191,7 +191,6 @@ TEST(SpectralMode, EveryTrackerAgreesWithPerChannelDelta) {
   }
 }
 
-// The flag and the scene field agree, and seeds make spectral renders bit-identical.
 // Stratified wavelengths (the default; types.h st_wavelength_sampling): the n = 2 or 4 samples of a
 // pixel's block take u = r + j/16 (j = 0, 2, 1, 3), so with no medium their mean under a white
 // environment is the film estimate of 4n wavelengths evenly spaced from one uniform r; independent
@@ -224,15 +223,16 @@ TEST(SpectralMode, StratifiedWavelengthsSpreadABlockEvenly) {
     return m;
   };
   for (int spp : {2, 4}) {
-    for (int c = 0; c < 3; ++c) {
-      const Moments four = moments(4, c), block = moments(4 * spp, c);
-      // the mean of spp independent four-wavelength estimates: variance and fourth central moment
-      const Moments indep{four.mean, four.var / spp, (four.m4 + 3.0 * (spp - 1) * four.var * four.var) / (spp * spp * spp)};
-      for (const std::string sampling : {"stratified", "independent"}) {
-        json j = spectral_scene(n_side, n_side, spp, "spectral-decomposition");
-        j["render"]["wavelength_sampling"] = sampling;
-        j["lights"].push_back({{"type", "environment"}, {"radiance", {1, 1, 1}}});
-        RenderResult r = Renderer(scene_from_json(j, dir), quiet_options()).render();
+    for (const std::string sampling : {"stratified", "independent"}) {
+      json j = spectral_scene(n_side, n_side, spp, "spectral-decomposition");
+      j["render"]["wavelength_sampling"] = sampling;
+      j["lights"].push_back({{"type", "environment"}, {"radiance", {1, 1, 1}}});
+      const RenderResult r = Renderer(scene_from_json(j, dir), quiet_options()).render();
+      for (int c = 0; c < 3; ++c) {
+        const Moments four = moments(4, c), block = moments(4 * spp, c);
+        // the mean of spp independent four-wavelength estimates: variance and fourth central moment
+        const Moments indep{four.mean, four.var / spp,
+                            (four.m4 + 3.0 * (spp - 1) * four.var * four.var) / (spp * spp * spp)};
         const std::vector<double> v = channel(r, c);
         const Stats s = mean_se(v);
         double var = 0;
@@ -278,6 +278,7 @@ TEST(SpectralMode, StratifiedAndIndependentWavelengthsAgree) {
   }
 }
 
+// The flag and the scene field agree, and seeds make spectral renders bit-identical.
 TEST(SpectralMode, OptionOverridesSceneAndIsReproducible) {
   const std::string dir = temp_dir("spectral_option");
   json j = spectral_scene(8, 8, 16, "spectral-decomposition");

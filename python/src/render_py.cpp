@@ -94,6 +94,7 @@ RenderOptions options_of(const SceneDesc& scene, const RenderArgs& a) {
   opt.aovs = film_layers(scene, a.aovs, a.alpha);
   // the command line's refusals of what would be ignored (ValueError, as the CLI's exit 2)
   check_tracker_scheme(scene, opt, a.scheme.value_or(""), a.tracker.value_or(""));
+  check_wavelength_sampling(scene, opt, "");  // the scene's field in rgb mode: a warning
   const OptionCheck& chunk = option_row("chunk_spp").check;  // --chunk-spp's range; 0: by the device count
   if (a.chunk_spp != 0 && !(a.chunk_spp >= chunk.lo && a.chunk_spp <= chunk.hi))
     throw py::value_error(fmt::format("chunk_spp={}: 0 (by the device count) or {:.0f} to {:.0f} (--chunk-spp's range)",

@@ -166,7 +166,7 @@ void Renderer::Impl::finish_guide() {
 // and the training's samples. Not guided roulette and splitting, which act in the render only.
 nlohmann::json Renderer::Impl::guide_cache_key() const {
   const RenderIdentity id = render_identity(settings);
-  return {{"scene_hash", opt.scene_json.empty() ? scene_hash(scene) : scene_hash(scene, opt.scene_json)},
+  nlohmann::json key = {{"scene_hash", opt.scene_json.empty() ? scene_hash(scene) : scene_hash(scene, opt.scene_json)},
           {"film", {settings.full_width, settings.full_height}},
           {"seed", id.seed},
           {"tracker", id.tracker},
@@ -176,7 +176,6 @@ nlohmann::json Renderer::Impl::guide_cache_key() const {
           {"transmittance", id.transmittance},
           {"lookup", id.lookup},
           {"color", id.color},
-          {"wavelength_sampling", id.wavelength_sampling},  // the training passes' wavelengths
           {"equiangular", id.equiangular},
           {"shutter", id.shutter},
           {"iteration_budget", id.iteration_budget},  // the training passes' random numbers
@@ -193,6 +192,9 @@ nlohmann::json Renderer::Impl::guide_cache_key() const {
           {"alpha", (settings.aovs & ST_AOV_BIT(ALPHA)) != 0},  // the pixel estimates leave out the seen environment
           {"records", kGuideRecordsVersion},
           {"record_samples", guide_record_samples()}};
+  // spectral mode's wavelengths, the training passes' among them (rgb mode has none: its key is unchanged)
+  if (!id.wavelength_sampling.empty()) key["wavelength_sampling"] = id.wavelength_sampling;
+  return key;
 }
 
 // The cache from --guide-cache's file: no training pass here; a render whose samples hold the

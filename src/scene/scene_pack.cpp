@@ -106,6 +106,7 @@ PackedScene pack_scene(const SceneDesc& scene, const RenderSettings& s, const Pa
   st.pilot_spacing = float(s.pilot_spacing);
   st.lookup = s.lookup;
   st.wavelength_sampling = s.wavelength_sampling;
+  st.wavelength_sample_offset = s.guide_training_samples;  // the render's own samples follow the training's
   st.aovs = int(s.aovs);
   st.result_layers = (s.aovs & ST_AOV_BIT(SHADOW))                         ? ST_RESULT_LAYERS_SHADOW
                      : (s.aovs & (ST_AOV_BIT(ALBEDO) | ST_AOV_BIT(DEPTH))) ? ST_RESULT_LAYERS_AUX
