@@ -182,8 +182,8 @@ inline void shadow_begin(st_shadow* sh, float3 o, float3 wi, float t_max, float4
  * samples come first, the render's sample s is the sequence's s + wavelength_sample_offset, so
  * blocks stay aligned with adaptive sampling's rounds), j its place in the block bit-reversed
  * (0, 2, 1, 3), so that a whole block's 16 lanes are evenly spaced in the CDF and its first two
- * samples' 8 lanes too. Each sample's u is uniform whatever r is spaced from, so every sample is
- * the same estimate as an independent one; blocks are independent of one another. */
+ * samples' 8 lanes too. Each sample's u is uniform because r is, so every sample is the same
+ * estimate as an independent one; blocks are independent of one another. */
 #if ST_WAVELENGTH_BLOCK != 4
 #error "path_wavelengths reverses the 2 bits of a sample's place in its block"
 #endif
