@@ -77,6 +77,34 @@ std::pair<RenderResult, RenderResult> gray_medium_both_modes(json j, const std::
   return {spectral, rgb};
 }
 
+// The film estimate of `lanes` wavelengths evenly spaced in the CDF from u (a sample's four lanes, or
+// a block's 4n), channel c, of a white light seen directly.
+double film_estimate(double u, int lanes, int c) {
+  double g = 0;
+  for (int i = 0; i < lanes; ++i) {
+    const double ui = u + double(i) / lanes;
+    const double l = sample_visible_wavelength(ui >= 1.0 ? ui - 1.0 : ui);
+    g += film_rgb_weight(l)[c] * cie_d65(l) / visible_wavelength_pdf(l);
+  }
+  return g / lanes;
+}
+
+// The mean, variance and fourth central moment of film_estimate(u, lanes, c) over a uniform u, by the
+// midpoint rule of K points (its error is far below the tests' tolerances).
+struct Moments {
+  double mean = 0, var = 0, m4 = 0;
+};
+Moments film_estimate_moments(int lanes, int c, int K) {
+  Moments m;
+  for (int k = 0; k < K; ++k) m.mean += film_estimate((k + 0.5) / K, lanes, c) / K;
+  for (int k = 0; k < K; ++k) {
+    const double d = film_estimate((k + 0.5) / K, lanes, c) - m.mean;
+    m.var += d * d / K;
+    m.m4 += d * d * d * d / K;
+  }
+  return m;
+}
+
 }  // namespace
 
 // A slab of thickness 2 absorbing sigma_a = (0.5, 1, 2) seen against a white environment: each
@@ -200,45 +228,26 @@ TEST(SpectralMode, EveryTrackerAgreesWithPerChannelDelta) {
 TEST(SpectralMode, StratifiedWavelengthsSpreadABlockEvenly) {
   const std::string dir = temp_dir("spectral_strata");
   const int n_side = 64, N = n_side * n_side, K = 50000;
-  auto estimate = [](double u, int lanes, int c) {  // the film estimate of `lanes` wavelengths from u
-    double g = 0;
-    for (int i = 0; i < lanes; ++i) {
-      const double ui = u + double(i) / lanes;
-      const double l = sample_visible_wavelength(ui >= 1.0 ? ui - 1.0 : ui);
-      g += film_rgb_weight(l)[c] * cie_d65(l) / visible_wavelength_pdf(l);
-    }
-    return g / lanes;
-  };
-  struct Moments {
-    double mean = 0, var = 0, m4 = 0;
-  };
-  auto moments = [&](int lanes, int c) {  // of estimate(u, lanes, c) over a uniform u
-    Moments m;
-    for (int k = 0; k < K; ++k) m.mean += estimate((k + 0.5) / K, lanes, c) / K;
-    for (int k = 0; k < K; ++k) {
-      const double d = estimate((k + 0.5) / K, lanes, c) - m.mean;
-      m.var += d * d / K;
-      m.m4 += d * d * d * d / K;
-    }
-    return m;
-  };
   for (int spp : {2, 4}) {
+    Moments block[3], indep[3];
+    for (int c = 0; c < 3; ++c) {
+      const Moments four = film_estimate_moments(4, c, K);
+      block[c] = film_estimate_moments(4 * spp, c, K);
+      // the mean of spp independent four-wavelength estimates: variance and fourth central moment
+      indep[c] = {four.mean, four.var / spp, (four.m4 + 3.0 * (spp - 1) * four.var * four.var) / (spp * spp * spp)};
+    }
     for (const std::string sampling : {"stratified", "independent"}) {
       json j = spectral_scene(n_side, n_side, spp, "spectral-decomposition");
       j["render"]["wavelength_sampling"] = sampling;
       j["lights"].push_back({{"type", "environment"}, {"radiance", {1, 1, 1}}});
       const RenderResult r = Renderer(scene_from_json(j, dir), quiet_options()).render();
       for (int c = 0; c < 3; ++c) {
-        const Moments four = moments(4, c), block = moments(4 * spp, c);
-        // the mean of spp independent four-wavelength estimates: variance and fourth central moment
-        const Moments indep{four.mean, four.var / spp,
-                            (four.m4 + 3.0 * (spp - 1) * four.var * four.var) / (spp * spp * spp)};
         const std::vector<double> v = channel(r, c);
         const Stats s = mean_se(v);
         double var = 0;
         for (double x : v) var += (x - s.mean) * (x - s.mean) / (N - 1);
-        const Moments& want = sampling == "stratified" ? block : indep;
-        const Moments& other = sampling == "stratified" ? indep : block;
+        const Moments& want = sampling == "stratified" ? block[c] : indep[c];
+        const Moments& other = sampling == "stratified" ? indep[c] : block[c];
         const double se = std::sqrt((want.m4 - want.var * want.var) / N);
         const std::string what = fmt::format("{} spp {} channel {}", sampling, spp, c);
         std::cout << "[ info ] " << what << ": pixel variance " << var << ", expected " << want.var << " (SE " << se
@@ -396,18 +405,7 @@ TEST(SpectralMode, EnvironmentMapLightsMedia) {
 // path per wavelength: four per sample, which sum to the same estimate.
 TEST(SpectralMode, FourWavelengthsPerSample) {
   const std::string dir = temp_dir("spectral_lanes");
-  const int n_side = 64, N = n_side * n_side;
-  auto estimate = [](double u, int n, int c) {
-    double g = 0;
-    for (int i = 0; i < n; ++i) {
-      double ui = u + double(i) / n;
-      if (ui >= 1.0) ui -= 1.0;
-      const double l = sample_visible_wavelength(ui);
-      g += film_rgb_weight(l)[c] * cie_d65(l) / visible_wavelength_pdf(l);
-    }
-    return g / n;
-  };
-  const int K = 200000;  // midpoint rule over u: its error is far below the test's tolerance
+  const int n_side = 64, N = n_side * n_side, K = 200000;
   for (const std::string tracker : {"spectral-decomposition", "delta-per-channel"}) {
     json j = spectral_scene(n_side, n_side, 1, tracker);
     j["lights"].push_back({{"type", "environment"}, {"radiance", {1, 1, 1}}});
@@ -415,29 +413,18 @@ TEST(SpectralMode, FourWavelengthsPerSample) {
     EXPECT_EQ(r.stats.nonfinite_samples, 0u);
     EXPECT_EQ(r.stats.paths, uint64_t(N) * (tracker == "delta-per-channel" ? 4u : 1u)) << tracker;
     for (int c = 0; c < 3; ++c) {
-      double m[2][5] = {};  // n = 4, 3: sum of g, then central moments 2 and 4
-      for (int a = 0; a < 2; ++a) {
-        const int n = a == 0 ? 4 : 3;
-        double s1 = 0;
-        for (int k = 0; k < K; ++k) s1 += estimate((k + 0.5) / K, n, c);
-        m[a][1] = s1 / K;
-        for (int k = 0; k < K; ++k) {
-          const double d = estimate((k + 0.5) / K, n, c) - m[a][1];
-          m[a][2] += d * d / K;
-          m[a][4] += d * d * d * d / K;
-        }
-      }
+      const Moments four = film_estimate_moments(4, c, K), three = film_estimate_moments(3, c, K);
       const std::vector<double> v = channel(r, c);
       Stats s = mean_se(v);
       double var = 0;
       for (double x : v) var += (x - s.mean) * (x - s.mean);
       var /= (N - 1);
-      const double se_var = std::sqrt((m[0][4] - m[0][2] * m[0][2]) / N);
+      const double se_var = std::sqrt((four.m4 - four.var * four.var) / N);
       std::cout << "[ info ] " << tracker << " channel " << c << ": per-sample variance " << var << ", four wavelengths "
-                << m[0][2] << " (SE " << se_var << "), three " << m[1][2] << "\n";
-      EXPECT_NEAR(s.mean, m[0][1], 4.0 * s.se + 2e-4) << tracker << " channel " << c;
-      EXPECT_NEAR(var, m[0][2], 4.0 * se_var) << tracker << " channel " << c;
-      EXPECT_GT(std::abs(var - m[1][2]), 4.0 * se_var) << tracker << ": three wavelengths' variance must be told apart";
+                << four.var << " (SE " << se_var << "), three " << three.var << "\n";
+      EXPECT_NEAR(s.mean, four.mean, 4.0 * s.se + 2e-4) << tracker << " channel " << c;
+      EXPECT_NEAR(var, four.var, 4.0 * se_var) << tracker << " channel " << c;
+      EXPECT_GT(std::abs(var - three.var), 4.0 * se_var) << tracker << ": three wavelengths' variance must be told apart";
     }
   }
 }
